@@ -1,0 +1,73 @@
+"""fuzzymbs: fuzzy-arithmetical uncertainty analysis of multibody contact models.
+
+The data flow (see docs/ and the design notes)::
+
+    fuzzy parameters --transform--> sample points --model (batched)--> outputs
+                     --retransform--> fuzzy outputs + influence --> store / plots
+
+Public names are imported lazily so that ``import fuzzymbs`` stays cheap and
+the heavy stages (Numba kernels, scikit-fem) load only when used.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+__version__ = "0.1.0.dev0"
+
+# public name -> module that defines it
+_LAZY: dict[str, str] = {
+    "FuzzyNumber": "fuzzymbs.fuzzy.numbers",
+    "Triangular": "fuzzymbs.fuzzy.numbers",
+    "Trapezoidal": "fuzzymbs.fuzzy.numbers",
+    "Gaussian": "fuzzymbs.fuzzy.numbers",
+    "PiecewiseLinear": "fuzzymbs.fuzzy.numbers",
+    "plan": "fuzzymbs.fuzzy.transform",
+    "Plan": "fuzzymbs.fuzzy.transform",
+    "FuzzyResult": "fuzzymbs.fuzzy.retransform",
+    "Influence": "fuzzymbs.fuzzy.influence",
+    "Study": "fuzzymbs.study.study",
+    "StudyResult": "fuzzymbs.study.study",
+}
+
+__all__ = [
+    "FuzzyNumber",
+    "FuzzyResult",
+    "Gaussian",
+    "Influence",
+    "PiecewiseLinear",
+    "Plan",
+    "Study",
+    "StudyResult",
+    "Trapezoidal",
+    "Triangular",
+    "__version__",
+    "plan",
+]
+
+if TYPE_CHECKING:  # pragma: no cover - for static analysers only
+    from fuzzymbs.fuzzy.influence import Influence
+    from fuzzymbs.fuzzy.numbers import (
+        FuzzyNumber,
+        Gaussian,
+        PiecewiseLinear,
+        Trapezoidal,
+        Triangular,
+    )
+    from fuzzymbs.fuzzy.retransform import FuzzyResult
+    from fuzzymbs.fuzzy.transform import Plan, plan
+    from fuzzymbs.study.study import Study, StudyResult
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'fuzzymbs' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

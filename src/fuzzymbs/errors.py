@@ -1,0 +1,48 @@
+"""Exception types raised by fuzzymbs.
+
+Every error names the offending input and says what would be valid. All are
+subclasses of :class:`ValueError` or :class:`TypeError` so that callers who do
+not know fuzzymbs still catch them with the built-in types.
+"""
+
+from __future__ import annotations
+
+
+class FuzzymbsError(Exception):
+    """Base class of every error fuzzymbs raises on purpose."""
+
+
+class InvalidFuzzyNumberError(FuzzymbsError, ValueError):
+    """A fuzzy number's definition is inconsistent (bound order, NaN, spread < 0, ...)."""
+
+
+class InvalidParameterError(FuzzymbsError, ValueError):
+    """A physical or numerical parameter is out of its valid range or unknown."""
+
+
+class InvalidPlanError(FuzzymbsError, ValueError):
+    """A transformation-method plan was requested with invalid settings."""
+
+
+class UnsupportedOperationError(FuzzymbsError, TypeError):
+    """An operation is not defined for this method or object (e.g. influence of a grid plan)."""
+
+
+class ModelOutputError(FuzzymbsError, ValueError):
+    """A model returned outputs of the wrong shape, type or with non-finite values."""
+
+
+class SimulationDivergedError(FuzzymbsError, ValueError):
+    """A time integration blew up (NaN, inf, or a displacement beyond its bound)."""
+
+
+class StudyFileError(FuzzymbsError, ValueError):
+    """A study file is malformed: names the file, the key and what is allowed."""
+
+
+class StoreMismatchError(FuzzymbsError, ValueError):
+    """A result store belongs to a different study and cannot be resumed."""
+
+
+class IncompleteResultError(FuzzymbsError, ValueError):
+    """Samples failed, so some alpha levels cannot be bounded."""

@@ -1,0 +1,1 @@
+"""Finite-element bodies: meshes, assembly with scikit-fem, modal reduction."""

@@ -1,0 +1,1 @@
+"""Fuzzy engine: fuzzy numbers, transformation methods, retransformation, influence."""

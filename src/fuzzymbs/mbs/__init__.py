@@ -1,0 +1,1 @@
+"""Multibody engine: modal bodies, force laws, contact, integrators, eigenvalues."""

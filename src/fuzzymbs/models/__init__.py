@@ -1,0 +1,1 @@
+"""Built-in models (each registers itself with the study runner)."""

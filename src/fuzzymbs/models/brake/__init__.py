@@ -1,0 +1,1 @@
+"""Elastic multibody disc brake."""

@@ -1,0 +1,1 @@
+"""MUBOCO-PR pseudo-rigid contact-based spur-gear pair."""

@@ -1,0 +1,1 @@
+"""Studies: model + fuzzy parameters + method, executors, stores, resume."""
