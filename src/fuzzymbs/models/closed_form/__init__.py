@@ -1,0 +1,1 @@
+"""Closed-form models (registered for demos and tests)."""
