@@ -1,0 +1,344 @@
+"""Retransformation: alpha-cuts of a fuzzy output from model outputs at the plan's samples.
+
+Bounds are nested by construction (Hanss): ``lower^(m)`` is the minimum over
+the level-m outputs and, going down, ``lower^(j) = min(lower^(j+1), min over
+the level-j outputs)``; likewise the upper bounds with max. Outputs may have
+any trailing shape (time, nodes, ...); everything is element-wise.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fuzzymbs.errors import (
+    InvalidFuzzyNumberError,
+    ModelOutputError,
+    UnsupportedOperationError,
+)
+from fuzzymbs.fuzzy.numbers import check_level
+from fuzzymbs.fuzzy.transform import NonMonotonicWarning
+
+if TYPE_CHECKING:  # pragma: no cover
+    import xarray
+
+    from fuzzymbs.fuzzy.influence import Influence
+    from fuzzymbs.fuzzy.transform import Plan
+
+__all__ = ["FuzzyResult", "NonMonotonicWarning", "retransform"]
+
+#: relative tolerance of the monotonicity guard (round-off must not warn)
+MONOTONIC_RTOL = 1e-9
+
+
+class FuzzyResult:
+    """Fuzzy output: nested alpha-cut bounds at the plan's membership levels.
+
+    Parameters
+    ----------
+    levels : array_like, shape (L,)
+        Membership levels mu_0 = 0 ... mu_m = 1.
+    lower, upper : array_like, shape (L, ...)
+        Cut bounds, nested (lower non-decreasing and upper non-increasing in
+        the level); NaN where ``complete`` is False.
+    complete : array_like of bool, shape (L,), optional
+        False for levels whose bounds depend on failed samples (default all True).
+    nominal : array_like, shape (...), optional
+        Output at the all-modal parameter point.
+    method : str, optional
+        The scheme that produced the result.
+
+    Attributes
+    ----------
+    levels, lower, upper, complete, nominal, method
+        As above; arrays are read-only.
+    """
+
+    def __init__(
+        self,
+        levels: ArrayLike,
+        lower: ArrayLike,
+        upper: ArrayLike,
+        complete: ArrayLike | None = None,
+        nominal: ArrayLike | None = None,
+        method: str | None = None,
+        *,
+        _plan: Plan | None = None,
+        _outputs: NDArray | None = None,
+        _failed: NDArray[np.bool_] | None = None,
+    ) -> None:
+        self.levels = np.asarray(levels, dtype=float)
+        self.lower = np.asarray(lower, dtype=float)
+        self.upper = np.asarray(upper, dtype=float)
+        count = len(self.levels)
+        if self.lower.shape != self.upper.shape or self.lower.ndim < 1 or len(self.lower) != count:
+            raise InvalidFuzzyNumberError(
+                f"lower and upper must both have shape (L={count}, ...), got "
+                f"{self.lower.shape} and {self.upper.shape}"
+            )
+        self.complete = (
+            np.ones(count, dtype=bool) if complete is None else np.asarray(complete, dtype=bool)
+        )
+        if self.complete.shape != (count,):
+            raise InvalidFuzzyNumberError(
+                f"complete must have shape ({count},), got {self.complete.shape}"
+            )
+        self.nominal = None if nominal is None else np.asarray(nominal, dtype=float)
+        self.method = method
+        self._plan = _plan
+        self._outputs = _outputs
+        self._failed = _failed
+        for array in (self.levels, self.lower, self.upper, self.complete, self.nominal):
+            if array is not None:
+                array.setflags(write=False)
+
+    def __repr__(self) -> str:
+        return (
+            f"FuzzyResult(method={self.method!r}, levels={len(self.levels)}, "
+            f"shape={self.shape}, complete={bool(self.complete.all())})"
+        )
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Shape of one bound (the output's own shape, without the level axis)."""
+        return self.lower.shape[1:]
+
+    def alpha_cut(self, mu: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Bounds ``(lower, upper)`` of the cut at level ``mu``.
+
+        Between two computed levels the cut of the next level up is returned
+        (the result is known only at the plan's levels; nothing is interpolated).
+
+        Raises
+        ------
+        InvalidFuzzyNumberError
+            If ``mu`` is outside [0, 1].
+        """
+        value = check_level(mu)
+        index = int(np.searchsorted(self.levels, value, side="left"))
+        # a level within round-off of mu counts as that level
+        if index > 0 and abs(self.levels[index - 1] - value) <= 1e-12:
+            index -= 1
+        index = min(index, len(self.levels) - 1)
+        return self.lower[index].copy(), self.upper[index].copy()
+
+    def influence(self, weights: str | ArrayLike = "membership") -> Influence:
+        """Gain factors and influence measures (reduced and extended plans only).
+
+        Parameters
+        ----------
+        weights : {"membership", "uniform"} or array_like (L,)
+            Level weights w_j: mu_j, 1, or explicit non-negative values.
+
+        Raises
+        ------
+        UnsupportedOperationError
+            For general and grid plans, or a result not built from a plan.
+        """
+        from fuzzymbs.fuzzy.influence import compute_influence
+
+        if self._plan is None or self._outputs is None:
+            raise UnsupportedOperationError(
+                "influence needs the plan and the sample outputs; this FuzzyResult was built "
+                "from bounds only (use plan.retransform(outputs).influence())"
+            )
+        return compute_influence(self._plan, self._outputs, self._failed, weights)
+
+    def to_xarray(
+        self,
+        name: str = "output",
+        dims: Sequence[str] | None = None,
+        coords: Mapping[str, ArrayLike] | None = None,
+    ) -> xarray.Dataset:
+        """Dataset with ``{name}_lower``, ``{name}_upper`` over ("level", *dims).
+
+        Also holds ``{name}_complete`` (level,) and, if known, ``{name}_nominal``
+        over ``dims``. The coordinate "level" holds mu.
+
+        Parameters
+        ----------
+        name : str
+            Prefix of the variable names.
+        dims : sequence of str, optional
+            Names of the output's trailing axes (default ``{name}_dim0``, ...).
+        coords : mapping, optional
+            Coordinate values for those dims (e.g. ``{"time": t}``).
+        """
+        import xarray
+
+        dims = _trailing_dims(name, self.shape, dims)
+        coordinates: dict[str, Any] = {"level": self.levels}
+        coordinates.update(_checked_coords(coords, dims, self.shape))
+        variables: dict[str, Any] = {
+            f"{name}_lower": (("level", *dims), self.lower),
+            f"{name}_upper": (("level", *dims), self.upper),
+            f"{name}_complete": (("level",), self.complete),
+        }
+        if self.nominal is not None:
+            variables[f"{name}_nominal"] = (tuple(dims), self.nominal)
+        dataset = xarray.Dataset(variables, coords=coordinates)
+        if self.method is not None:
+            dataset.attrs[f"{name}_method"] = self.method
+        return dataset
+
+
+def _trailing_dims(name: str, shape: tuple[int, ...], dims: Sequence[str] | None) -> list[str]:
+    if dims is None:
+        return [f"{name}_dim{k}" for k in range(len(shape))]
+    dims = list(dims)
+    if len(dims) != len(shape):
+        raise UnsupportedOperationError(
+            f"dims {dims} must name each of the {len(shape)} trailing axes of shape {shape}"
+        )
+    return dims
+
+
+def _checked_coords(
+    coords: Mapping[str, ArrayLike] | None, dims: Sequence[str], shape: tuple[int, ...]
+) -> dict[str, NDArray]:
+    result: dict[str, NDArray] = {}
+    for key, values in (coords or {}).items():
+        if key not in dims:
+            raise UnsupportedOperationError(f"coordinate {key!r} is not one of the dims {dims}")
+        array = np.asarray(values)
+        size = shape[list(dims).index(key)]
+        if array.shape != (size,):
+            raise UnsupportedOperationError(
+                f"coordinate {key!r} must have shape ({size},), got {array.shape}"
+            )
+        result[key] = array
+    return result
+
+
+def _checked_outputs(
+    plan: Plan, outputs: ArrayLike, failed: NDArray[np.bool_], name: str
+) -> NDArray:
+    values = np.asarray(outputs)
+    if values.ndim == 0 or values.shape[0] != len(plan):
+        raise ModelOutputError(
+            f"output {name!r} must have leading axis N={len(plan)} (one row per sample), "
+            f"got shape {values.shape}"
+        )
+    if not (np.issubdtype(values.dtype, np.number) or values.dtype == np.bool_):
+        raise ModelOutputError(f"output {name!r} must be numeric, got dtype {values.dtype}")
+    values = values.astype(float, copy=False)
+    finite = np.isfinite(values).reshape(len(plan), -1).all(axis=1)
+    bad = ~finite & ~failed
+    if bad.any():
+        raise ModelOutputError(
+            f"output {name!r} has NaN or inf at {int(bad.sum())} sample(s) not marked failed "
+            f"(first: sample {int(np.flatnonzero(bad)[0])}); pass failed=<bool mask> to "
+            "report them as failed runs"
+        )
+    return values
+
+
+def retransform(
+    plan: Plan,
+    outputs: ArrayLike,
+    failed: ArrayLike | None = None,
+    *,
+    name: str = "output",
+    check_monotonic: bool = True,
+) -> FuzzyResult:
+    """Nested alpha-cut bounds of one output (see :meth:`Plan.retransform`).
+
+    Raises
+    ------
+    ModelOutputError
+        Wrong leading axis, non-numeric, or non-finite values at samples not
+        marked failed.
+    InvalidPlanError
+        A malformed ``failed`` mask.
+    """
+    mask = plan.check_failed(failed)
+    values = _checked_outputs(plan, outputs, mask, name)
+    count_levels = len(plan.levels)
+    shape = values.shape[1:]
+    # failed samples must not enter a min/max: +inf / -inf are neutral there
+    for_min = np.where(_expand(mask, values), np.inf, values)
+    for_max = np.where(_expand(mask, values), -np.inf, values)
+    own_lower = np.empty((count_levels, *shape))
+    own_upper = np.empty((count_levels, *shape))
+    for j in range(count_levels):
+        index = plan.level_indices(j)
+        own_lower[j] = for_min[index].min(axis=0)
+        own_upper[j] = for_max[index].max(axis=0)
+    # nesting from the core down
+    lower = np.minimum.accumulate(own_lower[::-1], axis=0)[::-1]
+    upper = np.maximum.accumulate(own_upper[::-1], axis=0)[::-1]
+    touched = plan.levels_touched(mask)
+    if check_monotonic and plan.method in ("reduced", "extended"):
+        _monotonicity_guard(plan, own_lower, own_upper, lower, upper, touched, values, name)
+    lower[touched] = np.nan
+    upper[touched] = np.nan
+    nominal_index = plan.nominal_index
+    nominal = np.full(shape, np.nan) if mask[nominal_index] else values[nominal_index]
+    return FuzzyResult(
+        plan.levels,
+        lower,
+        upper,
+        complete=~touched,
+        nominal=nominal,
+        method=plan.method,
+        _plan=plan,
+        _outputs=values,
+        _failed=mask,
+    )
+
+
+def _expand(mask: NDArray[np.bool_], values: NDArray) -> NDArray[np.bool_]:
+    return mask.reshape((-1,) + (1,) * (values.ndim - 1))
+
+
+def _monotonicity_guard(
+    plan: Plan,
+    own_lower: NDArray,
+    own_upper: NDArray,
+    lower: NDArray,
+    upper: NDArray,
+    touched: NDArray[np.bool_],
+    values: NDArray,
+    name: str,
+) -> None:
+    """Warn if points inside a level's box gave outputs beyond that level's own range.
+
+    For the reduced scheme the own range of level j is spanned by its corner
+    outputs; the core point and the corners of higher levels lie inside the
+    level-j box, so a monotonic model keeps their outputs within that range.
+    """
+    finite_values = values[np.isfinite(values)]
+    scale = float(np.max(np.abs(finite_values))) if finite_values.size else 0.0
+    count_levels = len(plan.levels)
+    worst_level, worst_excess, worst_count = -1, 0.0, 0
+    for j in range(count_levels - 1):
+        if touched[j]:
+            continue
+        inner_lower, inner_upper = lower[j + 1], upper[j + 1]
+        magnitude = np.maximum.reduce(
+            [np.abs(own_lower[j]), np.abs(own_upper[j]), np.abs(inner_lower), np.abs(inner_upper)]
+        )
+        tolerance = MONOTONIC_RTOL * magnitude + 1e-12 * scale
+        below = own_lower[j] - inner_lower
+        above = inner_upper - own_upper[j]
+        excess = np.maximum(below, above)
+        outside = excess > tolerance
+        count = int(np.count_nonzero(outside))
+        if count:
+            relative = float(np.max(excess[outside] / np.maximum(magnitude[outside], 1e-300)))
+            if relative > worst_excess or worst_level < 0:
+                worst_level, worst_excess, worst_count = j, relative, count
+    if worst_level >= 0:
+        warnings.warn(
+            f"output {name!r} is not monotonic in the parameters: at level "
+            f"mu={plan.levels[worst_level]:g} the outputs at points inside the cut box leave "
+            f"the range of that level's {plan.method} points for {worst_count} element(s) "
+            f"(up to {worst_excess:.3g} relative); the {plan.method} bounds are too narrow. "
+            "Use method='extended' with nonmonotonic=[...] or method='general'.",
+            NonMonotonicWarning,
+            stacklevel=4,
+        )

@@ -1,0 +1,549 @@
+"""Transformation method (Hanss): sampling plans over the alpha-cuts of fuzzy parameters.
+
+A :class:`Plan` holds the unique sample points a model must be evaluated at and
+the bookkeeping that says which points belong to which membership level (and,
+for the reduced and extended schemes, which corner runs pair up in one
+parameter). Retransformation and influence measures use that bookkeeping only.
+
+Schemes (``mu_j``, j = 0..m, with cuts ``[a_i^(j), b_i^(j)]`` of parameter i):
+
+``"general"``
+    Per parameter the points ``P_m`` = the core bounds (one point for a
+    single-point core) and, for j < m, ``P_j = {a^(j)} + midpoints of
+    consecutive points of P_(j+1) + {b^(j)}`` (Hanss 2002: M_j = m + 1 - j
+    points); all combinations at every level.
+``"reduced"``
+    The 2^n corners of the cut box at every level (the core box at level m,
+    one point for single-point cores). Exact for models monotonic in every
+    parameter.
+``"extended"``
+    The reduced corners plus, for the parameters named ``nonmonotonic``, the
+    general-method points ``P_j``: at level j the full factorial of ``P_j``
+    for those parameters and ``{a^(j), b^(j)}`` for all others.
+``"grid"``
+    At level j the full factorial of all cut bounds of levels j..m (the full
+    alpha-bound grid; exact on the grid for any model).
+
+Every plan also contains the all-modal point (sample 0), evaluated at level m.
+Identical points are evaluated once: points are built from the same cut values
+and merged by exact floating-point equality.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fuzzymbs.errors import InvalidPlanError, ModelOutputError
+from fuzzymbs.fuzzy.numbers import FuzzyNumber
+
+__all__ = ["METHODS", "NonMonotonicWarning", "Plan", "make_levels", "plan"]
+
+#: sampling schemes understood by :func:`plan`
+METHODS: tuple[str, ...] = ("general", "reduced", "extended", "grid")
+
+
+class NonMonotonicWarning(UserWarning):
+    """A reduced/extended plan saw an output outside the range of a level's own points.
+
+    The model is then not monotonic in the parameters treated as monotonic, and
+    the bounds of that level are (probably) too narrow.
+    """
+
+
+def make_levels(levels: int | ArrayLike) -> NDArray[np.float64]:
+    """Membership levels ``mu_0 = 0 < ... < mu_m = 1`` from ``m`` or an explicit list.
+
+    Parameters
+    ----------
+    levels : int or array_like
+        ``m >= 1`` for the uniform levels ``j / m``, or an increasing sequence
+        starting at 0 and ending at 1.
+
+    Raises
+    ------
+    InvalidPlanError
+        For m < 1, non-increasing, non-finite or wrongly bounded level lists.
+    """
+    if isinstance(levels, bool):
+        raise InvalidPlanError(f"levels must be an int >= 1 or a list from 0 to 1, got {levels!r}")
+    if isinstance(levels, int | np.integer):
+        if levels < 1:
+            raise InvalidPlanError(f"levels must be an int >= 1 (number of steps), got {levels!r}")
+        return np.arange(int(levels) + 1, dtype=float) / int(levels)
+    try:
+        mus = np.array(levels, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidPlanError(
+            f"levels must be an int >= 1 or a list of numbers from 0 to 1, got {levels!r}"
+        ) from None
+    if (
+        mus.ndim != 1
+        or mus.size < 2
+        or not np.all(np.isfinite(mus))
+        or mus[0] != 0.0
+        or mus[-1] != 1.0
+        or np.any(np.diff(mus) <= 0.0)
+    ):
+        raise InvalidPlanError(
+            f"levels must increase strictly from 0 to 1 (e.g. [0, 0.5, 1]), got {levels!r}"
+        )
+    return mus
+
+
+def _cartesian(values: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """All combinations of per-parameter values, shape (prod len, n), last parameter fastest."""
+    grids = np.meshgrid(*values, indexing="ij")
+    return np.stack([grid.reshape(-1) for grid in grids], axis=1)
+
+
+def _unique_rows(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Unique rows by exact float equality, kept in order of first appearance.
+
+    Returns ``(unique, inverse)`` with ``unique[inverse] == points``. Unlike
+    ``np.unique(axis=0)`` this compares values, not bytes, so -0.0 == 0.0.
+    """
+    count = len(points)
+    order = np.lexsort(points.T[::-1])
+    sorted_points = points[order]
+    new_group = np.ones(count, dtype=bool)
+    new_group[1:] = np.any(sorted_points[1:] != sorted_points[:-1], axis=1)
+    group_of_sorted = np.cumsum(new_group) - 1
+    group = np.empty(count, dtype=np.intp)
+    group[order] = group_of_sorted
+    # renumber groups by first appearance in the original order
+    first_position = np.full(group_of_sorted[-1] + 1, count, dtype=np.intp)
+    np.minimum.at(first_position, group, np.arange(count))
+    rank = np.empty_like(first_position)
+    rank[np.argsort(first_position, kind="stable")] = np.arange(len(first_position))
+    inverse = rank[group]
+    unique = np.empty((len(first_position), points.shape[1]))
+    unique[inverse] = points
+    return unique, inverse
+
+
+def _general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]:
+    """Per-level point sets P_j of one parameter for the general method (Hanss 2002)."""
+    top = len(lower) - 1
+    current = np.unique(np.array([lower[top], upper[top]]))
+    points: list[NDArray[np.float64]] = [current]
+    for j in range(top - 1, -1, -1):
+        inner = 0.5 * (current[:-1] + current[1:])
+        current = np.concatenate(([lower[j]], inner, [upper[j]]))
+        points.append(current)
+    return points[::-1]
+
+
+def _corner_values(lower: NDArray, upper: NDArray, j: int) -> NDArray[np.float64]:
+    return np.array([lower[j], upper[j]])
+
+
+class Plan:
+    """Sample points of a transformation-method scheme and their level bookkeeping.
+
+    Build with :func:`plan`. Attributes are read-only by convention.
+
+    Attributes
+    ----------
+    parameters : dict of str to FuzzyNumber
+        The fuzzy parameters, in insertion order.
+    names : tuple of str
+        Parameter names (column order of ``samples``).
+    levels : ndarray, shape (L,)
+        Membership levels mu_0 = 0 ... mu_m = 1.
+    method : str
+        One of :data:`METHODS`.
+    nonmonotonic : tuple of str
+        Parameters with interior points (``"extended"`` only).
+    samples : ndarray, shape (N, n)
+        Unique sample points; row 0 is the all-modal (nominal) point.
+    cut_lower, cut_upper : ndarray, shape (L, n)
+        Alpha-cut bounds of every parameter at every level.
+    """
+
+    def __init__(
+        self,
+        parameters: Mapping[str, FuzzyNumber],
+        method: str = "reduced",
+        levels: int | ArrayLike = 4,
+        nonmonotonic: Iterable[str] | None = None,
+    ) -> None:
+        if not isinstance(method, str) or method not in METHODS:
+            raise InvalidPlanError(f"unknown method {method!r}; valid methods: {list(METHODS)}")
+        if not isinstance(parameters, Mapping) or len(parameters) == 0:
+            raise InvalidPlanError(
+                f"parameters must be a non-empty mapping of name -> FuzzyNumber, got {parameters!r}"
+            )
+        for name, number in parameters.items():
+            if not isinstance(name, str) or not name:
+                raise InvalidPlanError(f"parameter names must be non-empty strings, got {name!r}")
+            if not isinstance(number, FuzzyNumber):
+                raise InvalidPlanError(
+                    f"parameter {name!r} must be a FuzzyNumber (e.g. Triangular), "
+                    f"got {type(number).__name__}"
+                )
+        self.parameters: dict[str, FuzzyNumber] = dict(parameters)
+        self.names: tuple[str, ...] = tuple(self.parameters)
+        self.method = method
+        self.levels = make_levels(levels)
+        if nonmonotonic is None:
+            nonmonotonic = ()
+        if isinstance(nonmonotonic, str):
+            nonmonotonic = (nonmonotonic,)
+        nonmonotonic = tuple(nonmonotonic)
+        unknown = [name for name in nonmonotonic if name not in self.parameters]
+        if unknown:
+            raise InvalidPlanError(
+                f"nonmonotonic names unknown parameters {unknown}; parameters: {list(self.names)}"
+            )
+        if nonmonotonic and method != "extended":
+            raise InvalidPlanError(
+                f"nonmonotonic={list(nonmonotonic)} is only used by method='extended', "
+                f"not {method!r}"
+            )
+        # keep the parameter order, drop repeats
+        self.nonmonotonic: tuple[str, ...] = tuple(n for n in self.names if n in nonmonotonic)
+
+        cuts = np.stack([number.cuts(self.levels) for number in self.parameters.values()], axis=1)
+        self.cut_lower: NDArray[np.float64] = cuts[:, :, 0]  # (L, n)
+        self.cut_upper: NDArray[np.float64] = cuts[:, :, 1]
+        self._build()
+
+    # ----------------------------------------------------------------- building
+    def _level_values(self) -> list[list[NDArray[np.float64]]]:
+        """values[j][i]: the coordinates parameter i takes at level j (all combined)."""
+        count_levels, count_parameters = self.cut_lower.shape
+        low, high = self.cut_lower, self.cut_upper
+        if self.method == "reduced":
+            return [
+                [_corner_values(low[:, i], high[:, i], j) for i in range(count_parameters)]
+                for j in range(count_levels)
+            ]
+        if self.method == "general" or self.method == "extended":
+            general = [_general_points(low[:, i], high[:, i]) for i in range(count_parameters)]
+            interior = [
+                self.method == "general" or name in self.nonmonotonic for name in self.names
+            ]
+            return [
+                [
+                    general[i][j] if interior[i] else _corner_values(low[:, i], high[:, i], j)
+                    for i in range(count_parameters)
+                ]
+                for j in range(count_levels)
+            ]
+        # grid: all cut bounds of levels j..m
+        return [
+            [np.unique(np.concatenate((low[j:, i], high[j:, i]))) for i in range(count_parameters)]
+            for j in range(count_levels)
+        ]
+
+    def _build(self) -> None:
+        count_levels = len(self.levels)
+        modal_point = np.array([[number.modal for number in self.parameters.values()]])
+        level_points = [_cartesian(values) for values in self._level_values()]
+        # nominal point first, then levels from the core down, so that samples
+        # are ordered by first use from the top level
+        blocks = [modal_point, *level_points[::-1]]
+        sizes = [len(block) for block in blocks]
+        unique, inverse = _unique_rows(np.concatenate(blocks, axis=0))
+        self.samples: NDArray[np.float64] = unique
+        self.samples.setflags(write=False)
+        offsets = np.cumsum([0, *sizes])
+        nominal = int(inverse[0])
+        per_level_from_top = [inverse[offsets[k + 1] : offsets[k + 2]] for k in range(count_levels)]
+        self._level_index: list[NDArray[np.intp]] = per_level_from_top[::-1]
+        # the nominal point lies in the core box: it belongs to the top level
+        self._level_index[-1] = np.concatenate((self._level_index[-1], [nominal]))
+        self._nominal_index = nominal
+        # runs if every level were evaluated on its own (repeats inside a level merged)
+        self._points_without_reuse = sum(len(_unique_rows(points)[0]) for points in level_points)
+        usage = np.zeros((count_levels, len(unique)), dtype=bool)
+        for j, index in enumerate(self._level_index):
+            usage[j, index] = True
+        usage.setflags(write=False)
+        self._level_usage = usage
+        if self.method in ("reduced", "extended"):
+            self._corner_index = self._corners()
+
+    def _corners(self) -> NDArray[np.intp]:
+        """Sample index of every corner: (L, 2^n), corner s uses b_i where bit n-1-i of s is set.
+
+        Corner s and s + 2^(n-1-i) differ only in parameter i (a_i then b_i).
+        """
+        count_levels, count_parameters = self.cut_lower.shape
+        bits = (
+            np.arange(2**count_parameters)[:, None] >> np.arange(count_parameters - 1, -1, -1)
+        ) & 1
+        corner_index = np.empty((count_levels, 2**count_parameters), dtype=np.intp)
+        for j in range(count_levels):
+            corners = np.where(bits == 1, self.cut_upper[j], self.cut_lower[j])
+            corner_index[j] = self._locate(corners)
+        return corner_index
+
+    def _locate(self, points: NDArray[np.float64]) -> NDArray[np.intp]:
+        """Sample index of each row of ``points`` (which must be samples, exactly)."""
+        combined = np.concatenate((self.samples, points), axis=0)
+        unique, inverse = _unique_rows(combined)
+        if len(unique) != len(self.samples):  # pragma: no cover - internal consistency
+            raise RuntimeError("corner point missing from the sample table")
+        return inverse[len(self.samples) :]
+
+    # ------------------------------------------------------------------ queries
+    def __len__(self) -> int:
+        return len(self.samples)
+
+    def __repr__(self) -> str:
+        return (
+            f"Plan(method={self.method!r}, parameters={list(self.names)}, "
+            f"levels={len(self.levels)}, samples={len(self)})"
+        )
+
+    @property
+    def nominal_index(self) -> int:
+        """Row of ``samples`` holding the all-modal point."""
+        return self._nominal_index
+
+    @property
+    def points_without_reuse(self) -> int:
+        """Number of model runs the scheme needs if no point were reused across levels."""
+        return self._points_without_reuse
+
+    @property
+    def level_usage(self) -> NDArray[np.bool_]:
+        """(L, N) bool: sample i is one of the points evaluated at level j."""
+        return self._level_usage
+
+    def level_indices(self, level: int) -> NDArray[np.intp]:
+        """Sample indices of the points of level ``level`` (in generation order, repeats kept)."""
+        return self._level_index[level]
+
+    @property
+    def corner_index(self) -> NDArray[np.intp]:
+        """(L, 2^n) sample index of the cut-box corners (reduced and extended plans only)."""
+        if self.method not in ("reduced", "extended"):
+            from fuzzymbs.errors import UnsupportedOperationError
+
+            raise UnsupportedOperationError(
+                f"corner bookkeeping exists for reduced and extended plans, not {self.method!r}"
+            )
+        return self._corner_index
+
+    def sample_columns(self) -> dict[str, NDArray[np.float64]]:
+        """Samples as ``{name: (N,) array}``, the input format of a batched model."""
+        return {name: self.samples[:, i].copy() for i, name in enumerate(self.names)}
+
+    def check_failed(self, failed: ArrayLike | None) -> NDArray[np.bool_]:
+        """Validate a failed-sample mask, returning an (N,) bool array (all False if None)."""
+        if failed is None:
+            return np.zeros(len(self), dtype=bool)
+        mask = np.asarray(failed)
+        if mask.shape != (len(self),) or mask.dtype != np.bool_:
+            raise InvalidPlanError(
+                f"failed must be a bool array of shape ({len(self)},), got dtype "
+                f"{mask.dtype} and shape {mask.shape}"
+            )
+        return mask
+
+    def levels_touched(self, failed: ArrayLike) -> NDArray[np.bool_]:
+        """(L,) bool: levels whose nested bounds depend on a failed sample.
+
+        Level j's bounds use the points of every level >= j.
+        """
+        mask = self.check_failed(failed)
+        direct = np.any(self._level_usage & mask[None, :], axis=1)
+        return np.logical_or.accumulate(direct[::-1])[::-1]
+
+    # --------------------------------------------------------------- evaluation
+    def evaluate(
+        self,
+        model: Callable[[dict[str, NDArray[np.float64]]], Mapping[str, Any]],
+        chunk_size: int | None = None,
+    ) -> dict[str, NDArray]:
+        """Evaluate a batched model at all samples, ``chunk_size`` samples per call.
+
+        Parameters
+        ----------
+        model : callable
+            ``model({name: (B,) array}) -> {output: (B, ...) ndarray}``.
+        chunk_size : int, optional
+            Samples per call; all at once if None.
+
+        Returns
+        -------
+        dict of str to ndarray
+            Every output with leading axis N (in sample order).
+
+        Raises
+        ------
+        ModelOutputError
+            If the model returns something other than a mapping of numeric
+            ndarrays with leading axis B, or outputs change between chunks.
+        """
+        count = len(self)
+        if chunk_size is None:
+            chunk_size = count
+        if isinstance(chunk_size, bool) or not isinstance(chunk_size, int | np.integer):
+            raise InvalidPlanError(f"chunk_size must be a positive int or None, got {chunk_size!r}")
+        if chunk_size < 1:
+            raise InvalidPlanError(f"chunk_size must be >= 1, got {chunk_size!r}")
+        columns = self.sample_columns()
+        pieces: dict[str, list[NDArray]] = {}
+        for start in range(0, count, int(chunk_size)):
+            stop = min(start + int(chunk_size), count)
+            batch = {name: column[start:stop] for name, column in columns.items()}
+            result = model(batch)
+            _check_model_output(result, stop - start, pieces, start)
+            for name, value in result.items():
+                pieces.setdefault(name, []).append(value)
+        return {name: np.concatenate(parts, axis=0) for name, parts in pieces.items()}
+
+    def retransform(
+        self,
+        outputs: ArrayLike | Mapping[str, ArrayLike],
+        failed: ArrayLike | None = None,
+        *,
+        name: str = "output",
+        check_monotonic: bool = True,
+    ) -> Any:
+        """Fuzzy outputs from model outputs at the samples.
+
+        Parameters
+        ----------
+        outputs : ndarray (N, ...) or mapping of str to ndarray (N, ...)
+            Model outputs in sample order.
+        failed : ndarray (N,) bool, optional
+            Samples whose run failed; their values are ignored and the levels
+            depending on them get NaN bounds (``complete`` False).
+        name : str
+            Output name used in warnings when ``outputs`` is a single array.
+        check_monotonic : bool
+            Warn (:class:`NonMonotonicWarning`) when a reduced/extended plan
+            shows outputs outside a level's own range.
+
+        Returns
+        -------
+        FuzzyResult or dict of str to FuzzyResult
+        """
+        from fuzzymbs.fuzzy.retransform import retransform
+
+        if isinstance(outputs, Mapping):
+            return {
+                key: retransform(self, value, failed, name=key, check_monotonic=check_monotonic)
+                for key, value in outputs.items()
+            }
+        return retransform(self, outputs, failed, name=name, check_monotonic=check_monotonic)
+
+    # ------------------------------------------------------------ serialising
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able description: method, levels, parameters (and nonmonotonic names)."""
+        description: dict[str, Any] = {
+            "method": self.method,
+            "levels": self.levels.tolist(),
+            "parameters": {name: number.to_dict() for name, number in self.parameters.items()},
+        }
+        if self.nonmonotonic:
+            description["nonmonotonic"] = list(self.nonmonotonic)
+        return description
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Plan:
+        """Rebuild a plan from :meth:`to_dict` output."""
+        try:
+            parameters = {
+                name: FuzzyNumber.from_dict(value) for name, value in data["parameters"].items()
+            }
+            return cls(
+                parameters,
+                method=data["method"],
+                levels=data["levels"],
+                nonmonotonic=data.get("nonmonotonic"),
+            )
+        except (KeyError, AttributeError, TypeError) as error:
+            raise InvalidPlanError(
+                f"a plan description needs 'method', 'levels' and 'parameters', got {data!r}"
+            ) from error
+
+    def fingerprint(self) -> str:
+        """Stable SHA-256 hex digest of the method, levels, parameters and sample table."""
+        digest = hashlib.sha256()
+        digest.update(json.dumps(self.to_dict(), sort_keys=True).encode())
+        digest.update(np.ascontiguousarray(self.samples, dtype="<f8").tobytes())
+        return digest.hexdigest()
+
+
+def _check_model_output(
+    result: Any, batch: int, seen: Mapping[str, list[NDArray]], start: int
+) -> None:
+    """Raise ModelOutputError unless ``result`` is {name: numeric ndarray (batch, ...)}."""
+    if not isinstance(result, Mapping) or not result:
+        raise ModelOutputError(
+            "a model must return a non-empty dict {output name: ndarray (B, ...)}, got "
+            f"{type(result).__name__}"
+        )
+    if seen and set(result) != set(seen):
+        raise ModelOutputError(
+            f"model outputs changed between chunks: {sorted(seen)} before, {sorted(result)} "
+            f"for samples from {start}"
+        )
+    for key, value in result.items():
+        if not isinstance(value, np.ndarray):
+            raise ModelOutputError(
+                f"model output {key!r} must be a NumPy array with leading axis {batch}, got "
+                f"{type(value).__name__}"
+            )
+        if value.ndim == 0 or value.shape[0] != batch:
+            raise ModelOutputError(
+                f"model output {key!r} must have leading axis B={batch} (one row per sample), "
+                f"got shape {value.shape}"
+            )
+        if not (np.issubdtype(value.dtype, np.number) or value.dtype == np.bool_):
+            raise ModelOutputError(f"model output {key!r} must be numeric, got dtype {value.dtype}")
+        if seen and seen[key][0].shape[1:] != value.shape[1:]:
+            raise ModelOutputError(
+                f"model output {key!r} changed trailing shape between chunks: "
+                f"{seen[key][0].shape[1:]} then {value.shape[1:]}"
+            )
+
+
+def plan(
+    parameters: Mapping[str, FuzzyNumber],
+    method: str = "reduced",
+    levels: int | ArrayLike = 4,
+    nonmonotonic: Iterable[str] | None = None,
+) -> Plan:
+    """Build a transformation-method sampling plan.
+
+    Parameters
+    ----------
+    parameters : mapping of str to FuzzyNumber
+        Fuzzy parameters by name (their order fixes the sample columns).
+    method : {"general", "reduced", "extended", "grid"}
+        Sampling scheme (see the module docstring and docs/theory.md).
+    levels : int or array_like
+        ``m`` for mu_j = j/m, or an increasing list from 0 to 1.
+    nonmonotonic : iterable of str, optional
+        Parameters that get interior points (``"extended"`` only).
+
+    Returns
+    -------
+    Plan
+
+    Raises
+    ------
+    InvalidPlanError
+        Unknown method, bad levels, unknown or misplaced nonmonotonic names,
+        parameters that are not fuzzy numbers.
+
+    Examples
+    --------
+    >>> from fuzzymbs.fuzzy.numbers import Triangular
+    >>> p = plan({"k": Triangular(1, 2, 3), "c": Triangular(4, 5, 6), "m": Triangular(7, 8, 9)})
+    >>> len(p)
+    33
+    """
+    return Plan(parameters, method=method, levels=levels, nonmonotonic=nonmonotonic)
