@@ -1,0 +1,193 @@
+"""Command line: ``fuzzymbs run | demo | plot | info``.
+
+Heavy modules (NumPy, xarray, matplotlib, models) are imported inside the
+commands so that ``fuzzymbs --help`` and ``fuzzymbs info`` start quickly.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+app = typer.Typer(
+    name="fuzzymbs",
+    help="Fuzzy-arithmetical uncertainty analysis of multibody contact models.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+EXIT_ERROR = 1
+
+
+def _setup_logging(quiet: bool, verbose: bool) -> None:
+    level = logging.WARNING if quiet else (logging.DEBUG if verbose else logging.INFO)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", force=True)
+    logging.getLogger("distributed").setLevel(max(level, logging.WARNING))
+
+
+def _fail(message: str) -> typer.Exit:
+    typer.echo(f"error: {message}", err=True)
+    return typer.Exit(EXIT_ERROR)
+
+
+def _run_one(study_file: Path, out: Path, **options: object) -> None:
+    from fuzzymbs.errors import FuzzymbsError
+    from fuzzymbs.study.pipeline import run_study_file
+
+    try:
+        written = run_study_file(study_file, out, **options)  # type: ignore[arg-type]
+    except FuzzymbsError as exc:
+        raise _fail(str(exc)) from None
+    typer.echo(
+        f"{written.result_path}  ({len(written.plots)} plots, summary: {written.summary_path})"
+    )
+
+
+QuietOption = Annotated[
+    bool, typer.Option("--quiet", "-q", help="No progress bar; warnings and errors only.")
+]
+VerboseOption = Annotated[bool, typer.Option("--verbose", "-v", help="Debug logging.")]
+
+
+@app.command()
+def run(
+    study_file: Annotated[Path, typer.Argument(help="Study file (TOML).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (also the store).")],
+    executor: Annotated[
+        str | None,
+        typer.Option(help="inline | processes[:N] | dask://HOST:PORT (default: the file's)."),
+    ] = None,
+    chunk_size: Annotated[
+        int | None, typer.Option(min=1, help="Samples per task (default: the file's or 256).")
+    ] = None,
+    on_failure: Annotated[
+        str | None, typer.Option(help="raise | fail-fast | partial (default: the file's).")
+    ] = None,
+    fresh: Annotated[
+        bool, typer.Option("--fresh", help="Discard stored chunks of this study; do not resume.")
+    ] = False,
+    quiet: QuietOption = False,
+    verbose: VerboseOption = False,
+) -> None:
+    """Run STUDY_FILE; write OUT/result.nc, plots and OUT/summary.txt (rerun resumes)."""
+    _setup_logging(quiet, verbose)
+    if on_failure is not None and on_failure not in ("raise", "fail-fast", "partial"):
+        raise _fail(f"--on-failure {on_failure!r}; allowed: raise, fail-fast, partial")
+    _run_one(
+        study_file,
+        out,
+        executor=executor,
+        chunk_size=chunk_size,
+        on_failure=on_failure,
+        resume=not fresh,
+        progress=not quiet,
+    )
+
+
+@app.command()
+def demo(
+    name: Annotated[str, typer.Argument(help="Demo name, e.g. quickstart.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")],
+    executor: Annotated[str | None, typer.Option(help="Executor (default: inline).")] = None,
+    quiet: QuietOption = False,
+    verbose: VerboseOption = False,
+) -> None:
+    """Run the shipped demo NAME into OUT/<study name>/ for each of its study files."""
+    import tempfile
+    from importlib import resources
+
+    from fuzzymbs.errors import FuzzymbsError
+    from fuzzymbs.study.pipeline import demo_files
+    from fuzzymbs.study.studyfile import load_study_file
+
+    _setup_logging(quiet, verbose)
+    try:
+        files = demo_files(name)
+    except FuzzymbsError as exc:
+        raise _fail(str(exc)) from None
+    for entry in files:
+        with resources.as_file(entry) as path:
+            try:
+                study_name = load_study_file(path).name
+            except FuzzymbsError as exc:
+                raise _fail(str(exc)) from None
+            # a copy keeps the shipped file untouched and gives errors a readable name
+            with tempfile.TemporaryDirectory() as scratch:
+                copy = Path(scratch) / Path(path).name
+                copy.write_bytes(Path(path).read_bytes())
+                _run_one(copy, out / study_name, executor=executor, progress=not quiet)
+
+
+@app.command()
+def plot(
+    result_file: Annotated[Path, typer.Argument(help="A result.nc written by run or demo.")],
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="Folder for the plots (default: beside).")
+    ] = None,
+    fmt: Annotated[
+        list[str] | None, typer.Option("--format", help="png and/or pdf (repeatable).")
+    ] = None,
+) -> None:
+    """(Re)draw the plots of a result file."""
+    from fuzzymbs.plot import write_plots
+    from fuzzymbs.study.result import StudyResult
+
+    if not result_file.exists():
+        raise _fail(f"{result_file}: no such file")
+    formats = tuple(fmt or ("png", "pdf"))
+    unknown = [f for f in formats if f not in ("png", "pdf", "svg")]
+    if unknown:
+        raise _fail(f"--format {unknown}; allowed: png, pdf, svg")
+    try:
+        result = StudyResult.open(result_file)
+    except (OSError, ValueError) as exc:
+        raise _fail(f"{result_file}: not a readable result file ({exc})") from None
+    if "outputs" not in result.dataset.attrs:
+        raise _fail(f"{result_file}: not a fuzzymbs result (no 'outputs' attribute)")
+    written = write_plots(result.dataset, out or result_file.parent, formats=formats)
+    for path in written:
+        typer.echo(str(path))
+
+
+@app.command()
+def info(
+    model: Annotated[str | None, typer.Argument(help="Show only this model.")] = None,
+) -> None:
+    """List the registered models (parameters with units, outputs, options), methods, demos."""
+    from fuzzymbs.errors import FuzzymbsError
+    from fuzzymbs.study.pipeline import demo_names
+    from fuzzymbs.study.registry import available_models, get_model
+
+    try:
+        specs = {model: get_model(model)} if model else available_models()
+    except FuzzymbsError as exc:
+        raise _fail(str(exc)) from None
+    lines = ["Models:"]
+    for name, spec in specs.items():
+        lines.append(f"  {name}: {spec.description}")
+        lines.append("    parameters:")
+        for parameter, meta in spec.parameters.items():
+            default = "" if meta.default is None else f" (default {meta.default:g})"
+            lines.append(f"      {parameter} [{meta.unit}]: {meta.description}{default}")
+        outputs = ", ".join(f"{o} [{u}]" for o, u in spec.outputs.items())
+        lines.append(f"    outputs: {outputs}")
+        if spec.options:
+            lines.append("    options:")
+            lines += [f"      {k}: {v}" for k, v in spec.options.items()]
+    lines.append("Methods: general, reduced, extended, grid")
+    lines.append("Executors: inline, processes[:N], dask://HOST:PORT")
+    lines.append(f"Demos: {', '.join(demo_names()) or '(none)'}")
+    typer.echo("\n".join(lines))
+
+
+def main() -> None:  # pragma: no cover - console entry for `python -m fuzzymbs.cli`
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,145 @@
+"""Evaluate one chunk of samples with a batched model, isolating failed samples.
+
+This runs on workers (process pool, Dask), so it is a plain module-level
+function of picklable arguments.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from fuzzymbs.errors import ModelOutputError
+
+#: Optional model outputs that flag failed samples instead of carrying data.
+FAILED_KEY = "failed"
+REASON_KEY = "failure_reason"
+
+
+@dataclass
+class ChunkResult:
+    """Outputs of samples ``start:stop`` and which of them failed.
+
+    ``outputs[name]`` is ``(B, ...)`` float64 with NaN rows for failed samples,
+    or absent when every sample of the chunk failed before its shape was known.
+    """
+
+    start: int
+    stop: int
+    outputs: dict[str, np.ndarray]
+    failed: np.ndarray  # (B,) bool
+    reasons: np.ndarray  # (B,) str, "" where the sample succeeded
+
+    @property
+    def size(self) -> int:
+        return self.stop - self.start
+
+
+def _checked_outputs(
+    raw: Any, size: int, wanted: Sequence[str] | None
+) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    """Validate a model's return value; mark non-finite or flagged samples failed."""
+    if not isinstance(raw, Mapping):
+        raise ModelOutputError(
+            f"the model returned {type(raw).__name__}; it must return a dict "
+            "{output name: (B, ...) array}"
+        )
+    names = list(wanted) if wanted else [k for k in raw if k not in (FAILED_KEY, REASON_KEY)]
+    failed = np.zeros(size, dtype=bool)
+    reasons = np.full(size, "", dtype=object)
+    if FAILED_KEY in raw:
+        flagged = np.asarray(raw[FAILED_KEY], dtype=bool).reshape(-1)
+        if flagged.shape != (size,):
+            raise ModelOutputError(
+                f"model output {FAILED_KEY!r} has shape {flagged.shape}, expected ({size},)"
+            )
+        given = raw.get(REASON_KEY)
+        given = np.asarray(given, dtype=object).reshape(-1) if given is not None else None
+        for i in np.flatnonzero(flagged):
+            text = str(given[i]) if given is not None and given.shape == (size,) else ""
+            reasons[i] = text or "the model flagged this sample as failed"
+        failed |= flagged
+    outputs: dict[str, np.ndarray] = {}
+    for name in names:
+        if name not in raw:
+            raise ModelOutputError(
+                f"the model returned no output {name!r}; it returned: {', '.join(map(str, raw))}"
+            )
+        try:
+            values = np.array(raw[name], dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ModelOutputError(f"model output {name!r} is not numeric: {exc}") from exc
+        if values.ndim == 0 or values.shape[0] != size:
+            raise ModelOutputError(
+                f"model output {name!r} has shape {values.shape}; its leading axis must be "
+                f"the batch of {size} samples"
+            )
+        finite = np.isfinite(values.reshape(size, -1)).all(axis=1)
+        for i in np.flatnonzero(~finite & ~failed):
+            reasons[i] = f"non-finite value (NaN or inf) in output {name!r}"
+        failed |= ~finite
+        outputs[name] = values
+    for values in outputs.values():
+        values[failed] = np.nan
+    return outputs, failed, reasons
+
+
+def evaluate_chunk(
+    model: Any,
+    columns: Mapping[str, np.ndarray],
+    start: int,
+    outputs: Sequence[str] | None = None,
+) -> ChunkResult:
+    """Evaluate samples ``start : start + B`` with one model call.
+
+    If the batched call raises, the samples are re-evaluated one by one so
+    only the failing ones are marked failed (with the exception as reason).
+
+    Parameters
+    ----------
+    model : callable
+        ``model({name: (B,) array}) -> {output: (B, ...) array}``.
+    columns : mapping of str to (B,) ndarray
+        Every parameter column of the chunk (fuzzy and crisp).
+    start : int
+        Index of the chunk's first sample in the plan.
+    outputs : sequence of str, optional
+        Outputs to keep (default: all the model returns).
+    """
+    size = len(next(iter(columns.values())))
+    try:
+        data, failed, reasons = _checked_outputs(model(dict(columns)), size, outputs)
+        return ChunkResult(start, start + size, data, failed, reasons.astype(str))
+    except Exception as exc:
+        if size == 1:
+            return ChunkResult(
+                start,
+                start + 1,
+                {},
+                np.ones(1, dtype=bool),
+                np.array([f"{type(exc).__name__}: {exc}"]),
+            )
+    # Isolate the failing samples: one call per sample, only after a batched call raised.
+    singles = [
+        evaluate_chunk(model, {k: v[i : i + 1] for k, v in columns.items()}, start + i, outputs)
+        for i in range(size)
+    ]
+    failed = np.concatenate([s.failed for s in singles])
+    reasons = np.concatenate([s.reasons for s in singles]).astype(str)
+    data: dict[str, np.ndarray] = {}
+    shapes = {n: v.shape[1:] for s in singles for n, v in s.outputs.items()}
+    for name, shape in shapes.items():
+        merged = np.full((size, *shape), np.nan)
+        for i, single in enumerate(singles):
+            if name in single.outputs:
+                if single.outputs[name].shape[1:] != shape:
+                    raise ModelOutputError(
+                        f"model output {name!r} changes shape between samples: "
+                        f"{single.outputs[name].shape[1:]} vs {shape}"
+                    )
+                merged[i] = single.outputs[name][0]
+        data[name] = merged
+    return ChunkResult(start, start + size, data, failed, reasons)

@@ -1,0 +1,118 @@
+"""Executors a study sends its chunks to (``concurrent.futures`` style).
+
+- ``None`` / ``"inline"``: evaluate in this process, one chunk after another.
+- ``"processes"`` / ``"processes:N"``: a local process pool (spawned workers).
+- ``"dask://host:port"`` (or ``"tcp://..."``) or a ``distributed.Client``: a Dask cluster.
+- any ``concurrent.futures.Executor`` instance is used as given.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from concurrent.futures import Executor, Future
+from dataclasses import dataclass
+from typing import Any
+
+from fuzzymbs.errors import InvalidParameterError
+
+
+class InlineExecutor(Executor):
+    """Runs each submitted call immediately in the calling process."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        future: Future = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except Exception as exc:  # handed to the caller through the future
+            future.set_exception(exc)
+        return future
+
+
+@dataclass
+class ResolvedExecutor:
+    """An executor plus what the runner needs to know about it."""
+
+    executor: Executor
+    label: str
+    in_flight: int  # chunks kept submitted at a time
+    close: Callable[[], None]
+
+
+def _nothing() -> None:
+    return None
+
+
+def _worker_count(executor: Any) -> int:
+    workers = getattr(executor, "_max_workers", None)
+    return int(workers) if workers else (os.cpu_count() or 1)
+
+
+def resolve_executor(spec: Any = None) -> ResolvedExecutor:
+    """Turn an executor specification into a :class:`ResolvedExecutor`.
+
+    Parameters
+    ----------
+    spec : None, str, concurrent.futures.Executor or distributed.Client
+        See the module docstring.
+
+    Raises
+    ------
+    InvalidParameterError
+        For an unknown specification string.
+    """
+    if spec is None or spec == "inline":
+        return ResolvedExecutor(InlineExecutor(), "inline", 1, _nothing)
+    if isinstance(spec, str):
+        if spec == "processes" or spec.startswith("processes:"):
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor
+
+            count_text = spec.partition(":")[2]
+            try:
+                workers = int(count_text) if count_text else (os.cpu_count() or 1)
+            except ValueError:
+                raise InvalidParameterError(
+                    f"executor {spec!r}: the worker count after 'processes:' must be an integer"
+                ) from None
+            if workers < 1:
+                raise InvalidParameterError(f"executor {spec!r}: need at least one worker")
+            # spawn, not fork: the parent may run threads (progress bar, Dask, BLAS).
+            pool = ProcessPoolExecutor(
+                max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+            )
+            return ResolvedExecutor(
+                pool,
+                f"processes:{workers}",
+                2 * workers,
+                lambda: pool.shutdown(cancel_futures=True),
+            )
+        if spec.startswith(("dask://", "tcp://")):
+            from distributed import Client
+
+            address = "tcp://" + spec.split("://", 1)[1]
+            client = Client(address)
+            return _from_client(client, spec, owned=True)
+        raise InvalidParameterError(
+            f"unknown executor {spec!r}; use 'inline', 'processes[:N]', 'dask://host:port', "
+            "a distributed.Client or a concurrent.futures.Executor"
+        )
+    if hasattr(spec, "get_executor") and hasattr(spec, "scheduler_info"):
+        return _from_client(spec, f"dask:{getattr(spec, 'scheduler', '')}", owned=False)
+    if isinstance(spec, Executor):
+        return ResolvedExecutor(spec, type(spec).__name__, 2 * _worker_count(spec), _nothing)
+    raise InvalidParameterError(
+        f"unknown executor {spec!r}; use 'inline', 'processes[:N]', 'dask://host:port', "
+        "a distributed.Client or a concurrent.futures.Executor"
+    )
+
+
+def _from_client(client: Any, label: str, owned: bool) -> ResolvedExecutor:
+    try:
+        threads = sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values())
+    except Exception:  # scheduler_info layout differs across versions; a guess is fine here
+        threads = 2
+    executor = client.get_executor(pure=False)
+    return ResolvedExecutor(
+        executor, label, max(2, 2 * threads), client.close if owned else _nothing
+    )

@@ -1,0 +1,311 @@
+"""StudyResult: the xarray.Dataset a study produces, plus summary and I/O helpers.
+
+Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
+
+    coords    level (L) = mu_j, sample (N), parameter (n), model coords (time, ...)
+    o_lower, o_upper               (level, *dims)   alpha-cut bounds (NaN: level incomplete)
+    o_nominal                      (*dims)          output at the all-modal point
+    o_reference                    (*dims)          the model's reference curve, if any
+    o_gain                         (parameter, level, *dims)  eta_i^(j)  [reduced/extended]
+    o_mean_gain, o_absolute_influence, o_relative_influence  (parameter, *dims)
+    o_samples                      (sample, *dims)  raw outputs (keep_raw)
+    samples                        (sample, parameter)
+    sample_failed, failure_reason  (sample)
+    level_usage                    (level, sample)
+    level_complete                 (level)
+    parameter_lower, parameter_upper (level, parameter)  input alpha-cuts
+    attrs: study_name, model, method, status ("complete" | "partial"), outputs (JSON),
+           provenance (JSON: versions, plan, options, wall time, evaluations, ...)
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import platform
+import warnings
+from collections.abc import Mapping
+from datetime import UTC, datetime
+from importlib import metadata
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from fuzzymbs.errors import UnsupportedOperationError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import xarray
+
+    from fuzzymbs.study.study import Study
+
+logger = logging.getLogger(__name__)
+
+_VERSIONED = (
+    "fuzzymbs",
+    "numpy",
+    "scipy",
+    "numba",
+    "xarray",
+    "h5netcdf",
+    "h5py",
+    "netCDF4",
+    "dask",
+    "distributed",
+)
+
+
+def netcdf_engine() -> str:
+    """The first NetCDF engine available: h5netcdf (needs h5py), netcdf4, scipy (NetCDF-3).
+
+    ``h5netcdf`` alone cannot write without h5py (``h5netcdf[h5py]``); the
+    fallbacks keep results writable on a minimal install.
+    """
+    import importlib.util
+
+    if importlib.util.find_spec("h5netcdf") and importlib.util.find_spec("h5py"):
+        return "h5netcdf"
+    if importlib.util.find_spec("netCDF4"):
+        return "netcdf4"
+    return "scipy"
+
+
+def package_versions() -> dict[str, str]:
+    """Installed versions of fuzzymbs and the packages its results depend on."""
+    versions = {"python": platform.python_version()}
+    for name in _VERSIONED:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
+    return versions
+
+
+def _output_layout(
+    study: Study, name: str, shape: tuple[int, ...]
+) -> tuple[tuple[str, ...], dict[str, np.ndarray]]:
+    """Dims and coordinate values of an output's trailing axes."""
+    dims = study.output_dims(name)
+    coords = study.coords
+    if len(dims) != len(shape):
+        return tuple(f"{name}_dim{i}" for i in range(len(shape))), {}
+    used = {}
+    for dim, length in zip(dims, shape, strict=True):
+        if dim in coords:
+            if coords[dim].shape != (length,):
+                logger.warning(
+                    "output %r: coordinate %r has %d values for an axis of %d; left unlabelled",
+                    name,
+                    dim,
+                    coords[dim].size,
+                    length,
+                )
+                return tuple(f"{name}_dim{i}" for i in range(len(shape))), {}
+            used[dim] = coords[dim]
+    return dims, used
+
+
+def build_dataset(
+    study: Study,
+    outputs: Mapping[str, np.ndarray],
+    failed: np.ndarray,
+    reasons: np.ndarray,
+    *,
+    wall_time: float,
+    evaluated: int,
+    reused: int,
+    executor: str,
+    chunk_size: int,
+    on_failure: str,
+    keep_raw: bool = True,
+) -> xarray.Dataset:
+    """Retransform the outputs and assemble the result dataset (layout in the module doc)."""
+    import xarray
+
+    plan = study.plan
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fuzzy = plan.retransform(dict(outputs), failed=failed)
+    warning_texts = [str(w.message) for w in caught]
+    for text in warning_texts:
+        logger.warning("%s", text)
+    touched = plan.levels_touched(failed)
+    units = study.units()
+    reference = getattr(study.model, "reference", None) or {}
+
+    coords: dict[str, Any] = {
+        "level": ("level", plan.levels, {"long_name": "membership level mu"}),
+        "sample": np.arange(len(plan)),
+        "parameter": list(plan.names),
+    }
+    data: dict[str, Any] = {}
+    influence_outputs = []
+    for name, result in fuzzy.items():
+        dims, used = _output_layout(study, name, result.shape)
+        for dim, values in used.items():
+            coords.setdefault(dim, values)
+        attrs = {"units": units[name]} if name in units else {}
+        data[f"{name}_lower"] = (("level", *dims), result.lower, attrs)
+        data[f"{name}_upper"] = (("level", *dims), result.upper, attrs)
+        nominal = result.nominal if result.nominal is not None else np.full(result.shape, np.nan)
+        data[f"{name}_nominal"] = (dims, nominal, attrs)
+        if name in reference and np.shape(reference[name]) == result.shape:
+            data[f"{name}_reference"] = (dims, np.asarray(reference[name], dtype=float), attrs)
+        if keep_raw:
+            data[f"{name}_samples"] = (("sample", *dims), outputs[name], attrs)
+        if failed.any():
+            continue  # influence needs every sample of every level
+        try:
+            influence = result.influence()
+        except UnsupportedOperationError:
+            continue
+        influence_outputs.append(name)
+        data[f"{name}_gain"] = (("parameter", "level", *dims), np.asarray(influence.gain))
+        data[f"{name}_mean_gain"] = (("parameter", *dims), np.asarray(influence.mean_gain))
+        data[f"{name}_absolute_influence"] = (
+            ("parameter", *dims),
+            np.asarray(influence.absolute),
+            attrs,
+        )
+        data[f"{name}_relative_influence"] = (("parameter", *dims), np.asarray(influence.relative))
+
+    data["samples"] = (("sample", "parameter"), plan.samples)
+    data["sample_failed"] = (("sample",), np.asarray(failed, dtype=bool))
+    data["failure_reason"] = (("sample",), np.asarray(reasons, dtype=str))
+    data["level_usage"] = (("level", "sample"), np.asarray(plan.level_usage, dtype=bool))
+    data["level_complete"] = (("level",), ~np.asarray(touched, dtype=bool))
+    cuts = np.stack([plan.parameters[n].cuts(plan.levels) for n in plan.names], axis=1)
+    data["parameter_lower"] = (("level", "parameter"), cuts[:, :, 0])
+    data["parameter_upper"] = (("level", "parameter"), cuts[:, :, 1])
+
+    status = "complete" if not failed.any() else "partial"
+    provenance = {
+        "created": datetime.now(UTC).isoformat(timespec="seconds"),
+        "versions": package_versions(),
+        "study": study.name,
+        "model": study.model_name,
+        "model_options": study.model_options,
+        "constants": study.constants,
+        "plan": plan.to_dict(),
+        "plan_fingerprint": plan.fingerprint(),
+        "samples": len(plan),
+        "evaluated": int(evaluated),
+        "reused_from_store": int(reused),
+        "failed": int(np.count_nonzero(failed)),
+        "executor": executor,
+        "chunk_size": int(chunk_size),
+        "on_failure": on_failure,
+        "wall_time_s": round(float(wall_time), 6),
+        "warnings": warning_texts,
+    }
+    dataset = xarray.Dataset(data, coords=coords)
+    dataset.attrs.update(
+        {
+            "title": f"fuzzymbs study {study.name}",
+            "study_name": study.name,
+            "description": study.description,
+            "model": study.model_name,
+            "method": plan.method,
+            "status": status,
+            "outputs": json.dumps(list(fuzzy)),
+            "influence_outputs": json.dumps(influence_outputs),
+            "parameter_units": json.dumps(
+                {
+                    n: study.parameter_info[n].unit
+                    for n in plan.names
+                    if study.parameter_info and n in study.parameter_info
+                }
+            ),
+            "provenance": json.dumps(provenance, sort_keys=True),
+            "plots": json.dumps({"membership": []}),
+        }
+    )
+    if status == "partial":
+        dataset.attrs["incomplete_levels"] = json.dumps(plan.levels[touched].tolist())
+    return dataset
+
+
+class StudyResult:
+    """Result of :meth:`Study.run`: an :class:`xarray.Dataset` and helpers.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        Layout described in :mod:`fuzzymbs.study.result`.
+    """
+
+    def __init__(self, dataset: xarray.Dataset) -> None:
+        self.dataset = dataset
+
+    def __repr__(self) -> str:
+        return (
+            f"StudyResult(study={self.dataset.attrs.get('study_name')!r}, "
+            f"outputs={self.outputs}, status={self.status!r})"
+        )
+
+    @property
+    def outputs(self) -> list[str]:
+        """Names of the fuzzy outputs."""
+        return json.loads(self.dataset.attrs["outputs"])
+
+    @property
+    def status(self) -> str:
+        """ "complete", or "partial" when some levels could not be bounded."""
+        return str(self.dataset.attrs["status"])
+
+    @property
+    def provenance(self) -> dict[str, Any]:
+        """Versions, plan, options, wall time and evaluation counts."""
+        return json.loads(self.dataset.attrs["provenance"])
+
+    @property
+    def failed(self) -> np.ndarray:
+        """(N,) bool: samples that failed."""
+        return self.dataset["sample_failed"].values.astype(bool)
+
+    @property
+    def level_complete(self) -> np.ndarray:
+        """(L,) bool: levels whose bounds are known."""
+        return self.dataset["level_complete"].values.astype(bool)
+
+    def alpha_cut(self, output: str, mu: float) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of ``output`` at level ``mu`` (the next computed level up; never interpolated)."""
+        if output not in self.outputs:
+            raise KeyError(f"no output {output!r}; outputs: {', '.join(self.outputs)}")
+        levels = self.dataset["level"].values
+        if not 0.0 <= mu <= 1.0:
+            raise ValueError(f"mu must lie in [0, 1], got {mu!r}")
+        index = min(int(np.searchsorted(levels, mu - 1e-12, side="left")), len(levels) - 1)
+        return (
+            self.dataset[f"{output}_lower"].values[index],
+            self.dataset[f"{output}_upper"].values[index],
+        )
+
+    def to_netcdf(self, path: str | Path) -> Path:
+        """Write the dataset as NetCDF (engine from :func:`netcdf_engine`); returns the path."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        temporary = path.with_name(f".{path.name}.tmp")
+        self.dataset.to_netcdf(temporary, engine=netcdf_engine())
+        temporary.replace(path)
+        return path
+
+    @classmethod
+    def open(cls, path: str | Path) -> StudyResult:
+        """Read a result written by :meth:`to_netcdf` (fully loaded, file closed)."""
+        import xarray
+
+        with xarray.open_dataset(path) as dataset:
+            return cls(dataset.load())
+
+    def summary(self) -> str:
+        """A short plain-text report (see :func:`fuzzymbs.study.summary.summarize`)."""
+        from fuzzymbs.study.summary import summarize
+
+        return summarize(self.dataset)
+
+    def plot(self, directory: str | Path, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
+        """Write the standard plots into ``directory``; returns the files written."""
+        from fuzzymbs.plot import write_plots
+
+        return write_plots(self.dataset, directory, formats=formats)

@@ -1,0 +1,296 @@
+"""Study files: TOML, validated with pydantic, turned into a :class:`Study`.
+
+Layout (see docs/studies.md)::
+
+    [study]      name, description, method, levels, outputs, nonmonotonic
+    [model]      name ("registry-name" or "package.module:callable"), [model.options]
+    [parameters] one table (fuzzy) or number (crisp) per model parameter
+    [run]        executor, chunk_size, on_failure
+    [[plots.membership]]  output, coord, value
+
+Every mistake becomes a :class:`~fuzzymbs.errors.StudyFileError` naming the
+file, the key and what is allowed.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from fuzzymbs.errors import (
+    FuzzymbsError,
+    InvalidFuzzyNumberError,
+    InvalidParameterError,
+    InvalidPlanError,
+    StudyFileError,
+)
+from fuzzymbs.study.parameters import FUZZY_TYPES
+
+METHODS = ("general", "reduced", "extended", "grid")
+ON_FAILURE = ("raise", "fail-fast", "partial")
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=False)
+
+
+class StudySection(_Section):
+    """``[study]``: what to compute."""
+
+    name: str | None = None
+    description: str = ""
+    method: Literal["general", "reduced", "extended", "grid"] = "reduced"
+    levels: int | list[float] = 4
+    outputs: list[str] | None = None
+    nonmonotonic: list[str] = Field(default_factory=list)
+
+    @field_validator("levels")
+    @classmethod
+    def _check_levels(cls, value: int | list[float]) -> int | list[float]:
+        if isinstance(value, int):
+            if value < 1:
+                raise ValueError("levels must be an int >= 1 or an increasing list from 0 to 1")
+            return value
+        if len(value) < 2 or value[0] != 0.0 or value[-1] != 1.0:
+            raise ValueError("an explicit levels list must start at 0 and end at 1")
+        if any(b <= a for a, b in itertools.pairwise(value)):
+            raise ValueError("an explicit levels list must be strictly increasing")
+        return value
+
+    @field_validator("name")
+    @classmethod
+    def _check_name(cls, value: str | None) -> str | None:
+        if value is not None and (not value or "/" in value or "\\" in value or value in ".."):
+            raise ValueError("name must be a non-empty folder name without path separators")
+        return value
+
+
+class ModelSection(_Section):
+    """``[model]``: which model and its factory options."""
+
+    name: str
+    options: dict[str, Any] = Field(default_factory=dict)
+
+
+class RunSection(_Section):
+    """``[run]``: how to execute."""
+
+    executor: str = "inline"
+    chunk_size: int | None = Field(default=None, gt=0)
+    on_failure: Literal["raise", "fail-fast", "partial"] = "raise"
+
+    @field_validator("executor")
+    @classmethod
+    def _check_executor(cls, value: str) -> str:
+        if value in ("inline", "processes") or value.startswith("processes:"):
+            return value
+        if value.startswith(("dask://", "tcp://")):
+            return value
+        raise ValueError("executor must be 'inline', 'processes[:N]' or 'dask://host:port'")
+
+
+class MembershipPlot(_Section):
+    """``[[plots.membership]]``: membership of an output (at a coordinate value)."""
+
+    output: str
+    coord: str | None = None
+    value: float | None = None
+
+
+class PlotsSection(_Section):
+    """``[plots]``: extra plots."""
+
+    membership: list[MembershipPlot] = Field(default_factory=list)
+
+
+class StudyFileModel(_Section):
+    """The whole study file."""
+
+    study: StudySection = Field(default_factory=StudySection)
+    model: ModelSection
+    parameters: dict[str, Any]
+    run: RunSection = Field(default_factory=RunSection)
+    plots: PlotsSection = Field(default_factory=PlotsSection)
+
+
+_SECTION_MODELS: dict[tuple[str, ...], type[BaseModel]] = {
+    (): StudyFileModel,
+    ("study",): StudySection,
+    ("model",): ModelSection,
+    ("run",): RunSection,
+    ("plots",): PlotsSection,
+    ("plots", "membership"): MembershipPlot,
+}
+
+
+@dataclass
+class StudyDefinition:
+    """A loaded study file: the study plus how to run and plot it."""
+
+    path: Path
+    name: str
+    description: str
+    study: Any  # fuzzymbs.study.study.Study
+    executor: str = "inline"
+    chunk_size: int | None = None
+    on_failure: str = "raise"
+    membership_plots: list[dict[str, Any]] = field(default_factory=list)
+
+
+def _key(loc: tuple[Any, ...]) -> str:
+    return ".".join(str(part) for part in loc) or "(top level)"
+
+
+def _describe_error(path: Path, error: dict[str, Any]) -> str:
+    loc = tuple(error["loc"])
+    key = _key(loc)
+    if error["type"] == "extra_forbidden":
+        parent = tuple(part for part in loc[:-1] if not isinstance(part, int))
+        section = _SECTION_MODELS.get(parent)
+        allowed = ", ".join(section.model_fields) if section else "(see docs/studies.md)"
+        where = f"[{'.'.join(parent)}]" if parent else "the top level"
+        return f"{path}: unknown key {key!r} in {where}; allowed keys: {allowed}"
+    if error["type"] == "missing":
+        return f"{path}: missing required key {key!r}"
+    return f"{path}: key {key!r}: {error['msg']} (got {error.get('input')!r})"
+
+
+def _parameter_definitions(path: Path, raw: dict[str, Any]) -> dict[str, Any]:
+    """Check the shape of each ``[parameters.NAME]`` entry (deeper checks: fuzzy engine)."""
+    definitions: dict[str, Any] = {}
+    for name, value in raw.items():
+        key = f"parameters.{name}"
+        if isinstance(value, bool) or not isinstance(value, int | float | dict):
+            raise StudyFileError(
+                f"{path}: key {key!r}: expected a table like "
+                '{type = "triangular", modal = 1.0, spread = 0.1} or a number, '
+                f"got {value!r}"
+            )
+        if isinstance(value, int | float):
+            if not math.isfinite(value):
+                raise StudyFileError(f"{path}: key {key!r}: value must be finite, got {value!r}")
+            definitions[name] = float(value)
+            continue
+        kind = value.get("type")
+        if kind not in FUZZY_TYPES:
+            raise StudyFileError(
+                f"{path}: key '{key}.type': {kind!r} is not allowed; "
+                f"allowed: {', '.join(FUZZY_TYPES)}"
+            )
+        unexpected = sorted(set(value) - {"type", *FUZZY_TYPES[kind]})
+        if unexpected:
+            raise StudyFileError(
+                f"{path}: unknown key(s) {', '.join(f'{key}.{k}' for k in unexpected)} "
+                f"for type {kind!r}; allowed: type, {', '.join(FUZZY_TYPES[kind])}"
+            )
+        for item, entry in value.items():
+            if item == "type":
+                continue
+            entries = entry if isinstance(entry, list) else [entry]
+            numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in entries)
+            if not numeric or (isinstance(entry, list) and kind != "piecewise"):
+                raise StudyFileError(
+                    f"{path}: key '{key}.{item}': expected a number"
+                    + (" list" if kind == "piecewise" else "")
+                    + f", got {entry!r}"
+                )
+        definitions[name] = dict(value)
+    return definitions
+
+
+def load_study_file(path: str | Path) -> StudyDefinition:
+    """Read, validate and resolve a study file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML study file.
+
+    Returns
+    -------
+    StudyDefinition
+        The :class:`~fuzzymbs.study.study.Study` and its run and plot settings.
+
+    Raises
+    ------
+    StudyFileError
+        Malformed TOML, unknown or mistyped keys, unknown model, parameter or
+        output names, or invalid fuzzy numbers; the message names the file and key.
+    """
+    from fuzzymbs.study.study import Study
+
+    path = Path(path)
+    try:
+        with path.open("rb") as handle:
+            raw = tomllib.load(handle)
+    except FileNotFoundError:
+        raise StudyFileError(f"{path}: study file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyFileError(f"{path}: not valid TOML: {exc}") from None
+    try:
+        parsed = StudyFileModel.model_validate(raw)
+    except ValidationError as exc:
+        messages = [_describe_error(path, error) for error in exc.errors()]
+        raise StudyFileError("; ".join(messages)) from None
+    if not parsed.parameters:
+        raise StudyFileError(f"{path}: [parameters] is empty; give at least one fuzzy parameter")
+    definitions = _parameter_definitions(path, parsed.parameters)
+
+    name = parsed.study.name or path.stem
+    try:
+        study = Study(
+            parsed.model.name,
+            definitions,
+            method=parsed.study.method,
+            levels=parsed.study.levels,
+            outputs=parsed.study.outputs,
+            model_options=parsed.model.options,
+            nonmonotonic=parsed.study.nonmonotonic or None,
+            name=name,
+            description=parsed.study.description,
+        )
+    except InvalidFuzzyNumberError as exc:
+        raise StudyFileError(f"{path}: [parameters]: invalid fuzzy number: {exc}") from exc
+    except InvalidPlanError as exc:
+        raise StudyFileError(f"{path}: [study]: {exc}") from exc
+    except InvalidParameterError as exc:
+        raise StudyFileError(f"{path}: {exc}") from exc
+    except FuzzymbsError as exc:
+        raise StudyFileError(f"{path}: {exc}") from exc
+
+    for index, plot in enumerate(parsed.plots.membership):
+        key = f"plots.membership.{index}"
+        if study.output_names and plot.output not in study.output_names:
+            raise StudyFileError(
+                f"{path}: key '{key}.output': unknown output {plot.output!r}; "
+                f"outputs of this study: {', '.join(study.output_names)}"
+            )
+        if (plot.coord is None) != (plot.value is None):
+            raise StudyFileError(f"{path}: key {key!r}: give both coord and value, or neither")
+        if (
+            plot.coord is not None
+            and study.output_names
+            and plot.coord not in study.output_dims(plot.output)
+        ):
+            dims = ", ".join(study.output_dims(plot.output)) or "(none: scalar output)"
+            raise StudyFileError(
+                f"{path}: key '{key}.coord': output {plot.output!r} has no coordinate "
+                f"{plot.coord!r}; its coordinates: {dims}"
+            )
+
+    return StudyDefinition(
+        path=path,
+        name=name,
+        description=parsed.study.description,
+        study=study,
+        executor=parsed.run.executor,
+        chunk_size=parsed.run.chunk_size,
+        on_failure=parsed.run.on_failure,
+        membership_plots=[plot.model_dump() for plot in parsed.plots.membership],
+    )

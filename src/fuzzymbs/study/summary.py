@@ -1,0 +1,143 @@
+"""Plain-text summary of a study result (``summary.txt``)."""
+
+from __future__ import annotations
+
+import json
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    import xarray
+
+
+def _fmt(value: float) -> str:
+    return "nan" if not np.isfinite(value) else f"{value:.6g}"
+
+
+def summarize(dataset: xarray.Dataset) -> str:
+    """Summarise a study result: setup, status, cuts, influence, failures.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        A study result (layout in :mod:`fuzzymbs.study.result`).
+
+    Returns
+    -------
+    str
+        Several lines of text, ending with a newline.
+    """
+    attrs = dataset.attrs
+    provenance = json.loads(attrs["provenance"])
+    outputs = json.loads(attrs["outputs"])
+    units = json.loads(attrs.get("parameter_units", "{}"))
+    levels = dataset["level"].values
+    complete = dataset["level_complete"].values.astype(bool)
+    failed = dataset["sample_failed"].values.astype(bool)
+    lines = [f"Study: {attrs['study_name']}"]
+    if attrs.get("description"):
+        lines.append(f"  {attrs['description']}")
+    lines += [
+        f"Model: {attrs['model']}"
+        + (
+            f"  options: {json.dumps(provenance['model_options'])}"
+            if provenance["model_options"]
+            else ""
+        ),
+        f"Method: {attrs['method']}  levels mu = {', '.join(_fmt(m) for m in levels)}",
+        f"Samples: {provenance['samples']} (evaluated now: {provenance['evaluated']}, "
+        f"reused from store: {provenance['reused_from_store']}, failed: {provenance['failed']})",
+        f"Executor: {provenance['executor']}  chunk size: {provenance['chunk_size']}  "
+        f"wall time: {provenance['wall_time_s']:.3g} s",
+    ]
+    if attrs["status"] == "complete":
+        lines.append("Status: complete")
+    else:
+        missing = ", ".join(_fmt(m) for m in levels[~complete])
+        lines.append(
+            f"Status: PARTIAL - {int(failed.sum())} samples failed; levels mu = {missing} "
+            "are NOT bounded (NaN); influence measures omitted"
+        )
+    lines.append("")
+    lines.append("Fuzzy parameters (support / core):")
+    lower = dataset["parameter_lower"].values
+    upper = dataset["parameter_upper"].values
+    for i, name in enumerate(dataset["parameter"].values):
+        unit = f" [{units[name]}]" if name in units else ""
+        lines.append(
+            f"  {name}{unit}: [{_fmt(lower[0, i])}, {_fmt(upper[0, i])}] / "
+            f"[{_fmt(lower[-1, i])}, {_fmt(upper[-1, i])}]"
+        )
+    lines.append("")
+    influence_outputs = set(json.loads(attrs.get("influence_outputs", "[]")))
+    for name in outputs:
+        lo = dataset[f"{name}_lower"]
+        hi = dataset[f"{name}_upper"]
+        unit = lo.attrs.get("units")
+        label = f"{name}" + (f" [{unit}]" if unit else "")
+        dims = lo.dims[1:]
+        if not dims:
+            lines.append(f"Output {label}: alpha-cuts")
+            lines.append(f"  {'mu':>8}  {'lower':>14}  {'upper':>14}")
+            for j, mu in enumerate(levels):
+                mark = "" if complete[j] else "  (incomplete)"
+                lines.append(
+                    f"  {_fmt(mu):>8}  {_fmt(lo.values[j]):>14}  {_fmt(hi.values[j]):>14}{mark}"
+                )
+        else:
+            shape = " x ".join(f"{d} ({dataset.sizes[d]})" for d in dims)
+            lines.append(f"Output {label} over {shape}:")
+            if complete[0]:
+                width = hi.values[0] - lo.values[0]
+                where = np.unravel_index(int(np.nanargmax(width)), width.shape)
+                at = ", ".join(
+                    f"{d} = {_fmt(float(dataset[d].values[k]))}"
+                    if d in dataset.coords
+                    else f"{d} index {k}"
+                    for d, k in zip(dims, where, strict=True)
+                )
+                lines.append(
+                    f"  support (mu = 0) spans [{_fmt(np.nanmin(lo.values[0]))}, "
+                    f"{_fmt(np.nanmax(hi.values[0]))}]; widest at {at}: "
+                    f"[{_fmt(lo.values[0][where])}, {_fmt(hi.values[0][where])}]"
+                )
+            top = int(np.flatnonzero(complete)[-1]) if complete.any() else None
+            if top is not None:
+                lines.append(
+                    f"  highest complete level mu = {_fmt(levels[top])}: "
+                    f"[{_fmt(np.nanmin(lo.values[top]))}, {_fmt(np.nanmax(hi.values[top]))}]"
+                )
+        if name in influence_outputs:
+            absolute = dataset[f"{name}_absolute_influence"].values
+            if absolute.ndim == 1:
+                relative = dataset[f"{name}_relative_influence"].values
+                header = "relative influence rho"
+            else:
+                # over a coordinate: share of each parameter in the averaged absolute influence
+                totals = np.nanmean(absolute.reshape(absolute.shape[0], -1), axis=1)
+                relative = totals / totals.sum() if totals.sum() > 0 else totals * np.nan
+                header = "share of the coordinate-averaged absolute influence"
+            pairs = ", ".join(
+                f"{p} {_fmt(r)}" for p, r in zip(dataset["parameter"].values, relative, strict=True)
+            )
+            lines.append(f"  {header}: {pairs}")
+        lines.append("")
+    if failed.any():
+        lines.append("Failed samples:")
+        reasons = dataset["failure_reason"].values
+        indices = np.flatnonzero(failed)
+        names = dataset["parameter"].values
+        for i in indices[:20]:
+            point = ", ".join(
+                f"{n}={_fmt(v)}" for n, v in zip(names, dataset["samples"].values[i], strict=True)
+            )
+            lines.append(f"  sample {i} ({point}): {reasons[i]}")
+        if len(indices) > 20:
+            lines.append(f"  ... and {len(indices) - 20} more")
+        lines.append("")
+    if provenance.get("warnings"):
+        lines.append("Warnings:")
+        lines += [f"  {w}" for w in provenance["warnings"]]
+        lines.append("")
+    return "\n".join(lines).rstrip() + "\n"
