@@ -1,0 +1,569 @@
+"""Compiled right-hand side and batched integrators of an elastic multibody system.
+
+All system data arrive as one tuple of flat arrays (built by
+:func:`fuzzymbs.mbs.system.compile_system`, layout documented there); the
+per-sample scalars (stiffnesses, forces, penalty, friction, speeds) are one row
+of a ``(B, n_slots)`` parameter table. No allocation happens inside a time
+step: each sample allocates its work arrays once. BLAS is not used; the small
+dense products are explicit loops that Numba vectorises.
+
+State of one sample: ``x = [coordinates (n), velocities (n)]``, coordinates
+body by body (translations s, then modal coordinates q).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+# body table columns
+B_KIND, B_DOF0, B_NTR, B_NM, B_NODE0, B_NODE1, B_PSI0, B_MAT0, B_SPEED, B_PROF = range(10)
+KIND_FIXED, KIND_TRANSLATING, KIND_ROTATING = 0, 1, 2
+# contact table columns
+(
+    C_SBODY,
+    C_MBODY,
+    C_SLAVE0,
+    C_NSLAVE,
+    C_KIND,
+    C_NU,
+    C_NV,
+    C_U0,
+    C_V0,
+    C_GRID0,
+    C_NORMAL0,
+    C_PEN,
+    C_MU,
+    C_PERIODIC,
+) = range(14)
+# failure codes
+OK, NONFINITE, OUT_OF_BOUND = 0, 1, 2
+FAILURE_REASONS = {
+    OK: "",
+    NONFINITE: "non-finite state (NaN or inf)",
+    OUT_OF_BOUND: "output beyond the displacement bound",
+}
+
+_TWO_PI = 2.0 * np.pi
+
+
+@nb.njit(cache=True, inline="always")
+def _profile(fpool, ptab, k, t):
+    """Value, integral from t = 0, and slope of piecewise-linear profile k at time t."""
+    s = ptab[k, 0]
+    m = ptab[k, 1]
+    ts = fpool[s : s + m]
+    vs = fpool[s + m : s + 2 * m]
+    cs = fpool[s + 2 * m : s + 3 * m]
+    value, integral, slope = _segment(ts, vs, cs, t)
+    _, integral0, _ = _segment(ts, vs, cs, 0.0)
+    return value, integral - integral0, slope
+
+
+@nb.njit(cache=True, inline="always")
+def _segment(ts, vs, cs, t):
+    m = ts.shape[0]
+    if t <= ts[0]:
+        return vs[0], cs[0] + vs[0] * (t - ts[0]), 0.0
+    if t >= ts[m - 1]:
+        return vs[m - 1], cs[m - 1] + vs[m - 1] * (t - ts[m - 1]), 0.0
+    i = 0
+    while ts[i + 1] < t:
+        i += 1
+    h = ts[i + 1] - ts[i]
+    slope = (vs[i + 1] - vs[i]) / h
+    tau = t - ts[i]
+    return vs[i] + slope * tau, cs[i] + vs[i] * tau + 0.5 * slope * tau * tau, slope
+
+
+@nb.njit(cache=True)
+def _rotation(axis, angle, out):
+    """Rodrigues rotation matrix into out (3, 3)."""
+    c = np.cos(angle)
+    s = np.sin(angle)
+    x, y, z = axis[0], axis[1], axis[2]
+    v = 1.0 - c
+    out[0, 0] = c + x * x * v
+    out[0, 1] = x * y * v - z * s
+    out[0, 2] = x * z * v + y * s
+    out[1, 0] = y * x * v + z * s
+    out[1, 1] = c + y * y * v
+    out[1, 2] = y * z * v - x * s
+    out[2, 0] = z * x * v - y * s
+    out[2, 1] = z * y * v + x * s
+    out[2, 2] = c + z * z * v
+
+
+@nb.njit(cache=True)
+def _locate(grid, n, value, periodic):
+    """Cell index i with grid[i] <= value <= grid[i+1] (O(1) for near-uniform grids), -1 outside."""
+    g0 = grid[0]
+    if periodic:
+        span = _TWO_PI
+        value = g0 + (value - g0) % span
+        i = int((value - g0) / span * n)
+        if i > n - 1:
+            i = n - 1
+        while i > 0 and value < grid[i]:
+            i -= 1
+        while i < n - 1 and value > grid[i + 1]:
+            i += 1
+        upper = grid[i + 1] if i < n - 1 else g0 + span
+        return i, (value - grid[i]) / (upper - grid[i])
+    if value < g0 or value > grid[n - 1]:
+        return -1, 0.0
+    i = int((value - g0) / (grid[n - 1] - g0) * (n - 1))
+    if i > n - 2:
+        i = n - 2
+    while i > 0 and value < grid[i]:
+        i -= 1
+    while i < n - 2 and value > grid[i + 1]:
+        i += 1
+    return i, (value - grid[i]) / (grid[i + 1] - grid[i])
+
+
+@nb.njit(cache=True)
+def rhs(t, x, dx, p, sysdata, work):
+    """Time derivative dx of state x at time t for parameter row p (one sample)."""
+    (
+        ndof,
+        bi,
+        bf,
+        node_xbar,
+        dof_k2,
+        dof_c,
+        fpool,
+        ipool,
+        ptab,
+        lg,
+        nfi,
+        ci,
+        cf,
+    ) = sysdata
+    q_gen, node_x, node_v, node_f, rot, rot_a = work
+    nbody = bi.shape[0]
+    for i in range(ndof):
+        dx[i] = x[ndof + i]
+        q_gen[i] = 0.0
+
+    # prescribed rotations: angle, speed, acceleration and A(t) per rotating body
+    for b in range(nbody):
+        if bi[b, B_KIND] == KIND_ROTATING:
+            speed = p[bi[b, B_SPEED]]
+            value, integral, slope = _profile(fpool, ptab, bi[b, B_PROF], t)
+            rot[b, 0] = speed * integral
+            rot[b, 1] = speed * value
+            rot[b, 2] = speed * slope
+            _rotation(bf[b, 12:15], rot[b, 0], rot_a[b])
+
+    # linear spring/damper groups: Q[idx] -= k K x[idx] + c D v[idx]
+    for g in range(lg.shape[0]):
+        d0 = lg[g, 0]
+        n = lg[g, 1]
+        m0 = lg[g, 2]
+        k = p[lg[g, 3]]
+        c = p[lg[g, 4]]
+        for a in range(n):
+            s = 0.0
+            row = m0 + a * n
+            for bb in range(n):
+                s += fpool[row + bb] * x[ipool[d0 + bb]]
+            s *= k
+            if c != 0.0:
+                sd = 0.0
+                row_d = m0 + n * n + a * n
+                for bb in range(n):
+                    sd += fpool[row_d + bb] * x[ndof + ipool[d0 + bb]]
+                s += c * sd
+            q_gen[ipool[d0 + a]] -= s
+
+    # nodal forces (generalised vectors precomputed)
+    for f in range(nfi.shape[0]):
+        b = nfi[f, 0]
+        v0 = nfi[f, 1]
+        magnitude = p[nfi[f, 3]]
+        if nfi[f, 2] >= 0:
+            value, _, _ = _profile(fpool, ptab, nfi[f, 2], t)
+            magnitude *= value
+        dof0 = bi[b, B_DOF0]
+        if nfi[f, 4] == 0:
+            for i in range(bi[b, B_NTR] + bi[b, B_NM]):
+                q_gen[dof0 + i] += magnitude * fpool[v0 + i]
+        else:
+            nm = bi[b, B_NM]
+            c = np.cos(rot[b, 0])
+            s = np.sin(rot[b, 0])
+            for j in range(nm):
+                q_gen[dof0 + j] += magnitude * (
+                    c * fpool[v0 + j] + (1.0 - c) * fpool[v0 + nm + j] - s * fpool[v0 + 2 * nm + j]
+                )
+
+    if ci.shape[0] > 0:
+        _node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
+        node_f[:, :] = 0.0
+        for c in range(ci.shape[0]):
+            _contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f)
+        _map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen)
+
+    # equations of motion body by body (mass-normalised modes: diagonal elastic part)
+    for b in range(nbody):
+        kind = bi[b, B_KIND]
+        dof0 = bi[b, B_DOF0]
+        ntr = bi[b, B_NTR]
+        nm = bi[b, B_NM]
+        m0 = bi[b, B_MAT0]
+        qd0 = dof0 + ntr
+        for j in range(nm):
+            d = qd0 + j
+            q_gen[d] -= dof_c[d] * x[ndof + d] + dof_k2[d] * x[d]
+        if kind == KIND_ROTATING and nm > 0:
+            omega = rot[b, 1]
+            alpha = rot[b, 2]
+            g0 = m0
+            c0 = m0 + nm * nm
+            l0 = m0 + 2 * nm * nm
+            e0 = l0 + nm
+            w2 = omega * omega
+            for j in range(nm):
+                s = w2 * fpool[l0 + j] + alpha * fpool[e0 + j]
+                for k in range(nm):
+                    s += (2.0 * omega * fpool[g0 + j * nm + k]) * x[ndof + qd0 + k]
+                    s += (w2 * fpool[c0 + j * nm + k] + alpha * fpool[g0 + j * nm + k]) * x[
+                        qd0 + k
+                    ]
+                q_gen[qd0 + j] -= s
+        if kind == KIND_TRANSLATING:
+            # Schur complement of [[m P P^T, B], [B^T, I]]: s'' = S^-1 (f_s - B f_q)
+            s0 = m0
+            b0 = m0 + ntr * ntr
+            for a in range(ntr):
+                r = q_gen[dof0 + a]
+                for j in range(nm):
+                    r -= fpool[b0 + a * nm + j] * q_gen[qd0 + j]
+                rot[b, 3 + a] = r  # scratch
+            for a in range(ntr):
+                s = 0.0
+                for a2 in range(ntr):
+                    s += fpool[s0 + a * ntr + a2] * rot[b, 3 + a2]
+                dx[ndof + dof0 + a] = s
+            for j in range(nm):
+                r = q_gen[qd0 + j]
+                for a in range(ntr):
+                    r -= fpool[b0 + a * nm + j] * dx[ndof + dof0 + a]
+                dx[ndof + qd0 + j] = r
+        else:
+            for j in range(nm):
+                dx[ndof + qd0 + j] = q_gen[qd0 + j]
+
+
+@nb.njit(cache=True)
+def _node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v):
+    """Inertial positions and velocities of the tracked nodes."""
+    for b in range(bi.shape[0]):
+        n0 = bi[b, B_NODE0]
+        n1 = bi[b, B_NODE1]
+        if n1 <= n0:
+            continue
+        kind = bi[b, B_KIND]
+        dof0 = bi[b, B_DOF0]
+        ntr = bi[b, B_NTR]
+        nm = bi[b, B_NM]
+        psi0 = bi[b, B_PSI0]
+        qd0 = dof0 + ntr
+        for i in range(n0, n1):
+            row = psi0 + (i - n0) * 3 * nm
+            u0 = node_xbar[i, 0]
+            u1 = node_xbar[i, 1]
+            u2 = node_xbar[i, 2]
+            w0 = 0.0
+            w1 = 0.0
+            w2 = 0.0
+            for j in range(nm):
+                qj = x[qd0 + j]
+                vj = x[ndof + qd0 + j]
+                p0 = fpool[row + j]
+                p1 = fpool[row + nm + j]
+                p2 = fpool[row + 2 * nm + j]
+                u0 += p0 * qj
+                u1 += p1 * qj
+                u2 += p2 * qj
+                w0 += p0 * vj
+                w1 += p1 * vj
+                w2 += p2 * vj
+            if kind == KIND_ROTATING:
+                # x = o + A y, v = A (Omega e x y + ydot)
+                om = rot[b, 1]
+                e0 = bf[b, 12]
+                e1 = bf[b, 13]
+                e2 = bf[b, 14]
+                z0 = w0 + om * (e1 * u2 - e2 * u1)
+                z1 = w1 + om * (e2 * u0 - e0 * u2)
+                z2 = w2 + om * (e0 * u1 - e1 * u0)
+                a = rot_a[b]
+                for c in range(3):
+                    node_x[i, c] = bf[b, c] + a[c, 0] * u0 + a[c, 1] * u1 + a[c, 2] * u2
+                    node_v[i, c] = a[c, 0] * z0 + a[c, 1] * z1 + a[c, 2] * z2
+            else:
+                node_x[i, 0] = bf[b, 0] + u0
+                node_x[i, 1] = bf[b, 1] + u1
+                node_x[i, 2] = bf[b, 2] + u2
+                node_v[i, 0] = w0
+                node_v[i, 1] = w1
+                node_v[i, 2] = w2
+                for a in range(ntr):
+                    sa = x[dof0 + a]
+                    va = x[ndof + dof0 + a]
+                    for c in range(3):
+                        node_x[i, c] += bf[b, 3 + 3 * a + c] * sa
+                        node_v[i, c] += bf[b, 3 + 3 * a + c] * va
+
+
+@nb.njit(cache=True)
+def _to_master_frame(b, xs, x, ndof, bi, bf, rot_a):
+    """A slave point expressed in the (undeformed) master body frame."""
+    d0 = xs[0] - bf[b, 0]
+    d1 = xs[1] - bf[b, 1]
+    d2 = xs[2] - bf[b, 2]
+    kind = bi[b, B_KIND]
+    if kind == KIND_ROTATING:
+        a = rot_a[b]
+        return (
+            a[0, 0] * d0 + a[1, 0] * d1 + a[2, 0] * d2,
+            a[0, 1] * d0 + a[1, 1] * d1 + a[2, 1] * d2,
+            a[0, 2] * d0 + a[1, 2] * d1 + a[2, 2] * d2,
+        )
+    if kind == KIND_TRANSLATING:
+        dof0 = bi[b, B_DOF0]
+        for a in range(bi[b, B_NTR]):
+            s = x[dof0 + a]
+            d0 -= bf[b, 3 + 3 * a] * s
+            d1 -= bf[b, 4 + 3 * a] * s
+            d2 -= bf[b, 5 + 3 * a] * s
+    return d0, d1, d2
+
+
+@nb.njit(cache=True)
+def _contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f):
+    """Penalty normal force and regularised Coulomb friction of one contact pass."""
+    ndof = x.shape[0] // 2
+    mb = ci[c, C_MBODY]
+    nu = ci[c, C_NU]
+    nv = ci[c, C_NV]
+    periodic = ci[c, C_PERIODIC] == 1
+    ugrid = fpool[ci[c, C_U0] : ci[c, C_U0] + nu]
+    vgrid = fpool[ci[c, C_V0] : ci[c, C_V0] + nv]
+    ncv = nv if periodic else nv - 1
+    polar = ci[c, C_KIND] == 1
+    penalty = p[ci[c, C_PEN]]
+    mu = p[ci[c, C_MU]]
+    eps2 = cf[c, 9] * cf[c, 9]
+    damping = cf[c, 10]
+    rotating = bi[mb, B_KIND] == KIND_ROTATING
+    xs = np.empty(3)
+    n = np.empty(3)
+    for k in range(ci[c, C_NSLAVE]):
+        s = ipool[ci[c, C_SLAVE0] + k]
+        for cc in range(3):
+            xs[cc] = node_x[s, cc]
+        p0, p1, p2 = _to_master_frame(mb, xs, x, ndof, bi, bf, rot_a)
+        d0 = p0 - cf[c, 0]
+        d1 = p1 - cf[c, 1]
+        d2 = p2 - cf[c, 2]
+        a1 = d0 * cf[c, 3] + d1 * cf[c, 4] + d2 * cf[c, 5]
+        a2 = d0 * cf[c, 6] + d1 * cf[c, 7] + d2 * cf[c, 8]
+        if polar:
+            u = np.sqrt(a1 * a1 + a2 * a2)
+            v = np.arctan2(a2, a1)
+        else:
+            u = a1
+            v = a2
+        i, xi = _locate(ugrid, nu, u, False)
+        if i < 0:
+            continue
+        j, eta = _locate(vgrid, nv, v, periodic)
+        if j < 0:
+            continue
+        j1 = (j + 1) % nv
+        g0 = ci[c, C_GRID0]
+        na = ipool[g0 + i * nv + j]
+        nb_ = ipool[g0 + (i + 1) * nv + j]
+        nc = ipool[g0 + (i + 1) * nv + j1]
+        nd = ipool[g0 + i * nv + j1]
+        wa = (1.0 - xi) * (1.0 - eta)
+        wb = xi * (1.0 - eta)
+        wc = xi * eta
+        wd = (1.0 - xi) * eta
+        nrm0 = ci[c, C_NORMAL0] + 3 * (i * ncv + j)
+        if rotating:
+            a = rot_a[mb]
+            for cc in range(3):
+                n[cc] = (
+                    a[cc, 0] * fpool[nrm0] + a[cc, 1] * fpool[nrm0 + 1] + a[cc, 2] * fpool[nrm0 + 2]
+                )
+        else:
+            for cc in range(3):
+                n[cc] = fpool[nrm0 + cc]
+        gap = 0.0
+        for cc in range(3):
+            xm = wa * node_x[na, cc] + wb * node_x[nb_, cc] + wc * node_x[nc, cc]
+            xm += wd * node_x[nd, cc]
+            gap += n[cc] * (xs[cc] - xm)
+        if gap >= 0.0:
+            continue
+        vr0 = node_v[s, 0] - (
+            wa * node_v[na, 0] + wb * node_v[nb_, 0] + wc * node_v[nc, 0] + wd * node_v[nd, 0]
+        )
+        vr1 = node_v[s, 1] - (
+            wa * node_v[na, 1] + wb * node_v[nb_, 1] + wc * node_v[nc, 1] + wd * node_v[nd, 1]
+        )
+        vr2 = node_v[s, 2] - (
+            wa * node_v[na, 2] + wb * node_v[nb_, 2] + wc * node_v[nc, 2] + wd * node_v[nd, 2]
+        )
+        vn = n[0] * vr0 + n[1] * vr1 + n[2] * vr2
+        fn = -penalty * gap - damping * vn
+        if fn <= 0.0:
+            continue
+        vt0 = vr0 - vn * n[0]
+        vt1 = vr1 - vn * n[1]
+        vt2 = vr2 - vn * n[2]
+        scale = -mu * fn / np.sqrt(vt0 * vt0 + vt1 * vt1 + vt2 * vt2 + eps2)
+        f0 = fn * n[0] + scale * vt0
+        f1 = fn * n[1] + scale * vt1
+        f2 = fn * n[2] + scale * vt2
+        node_f[s, 0] += f0
+        node_f[s, 1] += f1
+        node_f[s, 2] += f2
+        node_f[na, 0] -= wa * f0
+        node_f[na, 1] -= wa * f1
+        node_f[na, 2] -= wa * f2
+        node_f[nb_, 0] -= wb * f0
+        node_f[nb_, 1] -= wb * f1
+        node_f[nb_, 2] -= wb * f2
+        node_f[nc, 0] -= wc * f0
+        node_f[nc, 1] -= wc * f1
+        node_f[nc, 2] -= wc * f2
+        node_f[nd, 0] -= wd * f0
+        node_f[nd, 1] -= wd * f1
+        node_f[nd, 2] -= wd * f2
+
+
+@nb.njit(cache=True)
+def _map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
+    """Generalised forces of the tracked nodes' forces: P^T F and Psi_k^T A^T F."""
+    for b in range(bi.shape[0]):
+        n0 = bi[b, B_NODE0]
+        n1 = bi[b, B_NODE1]
+        kind = bi[b, B_KIND]
+        dof0 = bi[b, B_DOF0]
+        ntr = bi[b, B_NTR]
+        nm = bi[b, B_NM]
+        psi0 = bi[b, B_PSI0]
+        qd0 = dof0 + ntr
+        for i in range(n0, n1):
+            f0 = node_f[i, 0]
+            f1 = node_f[i, 1]
+            f2 = node_f[i, 2]
+            if f0 == 0.0 and f1 == 0.0 and f2 == 0.0:
+                continue  # nodes out of contact cost nothing here
+            for a in range(ntr):
+                q_gen[dof0 + a] += bf[b, 3 + 3 * a] * f0 + bf[b, 4 + 3 * a] * f1
+                q_gen[dof0 + a] += bf[b, 5 + 3 * a] * f2
+            if kind == KIND_ROTATING:
+                a = rot_a[b]
+                g0 = a[0, 0] * f0 + a[1, 0] * f1 + a[2, 0] * f2
+                g1 = a[0, 1] * f0 + a[1, 1] * f1 + a[2, 1] * f2
+                g2 = a[0, 2] * f0 + a[1, 2] * f1 + a[2, 2] * f2
+                f0, f1, f2 = g0, g1, g2
+            row = psi0 + (i - n0) * 3 * nm
+            for j in range(nm):
+                q_gen[qd0 + j] += (
+                    fpool[row + j] * f0 + fpool[row + nm + j] * f1 + fpool[row + 2 * nm + j] * f2
+                )
+
+
+@nb.njit(cache=True)
+def make_work(sysdata):
+    """Per-sample work arrays of the right-hand side."""
+    ndof = sysdata[0]
+    nbody = sysdata[1].shape[0]
+    ntracked = sysdata[3].shape[0]
+    return (
+        np.zeros(ndof),
+        np.zeros((ntracked, 3)),
+        np.zeros((ntracked, 3)),
+        np.zeros((ntracked, 3)),
+        np.zeros((nbody, 6)),
+        np.zeros((nbody, 3, 3)),
+    )
+
+
+@nb.njit(cache=True, parallel=True)
+def rk4_batch(sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t):
+    """Classic fixed-step RK4 for a batch of samples (prange over samples).
+
+    Parameters
+    ----------
+    params : (B, n_slots) parameter rows; x0 : (B, 2n) initial states.
+    out_w : (n_out, 2n) linear output functionals; out : (B, n_out, n_rec) filled in place.
+    bound : outputs with |y| > bound stop the sample (status OUT_OF_BOUND).
+    status, fail_t : (B,) per-sample status code and failure time [s] (NaN if ok).
+    """
+    nsamples = params.shape[0]
+    nstate = x0.shape[1]
+    nout = out_w.shape[0]
+    for b in nb.prange(nsamples):
+        work = make_work(sysdata)
+        p = params[b]
+        x = x0[b].copy()
+        k1 = np.empty(nstate)
+        k2 = np.empty(nstate)
+        k3 = np.empty(nstate)
+        k4 = np.empty(nstate)
+        xt = np.empty(nstate)
+        status[b] = OK
+        fail_t[b] = np.nan
+        rec = 0
+        for step in range(n_steps + 1):
+            t = t0 + step * dt
+            if step % record_every == 0:
+                for o in range(nout):
+                    y = 0.0
+                    for i in range(nstate):
+                        y += out_w[o, i] * x[i]
+                    out[b, o, rec] = y
+                    if not abs(y) <= bound:  # also catches NaN
+                        status[b] = OUT_OF_BOUND if np.isfinite(y) else NONFINITE
+                rec += 1
+            if status[b] != OK or step == n_steps:
+                if status[b] != OK:
+                    fail_t[b] = t
+                break
+            rhs(t, x, k1, p, sysdata, work)
+            for i in range(nstate):
+                xt[i] = x[i] + 0.5 * dt * k1[i]
+            rhs(t + 0.5 * dt, xt, k2, p, sysdata, work)
+            for i in range(nstate):
+                xt[i] = x[i] + 0.5 * dt * k2[i]
+            rhs(t + 0.5 * dt, xt, k3, p, sysdata, work)
+            for i in range(nstate):
+                xt[i] = x[i] + dt * k3[i]
+            rhs(t + dt, xt, k4, p, sysdata, work)
+            finite = True
+            for i in range(nstate):
+                x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+                if not np.isfinite(x[i]):
+                    finite = False
+            if not finite:
+                status[b] = NONFINITE
+                fail_t[b] = t + dt
+                break
+        if status[b] != OK:
+            out[b, :, :] = np.nan
+
+
+@nb.njit(cache=True, parallel=True)
+def rhs_batch(sysdata, params, rows, times, states, out):
+    """out[i] = f(times[i], states[i]) with parameter row params[rows[i]] (prange over i)."""
+    for i in nb.prange(states.shape[0]):
+        work = make_work(sysdata)
+        rhs(times[i], states[i], out[i], params[rows[i]], sysdata, work)

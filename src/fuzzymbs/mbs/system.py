@@ -1,0 +1,401 @@
+"""Assembly of bodies and force elements into the flat arrays the kernels read.
+
+Usage::
+
+    system = System()
+    system.add_body(RotatingBody(disc_modal, "y", speed=Parameter("omega", 1.0)))
+    system.add_body(TranslatingBody(pad_modal, ["y"]))
+    system.add(NodalForce("press", "pad", "back", "-y", Parameter("F_n", 16e3)))
+    system.add(PenaltyContact("pad-disc", "pad", "contact", "disc", "patch",
+                              PolarChart("y"), penalty=1e8, friction=Parameter("mu", 0.7)))
+    compiled = system.compile()
+
+Layout of ``CompiledSystem.data`` (the tuple passed to every kernel):
+
+``(ndof, bi, bf, node_xbar, dof_k2, dof_c, fpool, ipool, ptab, lg, nfi, ci, cf)``
+
+* ``bi`` (bodies, 10) int: kind, first dof, n translations, n modes, tracked-node
+  range, offset of the tracked nodes' Psi block (node, xyz, mode) in ``fpool``,
+  offset of the body matrices (translating: S^-1 then B = P C_t; rotating: G, C,
+  centrifugal load, Euler load), speed slot, speed profile index.
+* ``bf`` (bodies, 15) float: origin, translation axes (3 rows), rotation axis.
+* ``node_xbar`` (tracked, 3): undeformed positions of the nodes contact needs.
+* ``dof_k2``, ``dof_c``: omega^2 and 2 zeta omega per coordinate (0 for translations).
+* ``ptab`` (profiles, 2): start and knot count; knots t, values, integrals in ``fpool``.
+* ``lg`` (spring groups, 5): dof list offset (``ipool``), size n, offset of the unit
+  stiffness and unit damping matrices (n x n each), stiffness slot, damping slot.
+* ``nfi`` (nodal forces, 5): body, offset of the generalised force vector(s), profile
+  index (-1: constant), magnitude slot, rotating flag (then 3 vectors, see kernels).
+* ``ci`` (contact passes, 14) / ``cf`` (contact passes, 11): see kernels.C_* and the
+  chart frame (origin, two in-plane axes), eps, normal damping.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs import kernels as K
+from fuzzymbs.mbs.bodies import Body, FixedBody, RotatingBody, TranslatingBody, unit_vector
+from fuzzymbs.mbs.contact import PenaltyContact, build_patch
+from fuzzymbs.mbs.forces import NodalForce, Spring, resolve_nodes
+from fuzzymbs.mbs.parameters import ParameterTable
+from fuzzymbs.mbs.profiles import TimeProfile
+
+Element = NodalForce | Spring | PenaltyContact
+
+
+@dataclass(frozen=True)
+class NodeDisplacement:
+    """Output: displacement of a node along ``direction`` [m].
+
+    For a non-rotating body, the inertial displacement (frame translation plus
+    elastic deformation). For a rotating body, the elastic displacement in the
+    body frame (the rigid rotation is prescribed and not an output).
+    """
+
+    body: str
+    node: int
+    direction: ArrayLike | str
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """Output: one generalised coordinate of a body (translation a, or mode ``n_tr + j``)."""
+
+    body: str
+    index: int = 0
+    velocity: bool = False
+
+
+Output = NodeDisplacement | Coordinate
+
+
+class System:
+    """A collection of bodies and force elements, compiled into kernel arrays."""
+
+    def __init__(self) -> None:
+        self.bodies: dict[str, Body] = {}
+        self.elements: list[Element] = []
+
+    def add_body(self, body: Body) -> Body:
+        """Add a body; its name must be unique."""
+        if not isinstance(body, FixedBody | TranslatingBody | RotatingBody):
+            raise InvalidParameterError(f"add_body needs a FixedBody, TranslatingBody or "
+                                        f"RotatingBody, got {type(body).__name__}")
+        if body.name in self.bodies:
+            raise InvalidParameterError(f"a body named {body.name!r} exists already")
+        self.bodies[body.name] = body
+        return body
+
+    def add(self, *elements: Element) -> None:
+        """Add force elements (NodalForce, Spring, PenaltyContact)."""
+        names = {e.name for e in self.elements}
+        for e in elements:
+            if not isinstance(e, NodalForce | Spring | PenaltyContact):
+                raise InvalidParameterError(
+                    f"unknown element type {type(e).__name__}; use NodalForce, Spring or "
+                    "PenaltyContact"
+                )
+            if e.name in names:
+                raise InvalidParameterError(f"an element named {e.name!r} exists already")
+            names.add(e.name)
+            self.elements.append(e)
+
+    def body(self, name: str, what: str) -> Body:
+        try:
+            return self.bodies[name]
+        except KeyError:
+            raise InvalidParameterError(
+                f"{what}: unknown body {name!r}; bodies are {sorted(self.bodies)}"
+            ) from None
+
+    def compile(self) -> CompiledSystem:
+        """Flatten into kernel arrays (see the module docstring)."""
+        return _compile(self)
+
+
+@dataclass
+class CompiledSystem:
+    """Kernel arrays plus what is needed to read and label them."""
+
+    data: tuple
+    parameters: ParameterTable
+    n_dofs: int
+    body_dofs: dict[str, slice]
+    bodies: dict[str, Body]
+    translation_axes: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+
+    @property
+    def n_state(self) -> int:
+        return 2 * self.n_dofs
+
+    def output_functional(self, spec: Output) -> NDArray[np.float64]:
+        """Row vector w with output = w . state."""
+        w = np.zeros(self.n_state)
+        if spec.body not in self.bodies:
+            raise InvalidParameterError(
+                f"output: unknown body {spec.body!r}; bodies are {sorted(self.bodies)}"
+            )
+        body = self.bodies[spec.body]
+        dofs = self.body_dofs[spec.body]
+        if isinstance(spec, Coordinate):
+            if not 0 <= spec.index < body.n_dofs:
+                raise InvalidParameterError(
+                    f"output: body {spec.body!r} has {body.n_dofs} coordinates, index "
+                    f"{spec.index} is out of range"
+                )
+            w[dofs.start + spec.index + (self.n_dofs if spec.velocity else 0)] = 1.0
+            return w
+        d = unit_vector(spec.direction, f"output direction of body {spec.body!r}")
+        if not 0 <= spec.node < body.modal.n_nodes:
+            raise InvalidParameterError(
+                f"output: body {spec.body!r} has {body.modal.n_nodes} nodes, node {spec.node} "
+                "is out of range"
+            )
+        w[dofs] = _node_row(body, spec.node, d)
+        return w
+
+    def zero_state(self, batch: int = 1) -> NDArray[np.float64]:
+        """Zero initial conditions for ``batch`` samples, shape (batch, 2n)."""
+        return np.zeros((batch, self.n_state))
+
+
+def _node_row(body: Body, node: int, direction: NDArray[np.float64]) -> NDArray[np.float64]:
+    """d . u_node as a row over the body's coordinates: [d . P_a, d . Psi_k]."""
+    parts = []
+    if isinstance(body, TranslatingBody):
+        parts.append(body.axes @ direction)
+    parts.append(direction @ body.modal.mode_shapes[node])
+    return np.concatenate(parts)
+
+
+class _Pools:
+    def __init__(self) -> None:
+        self.f: list[NDArray[np.float64]] = []
+        self.nf = 0
+        self.i: list[NDArray[np.int64]] = []
+        self.ni = 0
+
+    def addf(self, arr: ArrayLike) -> int:
+        a = np.ascontiguousarray(arr, dtype=np.float64).reshape(-1)
+        self.f.append(a)
+        self.nf += a.size
+        return self.nf - a.size
+
+    def addi(self, arr: ArrayLike) -> int:
+        a = np.ascontiguousarray(arr, dtype=np.int64).reshape(-1)
+        self.i.append(a)
+        self.ni += a.size
+        return self.ni - a.size
+
+
+def _add_profile(pools: _Pools, profiles: list, profile: TimeProfile) -> int:
+    start = pools.addf(profile.times)
+    pools.addf(profile.values)
+    pools.addf(profile.cumulative())
+    profiles.append((start, profile.times.size))
+    return len(profiles) - 1
+
+
+def _compile(system: System) -> CompiledSystem:
+    if not system.bodies:
+        raise InvalidParameterError("the system has no bodies")
+    table = ParameterTable()
+    pools = _Pools()
+    profiles: list[tuple[int, int]] = []
+    names = list(system.bodies)
+    index = {n: i for i, n in enumerate(names)}
+    bodies = [system.bodies[n] for n in names]
+
+    # coordinates
+    body_dofs: dict[str, slice] = {}
+    ndof = 0
+    for body in bodies:
+        body_dofs[body.name] = slice(ndof, ndof + body.n_dofs)
+        ndof += body.n_dofs
+    dof_k2 = np.zeros(ndof)
+    dof_c = np.zeros(ndof)
+    for body in bodies:
+        q = slice(body_dofs[body.name].start + body.n_translations, body_dofs[body.name].stop)
+        dof_k2[q] = body.modal.frequencies**2
+        dof_c[q] = 2.0 * body.damping_ratio * body.modal.frequencies
+
+    # tracked nodes: every node a contact pass reads, grouped by body
+    contacts = [e for e in system.elements if isinstance(e, PenaltyContact)]
+    tracked: dict[str, set[int]] = {n: set() for n in names}
+    resolved = []
+    for c in contacts:
+        sb = system.body(c.slave_body, f"contact {c.name!r} slave_body")
+        mb = system.body(c.master_body, f"contact {c.name!r} master_body")
+        if sb is mb:
+            raise InvalidParameterError(f"contact {c.name!r}: slave and master are the same body")
+        sn = resolve_nodes(sb.modal.n_nodes, sb.modal.node_sets, c.slave_nodes,
+                           f"contact {c.name!r} slave_nodes")
+        mn = resolve_nodes(mb.modal.n_nodes, mb.modal.node_sets, c.master_nodes,
+                           f"contact {c.name!r} master_nodes")
+        tracked[sb.name].update(sn.tolist())
+        tracked[mb.name].update(mn.tolist())
+        resolved.append((c, sb, mb, sn, mn))
+    tracked_id: dict[tuple[str, int], int] = {}
+    node_xbar = []
+    bi = np.zeros((len(bodies), 10), dtype=np.int64)
+    bf = np.zeros((len(bodies), 15))
+    translation_axes = {}
+    for b, body in enumerate(bodies):
+        modal = body.modal
+        nodes = sorted(tracked[body.name])
+        bi[b, K.B_NODE0] = len(node_xbar)
+        for n in nodes:
+            tracked_id[(body.name, n)] = len(node_xbar)
+            node_xbar.append(modal.node_positions[n])
+        bi[b, K.B_NODE1] = len(node_xbar)
+        bi[b, K.B_PSI0] = pools.addf(modal.mode_shapes[nodes]) if nodes else 0
+        bi[b, K.B_DOF0] = body_dofs[body.name].start
+        bi[b, K.B_NTR] = body.n_translations
+        bi[b, K.B_NM] = modal.n_modes
+        bi[b, K.B_PROF] = -1
+        bf[b, 0:3] = body.origin
+        if isinstance(body, TranslatingBody):
+            bi[b, K.B_KIND] = K.KIND_TRANSLATING
+            bf[b, 3 : 3 + 3 * body.n_translations] = body.axes.reshape(-1)
+            coupling = body.axes @ modal.translation_coupling  # (na, r)
+            schur = modal.mass * body.axes @ body.axes.T - coupling @ coupling.T
+            if np.linalg.eigvalsh(schur).min() <= 1e-12 * modal.mass:
+                raise InvalidParameterError(
+                    f"body {body.name!r}: mass matrix [[m P P^T, P C_t], [C_t^T P^T, I]] is not "
+                    "positive definite (check mass and translation_coupling)"
+                )
+            bi[b, K.B_MAT0] = pools.addf(np.linalg.inv(schur))
+            pools.addf(coupling)
+            translation_axes[body.name] = body.axes
+        elif isinstance(body, RotatingBody):
+            bi[b, K.B_KIND] = K.KIND_ROTATING
+            bf[b, 12:15] = body.axis
+            mats = body.rotated_matrices()
+            bi[b, K.B_MAT0] = pools.addf(mats["gyroscopic"])
+            pools.addf(mats["centrifugal"])
+            pools.addf(mats["centrifugal_load"])
+            pools.addf(mats["euler_load"])
+            bi[b, K.B_SPEED] = table.add(body.speed, f"body {body.name!r} rotation speed")
+            bi[b, K.B_PROF] = _add_profile(pools, profiles, body.profile)
+        else:
+            bi[b, K.B_KIND] = K.KIND_FIXED
+
+    # linear spring/damper groups
+    lg_rows = []
+    for e in system.elements:
+        if not isinstance(e, Spring):
+            continue
+        ba = system.body(e.body_a, f"spring {e.name!r} body_a")
+        na = resolve_nodes(ba.modal.n_nodes, ba.modal.node_sets, e.nodes_a,
+                           f"spring {e.name!r} nodes_a")
+        ends = [(ba, na, -1.0)]
+        if e.body_b is not None:
+            bb = system.body(e.body_b, f"spring {e.name!r} body_b")
+            if e.nodes_b is None:
+                raise InvalidParameterError(f"spring {e.name!r}: body_b given without nodes_b")
+            nb_ = resolve_nodes(bb.modal.n_nodes, bb.modal.node_sets, e.nodes_b,
+                                f"spring {e.name!r} nodes_b")
+            if nb_.size != na.size:
+                raise InvalidParameterError(
+                    f"spring {e.name!r}: nodes_a and nodes_b must pair up, got {na.size} and "
+                    f"{nb_.size} nodes"
+                )
+            if bb is ba:
+                raise InvalidParameterError(f"spring {e.name!r}: both ends on body {ba.name!r}; "
+                                            "internal stiffness belongs in the modal body")
+            ends.append((bb, nb_, 1.0))
+        for body, _, _ in ends:
+            if isinstance(body, RotatingBody):
+                raise InvalidParameterError(
+                    f"spring {e.name!r}: springs on rotating body {body.name!r} are not supported"
+                    " (their geometry would be time-varying); use contact or a fixed body"
+                )
+        dofs = np.concatenate([np.arange(ndof)[body_dofs[b.name]] for b, _, _ in ends])
+        if dofs.size == 0:
+            continue  # both ends without coordinates: nothing moves
+        unit = np.zeros((dofs.size, dofs.size))
+        for d in e.directions():
+            for k in range(na.size):
+                w = np.concatenate([sign * _node_row(body, nodes[k], d)
+                                    for body, nodes, sign in ends])
+                unit += np.outer(w, w)
+        d0 = pools.addi(dofs)
+        m0 = pools.addf(unit)
+        pools.addf(unit)
+        ks = table.add(e.stiffness, f"spring {e.name!r} stiffness", 0.0)
+        cs = table.add(e.damping, f"spring {e.name!r} damping", 0.0)
+        lg_rows.append((d0, dofs.size, m0, ks, cs))
+
+    # nodal forces
+    nf_rows = []
+    for e in system.elements:
+        if not isinstance(e, NodalForce):
+            continue
+        body = system.body(e.body, f"nodal force {e.name!r} body")
+        nodes = resolve_nodes(body.modal.n_nodes, body.modal.node_sets, e.nodes,
+                              f"nodal force {e.name!r} nodes")
+        d = e.unit_direction()
+        psi_sum = body.modal.mode_shapes[nodes].sum(axis=0)  # (3, r)
+        slot = table.add(e.magnitude, f"nodal force {e.name!r} magnitude")
+        prof = -1 if e.profile is None else _add_profile(pools, profiles, e.profile)
+        if isinstance(body, RotatingBody):
+            ax = body.axis
+            v0 = pools.addf(d @ psi_sum)
+            pools.addf((ax @ d) * (ax @ psi_sum))
+            pools.addf(np.cross(ax, d) @ psi_sum)
+            nf_rows.append((index[body.name], v0, prof, slot, 1))
+        else:
+            vec = [body.axes @ d * nodes.size] if isinstance(body, TranslatingBody) else []
+            vec.append(d @ psi_sum)
+            nf_rows.append((index[body.name], pools.addf(np.concatenate(vec)), prof, slot, 0))
+
+    # contact passes
+    ci_rows = []
+    cf_rows = []
+    for c, sb, mb, sn, mn in resolved:
+        kind, frame = c.chart.frame()
+        slave_ref = sb.origin + sb.modal.node_positions[sn] - mb.origin  # master frame at t=0
+        patch = build_patch(c.name, kind, frame, mb.modal.node_positions, mn, slave_ref)
+        grid_tracked = np.vectorize(lambda n, name=mb.name: tracked_id[(name, int(n))])(patch.grid)
+        slave_tracked = [tracked_id[(sb.name, int(n))] for n in sn]
+        row = np.zeros(14, dtype=np.int64)
+        row[K.C_SBODY] = index[sb.name]
+        row[K.C_MBODY] = index[mb.name]
+        row[K.C_SLAVE0] = pools.addi(slave_tracked)
+        row[K.C_NSLAVE] = len(slave_tracked)
+        row[K.C_KIND] = kind
+        row[K.C_NU] = patch.u.size
+        row[K.C_NV] = patch.v.size
+        row[K.C_U0] = pools.addf(patch.u)
+        row[K.C_V0] = pools.addf(patch.v)
+        row[K.C_GRID0] = pools.addi(grid_tracked)
+        row[K.C_NORMAL0] = pools.addf(patch.normals)
+        row[K.C_PEN] = table.add(c.penalty, f"contact {c.name!r} penalty", 0.0)
+        row[K.C_MU] = table.add(c.friction, f"contact {c.name!r} friction", 0.0)
+        row[K.C_PERIODIC] = int(patch.periodic)
+        ci_rows.append(row)
+        cf_rows.append(np.concatenate([frame, [c.regularization_velocity, c.normal_damping]]))
+
+    if not table.slots:
+        table.add(0.0, "unused")
+    data = (
+        ndof,
+        bi,
+        bf,
+        np.array(node_xbar, dtype=np.float64).reshape(-1, 3),
+        dof_k2,
+        dof_c,
+        np.concatenate(pools.f) if pools.f else np.zeros(1),
+        np.concatenate(pools.i) if pools.i else np.zeros(1, dtype=np.int64),
+        np.array(profiles, dtype=np.int64).reshape(-1, 2),
+        np.array(lg_rows, dtype=np.int64).reshape(-1, 5),
+        np.array(nf_rows, dtype=np.int64).reshape(-1, 5),
+        np.array(ci_rows, dtype=np.int64).reshape(-1, 14),
+        np.array(cf_rows, dtype=np.float64).reshape(-1, 11),
+    )
+    return CompiledSystem(data, table, ndof, body_dofs, dict(system.bodies), translation_axes)
