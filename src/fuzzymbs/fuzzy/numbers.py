@@ -293,11 +293,7 @@ class Triangular(FuzzyNumber):
         return self._modal
 
     def _cut(self, mu: float) -> tuple[float, float]:
-        # convex combinations: exact at mu = 0 and mu = 1, so the core is the modal value
-        return (
-            (1.0 - mu) * self.lower + mu * self._modal,
-            (1.0 - mu) * self.upper + mu * self._modal,
-        )
+        return _linear_cut(mu, self.lower, self._modal, self._modal, self.upper)
 
     def membership(self, x: ArrayLike) -> NDArray[np.float64]:
         return _trapezoid_membership(x, self.lower, self._modal, self._modal, self.upper)
@@ -331,10 +327,7 @@ class Trapezoidal(FuzzyNumber):
             )
 
     def _cut(self, mu: float) -> tuple[float, float]:
-        return (
-            (1.0 - mu) * self.lower + mu * self.core_lower,
-            (1.0 - mu) * self.upper + mu * self.core_upper,
-        )
+        return _linear_cut(mu, self.lower, self.core_lower, self.core_upper, self.upper)
 
     def membership(self, x: ArrayLike) -> NDArray[np.float64]:
         return _trapezoid_membership(x, self.lower, self.core_lower, self.core_upper, self.upper)
@@ -347,6 +340,22 @@ class Trapezoidal(FuzzyNumber):
             "core_upper": self.core_upper,
             "upper": self.upper,
         }
+
+
+def _linear_cut(
+    mu: float, lower: float, core_lower: float, core_upper: float, upper: float
+) -> tuple[float, float]:
+    """Cut of a linear branch pair: exact at mu = 0 and 1, monotone in mu, never past the core.
+
+    ``lower + mu (core_lower - lower)`` can round past ``core_lower``; the clamp
+    keeps the cuts nested and the core exactly ``[core_lower, core_upper]``.
+    """
+    if mu == 1.0:
+        return core_lower, core_upper
+    return (
+        min(lower + mu * (core_lower - lower), core_lower),
+        max(upper - mu * (upper - core_upper), core_upper),
+    )
 
 
 def _trapezoid_membership(
