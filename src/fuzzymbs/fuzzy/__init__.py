@@ -1,1 +1,24 @@
-"""Fuzzy engine: fuzzy numbers, transformation methods, retransformation, influence."""
+"""Fuzzy engine: fuzzy numbers, transformation methods, retransformation, influence.
+
+The engine never imports a model: a model is any callable
+``model({name: (B,) array}) -> {output: (B, ...) array}``.
+"""
+
+from fuzzymbs.fuzzy.influence import Influence
+from fuzzymbs.fuzzy.numbers import FuzzyNumber, Gaussian, PiecewiseLinear, Trapezoidal, Triangular
+from fuzzymbs.fuzzy.retransform import FuzzyResult
+from fuzzymbs.fuzzy.transform import METHODS, NonMonotonicWarning, Plan, plan
+
+__all__ = [
+    "METHODS",
+    "FuzzyNumber",
+    "FuzzyResult",
+    "Gaussian",
+    "Influence",
+    "NonMonotonicWarning",
+    "PiecewiseLinear",
+    "Plan",
+    "Trapezoidal",
+    "Triangular",
+    "plan",
+]

@@ -1,0 +1,34 @@
+"""The code blocks of docs/fuzzy.md run, in order, in one namespace."""
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+GUIDE = Path(__file__).resolve().parents[2] / "docs" / "fuzzy.md"
+
+
+def test_user_guide_examples_run(capsys):
+    blocks = re.findall(r"```python\n(.*?)```", GUIDE.read_text(), flags=re.S)
+    assert len(blocks) >= 6
+    namespace: dict = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for block in blocks:
+            exec(compile(block, str(GUIDE), "exec"), namespace)
+    capsys.readouterr()
+    # the numbers the guide quotes in its comments
+    assert len(namespace["p"]) == 33
+    assert namespace["deflection"].nominal == 0.08
+    # F/k is monotone: the reduced bounds are F_lo/k_hi and F_hi/k_lo at every level
+    p = namespace["p"]
+    force_low, force_high = p.cut_lower[:, 1], p.cut_upper[:, 1]
+    stiffness_low, stiffness_high = p.cut_lower[:, 0], p.cut_upper[:, 0]
+    np.testing.assert_allclose(namespace["deflection"].lower, force_low / stiffness_high)
+    np.testing.assert_allclose(namespace["deflection"].upper, force_high / stiffness_low)
+    np.testing.assert_array_equal(namespace["partial"].complete, [False, False, False, True, True])
+    # symmetric triangles: (m+1)^n + m^n = 189 unique of sum_k k^n = 225 (docs/theory.md)
+    assert len(namespace["general"]) == 189
+    assert namespace["general"].points_without_reuse == 225
+    np.testing.assert_allclose(namespace["influence"].relative.sum(), 1.0)
