@@ -71,6 +71,7 @@ def run(
     fresh: Annotated[
         bool, typer.Option("--fresh", help="Discard stored chunks of this study; do not resume.")
     ] = False,
+    no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the plots.")] = False,
     quiet: QuietOption = False,
     verbose: VerboseOption = False,
 ) -> None:
@@ -86,6 +87,7 @@ def run(
         on_failure=on_failure,
         resume=not fresh,
         progress=not quiet,
+        plots=not no_plots,
     )
 
 

@@ -1,0 +1,133 @@
+"""A run killed with SIGKILL resumes from its store and ends bit-identical to a clean run.
+
+A real subprocess runs ``fuzzymbs run`` on a slow closed-form model referenced
+as "slow_closed_form:make" (tests/study on PYTHONPATH) and is SIGKILLed after
+some chunks were stored; the resumed run and a clean run then run in-process.
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from fuzzymbs.study.pipeline import run_study_file
+from fuzzymbs.study.studyfile import load_study_file
+
+HERE = Path(__file__).parent
+CHUNK_SIZE = 4
+
+STUDY = """
+[study]
+name = "slow-product"
+method = "reduced"
+levels = 10
+
+[model]
+name = "slow_closed_form:make"
+[model.options]
+delay = {delay}
+
+[parameters.x1]
+type = "triangular"
+lower = 1.0
+modal = 2.0
+upper = 3.0
+
+[parameters.x2]
+type = "triangular"
+modal = 10.0
+spread = 0.1
+
+[run]
+chunk_size = {chunk_size}
+"""
+
+
+def _command(study: Path, out: Path) -> list[str]:
+    return [
+        sys.executable,
+        "-m",
+        "fuzzymbs.cli",
+        "run",
+        str(study),
+        "--out",
+        str(out),
+        "-q",
+        "--no-plots",
+    ]
+
+
+def _environment(log: Path) -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(HERE), env.get("PYTHONPATH", "")])
+    env["FUZZYMBS_TEST_CALL_LOG"] = str(log)
+    return env
+
+
+def _logged_calls(log: Path) -> list[list[float]]:
+    if not log.exists():
+        return []
+    return [json.loads(line) for line in log.read_text().splitlines()]
+
+
+def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
+    study = tmp_path / "slow.toml"
+    study.write_text(STUDY.format(delay=0.15, chunk_size=CHUNK_SIZE))
+    plan = load_study_file(study).study.plan
+    count = len(plan)  # 10 * 2^2 + 1 = 41 samples
+    chunks = [plan.samples[i : i + CHUNK_SIZE, 0].tolist() for i in range(0, count, CHUNK_SIZE)]
+    assert count == 41 and len(chunks) == 11
+
+    out = tmp_path / "interrupted"
+    store = out / "chunks"
+    first_log = tmp_path / "first.log"
+    process = subprocess.Popen(_command(study, out), env=_environment(first_log))
+    try:
+        deadline = time.monotonic() + 60
+        while len(list(store.glob("chunk-*.npz"))) < 3:
+            assert process.poll() is None, "the run ended before it could be killed"
+            assert time.monotonic() < deadline, "no chunks were stored within 60 s"
+            time.sleep(0.02)
+        process.send_signal(signal.SIGKILL)
+        process.wait(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == -signal.SIGKILL
+    assert not (out / "result.nc").exists()
+    stored = sorted(int(p.stem.split("-")[1]) for p in store.glob("chunk-*.npz"))
+    assert 3 <= len(stored) < len(chunks)
+
+    # resume (in this process): only the chunks missing from the store are evaluated
+    monkeypatch.syspath_prepend(str(HERE))
+    second_log = tmp_path / "second.log"
+    monkeypatch.setenv("FUZZYMBS_TEST_CALL_LOG", str(second_log))
+    run_study_file(study, out, progress=False, plots=False)
+    resumed_calls = _logged_calls(second_log)
+    missing = [chunks[i] for i in range(len(chunks)) if i not in stored]
+    assert sorted(resumed_calls) == sorted(missing)
+
+    # an uninterrupted run of the same study into a fresh folder
+    clean = tmp_path / "clean"
+    monkeypatch.setenv("FUZZYMBS_TEST_CALL_LOG", str(tmp_path / "clean.log"))
+    run_study_file(study, clean, progress=False, plots=False)
+    assert len(_logged_calls(tmp_path / "clean.log")) == len(chunks)
+
+    with (
+        xr.open_dataset(out / "result.nc") as resumed,
+        xr.open_dataset(clean / "result.nc") as fresh,
+    ):
+        assert set(resumed.data_vars) == set(fresh.data_vars)
+        for name in fresh.data_vars:
+            np.testing.assert_array_equal(resumed[name].values, fresh[name].values, strict=True)
+        provenance = json.loads(resumed.attrs["provenance"])
+        assert provenance["reused_from_store"] == sum(
+            min(CHUNK_SIZE, count - i * CHUNK_SIZE) for i in stored
+        )
+        assert provenance["evaluated"] == count - provenance["reused_from_store"]
