@@ -192,3 +192,20 @@ def test_fuzzy_result_validates_shapes():
         FuzzyResult([0.0, 1.0], [0.0, 1.0, 2.0], [0.0, 1.0, 2.0])
     with pytest.raises(InvalidFuzzyNumberError, match="complete"):
         FuzzyResult([0.0, 1.0], [0.0, 1.0], [2.0, 1.0], complete=[True])
+
+
+def test_extended_guard_tests_only_declared_monotonic_parameters():
+    # z = x^2 + y with x declared nonmonotonic: monotonic in y, so no warning; the
+    # exact bounds [-(1 - mu), (1 - mu)^2 + (1 - mu)] hold at the levels whose points
+    # include x = 0 or the x-bounds (even levels for m = 4: mu = 0, .5, 1)
+    p = plan({"x": SYMMETRIC, "y": SYMMETRIC}, "extended", 4, nonmonotonic=["x"])
+    s = p.sample_columns()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NonMonotonicWarning)
+        result = p.retransform(s["x"] ** 2 + s["y"])
+    even = [0, 2, 4]
+    np.testing.assert_allclose(result.lower[even], -(1 - MU[even]), atol=1e-15)
+    np.testing.assert_allclose(result.upper, (1 - MU) ** 2 + (1 - MU), atol=1e-15)
+    # z = x + y^2: y is treated as monotonic but is not -> warned
+    with pytest.warns(NonMonotonicWarning, match="not named nonmonotonic"):
+        p.retransform(s["x"] + s["y"] ** 2)

@@ -21,7 +21,7 @@ from fuzzymbs.errors import (
     UnsupportedOperationError,
 )
 from fuzzymbs.fuzzy.numbers import check_level
-from fuzzymbs.fuzzy.transform import NonMonotonicWarning
+from fuzzymbs.fuzzy.transform import NonMonotonicWarning, _unique_rows
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray
@@ -273,7 +273,7 @@ def retransform(
     upper = np.maximum.accumulate(own_upper[::-1], axis=0)[::-1]
     touched = plan.levels_touched(mask)
     if check_monotonic and plan.method in ("reduced", "extended"):
-        _monotonicity_guard(plan, own_lower, own_upper, lower, upper, touched, values, name)
+        _monotonicity_guard(plan, values, touched, name)
     lower[touched] = np.nan
     upper[touched] = np.nan
     nominal_index = plan.nominal_index
@@ -295,50 +295,65 @@ def _expand(mask: NDArray[np.bool_], values: NDArray) -> NDArray[np.bool_]:
     return mask.reshape((-1,) + (1,) * (values.ndim - 1))
 
 
-def _monotonicity_guard(
-    plan: Plan,
-    own_lower: NDArray,
-    own_upper: NDArray,
-    lower: NDArray,
-    upper: NDArray,
-    touched: NDArray[np.bool_],
-    values: NDArray,
-    name: str,
-) -> None:
-    """Warn if points inside a level's box gave outputs beyond that level's own range.
+def _monotonicity_guard(plan: Plan, values: NDArray, touched: NDArray[np.bool_], name: str) -> None:
+    """Warn if a point inside a level's box gave an output beyond what monotonicity allows.
 
-    For the reduced scheme the own range of level j is spanned by its corner
-    outputs; the core point and the corners of higher levels lie inside the
-    level-j box, so a monotonic model keeps their outputs within that range.
+    Reduced scheme: the points of the levels above j (and the nominal point)
+    lie inside the level-j box, so for a model monotonic in every parameter
+    their outputs lie in the range spanned by the level-j corner outputs.
+    Extended scheme: the same check per value of the nonmonotonic
+    coordinates; an inner point is compared with the level-j corners (in the
+    monotonic parameters) that share its nonmonotonic coordinates, if level j
+    has such points, so only the declared monotonicity is tested.
     """
-    finite_values = values[np.isfinite(values)]
-    scale = float(np.max(np.abs(finite_values))) if finite_values.size else 0.0
-    count_levels = len(plan.levels)
+    count = len(plan)
+    flat = values.reshape(count, -1)
+    columns = [plan.names.index(parameter) for parameter in plan.nonmonotonic]
+    if columns:
+        _, group = _unique_rows(plan.samples[:, columns])
+    else:
+        group = np.zeros(count, dtype=np.intp)
+    group_count = int(group.max()) + 1
+    finite = np.isfinite(flat)
+    scale = float(np.max(np.abs(flat[finite]))) if finite.any() else 0.0
+    usage = plan.level_usage
+    inner = usage[-1].copy()  # points of the levels above j
     worst_level, worst_excess, worst_count = -1, 0.0, 0
-    for j in range(count_levels - 1):
+    for j in range(len(plan.levels) - 2, -1, -1):
         if touched[j]:
+            break  # touched levels are j and everything below it
+        own = np.flatnonzero(usage[j])
+        range_lower = np.full((group_count, flat.shape[1]), np.inf)
+        range_upper = np.full((group_count, flat.shape[1]), -np.inf)
+        np.minimum.at(range_lower, group[own], flat[own])
+        np.maximum.at(range_upper, group[own], flat[own])
+        present = np.zeros(group_count, dtype=bool)
+        present[group[own]] = True
+        candidates = np.flatnonzero(inner & ~usage[j] & present[group])
+        inner |= usage[j]
+        if candidates.size == 0:
             continue
-        inner_lower, inner_upper = lower[j + 1], upper[j + 1]
-        magnitude = np.maximum.reduce(
-            [np.abs(own_lower[j]), np.abs(own_upper[j]), np.abs(inner_lower), np.abs(inner_upper)]
-        )
+        z = flat[candidates]
+        low, high = range_lower[group[candidates]], range_upper[group[candidates]]
+        magnitude = np.maximum(np.maximum(np.abs(low), np.abs(high)), np.abs(z))
         tolerance = MONOTONIC_RTOL * magnitude + 1e-12 * scale
-        below = own_lower[j] - inner_lower
-        above = inner_upper - own_upper[j]
-        excess = np.maximum(below, above)
+        excess = np.maximum(low - z, z - high)
         outside = excess > tolerance
-        count = int(np.count_nonzero(outside))
-        if count:
+        outside_count = int(np.count_nonzero(outside.any(axis=0)))
+        if outside_count:
             relative = float(np.max(excess[outside] / np.maximum(magnitude[outside], 1e-300)))
-            if relative > worst_excess or worst_level < 0:
-                worst_level, worst_excess, worst_count = j, relative, count
+            if worst_level < 0 or relative > worst_excess:
+                worst_level, worst_excess, worst_count = j, relative, outside_count
     if worst_level >= 0:
+        treated = (
+            "the parameters not named nonmonotonic" if plan.nonmonotonic else "every parameter"
+        )
         warnings.warn(
-            f"output {name!r} is not monotonic in the parameters: at level "
-            f"mu={plan.levels[worst_level]:g} the outputs at points inside the cut box leave "
-            f"the range of that level's {plan.method} points for {worst_count} element(s) "
-            f"(up to {worst_excess:.3g} relative); the {plan.method} bounds are too narrow. "
-            "Use method='extended' with nonmonotonic=[...] or method='general'.",
+            f"output {name!r} is not monotonic in {treated}: at level "
+            f"mu={plan.levels[worst_level]:g} points inside the cut box gave outputs outside "
+            f"the range of that level's corner runs for {worst_count} output element(s) "
+            f"(up to {worst_excess:.3g} relative), so the {plan.method} bounds are too narrow. "
+            "Use method='extended' with nonmonotonic=[...], or method='general'.",
             NonMonotonicWarning,
             stacklevel=4,
         )
