@@ -109,6 +109,10 @@ class PenaltyContact:
         ``mu f_N (1 - eps^2 / (2 |v_t|^2))``.
     normal_damping : float
         Contact damping d_n [N s/m] acting only while in contact, >= 0.
+    normal : axis name or 3-vector, optional
+        Which side of the master patch the slave is on (master frame): cell normals
+        are oriented with ``n . normal > 0``. Default: towards the slave nodes'
+        reference positions (needs them off the patch plane).
     """
 
     name: str
@@ -121,6 +125,7 @@ class PenaltyContact:
     friction: Scalar = 0.0
     regularization_velocity: float = 1e-3
     normal_damping: float = 0.0
+    normal: ArrayLike | str | None = None
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.regularization_velocity) and self.regularization_velocity > 0):
@@ -146,12 +151,15 @@ def symmetric_contact(
     friction: Scalar = 0.0,
     regularization_velocity: float = 1e-3,
     normal_damping: float = 0.0,
+    normal_a: ArrayLike | str | None = None,
+    normal_b: ArrayLike | str | None = None,
 ) -> tuple[PenaltyContact, PenaltyContact]:
     """Two-pass contact: a's nodes against b's patch, and b's nodes against a's patch.
 
     Both passes use the same penalty per node, so a pressed patch carries the load
     on the slave and master nodes together (about half the penetration of a
     single pass when both sides have similar node counts; see docs/embs.md).
+    ``normal_a`` / ``normal_b`` orient the normals of a's and b's patches (their own frames).
     """
     common = {
         "penalty": penalty,
@@ -160,8 +168,12 @@ def symmetric_contact(
         "normal_damping": normal_damping,
     }
     return (
-        PenaltyContact(f"{name}[a->b]", body_a, nodes_a, body_b, nodes_b, chart_b, **common),
-        PenaltyContact(f"{name}[b->a]", body_b, nodes_b, body_a, nodes_a, chart_a, **common),
+        PenaltyContact(
+            f"{name}[a->b]", body_a, nodes_a, body_b, nodes_b, chart_b, **common, normal=normal_b
+        ),
+        PenaltyContact(
+            f"{name}[b->a]", body_b, nodes_b, body_a, nodes_a, chart_a, **common, normal=normal_a
+        ),
     )
 
 
@@ -204,12 +216,13 @@ def build_patch(
     positions: NDArray[np.float64],
     nodes: NDArray[np.int64],
     slave_positions: NDArray[np.float64],
+    side: NDArray[np.float64] | None = None,
 ) -> Patch:
     """Arrange master ``nodes`` into a tensor grid of chart coordinates.
 
     ``positions`` are the master's undeformed node positions (body frame);
     ``slave_positions`` (master frame, reference configuration) orient the cell
-    normals towards the slave side.
+    normals towards the slave side, unless ``side`` (a vector, master frame) is given.
 
     Raises
     ------
@@ -259,7 +272,14 @@ def build_patch(
             if np.linalg.norm(n) == 0:
                 raise InvalidParameterError(f"contact {name!r}: degenerate master cell ({i}, {j})")
             n /= np.linalg.norm(n)
-            if n @ (centre_slave - 0.25 * (a + b + c + d)) < 0:
+            towards = centre_slave - 0.25 * (a + b + c + d) if side is None else side
+            dot = n @ towards
+            if abs(dot) <= 1e-9 * np.linalg.norm(towards) or not np.isfinite(dot):
+                raise InvalidParameterError(
+                    f"contact {name!r}: cannot tell which side of master cell ({i}, {j}) the "
+                    "slave is on (slave nodes lie in the patch plane); pass normal=..."
+                )
+            if dot < 0:
                 n = -n
             normals[i, j] = n
     return Patch(ug, vg, grid, normals, periodic)

@@ -360,7 +360,8 @@ def _compile(system: System) -> CompiledSystem:
     for c, sb, mb, sn, mn in resolved:
         kind, frame = c.chart.frame()
         slave_ref = sb.origin + sb.modal.node_positions[sn] - mb.origin  # master frame at t=0
-        patch = build_patch(c.name, kind, frame, mb.modal.node_positions, mn, slave_ref)
+        side = None if c.normal is None else unit_vector(c.normal, f"contact {c.name!r} normal")
+        patch = build_patch(c.name, kind, frame, mb.modal.node_positions, mn, slave_ref, side)
         grid_tracked = np.vectorize(lambda n, name=mb.name: tracked_id[(name, int(n))])(patch.grid)
         slave_tracked = [tracked_id[(sb.name, int(n))] for n in sn]
         row = np.zeros(14, dtype=np.int64)
