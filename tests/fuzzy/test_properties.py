@@ -76,6 +76,11 @@ def test_results_nested_for_any_model(numbers, method, levels, coefficients):
     # the nominal run lies in the core cut; every sample's output in the support cut
     assert np.all(result.lower[-1] <= result.nominal) and np.all(result.nominal <= result.upper[-1])
     assert np.all(z >= result.lower[0]) and np.all(z <= result.upper[0])
+    # inner approximation: each bound is the output of a sample inside that level's cut box
+    for j in range(len(p.levels)):
+        inside = np.all((x >= p.cut_lower[j]) & (x <= p.cut_upper[j]), axis=1)
+        assert np.all(np.any(z[inside] == result.lower[j], axis=0))
+        assert np.all(np.any(z[inside] == result.upper[j], axis=0))
 
 
 @SETTINGS

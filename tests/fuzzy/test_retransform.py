@@ -209,3 +209,19 @@ def test_extended_guard_tests_only_declared_monotonic_parameters():
     # z = x + y^2: y is treated as monotonic but is not -> warned
     with pytest.warns(NonMonotonicWarning, match="not named nonmonotonic"):
         p.retransform(s["x"] + s["y"] ** 2)
+
+
+@pytest.mark.parametrize("m", [4, 8, 16])
+def test_general_method_error_bound_for_interior_minimum(m):
+    # Derived: z = (x - 0.3)^2, x = TFN(-1,0,1). Exact lower bound of the cut at mu is 0 while
+    # 0.3 lies in [-(1-mu), 1-mu], else (1-mu - 0.3)^2. The general points of level j are
+    # k/m, k = -(m-j), -(m-j)+2, ..., so the nearest point is within 1/m of 0.3 and the
+    # lower bound errs by at most (1/m)^2 (it can only be too high: an inner approximation).
+    p = plan({"x": SYMMETRIC}, "general", m)
+    result = p.retransform((p.samples[:, 0] - 0.3) ** 2)
+    half_width = 1.0 - p.levels
+    exact_lower = np.where(half_width >= 0.3, 0.0, (half_width - 0.3) ** 2)
+    assert np.all(result.lower >= exact_lower - 1e-15)
+    assert np.all(result.lower - exact_lower <= 1.0 / m**2 + 1e-15)
+    # the upper bound is attained at the cut bound x = -(1 - mu): exact
+    np.testing.assert_allclose(result.upper, (half_width + 0.3) ** 2, rtol=1e-14)

@@ -415,7 +415,8 @@ class Gaussian(FuzzyNumber):
         values = np.asarray(x, dtype=float)
         offset = (values - self.mean) / self.std
         bell = (np.exp(-0.5 * offset**2) - self._floor) / (1.0 - self._floor)
-        return np.where(np.abs(offset) <= self.truncation, np.clip(bell, 0.0, 1.0), 0.0)
+        inside = np.abs(offset) <= self.truncation
+        return np.where(np.isnan(values), np.nan, np.where(inside, np.clip(bell, 0.0, 1.0), 0.0))
 
     def to_dict(self) -> dict[str, Any]:
         return {
