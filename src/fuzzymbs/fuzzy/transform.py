@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fuzzymbs.errors import InvalidPlanError, ModelOutputError
+from fuzzymbs.errors import InvalidPlanError, ModelOutputError, UnsupportedOperationError
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 
 __all__ = ["METHODS", "NonMonotonicWarning", "Plan", "make_levels", "plan"]
@@ -326,8 +326,6 @@ class Plan:
     def corner_index(self) -> NDArray[np.intp]:
         """(L, 2^n) sample index of the cut-box corners (reduced and extended plans only)."""
         if self.method not in ("reduced", "extended"):
-            from fuzzymbs.errors import UnsupportedOperationError
-
             raise UnsupportedOperationError(
                 f"corner bookkeeping exists for reduced and extended plans, not {self.method!r}"
             )
