@@ -32,11 +32,15 @@ _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
 
 def unit_vector(value: ArrayLike | str, what: str) -> NDArray[np.float64]:
-    """A unit 3-vector from ``"x"``/``"y"``/``"z"`` or components (normalised)."""
+    """A unit 3-vector from ``"x"``/``"-y"``/... or components (normalised)."""
     if isinstance(value, str):
-        if value not in _AXES:
-            raise InvalidParameterError(f"{what}: axis name must be 'x', 'y' or 'z', got {value!r}")
-        return np.array(_AXES[value])
+        sign = -1.0 if value.startswith("-") else 1.0
+        name = value.lstrip("+-")
+        if name not in _AXES:
+            raise InvalidParameterError(
+                f"{what}: axis name must be 'x', 'y', 'z' (optionally signed, '-y'), got {value!r}"
+            )
+        return sign * np.array(_AXES[name])
     v = np.asarray(value, dtype=float).reshape(-1)
     if v.shape != (3,) or not np.isfinite(v).all() or np.linalg.norm(v) == 0:
         raise InvalidParameterError(f"{what}: need a non-zero finite 3-vector, got {value!r}")

@@ -127,6 +127,8 @@ def steady_state(
     n = compiled.n_dofs
     x = np.zeros((batch, n)) if guess is None else np.array(np.broadcast_to(guess, (batch, n)))
     converged = np.zeros(batch, dtype=bool)
+    near = np.zeros(batch, dtype=bool)  # one more Newton step after the criterion holds:
+    # coordinates of very different size (a 1e-2 m offset next to a 1e-5 m penetration)
     iterations = np.zeros(batch, dtype=np.int64)
 
     def accel(xs: NDArray[np.float64], rows: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -168,7 +170,8 @@ def steady_state(
         small = np.abs(lam[:, None] * step).max(axis=1) <= tol * np.maximum(
             np.abs(trial).max(axis=1), 1e-300
         )
-        converged[rows[small]] = True
+        converged[rows[small & near[rows]]] = True
+        near[rows] = small
     return SteadyState(x, converged, iterations, np.abs(res).max(axis=1))
 
 
