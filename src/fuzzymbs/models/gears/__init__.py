@@ -1,1 +1,162 @@
-"""MUBOCO-PR pseudo-rigid contact-based spur-gear pair."""
+"""MUBOCO-PR pseudo-rigid contact-based spur-gear pair.
+
+Registers the model ``"gear-pair"`` with the study runner. Its stiffness
+defaults are the modal values identified for the default pair (z 20/40,
+m = 4.5 mm, b = 20 mm, steel, T1 = 100 N m); see docs/gears.md.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from fuzzymbs.models.gears.geometry import GearPair, SpurGear
+from fuzzymbs.models.gears.identification import identify
+from fuzzymbs.models.gears.iso6336 import iso_mean_ste, iso_pair_stiffness, iso_tooth_stiffness
+from fuzzymbs.models.gears.muboco import MubocoPR
+from fuzzymbs.study.registry import ParameterInfo, register_model
+
+__all__ = [
+    "DEFAULT_PAIR_OPTIONS",
+    "GearPair",
+    "MubocoPR",
+    "SpurGear",
+    "gear_pair_model",
+    "identify",
+    "iso_mean_ste",
+    "iso_pair_stiffness",
+    "iso_tooth_stiffness",
+    "make_pair",
+]
+
+#: Gear data of the default (demo) pair.
+DEFAULT_PAIR_OPTIONS: dict[str, Any] = {
+    "pinion_teeth": 20,
+    "wheel_teeth": 40,
+    "module": 4.5e-3,
+    "face_width": 20e-3,
+    "pressure_angle_deg": 20.0,
+    "pinion_profile_shift": 0.0,
+    "wheel_profile_shift": 0.0,
+    "center_distance": None,
+    "youngs_modulus": 2.1e11,
+    "poisson_ratio": 0.3,
+    "density": 7850.0,
+}
+DEFAULT_TORQUE = 100.0  # N m at the pinion
+
+
+def make_pair(
+    pinion_teeth: int = 20,
+    wheel_teeth: int = 40,
+    module: float = 4.5e-3,
+    face_width: float = 20e-3,
+    pressure_angle_deg: float = 20.0,
+    pinion_profile_shift: float = 0.0,
+    wheel_profile_shift: float = 0.0,
+    center_distance: float | None = None,
+    youngs_modulus: float = 2.1e11,
+    poisson_ratio: float = 0.3,
+    density: float = 7850.0,
+) -> GearPair:
+    """Gear pair from plain option values (SI units, pressure angle in degrees)."""
+    common = {
+        "module": module,
+        "face_width": face_width,
+        "pressure_angle": math.radians(pressure_angle_deg),
+        "youngs_modulus": youngs_modulus,
+        "poisson_ratio": poisson_ratio,
+        "density": density,
+    }
+    return GearPair(
+        SpurGear(pinion_teeth, profile_shift=pinion_profile_shift, **common),
+        SpurGear(wheel_teeth, profile_shift=wheel_profile_shift, **common),
+        center_distance=center_distance,
+    )
+
+
+def gear_pair_model(
+    torque: float = DEFAULT_TORQUE,
+    positions: int = 60,
+    mode: str = "static",
+    contact_exponent: float = 1.0,
+    damping: float = 0.0,
+    dynamic: dict[str, Any] | None = None,
+    **gear_options: Any,
+) -> MubocoPR:
+    """Factory of the registered ``"gear-pair"`` model (study-file options)."""
+    from fuzzymbs.errors import InvalidParameterError
+
+    unknown = set(gear_options) - set(DEFAULT_PAIR_OPTIONS)
+    if unknown:
+        valid = [*DEFAULT_PAIR_OPTIONS, "torque", "positions", "mode", "contact_exponent"]
+        raise InvalidParameterError(
+            f"unknown gear-pair option(s) {sorted(unknown)}; valid: "
+            f"{sorted([*valid, 'damping', 'dynamic'])}"
+        )
+    pair = make_pair(**{**DEFAULT_PAIR_OPTIONS, **gear_options})
+    return MubocoPR(
+        pair,
+        torque=torque,
+        positions=positions,
+        mode=mode,
+        contact_exponent=contact_exponent,
+        damping=damping,
+        dynamic=dynamic,
+    )
+
+
+def _register() -> None:
+    identified = identify(make_pair(**DEFAULT_PAIR_OPTIONS), DEFAULT_TORQUE)
+    register_model(
+        "gear-pair",
+        gear_pair_model,
+        parameters={
+            "tooth_stiffness": ParameterInfo(
+                "N m/rad",
+                "rotational spring k_t of every tooth hinge (both gears)",
+                round(identified.tooth_stiffness, 1),
+            ),
+            "contact_stiffness": ParameterInfo(
+                "N/m",
+                "penalty stiffness k_con of the flank contact (units N/m^m1)",
+                float(f"{identified.contact_stiffness:.6g}"),
+            ),
+            "pinion_tooth_stiffness": ParameterInfo(
+                "N m/rad", "k_t of the pinion teeth only (NaN: use tooth_stiffness)", math.nan
+            ),
+            "wheel_tooth_stiffness": ParameterInfo(
+                "N m/rad", "k_t of the wheel teeth only (NaN: use tooth_stiffness)", math.nan
+            ),
+            "torque": ParameterInfo(
+                "N m", "pinion drive torque T1 (NaN: the model's torque option)", math.nan
+            ),
+        },
+        outputs={"ste": "m"},
+        description=(
+            "MUBOCO-PR spur-gear pair (pseudo-rigid hinged teeth, flank contact): "
+            "quasi-static transmission error over one mesh period"
+        ),
+        options={
+            "torque": "design pinion torque T1 [N m] (identification, reference curve)",
+            "positions": "number of mesh positions over one mesh period",
+            "mode": "'static' (STE) or 'dynamic' (DTE, outputs dte and dte_spectrum)",
+            "contact_exponent": "m1 of the penalty law F = k delta^m1",
+            "damping": "contact damping c (dynamic mode)",
+            "dynamic": "dynamic-mode settings (speed_rpm, mesh_periods, ...)",
+            "pinion_teeth": "z1",
+            "wheel_teeth": "z2",
+            "module": "module m [m]",
+            "face_width": "face width b [m]",
+            "pressure_angle_deg": "rack pressure angle [deg]",
+            "pinion_profile_shift": "x1",
+            "wheel_profile_shift": "x2",
+            "center_distance": "operating centre distance [m] (default: zero backlash)",
+            "youngs_modulus": "E [Pa]",
+            "poisson_ratio": "nu",
+            "density": "rho [kg/m^3]",
+        },
+    )
+
+
+_register()
