@@ -1,0 +1,145 @@
+"""Command line: end-to-end runs of shipped studies, plot, info and error reporting."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from fuzzymbs.cli import app
+
+runner = CliRunner()
+
+
+def test_quickstart_demo_files_are_package_data():
+    folder = resources.files("fuzzymbs") / "demos" / "quickstart"
+    names = sorted(entry.name for entry in folder.iterdir() if entry.name.endswith(".toml"))
+    assert names == ["01-product.toml", "02-oscillator.toml"]
+
+
+@pytest.fixture(scope="module")
+def demo_out(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo")
+    result = runner.invoke(app, ["demo", "quickstart", "--out", str(out), "-q"])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_demo_writes_results_plots_and_summary(demo_out):
+    for study in ("product", "oscillator"):
+        folder = demo_out / study
+        assert (folder / "result.nc").stat().st_size > 0
+        assert "Status: complete" in (folder / "summary.txt").read_text()
+        pngs = list(folder.glob("*.png"))
+        assert len(pngs) >= 3 and all(p.stat().st_size > 1000 for p in pngs)
+        assert len(list(folder.glob("*.pdf"))) == len(pngs)
+    assert (demo_out / "oscillator" / "displacement_bands.png").exists()
+    assert (demo_out / "oscillator" / "displacement_membership_time_0.5.png").exists()
+    # the product demo is exact: cuts [(1+mu)(9+mu), (3-mu)(11-mu)] (THEORY.md oracle)
+    with xr.open_dataset(demo_out / "product" / "result.nc") as ds:
+        mu = ds["level"].values
+        np.testing.assert_allclose(ds["z_lower"].values, (1 + mu) * (9 + mu), rtol=1e-14)
+        np.testing.assert_allclose(ds["z_upper"].values, (3 - mu) * (11 - mu), rtol=1e-14)
+        assert json.loads(ds.attrs["plots"]) == {"membership": []}
+
+
+def test_rerun_resumes_from_the_output_folder(demo_out, tmp_path):
+    study = resources.files("fuzzymbs") / "demos" / "quickstart" / "01-product.toml"
+    with resources.as_file(study) as path:
+        result = runner.invoke(
+            app, ["run", str(path), "--out", str(demo_out / "product"), "-q", "--no-plots"]
+        )
+    assert result.exit_code == 0, result.output
+    with xr.open_dataset(demo_out / "product" / "result.nc") as ds:
+        provenance = json.loads(ds.attrs["provenance"])
+    assert provenance["evaluated"] == 0 and provenance["reused_from_store"] == 17
+
+
+def test_plot_command_redraws(demo_out, tmp_path):
+    result = runner.invoke(
+        app,
+        [
+            "plot",
+            str(demo_out / "oscillator" / "result.nc"),
+            "--out",
+            str(tmp_path),
+            "--format",
+            "png",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    written = {Path(line).name for line in result.output.split()}
+    assert {"displacement_bands.png", "displacement_membership_time_0.5.png"} <= written
+    assert all((tmp_path / name).stat().st_size > 1000 for name in written)
+
+
+def test_info_lists_models_with_units_and_methods():
+    result = runner.invoke(app, ["info"])
+    assert result.exit_code == 0, result.output
+    assert "damped-oscillator" in result.output and "stiffness [N/m]" in result.output
+    assert "Methods: general, reduced, extended, grid" in result.output
+    assert "quickstart" in result.output
+    result = runner.invoke(app, ["info", "nope"])
+    assert result.exit_code == 1 and "unknown model 'nope'" in result.output
+
+
+def test_errors_are_reported_without_traceback(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(
+        '[model]\nname = "product"\n[parameters.x3]\ntype = "triangular"\n'
+        "modal = 1.0\nspread = 0.1\n"
+    )
+    result = runner.invoke(app, ["run", str(bad), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 1
+    assert "unknown parameter(s) ['x3']" in result.output and "x1 [1], x2 [1]" in result.output
+    assert "Traceback" not in result.output
+    result = runner.invoke(app, ["demo", "no-such-demo", "--out", str(tmp_path)])
+    assert result.exit_code == 1 and "shipped demos: quickstart" in result.output
+    result = runner.invoke(app, ["plot", str(tmp_path / "missing.nc")])
+    assert result.exit_code == 1 and "no such file" in result.output
+
+
+def test_failed_samples_write_a_summary(tmp_path):
+    study = tmp_path / "bad-mass.toml"
+    study.write_text(
+        '[model]\nname = "damped-oscillator"\n[model.options]\ntime_steps = 11\n'
+        '[parameters.mass]\ntype = "triangular"\nlower = -0.5\nmodal = 1.0\nupper = 1.5\n'
+    )
+    result = runner.invoke(app, ["run", str(study), "--out", str(tmp_path / "o"), "-q"])
+    assert result.exit_code == 1 and "mass <= 0 kg" in result.output
+    assert "FAILED" in (tmp_path / "o" / "summary.txt").read_text()
+    result = runner.invoke(
+        app, ["run", str(study), "--out", str(tmp_path / "o"), "-q", "--on-failure", "partial"]
+    )
+    assert result.exit_code == 0, result.output
+    summary = (tmp_path / "o" / "summary.txt").read_text()
+    assert "PARTIAL" in summary and "mass <= 0 kg" in summary
+
+
+def test_console_script_runs_a_shipped_study(tmp_path):
+    # a real subprocess through the installed entry point (the demo itself runs via CliRunner)
+    script = shutil.which("fuzzymbs", path=os.path.dirname(sys.executable))
+    assert script is not None, "the fuzzymbs console script is not installed"
+    study = resources.files("fuzzymbs") / "demos" / "quickstart" / "01-product.toml"
+    with resources.as_file(study) as path:
+        completed = subprocess.run(
+            [script, "run", str(path), "--out", str(tmp_path / "out"), "--chunk-size", "5"],
+            capture_output=True,
+            text=True,
+            timeout=300,
+            check=False,
+        )
+    assert completed.returncode == 0, completed.stderr
+    assert "17/17 samples" in completed.stderr  # the progress bar reached the end
+    with xr.open_dataset(tmp_path / "out" / "result.nc") as ds:
+        assert json.loads(ds.attrs["provenance"])["chunk_size"] == 5
+        assert ds["z_upper"].values[0] == 33.0  # (3 - 0)(11 - 0)
+    assert (tmp_path / "out" / "z_membership.png").stat().st_size > 1000
+    assert "Status: complete" in (tmp_path / "out" / "summary.txt").read_text()
