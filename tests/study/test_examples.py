@@ -1,0 +1,47 @@
+"""The user-facing examples run and give the closed-form answers."""
+
+import runpy
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fuzzymbs.study.pipeline import run_study_file
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def test_cantilever_user_model_study(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(EXAMPLES))
+    written = run_study_file(EXAMPLES / "cantilever.toml", tmp_path, progress=False, plots=False)
+    ds = written.result.dataset
+    # delta = F L^3 / (3 E I) is increasing in F and decreasing in E, so the reduced
+    # method is exact: lower = F_lo / (3 E_hi I), upper = F_hi / (3 E_lo I) (rtol 1e-13)
+    mu = ds["level"].values
+    force_lo, force_hi = 100.0 * (0.8 + 0.2 * mu), 100.0 * (1.2 - 0.2 * mu)
+    modulus_lo, modulus_hi = 190e9 + 15e9 * mu, 220e9 - 5e9 * mu
+    inertia = 1e-8
+    np.testing.assert_allclose(
+        ds["tip_deflection_lower"].values, force_lo / (3 * modulus_hi * inertia), rtol=1e-13
+    )
+    np.testing.assert_allclose(
+        ds["tip_deflection_upper"].values, force_hi / (3 * modulus_lo * inertia), rtol=1e-13
+    )
+    assert written.result.dataset["tip_deflection_lower"].attrs["units"] == "m"
+
+
+def test_oscillator_study_file_is_valid(tmp_path):
+    from fuzzymbs.study.studyfile import load_study_file
+
+    definition = load_study_file(EXAMPLES / "oscillator.toml")
+    assert definition.executor == "processes:2"
+    assert definition.study.plan.names == ("mass", "stiffness", "damping")
+
+
+@pytest.mark.slow
+def test_study_api_script(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "argv", ["study_api.py"])
+    runpy.run_path(str(EXAMPLES / "study_api.py"), run_name="__main__")
+    assert (tmp_path / "study-api-out" / "oscillator.nc").exists()
