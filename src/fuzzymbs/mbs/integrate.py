@@ -85,7 +85,8 @@ def simulate(
     initial_state : (2n,) or (B, 2n), optional
         Default zero.
     displacement_bound : float
-        A sample whose output exceeds this magnitude [m] is stopped and flagged.
+        A sample whose displacement output (not velocity outputs) exceeds this
+        magnitude [m] is stopped and flagged. Every step, a non-finite state stops it too.
     chunk_size : int
         Samples per compiled call.
     """
@@ -97,6 +98,10 @@ def simulate(
     batch = params.shape[0]
     x0 = _initial(compiled, initial_state, batch)
     out_w = np.array([compiled.output_functional(spec) for spec in outputs.values()])
+    if not displacement_bound > 0:
+        raise InvalidParameterError(f"displacement_bound must be > 0 m, got {displacement_bound!r}")
+    bounds = np.array([np.inf if getattr(spec, "velocity", False) else displacement_bound
+                       for spec in outputs.values()])
     n_rec = n_steps // every + 1
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
@@ -108,7 +113,7 @@ def simulate(
         ft = np.full(sl.stop - sl.start, np.nan)
         K.rk4_batch(compiled.data, np.ascontiguousarray(params[sl]),
                     np.ascontiguousarray(x0[sl]), 0.0, float(dt), n_steps, every, out_w,
-                    float(displacement_bound), o, st, ft)
+                    bounds, o, st, ft)
         out[sl] = o
         status[sl] = st
         fail_t[sl] = ft

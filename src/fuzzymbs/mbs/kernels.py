@@ -505,7 +505,7 @@ def rk4_batch(sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, 
     ----------
     params : (B, n_slots) parameter rows; x0 : (B, 2n) initial states.
     out_w : (n_out, 2n) linear output functionals; out : (B, n_out, n_rec) filled in place.
-    bound : outputs with |y| > bound stop the sample (status OUT_OF_BOUND).
+    bound : (n_out,) an output with |y| > bound stops the sample (status OUT_OF_BOUND).
     status, fail_t : (B,) per-sample status code and failure time [s] (NaN if ok).
     """
     nsamples = params.shape[0]
@@ -531,7 +531,7 @@ def rk4_batch(sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, 
                     for i in range(nstate):
                         y += out_w[o, i] * x[i]
                     out[b, o, rec] = y
-                    if not abs(y) <= bound:  # also catches NaN
+                    if not abs(y) <= bound[o]:  # also catches NaN
                         status[b] = OUT_OF_BOUND if np.isfinite(y) else NONFINITE
                 rec += 1
             if status[b] != OK or step == n_steps:
