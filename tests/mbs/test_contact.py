@@ -21,8 +21,17 @@ def pressed_block(force, penalty, damping=0.0):
     system.add_body(TranslatingBody(rigid_body("block", 2.0, [(0.1, 0.0, 0.05)]), ["y"]))
     system.add(NodalForce("press", "block", [0], "y", -force))
     system.add(
-        PenaltyContact("c", "block", [0], "ground", np.arange(9), CartesianChart("x", "z"),
-                       penalty=Parameter("c_p", penalty), normal="y", normal_damping=damping)
+        PenaltyContact(
+            "c",
+            "block",
+            [0],
+            "ground",
+            np.arange(9),
+            CartesianChart("x", "z"),
+            penalty=Parameter("c_p", penalty),
+            normal="y",
+            normal_damping=damping,
+        )
     )
     return system
 
@@ -38,8 +47,9 @@ def test_static_penetration_equals_load_over_penalty():
 def test_damped_settling_reaches_static_penetration():
     # contact damping d_n = 2 zeta sqrt(c_p m) with zeta = 0.5: settles within ~0.05 s
     system = pressed_block(100.0, 1e6, damping=2 * 0.5 * np.sqrt(1e6 * 2.0))
-    res = simulate(system, t_end=0.2, dt=1e-5, record_interval=1e-3,
-                   outputs={"y": Coordinate("block")})
+    res = simulate(
+        system, t_end=0.2, dt=1e-5, record_interval=1e-3, outputs={"y": Coordinate("block")}
+    )
     np.testing.assert_allclose(res.outputs["y"][0, -1], -1e-4, rtol=1e-6)
 
 
@@ -57,8 +67,18 @@ def test_bilinear_load_sharing_on_elastic_master():
     system.add_body(FixedBody(plate))
     system.add_body(TranslatingBody(rigid_body("block", 1.0, [(0.25, 0.0, 0.5)]), ["y"]))
     system.add(NodalForce("press", "block", [0], "y", -force))
-    system.add(PenaltyContact("c", "block", [0], "plate", np.arange(4), CartesianChart("x", "z"),
-                              penalty=c_p, normal="y"))
+    system.add(
+        PenaltyContact(
+            "c",
+            "block",
+            [0],
+            "plate",
+            np.arange(4),
+            CartesianChart("x", "z"),
+            penalty=c_p,
+            normal="y",
+        )
+    )
     compiled = system.compile()
     st = steady_state(compiled)
     assert st.converged.all()
@@ -67,8 +87,10 @@ def test_bilinear_load_sharing_on_elastic_master():
     for node, w in weights.items():
         defl = compiled.output_functional(NodeDisplacement("plate", node, "y")) @ x
         assert defl == pytest.approx(-w * force / k_m, rel=1e-9)
-    plate_y = sum(w * compiled.output_functional(NodeDisplacement("plate", n, "y")) @ x
-                  for n, w in weights.items())
+    plate_y = sum(
+        w * compiled.output_functional(NodeDisplacement("plate", n, "y")) @ x
+        for n, w in weights.items()
+    )
     block_y = compiled.output_functional(Coordinate("block")) @ x
     assert block_y - plate_y == pytest.approx(-force / c_p, rel=1e-9)
 
@@ -91,11 +113,26 @@ def test_single_and_two_pass_penetration(two_pass):
     system.add(NodalForce("press", "pad", np.arange(9), "y", -force))
     chart = CartesianChart("x", "z")
     if two_pass:
-        system.add(*symmetric_contact("c", "pad", np.arange(9), chart, "ground", np.arange(9),
-                                      chart, penalty=c_p, normal_a="-y", normal_b="y"))
+        system.add(
+            *symmetric_contact(
+                "c",
+                "pad",
+                np.arange(9),
+                chart,
+                "ground",
+                np.arange(9),
+                chart,
+                penalty=c_p,
+                normal_a="-y",
+                normal_b="y",
+            )
+        )
     else:
-        system.add(PenaltyContact("c", "pad", np.arange(9), "ground", np.arange(9), chart,
-                                  penalty=c_p, normal="y"))
+        system.add(
+            PenaltyContact(
+                "c", "pad", np.arange(9), "ground", np.arange(9), chart, penalty=c_p, normal="y"
+            )
+        )
     st = steady_state(system)
     expected = -force / c_p / (2.0 if two_pass else 1.0)
     assert st.x[0, 0] == pytest.approx(expected, rel=1e-9)
@@ -110,9 +147,21 @@ def friction_block(mu=0.6, eps=1e-4, spring_damping=0.0):
     system.add_body(TranslatingBody(rigid_body("block", 1.0), ["z", "y"], origin=(10.0, 0, 0)))
     system.add(NodalForce("press", "block", [0], "y", -200.0))
     system.add(Spring("hold", "block", [0], stiffness=1e4, damping=spring_damping, direction="z"))
-    system.add(PenaltyContact("c", "block", [0], "disc", np.arange(disc.n_nodes),
-                              PolarChart("y", "x"), penalty=1e7, friction=Parameter("mu", mu),
-                              regularization_velocity=eps, normal="y", normal_damping=2e3))
+    system.add(
+        PenaltyContact(
+            "c",
+            "block",
+            [0],
+            "disc",
+            np.arange(disc.n_nodes),
+            PolarChart("y", "x"),
+            penalty=1e7,
+            friction=Parameter("mu", mu),
+            regularization_velocity=eps,
+            normal="y",
+            normal_damping=2e3,
+        )
+    )
     return system
 
 
@@ -138,6 +187,12 @@ def test_friction_force_is_mu_times_normal_force_when_sliding():
 def test_friction_time_integration_settles_to_mu_normal_force():
     # tangential dashpot: zeta = 0.2 on the 100 rad/s block mode, e^-20t decay
     system = friction_block(spring_damping=2 * 0.2 * np.sqrt(1e4 * 1.0))
-    res = simulate(system, {"mu": np.array([0.3, 0.7])}, t_end=1.0, dt=1e-4,
-                   record_interval=1e-2, outputs={"z": Coordinate("block", 0)})
+    res = simulate(
+        system,
+        {"mu": np.array([0.3, 0.7])},
+        t_end=1.0,
+        dt=1e-4,
+        record_interval=1e-2,
+        outputs={"z": Coordinate("block", 0)},
+    )
     np.testing.assert_allclose(1e4 * res.outputs["z"][:, -1], [-60.0, -140.0], rtol=3e-6)

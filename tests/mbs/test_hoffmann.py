@@ -1,4 +1,4 @@
-"""Friction-induced mode coupling: Hoffmann, Fischer, Allgaier, Gaul, Mech. Res. Commun. 29 (2002) 197.
+"""Friction-induced mode coupling (Hoffmann, Fischer, Allgaier, Gaul, MRC 29 (2002) 197).
 
 The engine model (tests/mbs/systems.py) is assembled from a rotating rigid disc face
 (the belt), a translating point mass, two inclined springs, a nodal preload and
@@ -73,8 +73,14 @@ def test_time_integration_grows_above_and_decays_below_threshold():
     x0 = np.concatenate([st.x, np.zeros_like(st.x)], axis=1)
     x0[:, 0] += 1e-7  # tangential kick, ~1e-4 of the static penetration: stays linear
     dt = 1e-4
-    res = simulate(system, {"mu": mus}, t_end=1.5, dt=dt, initial_state=x0,
-                   outputs={"z": Coordinate("block", 0)})
+    res = simulate(
+        system,
+        {"mu": mus},
+        t_end=1.5,
+        dt=dt,
+        initial_state=x0,
+        outputs={"z": Coordinate("block", 0)},
+    )
     assert not res.failed.any()
     z = res.outputs["z"] - st.x[:, [0]]
     window = int(0.1 / dt)

@@ -6,9 +6,8 @@ energy T + V written out independently below for conservation.
 """
 
 import numpy as np
-import pytest
 
-from fuzzymbs.mbs.bodies import FixedBody, RotatingBody, TranslatingBody
+from fuzzymbs.mbs.bodies import RotatingBody, TranslatingBody
 from fuzzymbs.mbs.contact import CartesianChart, PenaltyContact, PolarChart
 from fuzzymbs.mbs.forces import NodalForce, Spring
 from fuzzymbs.mbs.integrate import simulate, simulate_reference
@@ -42,8 +41,19 @@ def rotating_contact_system():
     system.add(NodalForce("press", "block", [0], "y", -50.0))
     system.add(Spring("hold", "block", [0], stiffness=2e3, damping=1.0, direction="z"))
     system.add(Spring("lift", "block", [0], stiffness=1e3, direction="y"))
-    system.add(PenaltyContact("c", "block", [0], "disc", np.arange(12), PolarChart("y", "x"),
-                              penalty=1e5, friction=0.5, normal="y"))
+    system.add(
+        PenaltyContact(
+            "c",
+            "block",
+            [0],
+            "disc",
+            np.arange(12),
+            PolarChart("y", "x"),
+            penalty=1e5,
+            friction=0.5,
+            normal="y",
+        )
+    )
     return system
 
 
@@ -55,8 +65,9 @@ def test_rk4_matches_dop853_on_rotating_elastic_contact():
         "disc_y": NodeDisplacement("disc", 0, "y"),
     }
     res = simulate(system, t_end=0.05, dt=2e-6, record_interval=1e-3, outputs=outputs)
-    ref = simulate_reference(system, t_end=0.05, outputs=outputs, times=res.time, rtol=1e-10,
-                             atol=1e-15, max_step=1e-4)
+    ref = simulate_reference(
+        system, t_end=0.05, outputs=outputs, times=res.time, rtol=1e-10, atol=1e-15, max_step=1e-4
+    )
     for name in outputs:
         scale = np.abs(ref[name]).max()
         assert scale > 0
@@ -73,15 +84,26 @@ def energy_system():
     stiff[3:, 3:] = k
     stiff[:3, 3:] = -k
     stiff[3:, :3] = -k
-    body = lumped_modal_body("body", [(0, 0, 0), (0, 0.05, 0)], [1.0, 0.5], stiff,
-                             free_dofs=[3, 4, 5])
+    body = lumped_modal_body(
+        "body", [(0, 0, 0), (0, 0.05, 0)], [1.0, 0.5], stiff, free_dofs=[3, 4, 5]
+    )
     system = System()
     system.add_body(ground_patch(y=-0.01))
     system.add_body(TranslatingBody(body, ["x", "y"]))
     system.add(Spring("side", "body", [1], stiffness=3e3, direction="x"))
     system.add(NodalForce("weight", "body", [1], "y", -20.0))
-    system.add(PenaltyContact("c", "body", [0], "ground", np.arange(9), CartesianChart("x", "z"),
-                              penalty=1e5, normal="y"))
+    system.add(
+        PenaltyContact(
+            "c",
+            "body",
+            [0],
+            "ground",
+            np.arange(9),
+            CartesianChart("x", "z"),
+            penalty=1e5,
+            normal="y",
+        )
+    )
     return body, system.compile()
 
 
@@ -118,8 +140,9 @@ def run_energy(dt, closed=False):
     else:
         x0[0, 5] = 0.3  # vx
         x0[0, 6] = -1.0  # vy: hits the ground at t ~ 0.01 s and bounces off
-    res = simulate(compiled, t_end=0.1, dt=dt, record_interval=1e-3, outputs=outputs,
-                   initial_state=x0)
+    res = simulate(
+        compiled, t_end=0.1, dt=dt, record_interval=1e-3, outputs=outputs, initial_state=x0
+    )
     states = np.stack([res.outputs[k][0] for k in outputs], axis=1)
     return energy(body, compiled, states)
 

@@ -67,8 +67,13 @@ def test_centrifugal_deflection_static_and_dynamic():
     assert st.converged.all()
     assert st.x[0, 0] / np.sqrt(MASS) == pytest.approx(u_static, rel=1e-9)
     # from rest: u(t) = u_s (1 - cos(w_e t)), w_e^2 = k/m - Omega^2 (undamped, linear)
-    res = simulate(system, t_end=0.2, dt=1e-4, record_interval=1e-3,
-                   outputs={"u": NodeDisplacement("pm", 0, "x")})
+    res = simulate(
+        system,
+        t_end=0.2,
+        dt=1e-4,
+        record_interval=1e-3,
+        outputs={"u": NodeDisplacement("pm", 0, "x")},
+    )
     w_e = np.sqrt(k / MASS - om**2)
     ref = u_static * (1 - np.cos(w_e * res.time))
     # RK4 global error ~ (w dt)^4 w t / 120 ~ 1e-8 relative here

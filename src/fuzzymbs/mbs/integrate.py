@@ -45,11 +45,11 @@ def _check_timing(t_end: float, dt: float, record_interval: float | None) -> tup
         raise InvalidParameterError(f"time step dt must be > 0 s, got {dt!r}")
     if not (np.isfinite(t_end) and t_end > 0):
         raise InvalidParameterError(f"t_end must be > 0 s, got {t_end!r}")
-    n_steps = int(round(t_end / dt))
+    n_steps = round(t_end / dt)
     if abs(n_steps * dt - t_end) > 1e-9 * t_end:
         raise InvalidParameterError(f"t_end = {t_end} s is not a whole number of steps dt = {dt} s")
     interval = dt if record_interval is None else record_interval
-    every = int(round(interval / dt))
+    every = round(interval / dt)
     if every < 1 or abs(every * dt - interval) > 1e-9 * interval:
         raise InvalidParameterError(
             f"record_interval = {interval} s must be a positive multiple of dt = {dt} s"
@@ -100,8 +100,12 @@ def simulate(
     out_w = np.array([compiled.output_functional(spec) for spec in outputs.values()])
     if not displacement_bound > 0:
         raise InvalidParameterError(f"displacement_bound must be > 0 m, got {displacement_bound!r}")
-    bounds = np.array([np.inf if getattr(spec, "velocity", False) else displacement_bound
-                       for spec in outputs.values()])
+    bounds = np.array(
+        [
+            np.inf if getattr(spec, "velocity", False) else displacement_bound
+            for spec in outputs.values()
+        ]
+    )
     n_rec = n_steps // every + 1
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
@@ -111,9 +115,20 @@ def simulate(
         o = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec))
         st = np.zeros(sl.stop - sl.start, dtype=np.int64)
         ft = np.full(sl.stop - sl.start, np.nan)
-        K.rk4_batch(compiled.data, np.ascontiguousarray(params[sl]),
-                    np.ascontiguousarray(x0[sl]), 0.0, float(dt), n_steps, every, out_w,
-                    bounds, o, st, ft)
+        K.rk4_batch(
+            compiled.data,
+            np.ascontiguousarray(params[sl]),
+            np.ascontiguousarray(x0[sl]),
+            0.0,
+            float(dt),
+            n_steps,
+            every,
+            out_w,
+            bounds,
+            o,
+            st,
+            ft,
+        )
         out[sl] = o
         status[sl] = st
         fail_t[sl] = ft
@@ -152,8 +167,14 @@ def evaluate_rhs(
     """Time derivatives of many states at once (row i uses parameter row ``rows[i]``)."""
     states = np.ascontiguousarray(states, dtype=float)
     out = np.empty_like(states)
-    K.rhs_batch(compiled.data, np.ascontiguousarray(params), np.asarray(rows, dtype=np.int64),
-                np.asarray(times, dtype=float), states, out)
+    K.rhs_batch(
+        compiled.data,
+        np.ascontiguousarray(params),
+        np.asarray(rows, dtype=np.int64),
+        np.asarray(times, dtype=float),
+        states,
+        out,
+    )
     return out
 
 
@@ -187,8 +208,9 @@ def simulate_reference(
         K.rhs(t, np.ascontiguousarray(x), dx, p, compiled.data, work)
         return dx
 
-    sol = scipy.integrate.solve_ivp(f, (0.0, t_end), x0, method="DOP853", t_eval=times,
-                                    rtol=rtol, atol=atol, max_step=max_step)
+    sol = scipy.integrate.solve_ivp(
+        f, (0.0, t_end), x0, method="DOP853", t_eval=times, rtol=rtol, atol=atol, max_step=max_step
+    )
     if not sol.success:
         raise InvalidParameterError(f"DOP853 reference failed: {sol.message}")
     out_w = np.array([compiled.output_functional(spec) for spec in outputs.values()])
@@ -243,8 +265,13 @@ class SimulationModel:
         return self.compiled.parameters.defaults()
 
     def __call__(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
-        result = simulate(self.compiled, samples, outputs=self.outputs,
-                          initial_state=self.initial_state, **self.settings)
+        result = simulate(
+            self.compiled,
+            samples,
+            outputs=self.outputs,
+            initial_state=self.initial_state,
+            **self.settings,
+        )
         out: dict[str, NDArray] = dict(result.outputs)
         out["failed"] = result.failed
         out["failure_reason"] = result.failure_reason

@@ -228,9 +228,7 @@ def rhs(t, x, dx, p, sysdata, work):
                 s = w2 * fpool[l0 + j] + alpha * fpool[e0 + j]
                 for k in range(nm):
                     s += (2.0 * omega * fpool[g0 + j * nm + k]) * x[ndof + qd0 + k]
-                    s += (w2 * fpool[c0 + j * nm + k] + alpha * fpool[g0 + j * nm + k]) * x[
-                        qd0 + k
-                    ]
+                    s += (w2 * fpool[c0 + j * nm + k] + alpha * fpool[g0 + j * nm + k]) * x[qd0 + k]
                 q_gen[qd0 + j] -= s
         if kind == KIND_TRANSLATING:
             # Schur complement of [[m P P^T, B], [B^T, I]]: s'' = S^-1 (f_s - B f_q)
@@ -498,7 +496,9 @@ def make_work(sysdata):
 
 
 @nb.njit(cache=True, parallel=True)
-def rk4_batch(sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t):
+def rk4_batch(
+    sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t
+):
     """Classic fixed-step RK4 for a batch of samples (prange over samples).
 
     Parameters

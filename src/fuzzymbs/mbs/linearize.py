@@ -96,8 +96,9 @@ def jacobian(
     pert[:, 2 * idx, cols] += h
     pert[:, 2 * idx + 1, cols] -= h
     rows = np.repeat(np.arange(batch), 2 * cols.size)
-    f = evaluate_rhs(compiled, params, rows, np.full(rows.size, t_lin),
-                     pert.reshape(-1, nstate)).reshape(batch, 2 * cols.size, nstate)
+    f = evaluate_rhs(
+        compiled, params, rows, np.full(rows.size, t_lin), pert.reshape(-1, nstate)
+    ).reshape(batch, 2 * cols.size, nstate)
     jac = (f[:, 0::2, :] - f[:, 1::2, :]) / (2.0 * h[:, :, None])  # (B, col, row)
     jac = np.swapaxes(jac, 1, 2)
     if columns == "positions":

@@ -26,7 +26,7 @@ def skew(vector: ArrayLike) -> NDArray[np.float64]:
 def shape_integrals(
     positions: NDArray[np.float64], masses: NDArray[np.float64], modes: NDArray[np.float64]
 ) -> dict[str, NDArray[np.float64]]:
-    """Inertia shape integrals of point masses ``masses`` at ``positions`` with ``modes`` (k,3,r)."""
+    """Inertia shape integrals of point masses at ``positions`` with ``modes`` (k, 3, r)."""
     r = modes.shape[2]
     unit = np.eye(3)
     skews = [skew(unit[i]) for i in range(3)]

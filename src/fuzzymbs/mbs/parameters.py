@@ -36,7 +36,9 @@ class Parameter:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
-            raise InvalidParameterError(f"parameter name must be a non-empty str, got {self.name!r}")
+            raise InvalidParameterError(
+                f"parameter name must be a non-empty str, got {self.name!r}"
+            )
         if not np.isfinite(self.default):
             raise InvalidParameterError(
                 f"parameter {self.name!r}: default must be finite, got {self.default!r}"
@@ -71,9 +73,7 @@ class ParameterTable:
         """Register ``value`` and return its slot index; checks the default against ``minimum``."""
         default = scalar_default(value)
         if not np.isfinite(default) or default < minimum:
-            raise InvalidParameterError(
-                f"{label} must be finite and >= {minimum}, got {default!r}"
-            )
+            raise InvalidParameterError(f"{label} must be finite and >= {minimum}, got {default!r}")
         name = value.name if isinstance(value, Parameter) else None
         self.slots.append(Slot(label, default, name, minimum))
         return len(self.slots) - 1

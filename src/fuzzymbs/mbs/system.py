@@ -84,8 +84,10 @@ class System:
     def add_body(self, body: Body) -> Body:
         """Add a body; its name must be unique."""
         if not isinstance(body, FixedBody | TranslatingBody | RotatingBody):
-            raise InvalidParameterError(f"add_body needs a FixedBody, TranslatingBody or "
-                                        f"RotatingBody, got {type(body).__name__}")
+            raise InvalidParameterError(
+                f"add_body needs a FixedBody, TranslatingBody or "
+                f"RotatingBody, got {type(body).__name__}"
+            )
         if body.name in self.bodies:
             raise InvalidParameterError(f"a body named {body.name!r} exists already")
         self.bodies[body.name] = body
@@ -233,10 +235,12 @@ def _compile(system: System) -> CompiledSystem:
         mb = system.body(c.master_body, f"contact {c.name!r} master_body")
         if sb is mb:
             raise InvalidParameterError(f"contact {c.name!r}: slave and master are the same body")
-        sn = resolve_nodes(sb.modal.n_nodes, sb.modal.node_sets, c.slave_nodes,
-                           f"contact {c.name!r} slave_nodes")
-        mn = resolve_nodes(mb.modal.n_nodes, mb.modal.node_sets, c.master_nodes,
-                           f"contact {c.name!r} master_nodes")
+        sn = resolve_nodes(
+            sb.modal.n_nodes, sb.modal.node_sets, c.slave_nodes, f"contact {c.name!r} slave_nodes"
+        )
+        mn = resolve_nodes(
+            mb.modal.n_nodes, mb.modal.node_sets, c.master_nodes, f"contact {c.name!r} master_nodes"
+        )
         tracked[sb.name].update(sn.tolist())
         tracked[mb.name].update(mn.tolist())
         resolved.append((c, sb, mb, sn, mn))
@@ -291,23 +295,27 @@ def _compile(system: System) -> CompiledSystem:
         if not isinstance(e, Spring):
             continue
         ba = system.body(e.body_a, f"spring {e.name!r} body_a")
-        na = resolve_nodes(ba.modal.n_nodes, ba.modal.node_sets, e.nodes_a,
-                           f"spring {e.name!r} nodes_a")
+        na = resolve_nodes(
+            ba.modal.n_nodes, ba.modal.node_sets, e.nodes_a, f"spring {e.name!r} nodes_a"
+        )
         ends = [(ba, na, -1.0)]
         if e.body_b is not None:
             bb = system.body(e.body_b, f"spring {e.name!r} body_b")
             if e.nodes_b is None:
                 raise InvalidParameterError(f"spring {e.name!r}: body_b given without nodes_b")
-            nb_ = resolve_nodes(bb.modal.n_nodes, bb.modal.node_sets, e.nodes_b,
-                                f"spring {e.name!r} nodes_b")
+            nb_ = resolve_nodes(
+                bb.modal.n_nodes, bb.modal.node_sets, e.nodes_b, f"spring {e.name!r} nodes_b"
+            )
             if nb_.size != na.size:
                 raise InvalidParameterError(
                     f"spring {e.name!r}: nodes_a and nodes_b must pair up, got {na.size} and "
                     f"{nb_.size} nodes"
                 )
             if bb is ba:
-                raise InvalidParameterError(f"spring {e.name!r}: both ends on body {ba.name!r}; "
-                                            "internal stiffness belongs in the modal body")
+                raise InvalidParameterError(
+                    f"spring {e.name!r}: both ends on body {ba.name!r}; "
+                    "internal stiffness belongs in the modal body"
+                )
             ends.append((bb, nb_, 1.0))
         for body, _, _ in ends:
             if isinstance(body, RotatingBody):
@@ -321,8 +329,9 @@ def _compile(system: System) -> CompiledSystem:
         unit = np.zeros((dofs.size, dofs.size))
         for d in e.directions():
             for k in range(na.size):
-                w = np.concatenate([sign * _node_row(body, nodes[k], d)
-                                    for body, nodes, sign in ends])
+                w = np.concatenate(
+                    [sign * _node_row(body, nodes[k], d) for body, nodes, sign in ends]
+                )
                 unit += np.outer(w, w)
         d0 = pools.addi(dofs)
         m0 = pools.addf(unit)
@@ -337,8 +346,9 @@ def _compile(system: System) -> CompiledSystem:
         if not isinstance(e, NodalForce):
             continue
         body = system.body(e.body, f"nodal force {e.name!r} body")
-        nodes = resolve_nodes(body.modal.n_nodes, body.modal.node_sets, e.nodes,
-                              f"nodal force {e.name!r} nodes")
+        nodes = resolve_nodes(
+            body.modal.n_nodes, body.modal.node_sets, e.nodes, f"nodal force {e.name!r} nodes"
+        )
         d = e.unit_direction()
         psi_sum = body.modal.mode_shapes[nodes].sum(axis=0)  # (3, r)
         slot = table.add(e.magnitude, f"nodal force {e.name!r} magnitude")
