@@ -43,6 +43,11 @@ def _label(dataset: xarray.Dataset, name: str, variable: str | None = None) -> s
     return f"{name} [{units}]" if units else name
 
 
+def _coord_label(dataset: xarray.Dataset, dim: str) -> str:
+    units = dataset[dim].attrs.get("units") if dim in dataset.coords else None
+    return f"{dim} [{units}]" if units else dim
+
+
 def _membership_polygon(
     levels: np.ndarray, lower: np.ndarray, upper: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -161,14 +166,7 @@ def plot_fuzzy_signal(dataset: xarray.Dataset, output: str) -> Figure:
             linestyle="--",
             label="reference",
         )
-    ax.set_xlabel(
-        f"{dim}"
-        + (
-            f" [{dataset[dim].attrs['units']}]"
-            if dim in dataset.coords and "units" in dataset[dim].attrs
-            else ""
-        )
-    )
+    ax.set_xlabel(_coord_label(dataset, dim))
     ax.set_ylabel(_label(dataset, output))
     title = f"{dataset.attrs.get('study_name', '')}: fuzzy {output}"
     if not dataset["level_complete"].values.all():
@@ -190,22 +188,23 @@ def plot_influence(dataset: xarray.Dataset, output: str) -> Figure:
     if absolute.ndim == 1:
         left.bar(names, absolute.values, color=colors)
         right.bar(names, relative.values, color=colors)
-        left.set_ylabel(f"absolute influence kappa ({_label(dataset, output)})")
-        right.set_ylabel("relative influence rho")
         right.set_ylim(0, 1)
     elif absolute.ndim == 2:
         dim = absolute.dims[1]
         x = dataset[dim].values if dim in dataset.coords else np.arange(absolute.shape[1])
         left.stackplot(x, np.nan_to_num(absolute.values), labels=names, colors=colors)
         right.stackplot(x, np.nan_to_num(relative.values), labels=names, colors=colors)
-        left.set_xlabel(dim)
-        right.set_xlabel(dim)
-        left.set_ylabel(f"absolute influence kappa ({_label(dataset, output)})")
-        right.set_ylabel("relative influence rho")
+        left.set_xlabel(_coord_label(dataset, dim))
+        right.set_xlabel(_coord_label(dataset, dim))
         right.set_ylim(0, 1)
         right.legend(loc="upper right", fontsize="small")
     else:
         raise ValueError(f"influence of {output!r} has more than one coordinate; not plotted")
+    units = dataset[f"{output}_lower"].attrs.get("units")
+    left.set_title("absolute influence kappa")
+    left.set_ylabel(f"kappa [{units}]" if units else "kappa")
+    right.set_title("relative influence rho")
+    right.set_ylabel("rho")
     figure.suptitle(f"{dataset.attrs.get('study_name', '')}: influence on {output}")
     return figure
 
@@ -215,6 +214,8 @@ def _save(figure: Figure, directory: Path, stem: str, formats: Sequence[str]) ->
     for extension in formats:
         path = directory / f"{stem}.{extension}"
         figure.savefig(path, dpi=120)
+        # the first save placed the axes; keep that layout instead of solving it again
+        figure.set_layout_engine("none")
         written.append(path)
     return written
 

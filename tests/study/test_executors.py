@@ -63,3 +63,11 @@ def test_unknown_executor_is_rejected():
 
     with pytest.raises(InvalidParameterError, match="unknown executor 'threads'"):
         _oscillator_study().run(executor="threads", progress=False)
+
+
+def test_unpicklable_model_is_reported_before_starting_workers():
+    from fuzzymbs.errors import InvalidParameterError
+
+    study = Study(lambda s: {"z": s["x"]}, {"x": Triangular(0, 1, 2)}, levels=1)
+    with pytest.raises(InvalidParameterError, match=r"cannot be pickled.*inline executor"):
+        study.run(executor="processes:1", progress=False)

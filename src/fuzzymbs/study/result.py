@@ -132,6 +132,7 @@ def build_dataset(
     touched = plan.levels_touched(failed)
     units = study.units()
     reference = getattr(study.model, "reference", None) or {}
+    coord_units = getattr(study.model, "coord_units", None) or {}
 
     coords: dict[str, Any] = {
         "level": ("level", plan.levels, {"long_name": "membership level mu"}),
@@ -143,7 +144,8 @@ def build_dataset(
     for name, result in fuzzy.items():
         dims, used = _output_layout(study, name, result.shape)
         for dim, values in used.items():
-            coords.setdefault(dim, values)
+            unit = coord_units.get(dim)
+            coords.setdefault(dim, (dim, values, {"units": unit} if unit else {}))
         attrs = {"units": units[name]} if name in units else {}
         data[f"{name}_lower"] = (("level", *dims), result.lower, attrs)
         data[f"{name}_upper"] = (("level", *dims), result.upper, attrs)

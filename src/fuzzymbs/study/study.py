@@ -341,6 +341,8 @@ class Study:
             self._raise_if_failed(results, during=True)
 
         resolved = resolve_executor(executor)
+        if resolved.label.startswith("processes") and missing:
+            self._check_picklable(resolved)
         evaluated = 0
         try:
             with _progress_bar(progress, count, reused, self.name) as advance:
@@ -406,6 +408,20 @@ class Study:
             keep_raw=keep_raw,
         )
         return StudyResult(dataset)
+
+    def _check_picklable(self, resolved: Any) -> None:
+        """Fail early and clearly when the model cannot travel to worker processes."""
+        import pickle
+
+        try:
+            pickle.dumps(self.model)
+        except Exception as exc:
+            resolved.close()
+            raise InvalidParameterError(
+                f"model {self.model_name!r} cannot be pickled, so it cannot run on "
+                f"executor {resolved.label!r} ({type(exc).__name__}: {exc}); define it at "
+                "module level or use the inline executor"
+            ) from exc
 
     def _failure_message(self, failed: np.ndarray, reasons: np.ndarray, touched: Any) -> str:
         indices = np.flatnonzero(failed)

@@ -13,9 +13,10 @@ vibrations, e.g. Rao, Mechanical Vibrations, sec. 2.6)::
                wh = omega sqrt(zeta^2 - 1)
 
 The model is a demo of fuzzy *time signals*: its displacement has a time axis
-(``coords = {"time": t}``), its natural frequency is a scalar output
-(``output_dims``), and ``reference`` holds an independent numerical solution
-(SciPy ``solve_ivp``) at the default parameters that the plots draw on top.
+(``coords = {"time": t}``, ``coord_units = {"time": "s"}``), its natural
+frequency is a scalar output (``output_dims``), and ``reference`` holds an
+independent numerical solution (SciPy ``solve_ivp``) at the default parameters
+that the plots draw on top.
 """
 
 from __future__ import annotations
@@ -109,6 +110,7 @@ class DampedOscillator:
         self.time_steps = int(time_steps)
         self.initial_displacement = float(initial_displacement)
         self.coords = {"time": np.linspace(0.0, self.duration, self.time_steps)}
+        self.coord_units = {"time": "s"}
         self.output_dims = {"displacement": ("time",), "natural_frequency": ()}
         self.reference = {"displacement": self._numerical_reference()}
 
