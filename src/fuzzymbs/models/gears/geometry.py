@@ -339,6 +339,27 @@ class SpurGear:
         inertia = self.density * self.face_width * polar
         return float(mass), float(inertia)
 
+    @cached_property
+    def body_inertia(self) -> float:
+        """Polar moment of inertia of the whole gear about its axis [kg m^2].
+
+        Rim ring r_int..r_f (solid web assumed out to ``rim_radius``; nothing inside
+        it, the shaft is added by the user) plus z rigid teeth (parallel-axis theorem
+        from the hinge, centroid by the polygon formula).
+        """
+        half = self.half_profile(200)
+        polygon = np.vstack((half, half[::-1] * np.array([1.0, -1.0])))
+        x, y = polygon[:, 0], polygon[:, 1]
+        xn, yn = np.roll(x, -1), np.roll(y, -1)
+        cross = x * yn - xn * y
+        polar_centre = abs(np.sum(cross * (x * x + x * xn + xn * xn + y * y + y * yn + yn * yn)))
+        teeth = self.teeth * self.density * self.face_width * polar_centre / 12.0
+        ring = (
+            0.5 * math.pi * self.density * self.face_width
+            * (self.root_radius**4 - self.rim_radius**4)
+        )  # fmt: skip
+        return float(ring + teeth)
+
 
 @dataclass(frozen=True)
 class GearPair:

@@ -224,7 +224,8 @@ def solve_static_batch(g, positions, pairs, torque, k_con, m1, kt1, kt2):
     -------
     ste (B, P) [m], wheel_moment (B, P) [N m] (contact moment on the wheel about
     its centre, counter-clockwise), pair_force (B, P, K) [N], pair_kind (B, P, K),
-    status (B,) 0 ok / 1 not converged / 2 no contact.
+    status (B,) 0 ok / 1 not converged / 2 no contact, and the hinge angles
+    (B, K) of both gears' teeth at the last position.
     """
     n_samples = torque.shape[0]
     n_pos = positions.shape[0]
@@ -234,6 +235,8 @@ def solve_static_batch(g, positions, pairs, torque, k_con, m1, kt1, kt2):
     pair_force = np.zeros((n_samples, n_pos, n_pairs))
     pair_kind = np.zeros((n_samples, n_pos, n_pairs), dtype=np.int8)
     status = np.zeros(n_samples, dtype=np.int64)
+    last1 = np.zeros((n_samples, n_pairs))
+    last2 = np.zeros((n_samples, n_pairs))
     rb1 = g[RB1]
     for b in numba.prange(n_samples):
         beta1 = np.zeros(n_pairs)
@@ -262,11 +265,13 @@ def solve_static_batch(g, positions, pairs, torque, k_con, m1, kt1, kt2):
                 pair_kind[b, j, i] = kind
                 total += m_w
             wheel_moment[b, j] = total
+        last1[b] = beta1
+        last2[b] = beta2
         if status[b] != 0:
             for j in range(n_pos):
                 ste[b, j] = np.nan
                 wheel_moment[b, j] = np.nan
-    return ste, wheel_moment, pair_force, pair_kind, status
+    return ste, wheel_moment, pair_force, pair_kind, status, last1, last2
 
 
 def _column(samples: Mapping[str, Any], name: str, size: int | None) -> np.ndarray | None:
@@ -323,7 +328,8 @@ class MubocoPR:
     damping : float
         Contact damping c [N s^m2 / m^(m2+m3)] (dynamic mode only).
     damping_exponents : (float, float)
-        (m2, m3) of the damping term; default (1, m1) (Hunt-Crossley form).
+        (m2, m3) of the damping term; default (1, 0): viscous while in contact,
+        c in N s/m. (1, m1) is the Hunt-Crossley form (c then in N s/m^(1+m1)).
     tooth_stiffness, contact_stiffness : float, optional
         Values used when a sample does not carry them; default the identified
         modal values (:func:`fuzzymbs.models.gears.identification.identify`).
@@ -371,7 +377,7 @@ class MubocoPR:
             raise InvalidParameterError(f"contact_exponent must be in [1, 3], got {m1!r}")
         if not math.isfinite(damping) or damping < 0.0:
             raise InvalidParameterError(f"damping must be >= 0, got {damping!r}")
-        m2, m3 = (1.0, m1) if damping_exponents is None else map(float, damping_exponents)
+        m2, m3 = (1.0, 0.0) if damping_exponents is None else map(float, damping_exponents)
         if m2 < 0 or m3 < 0:
             raise InvalidParameterError(f"damping_exponents must be >= 0, got {(m2, m3)!r}")
         self.pair = pair
@@ -474,7 +480,7 @@ class MubocoPR:
             ``status`` (B,).
         """
         cols = self.stiffness_columns(samples)
-        ste, wheel_moment, pair_force, pair_kind, status = solve_static_batch(
+        ste, wheel_moment, pair_force, pair_kind, status, _, _ = solve_static_batch(
             self.geometry,
             self.positions,
             self.pairs,

@@ -1,0 +1,50 @@
+"""Dynamic mode: quasi-static limit, spectrum extraction, settings."""
+
+import numpy as np
+import pytest
+
+from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.models.gears import MubocoPR, make_pair
+from fuzzymbs.models.gears.dynamics import DynamicSettings, harmonic_amplitudes
+
+
+@pytest.fixture(scope="module")
+def pair():
+    return make_pair()
+
+
+def test_slow_running_dte_approaches_the_static_ste(pair):
+    # At a mesh frequency far below the mesh resonance (67 Hz vs ~4.5 kHz) the dynamic
+    # TE follows the quasi-static STE; the residual ringing after each change of the
+    # number of pairs in contact is damped by the contact damping (zeta ~ 0.13).
+    settings = {"speed_rpm": 200.0, "mesh_periods": 5, "output_periods": 2}
+    dynamic = MubocoPR(pair, torque=100.0, mode="dynamic", damping=3000.0, dynamic=settings)
+    out = dynamic({})
+    assert not out["failed"].any()
+    static = MubocoPR(pair, torque=100.0, positions=64, reference=False)({})["ste"][0]
+    dte = out["dte"][0].reshape(2, 64)
+    # the output starts at an integer number of mesh periods: same phase as positions
+    assert np.mean(dte) == pytest.approx(np.mean(static), rel=0.03)
+    np.testing.assert_allclose(np.median(dte, axis=0), static, rtol=0.08)
+    # the spectrum's fundamental is the STE's first harmonic within the ringing
+    ste_amp = harmonic_amplitudes(static[None, :], 1, 3)[0]
+    assert out["dte_spectrum"][0, 0] == pytest.approx(ste_amp[0], rel=0.15)
+    assert out["dte"].shape == (1, dynamic.coords["time"].size)
+
+
+def test_harmonic_amplitudes_recover_a_synthetic_signal():
+    t = np.arange(3 * 32) / 32.0  # three periods, 32 samples each
+    signal = 2.0 + 0.5 * np.sin(2 * np.pi * t + 0.3) + 0.2 * np.cos(2 * np.pi * 3 * t)
+    amp = harmonic_amplitudes(signal[None, :], 3, 4)[0]
+    np.testing.assert_allclose(amp, [0.5, 0.0, 0.2, 0.0], atol=1e-12)
+
+
+def test_dynamic_settings_validation(pair):
+    with pytest.raises(InvalidParameterError, match="output_periods"):
+        DynamicSettings(mesh_periods=4, output_periods=4)
+    with pytest.raises(InvalidParameterError, match="speed_rpm"):
+        DynamicSettings(speed_rpm=-1.0)
+    with pytest.raises(InvalidParameterError, match="harmonics"):
+        DynamicSettings(points_per_mesh=16, harmonics=8)
+    grid = DynamicSettings(speed_rpm=600.0, mesh_periods=5, output_periods=2).time_grid(pair)
+    assert grid[0] == pytest.approx(3 / (20 * 600 / 60))
