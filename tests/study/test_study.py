@@ -134,3 +134,15 @@ def test_output_subset():
     ds = study.run(progress=False).dataset
     assert json.loads(ds.attrs["outputs"]) == ["natural_frequency"]
     assert "displacement_lower" not in ds
+
+
+@pytest.mark.parametrize("method", ["general", "grid"])
+def test_methods_without_influence(method):
+    # product of positive TFNs: every scheme that includes the cut corners is exact here
+    result = product_study(method=method).run(progress=False)
+    ds = result.dataset
+    mu = ds["level"].values
+    np.testing.assert_allclose(ds["z_lower"].values, (1 + mu) * (2 + mu), rtol=1e-14)
+    np.testing.assert_allclose(ds["z_upper"].values, (3 - mu) * (4 - mu), rtol=1e-14)
+    assert "z_relative_influence" not in ds
+    assert "influence" not in result.summary()
