@@ -1,1 +1,96 @@
-"""Elastic multibody disc brake."""
+"""Elastic multibody disc brake (THEORY section 4, docs/brake.md).
+
+Registers the model ``"brake"`` (time signals of the pads and the caliper)
+with the study runner. Building a model meshes and reduces the bodies once
+(cached on disk); a model object is small and picklable.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fuzzymbs.models.brake.geometry import BrakeBodies, BrakeDesign, Material, build_bodies
+from fuzzymbs.models.brake.model import CONTACT_TREATMENTS, DEFAULTS, DiscBrake, brake_system
+from fuzzymbs.study.registry import ParameterInfo, register_model
+
+__all__ = [
+    "CONTACT_TREATMENTS",
+    "DEFAULTS",
+    "BrakeBodies",
+    "BrakeDesign",
+    "DiscBrake",
+    "Material",
+    "brake_model",
+    "brake_system",
+    "build_bodies",
+]
+
+PARAMETERS = {
+    "pad_spring_stiffness": ParameterInfo(
+        "N/m", "k: each of the 25 pad-caliper springs (y) per pad", DEFAULTS["pad_spring_stiffness"]
+    ),
+    "caliper_spring_stiffness": ParameterInfo(
+        "N/m",
+        "k_c: each of the 4 caliper-ground springs (y), lower-pad side",
+        DEFAULTS["caliper_spring_stiffness"],
+    ),
+    "nodal_force": ParameterInfo(
+        "N", "F_n: each of the 25 nodal forces pressing a pad on the disc", DEFAULTS["nodal_force"]
+    ),
+    "disc_speed": ParameterInfo(
+        "rad/s", "omega: disc rotation speed about y", DEFAULTS["disc_speed"]
+    ),
+    "penalty_stiffness": ParameterInfo(
+        "N/m", "c_p: contact penalty per contact point", DEFAULTS["penalty_stiffness"]
+    ),
+    "friction_coefficient": ParameterInfo(
+        "-", "mu: Coulomb friction coefficient pad-disc", DEFAULTS["friction_coefficient"]
+    ),
+}
+
+OPTIONS = {
+    "t_end": "end time [s] (default 0.01)",
+    "dt": "RK4 step [s] (default 1e-6)",
+    "record_interval": "output interval [s] (default 5e-6)",
+    "contact": "'two-pass' (default) or 'single-pass'",
+    "regularization_velocity": "eps of the regularised friction law [m/s] (default 1e-3)",
+    "modal_damping_ratio": "damping ratio of every elastic mode [-] (default 0)",
+    "velocities": "also output v_lpad, v_upad, v_cali [m/s] (default false)",
+    "displacement_bound": "|y| above this [m] flags a sample failed (default 1e-3)",
+    "chunk_size": "samples per compiled call (default 64)",
+    "design": "table of BrakeDesign fields (sizes, mode counts, max_frequency)",
+}
+
+
+def brake_model(design: dict[str, Any] | None = None, **options: Any) -> DiscBrake:
+    """Factory of the registered ``"brake"`` model (study-file options)."""
+    from fuzzymbs.errors import InvalidParameterError
+
+    valid = set(OPTIONS) - {"design"}
+    unknown = set(options) - valid
+    if unknown:
+        raise InvalidParameterError(
+            f"unknown brake option(s) {sorted(unknown)}; valid: {sorted(OPTIONS)}"
+        )
+    fields = set(BrakeDesign.__dataclass_fields__)
+    bad = set(design or {}) - fields
+    if bad:
+        raise InvalidParameterError(
+            f"unknown brake design field(s) {sorted(bad)}; valid: {sorted(fields)}"
+        )
+    values = dict(design or {})
+    for name in ("disc_material", "pad_material", "caliper_material"):
+        if isinstance(values.get(name), dict):
+            values[name] = Material(**values[name])
+    return DiscBrake(BrakeDesign(**values), **options)
+
+
+register_model(
+    "brake",
+    brake_model,
+    parameters=PARAMETERS,
+    outputs={"y_lpad": "m", "y_upad": "m", "y_cali": "m"},
+    description="elastic disc brake (disc, 2 pads, caliper; FE + modal reduction), "
+    "pad and caliper displacements over time",
+    options=OPTIONS,
+)
