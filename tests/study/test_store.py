@@ -110,3 +110,32 @@ def test_directory_with_foreign_content_is_refused(tmp_path):
     (tmp_path / "manifest.json").write_text('{"format": "something-else"}')
     with pytest.raises(StoreMismatchError, match="not a fuzzymbs-chunk-store"):
         _study(Counting()).run(store=tmp_path, progress=False)
+
+
+class WithUnsetDefault:
+    """A model whose parameter default is NaN ("not set"), like the gear model's overrides."""
+
+    from fuzzymbs.study.registry import ParameterInfo
+
+    parameters = {  # noqa: RUF012
+        "x1": ParameterInfo("1", "factor", 2.0),
+        "override": ParameterInfo("1", "NaN: use x1", float("nan")),
+    }
+    coords: dict = {}  # noqa: RUF012
+
+    def __call__(self, samples):
+        factor = np.where(np.isnan(samples["override"]), samples["x1"], samples["override"])
+        return {"z": 2.0 * factor}
+
+
+def test_nan_defaults_do_not_break_resume(tmp_path):
+    def study():
+        return Study(WithUnsetDefault(), {"x1": Triangular(1, 2, 3)}, levels=2)
+
+    first = study().run(store=tmp_path, progress=False)
+    assert '"override": "nan"' in first.dataset.attrs["provenance"]
+    again = study().run(store=tmp_path, progress=False)  # no StoreMismatchError
+    assert again.provenance["reused_from_store"] == len(again.dataset["sample"])
+    assert again.provenance["constants"] == {"override": "nan"}
+    json_text = (tmp_path / "manifest.json").read_text()
+    assert "NaN" not in json_text  # strict JSON

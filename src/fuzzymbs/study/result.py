@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from fuzzymbs.errors import UnsupportedOperationError
+from fuzzymbs.study.store import json_safe
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray
@@ -218,7 +219,7 @@ def build_dataset(
                     if study.parameter_info and n in study.parameter_info
                 }
             ),
-            "provenance": json.dumps(provenance, sort_keys=True),
+            "provenance": json.dumps(json_safe(provenance), sort_keys=True, allow_nan=False),
             "plots": json.dumps({"membership": []}),
         }
     )

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import zipfile
 from pathlib import Path
@@ -32,9 +33,24 @@ VERSION = 1
 _OUTPUT_PREFIX = "output__"
 
 
+def json_safe(value: Any) -> Any:
+    """Plain JSON data: NaN and infinities become the strings "nan", "inf", "-inf".
+
+    NaN is a legitimate parameter default (e.g. "not set"), but NaN != NaN would
+    make two identical study identities compare unequal, and strict JSON has no NaN.
+    """
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    return value
+
+
 def _normalised(value: Any) -> Any:
     """JSON round trip, so identities compare equal to what a manifest holds."""
-    return json.loads(json.dumps(value, sort_keys=True))
+    return json.loads(json.dumps(json_safe(value), sort_keys=True, allow_nan=False))
 
 
 def _write_atomic(path: Path, write: Any) -> None:
