@@ -85,7 +85,8 @@ def figure_geometry(pair) -> None:
     ax2.set_ylim(-22, 22)
     ax2.set_aspect("equal")
     ax2.legend(loc="lower left")
-    ax2.set_title(f"z {pair.pinion.teeth}/{pair.wheel.teeth} in mesh, eps = {pair.contact_ratio:.3f}")
+    teeth = f"{pair.pinion.teeth}/{pair.wheel.teeth}"
+    ax2.set_title(f"z {teeth} in mesh, eps = {pair.contact_ratio:.3f}")
     ax2.set_xlabel("x [mm]")
     fig.tight_layout()
     fig.savefig(FIGURES / "gears-geometry.png", dpi=120)
