@@ -25,8 +25,13 @@ EXIT_ERROR = 1
 
 
 def _setup_logging(quiet: bool, verbose: bool) -> None:
+    from rich.console import Console
+    from rich.logging import RichHandler
+
     level = logging.WARNING if quiet else (logging.DEBUG if verbose else logging.INFO)
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", force=True)
+    # A Rich console on stderr prints log records above a running progress bar.
+    handler = RichHandler(console=Console(stderr=True), show_time=False, show_path=False)
+    logging.basicConfig(level=level, format="%(name)s: %(message)s", handlers=[handler], force=True)
     logging.getLogger("distributed").setLevel(max(level, logging.WARNING))
 
 

@@ -152,7 +152,7 @@ def plot_fuzzy_signal(dataset: xarray.Dataset, output: str) -> Figure:
             upper.values[j],
             color=_band_color(mu),
             linewidth=0,
-            label=f"mu = {mu:.3g}" if j in (0, len(levels) - 1) else None,
+            label=f"mu = {mu:.3g}" if len(levels) <= 6 or j in (0, len(levels) - 1) else None,
         )
     nominal = dataset[f"{output}_nominal"].values
     if np.isfinite(nominal).any():
