@@ -101,7 +101,8 @@ def test_errors_are_reported_without_traceback(tmp_path):
     assert "unknown parameter(s) ['x3']" in result.output and "x1 [1], x2 [1]" in result.output
     assert "Traceback" not in result.output
     result = runner.invoke(app, ["demo", "no-such-demo", "--out", str(tmp_path)])
-    assert result.exit_code == 1 and "shipped demos: quickstart" in result.output
+    assert result.exit_code == 1 and "shipped demos: " in result.output
+    assert "quickstart" in result.output
     result = runner.invoke(app, ["plot", str(tmp_path / "missing.nc")])
     assert result.exit_code == 1 and "no such file" in result.output
 
