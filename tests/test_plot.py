@@ -86,3 +86,20 @@ def test_influence_and_inputs(oscillator):
     assert len(figure.axes[0].collections) == 2  # one stacked area per parameter
     figure = plot_input_memberships(oscillator)
     assert len([ax for ax in figure.axes if ax.get_visible()]) == 2
+
+
+def test_partial_result_is_plotted_without_incomplete_levels(tmp_path):
+    # mass support reaches -0.2 kg: samples at mu = 0 fail; at mu = 1/3 the lower cut is 0.2 kg
+    study = Study(
+        "damped-oscillator",
+        {"mass": Triangular(-0.2, 1.0, 1.5)},
+        levels=3,
+        model_options={"time_steps": 21, "duration": 0.1},
+    )
+    dataset = study.run(progress=False, on_failure="partial").dataset
+    np.testing.assert_array_equal(dataset["level_complete"].values, [False, True, True, True])
+    figure = plot_fuzzy_signal(dataset, "displacement")
+    assert len(figure.axes[0].collections) == 3  # the mu = 0 band is missing, not drawn as NaN
+    assert "PARTIAL" in figure.axes[0].get_title()
+    written = write_plots(dataset, tmp_path, formats=("png",))
+    assert all(path.stat().st_size > 1000 for path in written)

@@ -126,3 +126,11 @@ def test_wrong_output_shape_is_reported():
 
     with pytest.raises(IncompleteResultError, match="leading axis must be the batch"):
         Study(wrong, PARAMETERS, levels=1).run(progress=False)
+
+
+def test_complex_output_is_reported_not_truncated():
+    def spectrum(samples):
+        return {"z": samples["x1"] * (1 + 1j)}
+
+    with pytest.raises(IncompleteResultError, match="output 'z' is complex"):
+        Study(spectrum, PARAMETERS, levels=1).run(progress=False)

@@ -68,6 +68,11 @@ def _checked_outputs(
             raise ModelOutputError(
                 f"the model returned no output {name!r}; it returned: {', '.join(map(str, raw))}"
             )
+        if np.iscomplexobj(raw[name]):
+            raise ModelOutputError(
+                f"model output {name!r} is complex; return real quantities "
+                "(e.g. magnitude and phase as separate outputs)"
+            )
         try:
             values = np.array(raw[name], dtype=np.float64)
         except (TypeError, ValueError) as exc:
