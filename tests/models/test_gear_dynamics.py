@@ -14,10 +14,10 @@ def pair():
 
 
 def test_slow_running_dte_approaches_the_static_ste(pair):
-    # At a mesh frequency far below the mesh resonance (67 Hz vs ~4.5 kHz) the dynamic
+    # At a mesh frequency far below the mesh resonance (100 Hz vs ~4.5 kHz) the dynamic
     # TE follows the quasi-static STE; the residual ringing after each change of the
     # number of pairs in contact is damped by the contact damping (zeta ~ 0.13).
-    settings = {"speed_rpm": 200.0, "mesh_periods": 5, "output_periods": 2}
+    settings = {"speed_rpm": 300.0, "mesh_periods": 4, "output_periods": 2}
     dynamic = MubocoPR(pair, torque=100.0, mode="dynamic", damping=3000.0, dynamic=settings)
     out = dynamic({})
     assert not out["failed"].any()
@@ -25,7 +25,8 @@ def test_slow_running_dte_approaches_the_static_ste(pair):
     dte = out["dte"][0].reshape(2, 64)
     # the output starts at an integer number of mesh periods: same phase as positions
     assert np.mean(dte) == pytest.approx(np.mean(static), rel=0.03)
-    np.testing.assert_allclose(np.median(dte, axis=0), static, rtol=0.08)
+    # pointwise: the ringing (~0.5 um right after a zone change) stays within 12 %
+    np.testing.assert_allclose(np.median(dte, axis=0), static, rtol=0.12)
     # the spectrum's fundamental is the STE's first harmonic within the ringing
     ste_amp = harmonic_amplitudes(static[None, :], 1, 3)[0]
     assert out["dte_spectrum"][0, 0] == pytest.approx(ste_amp[0], rel=0.15)
