@@ -139,3 +139,10 @@ def test_nan_defaults_do_not_break_resume(tmp_path):
     assert again.provenance["constants"] == {"override": "nan"}
     json_text = (tmp_path / "manifest.json").read_text()
     assert "NaN" not in json_text  # strict JSON
+
+
+def test_complete_store_needs_no_executor(tmp_path):
+    _study(Counting()).run(store=tmp_path, progress=False)
+    # an unreachable cluster is never contacted when every chunk is stored
+    result = _study(Counting()).run(store=tmp_path, executor="dask://127.0.0.1:1", progress=False)
+    assert result.provenance["executor"].startswith("none")

@@ -340,8 +340,11 @@ class Study:
         if on_failure == "fail-fast":
             self._raise_if_failed(results, during=True)
 
-        resolved = resolve_executor(executor)
-        if resolved.label.startswith("processes") and missing:
+        # nothing to evaluate: do not start workers or connect to a cluster
+        resolved = resolve_executor(executor if missing else None)
+        if not missing:
+            resolved.label = "none (every chunk from the store)"
+        if resolved.label.startswith("processes"):
             self._check_picklable(resolved)
         evaluated = 0
         try:
