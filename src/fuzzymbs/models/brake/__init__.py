@@ -11,6 +11,12 @@ from typing import Any
 
 from fuzzymbs.models.brake.geometry import BrakeBodies, BrakeDesign, Material, build_bodies
 from fuzzymbs.models.brake.model import CONTACT_TREATMENTS, DEFAULTS, DiscBrake, brake_system
+from fuzzymbs.models.brake.stability import (
+    BrakeStability,
+    StabilityResult,
+    growth_rate,
+    stability_analysis,
+)
 from fuzzymbs.study.registry import ParameterInfo, register_model
 
 __all__ = [
@@ -18,11 +24,16 @@ __all__ = [
     "DEFAULTS",
     "BrakeBodies",
     "BrakeDesign",
+    "BrakeStability",
     "DiscBrake",
     "Material",
+    "StabilityResult",
     "brake_model",
+    "brake_stability_model",
     "brake_system",
     "build_bodies",
+    "growth_rate",
+    "stability_analysis",
 ]
 
 PARAMETERS = {
@@ -62,16 +73,18 @@ OPTIONS = {
 }
 
 
-def brake_model(design: dict[str, Any] | None = None, **options: Any) -> DiscBrake:
-    """Factory of the registered ``"brake"`` model (study-file options)."""
+STABILITY_OPTIONS = {
+    "contact": OPTIONS["contact"],
+    "regularization_velocity": OPTIONS["regularization_velocity"],
+    "modal_damping_ratio": OPTIONS["modal_damping_ratio"],
+    "n_modes": "number of least stable eigenvalue pairs reported (default 6)",
+    "design": OPTIONS["design"],
+}
+
+
+def _design(design: dict[str, Any] | None) -> BrakeDesign:
     from fuzzymbs.errors import InvalidParameterError
 
-    valid = set(OPTIONS) - {"design"}
-    unknown = set(options) - valid
-    if unknown:
-        raise InvalidParameterError(
-            f"unknown brake option(s) {sorted(unknown)}; valid: {sorted(OPTIONS)}"
-        )
     fields = set(BrakeDesign.__dataclass_fields__)
     bad = set(design or {}) - fields
     if bad:
@@ -82,7 +95,29 @@ def brake_model(design: dict[str, Any] | None = None, **options: Any) -> DiscBra
     for name in ("disc_material", "pad_material", "caliper_material"):
         if isinstance(values.get(name), dict):
             values[name] = Material(**values[name])
-    return DiscBrake(BrakeDesign(**values), **options)
+    return BrakeDesign(**values)
+
+
+def _check_options(options: dict[str, Any], valid: dict[str, str], model: str) -> None:
+    from fuzzymbs.errors import InvalidParameterError
+
+    unknown = set(options) - set(valid)
+    if unknown:
+        raise InvalidParameterError(
+            f"unknown {model} option(s) {sorted(unknown)}; valid: {sorted(valid)}"
+        )
+
+
+def brake_model(design: dict[str, Any] | None = None, **options: Any) -> DiscBrake:
+    """Factory of the registered ``"brake"`` model (study-file options)."""
+    _check_options(options, OPTIONS, "brake")
+    return DiscBrake(_design(design), **options)
+
+
+def brake_stability_model(design: dict[str, Any] | None = None, **options: Any) -> BrakeStability:
+    """Factory of the registered ``"brake-stability"`` model (study-file options)."""
+    _check_options(options, STABILITY_OPTIONS, "brake-stability")
+    return BrakeStability(_design(design), **options)
 
 
 register_model(
@@ -93,4 +128,20 @@ register_model(
     description="elastic disc brake (disc, 2 pads, caliper; FE + modal reduction), "
     "pad and caliper displacements over time",
     options=OPTIONS,
+)
+
+register_model(
+    "brake-stability",
+    brake_stability_model,
+    parameters=PARAMETERS,
+    outputs={
+        "max_real_part": "1/s",
+        "least_stable_frequency": "Hz",
+        "unstable_modes": "-",
+        "real_parts": "1/s",
+        "frequencies": "Hz",
+    },
+    description="complex eigenvalues of the brake linearised about steady sliding: "
+    "real parts and frequencies of the least stable modes",
+    options=STABILITY_OPTIONS,
 )
