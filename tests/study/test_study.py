@@ -146,3 +146,22 @@ def test_methods_without_influence(method):
     np.testing.assert_allclose(ds["z_upper"].values, (3 - mu) * (4 - mu), rtol=1e-14)
     assert "z_relative_influence" not in ds
     assert "influence" not in result.summary()
+
+
+def test_netcdf3_fallback_roundtrip(tmp_path, monkeypatch):
+    # a minimal install has neither h5py nor netCDF4: SciPy's NetCDF-3 writer must do
+    import fuzzymbs.study.result as result_module
+
+    monkeypatch.setattr(result_module, "netcdf_engine", lambda: "scipy")
+    study = Study(
+        "damped-oscillator",
+        {"mass": Triangular(-0.2, 1.0, 1.5)},
+        levels=3,
+        model_options={"time_steps": 11},
+    )
+    result = study.run(progress=False, on_failure="partial")  # with failure reasons (strings)
+    path = result.to_netcdf(tmp_path / "r.nc")
+    assert path.read_bytes()[:3] == b"CDF"  # NetCDF classic format
+    reopened = StudyResult.open(path)
+    assert reopened.dataset.identical(result.dataset)
+    assert reopened.failed.any() and reopened.status == "partial"
