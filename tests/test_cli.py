@@ -60,6 +60,15 @@ def test_rerun_resumes_from_the_output_folder(demo_out, tmp_path):
     with xr.open_dataset(demo_out / "product" / "result.nc") as ds:
         provenance = json.loads(ds.attrs["provenance"])
     assert provenance["evaluated"] == 0 and provenance["reused_from_store"] == 17
+    with resources.as_file(study) as path:
+        result = runner.invoke(
+            app,
+            ["run", str(path), "--out", str(demo_out / "product"), "-q", "--no-plots", "--fresh"],
+        )
+    assert result.exit_code == 0, result.output
+    with xr.open_dataset(demo_out / "product" / "result.nc") as ds:
+        provenance = json.loads(ds.attrs["provenance"])
+    assert provenance["evaluated"] == 17 and provenance["reused_from_store"] == 0
 
 
 def test_plot_command_redraws(demo_out, tmp_path):

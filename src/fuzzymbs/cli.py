@@ -101,6 +101,9 @@ def demo(
     name: Annotated[str, typer.Argument(help="Demo name, e.g. quickstart.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")],
     executor: Annotated[str | None, typer.Option(help="Executor (default: inline).")] = None,
+    fresh: Annotated[
+        bool, typer.Option("--fresh", help="Discard stored chunks; do not resume.")
+    ] = False,
     quiet: QuietOption = False,
     verbose: VerboseOption = False,
 ) -> None:
@@ -127,7 +130,13 @@ def demo(
             with tempfile.TemporaryDirectory() as scratch:
                 copy = Path(scratch) / Path(path).name
                 copy.write_bytes(Path(path).read_bytes())
-                _run_one(copy, out / study_name, executor=executor, progress=not quiet)
+                _run_one(
+                    copy,
+                    out / study_name,
+                    executor=executor,
+                    resume=not fresh,
+                    progress=not quiet,
+                )
 
 
 @app.command()
