@@ -88,8 +88,10 @@ def summarize(dataset: xarray.Dataset) -> str:
         else:
             shape = " x ".join(f"{d} ({dataset.sizes[d]})" for d in dims)
             lines.append(f"Output {label} over {shape}:")
-            if complete[0]:
-                width = hi.values[0] - lo.values[0]
+            known = np.flatnonzero(complete)
+            if known.size:
+                j = int(known[0])  # the widest level with known bounds
+                width = hi.values[j] - lo.values[j]
                 where = np.unravel_index(int(np.nanargmax(width)), width.shape)
                 at = ", ".join(
                     f"{d} = {_fmt(float(dataset[d].values[k]))}"
@@ -97,17 +99,22 @@ def summarize(dataset: xarray.Dataset) -> str:
                     else f"{d} index {k}"
                     for d, k in zip(dims, where, strict=True)
                 )
-                lines.append(
-                    f"  support (mu = 0) spans [{_fmt(np.nanmin(lo.values[0]))}, "
-                    f"{_fmt(np.nanmax(hi.values[0]))}]; widest at {at}: "
-                    f"[{_fmt(lo.values[0][where])}, {_fmt(hi.values[0][where])}]"
+                what = (
+                    "support (mu = 0)"
+                    if j == 0
+                    else f"lowest complete level mu = {_fmt(levels[j])}"
                 )
-            top = int(np.flatnonzero(complete)[-1]) if complete.any() else None
-            if top is not None:
                 lines.append(
-                    f"  highest complete level mu = {_fmt(levels[top])}: "
-                    f"[{_fmt(np.nanmin(lo.values[top]))}, {_fmt(np.nanmax(hi.values[top]))}]"
+                    f"  {what} spans [{_fmt(np.nanmin(lo.values[j]))}, "
+                    f"{_fmt(np.nanmax(hi.values[j]))}]; widest at {at}: "
+                    f"[{_fmt(lo.values[j][where])}, {_fmt(hi.values[j][where])}]"
                 )
+                nominal = dataset[f"{name}_nominal"].values
+                if np.isfinite(nominal).any():
+                    lines.append(
+                        f"  nominal (mu = 1) spans [{_fmt(np.nanmin(nominal))}, "
+                        f"{_fmt(np.nanmax(nominal))}]"
+                    )
         if name in influence_outputs:
             absolute = dataset[f"{name}_absolute_influence"].values
             if absolute.ndim == 1:
