@@ -17,7 +17,7 @@ import numba as nb
 import numpy as np
 
 # body table columns
-B_KIND, B_DOF0, B_NTR, B_NM, B_NODE0, B_NODE1, B_PSI0, B_MAT0, B_SPEED, B_PROF = range(10)
+B_KIND, B_DOF0, B_NTR, B_NM, B_NODE0, B_NODE1, B_PSI0, B_MAT0, B_SPEED, B_PROF, B_PSIT0 = range(11)
 KIND_FIXED, KIND_TRANSLATING, KIND_ROTATING = 0, 1, 2
 # contact table columns
 (
@@ -45,6 +45,9 @@ FAILURE_REASONS = {
 }
 
 _TWO_PI = 2.0 * np.pi
+# Reassociation and FMA contraction let LLVM vectorise the small dot products; NaN/inf
+# semantics are kept (no 'nnan'/'ninf') so that blown-up samples are still detected.
+FAST = {"reassoc", "contract", "arcp"}
 
 
 @nb.njit(cache=True, inline="always")
@@ -96,23 +99,30 @@ def _rotation(axis, angle, out):
 
 @nb.njit(cache=True)
 def _locate(grid, n, value, periodic):
-    """Cell index i with grid[i] <= value <= grid[i+1] (O(1) for near-uniform grids), -1 outside."""
+    """Cell i with grid[i] <= value <= grid[i+1] and the local coordinate in [0, 1]; -1 outside.
+
+    O(1) for (near-)uniform grids: the first guess comes from the mean spacing and
+    the two while loops correct it by a cell at most.
+    """
     g0 = grid[0]
     if periodic:
-        span = _TWO_PI
-        value = g0 + (value - g0) % span
-        i = int((value - g0) / span * n)
+        if value < g0:
+            value += _TWO_PI
+        elif value >= g0 + _TWO_PI:
+            value -= _TWO_PI
+        i = int((value - g0) * (n / _TWO_PI))
         if i > n - 1:
             i = n - 1
         while i > 0 and value < grid[i]:
             i -= 1
         while i < n - 1 and value > grid[i + 1]:
             i += 1
-        upper = grid[i + 1] if i < n - 1 else g0 + span
+        upper = grid[i + 1] if i < n - 1 else g0 + _TWO_PI
         return i, (value - grid[i]) / (upper - grid[i])
-    if value < g0 or value > grid[n - 1]:
+    last = grid[n - 1]
+    if value < g0 or value > last:
         return -1, 0.0
-    i = int((value - g0) / (grid[n - 1] - g0) * (n - 1))
+    i = int((value - g0) * ((n - 1) / (last - g0)))
     if i > n - 2:
         i = n - 2
     while i > 0 and value < grid[i]:
@@ -122,7 +132,7 @@ def _locate(grid, n, value, periodic):
     return i, (value - grid[i]) / (grid[i + 1] - grid[i])
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST)
 def rhs(t, x, dx, p, sysdata, work):
     """Time derivative dx of state x at time t for parameter row p (one sample)."""
     (
@@ -163,19 +173,20 @@ def rhs(t, x, dx, p, sysdata, work):
         m0 = lg[g, 2]
         k = p[lg[g, 3]]
         c = p[lg[g, 4]]
+        idx = ipool[d0 : d0 + n]
         for a in range(n):
             s = 0.0
-            row = m0 + a * n
+            row = fpool[m0 + a * n : m0 + (a + 1) * n]
             for bb in range(n):
-                s += fpool[row + bb] * x[ipool[d0 + bb]]
+                s += row[bb] * x[idx[bb]]
             s *= k
             if c != 0.0:
                 sd = 0.0
-                row_d = m0 + n * n + a * n
+                row_d = fpool[m0 + n * n + a * n : m0 + n * n + (a + 1) * n]
                 for bb in range(n):
-                    sd += fpool[row_d + bb] * x[ndof + ipool[d0 + bb]]
+                    sd += row_d[bb] * x[ndof + idx[bb]]
                 s += c * sd
-            q_gen[ipool[d0 + a]] -= s
+            q_gen[idx[a]] -= s
 
     # nodal forces (generalised vectors precomputed)
     for f in range(nfi.shape[0]):
@@ -224,11 +235,19 @@ def rhs(t, x, dx, p, sysdata, work):
             l0 = m0 + 2 * nm * nm
             e0 = l0 + nm
             w2 = omega * omega
+            qv = x[qd0 : qd0 + nm]
+            vv = x[ndof + qd0 : ndof + qd0 + nm]
             for j in range(nm):
-                s = w2 * fpool[l0 + j] + alpha * fpool[e0 + j]
+                grow = fpool[g0 + j * nm : g0 + (j + 1) * nm]
+                crow = fpool[c0 + j * nm : c0 + (j + 1) * nm]
+                sg = 0.0
+                sgq = 0.0
+                sc = 0.0
                 for k in range(nm):
-                    s += (2.0 * omega * fpool[g0 + j * nm + k]) * x[ndof + qd0 + k]
-                    s += (w2 * fpool[c0 + j * nm + k] + alpha * fpool[g0 + j * nm + k]) * x[qd0 + k]
+                    sg += grow[k] * vv[k]
+                    sgq += grow[k] * qv[k]
+                    sc += crow[k] * qv[k]
+                s = w2 * (fpool[l0 + j] + sc) + alpha * (fpool[e0 + j] + sgq) + 2.0 * omega * sg
                 q_gen[qd0 + j] -= s
         if kind == KIND_TRANSLATING:
             # Schur complement of [[m P P^T, B], [B^T, I]]: s'' = S^-1 (f_s - B f_q)
@@ -254,9 +273,16 @@ def rhs(t, x, dx, p, sysdata, work):
                 dx[ndof + qd0 + j] = q_gen[qd0 + j]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST)
 def _node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v):
-    """Inertial positions and velocities of the tracked nodes."""
+    """Inertial positions and velocities of the tracked nodes.
+
+    The elastic part is ``U = Psi_block q`` for all tracked nodes of a body at once,
+    accumulated as axpy's over the modes with the transposed block (mode, node*3):
+    contiguous, allocation-free and vectorised.
+    """
+    ux = node_x.reshape(-1)
+    uv = node_v.reshape(-1)
     for b in range(bi.shape[0]):
         n0 = bi[b, B_NODE0]
         n1 = bi[b, B_NODE1]
@@ -266,109 +292,122 @@ def _node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node
         dof0 = bi[b, B_DOF0]
         ntr = bi[b, B_NTR]
         nm = bi[b, B_NM]
-        psi0 = bi[b, B_PSI0]
+        psit = bi[b, B_PSIT0]
         qd0 = dof0 + ntr
-        for i in range(n0, n1):
-            row = psi0 + (i - n0) * 3 * nm
-            u0 = node_xbar[i, 0]
-            u1 = node_xbar[i, 1]
-            u2 = node_xbar[i, 2]
-            w0 = 0.0
-            w1 = 0.0
-            w2 = 0.0
-            for j in range(nm):
-                qj = x[qd0 + j]
-                vj = x[ndof + qd0 + j]
-                p0 = fpool[row + j]
-                p1 = fpool[row + nm + j]
-                p2 = fpool[row + 2 * nm + j]
-                u0 += p0 * qj
-                u1 += p1 * qj
-                u2 += p2 * qj
-                w0 += p0 * vj
-                w1 += p1 * vj
-                w2 += p2 * vj
-            if kind == KIND_ROTATING:
-                # x = o + A y, v = A (Omega e x y + ydot)
-                om = rot[b, 1]
-                e0 = bf[b, 12]
-                e1 = bf[b, 13]
-                e2 = bf[b, 14]
-                z0 = w0 + om * (e1 * u2 - e2 * u1)
-                z1 = w1 + om * (e2 * u0 - e0 * u2)
-                z2 = w2 + om * (e0 * u1 - e1 * u0)
-                a = rot_a[b]
+        width = 3 * (n1 - n0)
+        base = 3 * n0
+        # slices (not offset indexing) so that LLVM vectorises the inner loops
+        pos = ux[base : base + width]
+        vel = uv[base : base + width]
+        for k in range(width):
+            pos[k] = 0.0
+            vel[k] = 0.0
+        for j in range(nm):
+            qj = x[qd0 + j]
+            vj = x[ndof + qd0 + j]
+            row = fpool[psit + j * width : psit + (j + 1) * width]
+            for k in range(width):
+                pos[k] += row[k] * qj
+                vel[k] += row[k] * vj
+        if kind == KIND_ROTATING:
+            # x = o + A y, v = A (Omega e x y + ydot), y = xbar + u
+            om = rot[b, 1]
+            e0 = bf[b, 12]
+            e1 = bf[b, 13]
+            e2 = bf[b, 14]
+            a = rot_a[b]
+            for i in range(n0, n1):
+                u0 = node_xbar[i, 0] + node_x[i, 0]
+                u1 = node_xbar[i, 1] + node_x[i, 1]
+                u2 = node_xbar[i, 2] + node_x[i, 2]
+                z0 = node_v[i, 0] + om * (e1 * u2 - e2 * u1)
+                z1 = node_v[i, 1] + om * (e2 * u0 - e0 * u2)
+                z2 = node_v[i, 2] + om * (e0 * u1 - e1 * u0)
                 for c in range(3):
                     node_x[i, c] = bf[b, c] + a[c, 0] * u0 + a[c, 1] * u1 + a[c, 2] * u2
                     node_v[i, c] = a[c, 0] * z0 + a[c, 1] * z1 + a[c, 2] * z2
-            else:
-                node_x[i, 0] = bf[b, 0] + u0
-                node_x[i, 1] = bf[b, 1] + u1
-                node_x[i, 2] = bf[b, 2] + u2
-                node_v[i, 0] = w0
-                node_v[i, 1] = w1
-                node_v[i, 2] = w2
-                for a in range(ntr):
-                    sa = x[dof0 + a]
-                    va = x[ndof + dof0 + a]
-                    for c in range(3):
-                        node_x[i, c] += bf[b, 3 + 3 * a + c] * sa
-                        node_v[i, c] += bf[b, 3 + 3 * a + c] * va
+        else:
+            r0 = bf[b, 0]
+            r1 = bf[b, 1]
+            r2 = bf[b, 2]
+            w0 = 0.0
+            w1 = 0.0
+            w2 = 0.0
+            for a in range(ntr):
+                sa = x[dof0 + a]
+                va = x[ndof + dof0 + a]
+                r0 += bf[b, 3 + 3 * a] * sa
+                r1 += bf[b, 4 + 3 * a] * sa
+                r2 += bf[b, 5 + 3 * a] * sa
+                w0 += bf[b, 3 + 3 * a] * va
+                w1 += bf[b, 4 + 3 * a] * va
+                w2 += bf[b, 5 + 3 * a] * va
+            for i in range(n0, n1):
+                node_x[i, 0] += r0 + node_xbar[i, 0]
+                node_x[i, 1] += r1 + node_xbar[i, 1]
+                node_x[i, 2] += r2 + node_xbar[i, 2]
+                node_v[i, 0] += w0
+                node_v[i, 1] += w1
+                node_v[i, 2] += w2
 
 
-@nb.njit(cache=True)
-def _to_master_frame(b, xs, x, ndof, bi, bf, rot_a):
-    """A slave point expressed in the (undeformed) master body frame."""
-    d0 = xs[0] - bf[b, 0]
-    d1 = xs[1] - bf[b, 1]
-    d2 = xs[2] - bf[b, 2]
-    kind = bi[b, B_KIND]
-    if kind == KIND_ROTATING:
-        a = rot_a[b]
-        return (
-            a[0, 0] * d0 + a[1, 0] * d1 + a[2, 0] * d2,
-            a[0, 1] * d0 + a[1, 1] * d1 + a[2, 1] * d2,
-            a[0, 2] * d0 + a[1, 2] * d1 + a[2, 2] * d2,
-        )
-    if kind == KIND_TRANSLATING:
-        dof0 = bi[b, B_DOF0]
-        for a in range(bi[b, B_NTR]):
-            s = x[dof0 + a]
-            d0 -= bf[b, 3 + 3 * a] * s
-            d1 -= bf[b, 4 + 3 * a] * s
-            d2 -= bf[b, 5 + 3 * a] * s
-    return d0, d1, d2
-
-
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST)
 def _contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f):
     """Penalty normal force and regularised Coulomb friction of one contact pass."""
-    ndof = x.shape[0] // 2
     mb = ci[c, C_MBODY]
     nu = ci[c, C_NU]
     nv = ci[c, C_NV]
     periodic = ci[c, C_PERIODIC] == 1
     ugrid = fpool[ci[c, C_U0] : ci[c, C_U0] + nu]
     vgrid = fpool[ci[c, C_V0] : ci[c, C_V0] + nv]
+    grid = ipool[ci[c, C_GRID0] : ci[c, C_GRID0] + nu * nv]
     ncv = nv if periodic else nv - 1
+    normals = fpool[ci[c, C_NORMAL0] : ci[c, C_NORMAL0] + 3 * (nu - 1) * ncv]
+    slaves = ipool[ci[c, C_SLAVE0] : ci[c, C_SLAVE0] + ci[c, C_NSLAVE]]
     polar = ci[c, C_KIND] == 1
     penalty = p[ci[c, C_PEN]]
     mu = p[ci[c, C_MU]]
     eps2 = cf[c, 9] * cf[c, 9]
     damping = cf[c, 10]
-    rotating = bi[mb, B_KIND] == KIND_ROTATING
-    xs = np.empty(3)
-    n = np.empty(3)
-    for k in range(ci[c, C_NSLAVE]):
-        s = ipool[ci[c, C_SLAVE0] + k]
-        for cc in range(3):
-            xs[cc] = node_x[s, cc]
-        p0, p1, p2 = _to_master_frame(mb, xs, x, ndof, bi, bf, rot_a)
-        d0 = p0 - cf[c, 0]
-        d1 = p1 - cf[c, 1]
-        d2 = p2 - cf[c, 2]
-        a1 = d0 * cf[c, 3] + d1 * cf[c, 4] + d2 * cf[c, 5]
-        a2 = d0 * cf[c, 6] + d1 * cf[c, 7] + d2 * cf[c, 8]
+    # master frame once per pass: inertial chart axes ua, va, offsets cu, cv, so that the
+    # chart coordinates of an inertial point x are (x . ua - cu, x . va - cv)
+    kind = bi[mb, B_KIND]
+    o0 = bf[mb, 0]
+    o1 = bf[mb, 1]
+    o2 = bf[mb, 2]
+    if kind == KIND_TRANSLATING:
+        dof0 = bi[mb, B_DOF0]
+        for a in range(bi[mb, B_NTR]):
+            sa = x[dof0 + a]
+            o0 += bf[mb, 3 + 3 * a] * sa
+            o1 += bf[mb, 4 + 3 * a] * sa
+            o2 += bf[mb, 5 + 3 * a] * sa
+    rotating = kind == KIND_ROTATING
+    am = rot_a[mb]
+    if rotating:
+        ua0 = am[0, 0] * cf[c, 3] + am[0, 1] * cf[c, 4] + am[0, 2] * cf[c, 5]
+        ua1 = am[1, 0] * cf[c, 3] + am[1, 1] * cf[c, 4] + am[1, 2] * cf[c, 5]
+        ua2 = am[2, 0] * cf[c, 3] + am[2, 1] * cf[c, 4] + am[2, 2] * cf[c, 5]
+        va0 = am[0, 0] * cf[c, 6] + am[0, 1] * cf[c, 7] + am[0, 2] * cf[c, 8]
+        va1 = am[1, 0] * cf[c, 6] + am[1, 1] * cf[c, 7] + am[1, 2] * cf[c, 8]
+        va2 = am[2, 0] * cf[c, 6] + am[2, 1] * cf[c, 7] + am[2, 2] * cf[c, 8]
+    else:
+        ua0 = cf[c, 3]
+        ua1 = cf[c, 4]
+        ua2 = cf[c, 5]
+        va0 = cf[c, 6]
+        va1 = cf[c, 7]
+        va2 = cf[c, 8]
+    chart_o_u = cf[c, 0] * cf[c, 3] + cf[c, 1] * cf[c, 4] + cf[c, 2] * cf[c, 5]
+    chart_o_v = cf[c, 0] * cf[c, 6] + cf[c, 1] * cf[c, 7] + cf[c, 2] * cf[c, 8]
+    cu = o0 * ua0 + o1 * ua1 + o2 * ua2 + chart_o_u
+    cv = o0 * va0 + o1 * va1 + o2 * va2 + chart_o_v
+    for s in slaves:
+        xs0 = node_x[s, 0]
+        xs1 = node_x[s, 1]
+        xs2 = node_x[s, 2]
+        a1 = xs0 * ua0 + xs1 * ua1 + xs2 * ua2 - cu
+        a2 = xs0 * va0 + xs1 * va1 + xs2 * va2 - cv
         if polar:
             u = np.sqrt(a1 * a1 + a2 * a2)
             v = np.arctan2(a2, a1)
@@ -377,35 +416,35 @@ def _contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, 
             v = a2
         i, xi = _locate(ugrid, nu, u, False)
         if i < 0:
-            continue
+            continue  # off the patch: no contact, nothing else computed
         j, eta = _locate(vgrid, nv, v, periodic)
         if j < 0:
             continue
-        j1 = (j + 1) % nv
-        g0 = ci[c, C_GRID0]
-        na = ipool[g0 + i * nv + j]
-        nb_ = ipool[g0 + (i + 1) * nv + j]
-        nc = ipool[g0 + (i + 1) * nv + j1]
-        nd = ipool[g0 + i * nv + j1]
+        j1 = j + 1 if j + 1 < nv else 0
+        na = grid[i * nv + j]
+        nb_ = grid[(i + 1) * nv + j]
+        nc = grid[(i + 1) * nv + j1]
+        nd = grid[i * nv + j1]
         wa = (1.0 - xi) * (1.0 - eta)
         wb = xi * (1.0 - eta)
         wc = xi * eta
         wd = (1.0 - xi) * eta
-        nrm0 = ci[c, C_NORMAL0] + 3 * (i * ncv + j)
+        k3 = 3 * (i * ncv + j)
+        m0 = normals[k3]
+        m1 = normals[k3 + 1]
+        m2 = normals[k3 + 2]
         if rotating:
-            a = rot_a[mb]
-            for cc in range(3):
-                n[cc] = (
-                    a[cc, 0] * fpool[nrm0] + a[cc, 1] * fpool[nrm0 + 1] + a[cc, 2] * fpool[nrm0 + 2]
-                )
+            n0 = am[0, 0] * m0 + am[0, 1] * m1 + am[0, 2] * m2
+            n1 = am[1, 0] * m0 + am[1, 1] * m1 + am[1, 2] * m2
+            n2 = am[2, 0] * m0 + am[2, 1] * m1 + am[2, 2] * m2
         else:
-            for cc in range(3):
-                n[cc] = fpool[nrm0 + cc]
-        gap = 0.0
-        for cc in range(3):
-            xm = wa * node_x[na, cc] + wb * node_x[nb_, cc] + wc * node_x[nc, cc]
-            xm += wd * node_x[nd, cc]
-            gap += n[cc] * (xs[cc] - xm)
+            n0 = m0
+            n1 = m1
+            n2 = m2
+        xm0 = wa * node_x[na, 0] + wb * node_x[nb_, 0] + wc * node_x[nc, 0] + wd * node_x[nd, 0]
+        xm1 = wa * node_x[na, 1] + wb * node_x[nb_, 1] + wc * node_x[nc, 1] + wd * node_x[nd, 1]
+        xm2 = wa * node_x[na, 2] + wb * node_x[nb_, 2] + wc * node_x[nc, 2] + wd * node_x[nd, 2]
+        gap = n0 * (xs0 - xm0) + n1 * (xs1 - xm1) + n2 * (xs2 - xm2)
         if gap >= 0.0:
             continue
         vr0 = node_v[s, 0] - (
@@ -417,17 +456,17 @@ def _contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, 
         vr2 = node_v[s, 2] - (
             wa * node_v[na, 2] + wb * node_v[nb_, 2] + wc * node_v[nc, 2] + wd * node_v[nd, 2]
         )
-        vn = n[0] * vr0 + n[1] * vr1 + n[2] * vr2
+        vn = n0 * vr0 + n1 * vr1 + n2 * vr2
         fn = -penalty * gap - damping * vn
         if fn <= 0.0:
             continue
-        vt0 = vr0 - vn * n[0]
-        vt1 = vr1 - vn * n[1]
-        vt2 = vr2 - vn * n[2]
+        vt0 = vr0 - vn * n0
+        vt1 = vr1 - vn * n1
+        vt2 = vr2 - vn * n2
         scale = -mu * fn / np.sqrt(vt0 * vt0 + vt1 * vt1 + vt2 * vt2 + eps2)
-        f0 = fn * n[0] + scale * vt0
-        f1 = fn * n[1] + scale * vt1
-        f2 = fn * n[2] + scale * vt2
+        f0 = fn * n0 + scale * vt0
+        f1 = fn * n1 + scale * vt1
+        f2 = fn * n2 + scale * vt2
         node_f[s, 0] += f0
         node_f[s, 1] += f1
         node_f[s, 2] += f2
@@ -445,38 +484,68 @@ def _contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, 
         node_f[nd, 2] -= wd * f2
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, fastmath=FAST)
 def _map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
-    """Generalised forces of the tracked nodes' forces: P^T F and Psi_k^T A^T F."""
+    """Generalised forces of the tracked nodes' forces: P^T F and Psi_k^T A^T F.
+
+    Nodes without force (out of contact) are skipped: with few nodes in contact the
+    work is one contiguous axpy over the modes per loaded node component; when more
+    than a quarter of a body's tracked nodes are loaded, one dense transposed
+    product over all of them (vectorised dot products) is cheaper.
+    """
     for b in range(bi.shape[0]):
         n0 = bi[b, B_NODE0]
         n1 = bi[b, B_NODE1]
+        if n1 <= n0:
+            continue
         kind = bi[b, B_KIND]
         dof0 = bi[b, B_DOF0]
         ntr = bi[b, B_NTR]
         nm = bi[b, B_NM]
-        psi0 = bi[b, B_PSI0]
         qd0 = dof0 + ntr
+        loaded = 0
+        for i in range(n0, n1):
+            f0 = node_f[i, 0]
+            f1 = node_f[i, 1]
+            f2 = node_f[i, 2]
+            if f0 == 0.0 and f1 == 0.0 and f2 == 0.0:
+                continue
+            loaded += 1
+            for a in range(ntr):
+                q_gen[dof0 + a] += bf[b, 3 + 3 * a] * f0 + bf[b, 4 + 3 * a] * f1
+                q_gen[dof0 + a] += bf[b, 5 + 3 * a] * f2
+            if kind == KIND_ROTATING:  # to the body frame (in place: used below)
+                a = rot_a[b]
+                node_f[i, 0] = a[0, 0] * f0 + a[1, 0] * f1 + a[2, 0] * f2
+                node_f[i, 1] = a[0, 1] * f0 + a[1, 1] * f1 + a[2, 1] * f2
+                node_f[i, 2] = a[0, 2] * f0 + a[1, 2] * f1 + a[2, 2] * f2
+        if loaded == 0 or nm == 0:
+            continue
+        target = q_gen[qd0 : qd0 + nm]
+        if 4 * loaded > n1 - n0:
+            width = 3 * (n1 - n0)
+            flat = node_f.reshape(-1)[3 * n0 : 3 * n1]
+            psit = bi[b, B_PSIT0]
+            for j in range(nm):
+                row = fpool[psit + j * width : psit + (j + 1) * width]
+                acc = 0.0
+                for k in range(width):
+                    acc += row[k] * flat[k]
+                target[j] += acc
+            continue
+        psi0 = bi[b, B_PSI0]
         for i in range(n0, n1):
             f0 = node_f[i, 0]
             f1 = node_f[i, 1]
             f2 = node_f[i, 2]
             if f0 == 0.0 and f1 == 0.0 and f2 == 0.0:
                 continue  # nodes out of contact cost nothing here
-            for a in range(ntr):
-                q_gen[dof0 + a] += bf[b, 3 + 3 * a] * f0 + bf[b, 4 + 3 * a] * f1
-                q_gen[dof0 + a] += bf[b, 5 + 3 * a] * f2
-            if kind == KIND_ROTATING:
-                a = rot_a[b]
-                g0 = a[0, 0] * f0 + a[1, 0] * f1 + a[2, 0] * f2
-                g1 = a[0, 1] * f0 + a[1, 1] * f1 + a[2, 1] * f2
-                g2 = a[0, 2] * f0 + a[1, 2] * f1 + a[2, 2] * f2
-                f0, f1, f2 = g0, g1, g2
             row = psi0 + (i - n0) * 3 * nm
+            r0 = fpool[row : row + nm]
+            r1 = fpool[row + nm : row + 2 * nm]
+            r2 = fpool[row + 2 * nm : row + 3 * nm]
             for j in range(nm):
-                q_gen[qd0 + j] += (
-                    fpool[row + j] * f0 + fpool[row + nm + j] * f1 + fpool[row + 2 * nm + j] * f2
-                )
+                target[j] += r0[j] * f0 + r1[j] * f1 + r2[j] * f2
 
 
 @nb.njit(cache=True)

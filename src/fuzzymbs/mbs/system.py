@@ -14,10 +14,11 @@ Layout of ``CompiledSystem.data`` (the tuple passed to every kernel):
 
 ``(ndof, bi, bf, node_xbar, dof_k2, dof_c, fpool, ipool, ptab, lg, nfi, ci, cf)``
 
-* ``bi`` (bodies, 10) int: kind, first dof, n translations, n modes, tracked-node
+* ``bi`` (bodies, 11) int: kind, first dof, n translations, n modes, tracked-node
   range, offset of the tracked nodes' Psi block (node, xyz, mode) in ``fpool``,
   offset of the body matrices (translating: S^-1 then B = P C_t; rotating: G, C,
-  centrifugal load, Euler load), speed slot, speed profile index.
+  centrifugal load, Euler load), speed slot, speed profile index, offset of the
+  transposed Psi block (mode, node * 3).
 * ``bf`` (bodies, 15) float: origin, translation axes (3 rows), rotation axis.
 * ``node_xbar`` (tracked, 3): undeformed positions of the nodes contact needs.
 * ``dof_k2``, ``dof_c``: omega^2 and 2 zeta omega per coordinate (0 for translations).
@@ -246,7 +247,7 @@ def _compile(system: System) -> CompiledSystem:
         resolved.append((c, sb, mb, sn, mn))
     tracked_id: dict[tuple[str, int], int] = {}
     node_xbar = []
-    bi = np.zeros((len(bodies), 10), dtype=np.int64)
+    bi = np.zeros((len(bodies), 11), dtype=np.int64)
     bf = np.zeros((len(bodies), 15))
     translation_axes = {}
     for b, body in enumerate(bodies):
@@ -257,7 +258,9 @@ def _compile(system: System) -> CompiledSystem:
             tracked_id[(body.name, n)] = len(node_xbar)
             node_xbar.append(modal.node_positions[n])
         bi[b, K.B_NODE1] = len(node_xbar)
-        bi[b, K.B_PSI0] = pools.addf(modal.mode_shapes[nodes]) if nodes else 0
+        block = modal.mode_shapes[nodes]  # (node, xyz, mode)
+        bi[b, K.B_PSI0] = pools.addf(block) if nodes else 0
+        bi[b, K.B_PSIT0] = pools.addf(block.reshape(3 * len(nodes), -1).T) if nodes else 0
         bi[b, K.B_DOF0] = body_dofs[body.name].start
         bi[b, K.B_NTR] = body.n_translations
         bi[b, K.B_NM] = modal.n_modes
