@@ -59,13 +59,30 @@ class ModelSpec:
     options: Mapping[str, str] = field(default_factory=dict)
 
 
+class LazyFactory:
+    """A factory named ``"package.module:callable"``, imported on first call.
+
+    Lets a model package register itself without importing its heavy modules
+    (Numba kernels, FE assembly), so ``fuzzymbs info`` stays quick.
+    """
+
+    def __init__(self, reference: str) -> None:
+        self.reference = reference
+
+    def __call__(self, **options: Any) -> Any:
+        return load_callable(self.reference)(**options)
+
+    def __repr__(self) -> str:
+        return f"LazyFactory({self.reference!r})"
+
+
 _REGISTRY: dict[str, ModelSpec] = {}
 _builtins_loaded = False
 
 
 def register_model(
     name: str,
-    factory: Callable[..., Any],
+    factory: Callable[..., Any] | str,
     *,
     parameters: Mapping[str, ParameterInfo],
     outputs: Mapping[str, str],
@@ -78,8 +95,10 @@ def register_model(
     ----------
     name : str
         Name used in study files.
-    factory : callable
-        ``factory(**options)`` returns a batched model.
+    factory : callable or str
+        ``factory(**options)`` returns a batched model; or a reference
+        ``"package.module:callable"`` imported only when the model is built
+        (see :class:`LazyFactory`).
     parameters : mapping of str to ParameterInfo
         The sample columns the model accepts, with units.
     outputs : mapping of str to str
@@ -89,6 +108,8 @@ def register_model(
     options : mapping of str to str, optional
         Factory keyword options and a short description of each.
     """
+    if isinstance(factory, str):
+        factory = LazyFactory(factory)
     spec = ModelSpec(
         name=name,
         factory=factory,
