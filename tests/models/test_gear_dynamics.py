@@ -49,3 +49,23 @@ def test_dynamic_settings_validation(pair):
         DynamicSettings(points_per_mesh=16, harmonics=8)
     grid = DynamicSettings(speed_rpm=600.0, mesh_periods=5, output_periods=2).time_grid(pair)
     assert grid[0] == pytest.approx(3 / (20 * 600 / 60))
+
+
+def test_torque_history_scales_like_the_torque_and_pickles(pair):
+    # A constant factor 2 on the input torque (load torque follows its mean) must give
+    # the same DTE as doubling the sample torque: checks the torque-history plumbing.
+    import pickle
+
+    base = {"speed_rpm": 3000.0, "mesh_periods": 3, "output_periods": 1}
+    doubled = MubocoPR(
+        pair,
+        torque=100.0,
+        mode="dynamic",
+        damping=3000.0,
+        dynamic={**base, "torque_variation": lambda t: np.full_like(t, 2.0)},
+    )
+    clone = pickle.loads(pickle.dumps(doubled))  # the lambda is sampled, then dropped
+    plain = MubocoPR(pair, torque=100.0, mode="dynamic", damping=3000.0, dynamic=base)
+    a = clone({})["dte"]
+    b = plain({"torque": [200.0]})["dte"]
+    np.testing.assert_allclose(a, b, rtol=1e-12)

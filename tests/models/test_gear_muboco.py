@@ -153,3 +153,11 @@ def test_model_is_picklable_and_labelled(model):
     assert out["ste"].shape == (2, model.positions.size)
     assert list(clone.coords) == ["position"]
     assert out["failed"].dtype == bool and out["failure_reason"].shape == (2,)
+
+
+def test_failed_samples_are_flagged_not_averaged(model):
+    # a contact stiffness so low that the teeth would pass through each other
+    out = model({"contact_stiffness": [8e8, 1e2]})
+    assert out["failed"].tolist() == [False, True]
+    assert np.isnan(out["ste"][1]).all() and np.isfinite(out["ste"][0]).all()
+    assert out["failure_reason"][1] != ""

@@ -142,7 +142,7 @@ class DynamicPlan:
     inertia2: float
     tooth_inertia1: float
     tooth_inertia2: float
-    torque_factor: np.ndarray  # (2 n_steps + 1,) at half steps
+    torque_factor: np.ndarray | None  # (2 n_steps + 1,) at half steps; None: constant
     speed: float  # pinion rad/s
 
 
@@ -186,9 +186,8 @@ def make_plan(model: MubocoPR) -> DynamicPlan:
         settings.points_per_mesh * steps_per_output
     )
     half_times = np.arange(2 * n_steps + 1) * dt / 2
-    if settings.torque_variation is None:
-        factor = np.ones_like(half_times)
-    else:
+    factor = None
+    if settings.torque_variation is not None:
         factor = np.asarray(settings.torque_variation(half_times), dtype=float)
         if factor.shape != half_times.shape or not np.all(np.isfinite(factor)):
             raise InvalidParameterError(
@@ -362,9 +361,7 @@ def simulate(model: MubocoPR, samples: Mapping[str, Any]) -> dict[str, np.ndarra
     from fuzzymbs.models.gears.flank_contact import pack_geometry
     from fuzzymbs.models.gears.muboco import solve_static_batch
 
-    if getattr(model, "_plan", None) is None:
-        model._plan = make_plan(model)
-    plan: DynamicPlan = model._plan
+    plan: DynamicPlan = model.dynamic_plan
     settings: DynamicSettings = model.dynamic
     pair = model.pair
     cols = model.stiffness_columns(samples)
@@ -372,9 +369,11 @@ def simulate(model: MubocoPR, samples: Mapping[str, Any]) -> dict[str, np.ndarra
     z1, z2 = pair.pinion.teeth, pair.wheel.teeth
     g = pack_geometry(pair)
     pairs = model.pairs
-    # initial state: quasi-static equilibrium at mesh position 0
+    factor = np.ones(2 * plan.n_steps + 1) if plan.torque_factor is None else plan.torque_factor
+    # initial state: quasi-static equilibrium at mesh position 0 under the initial torque
     ste, _, _, _, status0, beta1, beta2 = solve_static_batch(
-        g, np.zeros(1), pairs, cols["torque"], cols["contact_stiffness"], model.contact_exponent,
+        g, np.zeros(1), pairs, cols["torque"] * factor[0], cols["contact_stiffness"],
+        model.contact_exponent,
         cols["pinion_tooth_stiffness"], cols["wheel_tooth_stiffness"],
     )  # fmt: skip
     initial = np.zeros((size, 4 + 2 * (z1 + z2)))
@@ -384,7 +383,7 @@ def simulate(model: MubocoPR, samples: Mapping[str, Any]) -> dict[str, np.ndarra
         initial[:, 4 + z1 + k % z2] = beta2[:, i]
     initial[:, 2] = plan.speed
     initial[:, 3] = -plan.speed * z1 / z2
-    mean_factor = float(np.mean(plan.torque_factor))
+    mean_factor = float(np.mean(factor))
     if settings.load_torque is None:
         load = cols["torque"] * mean_factor * z2 / z1
     else:
@@ -410,7 +409,7 @@ def simulate(model: MubocoPR, samples: Mapping[str, Any]) -> dict[str, np.ndarra
         ]
     )
     dte, status = simulate_batch(
-        g, pairs, z1, z2, initial, cols["torque"], load, params, plan.torque_factor,
+        g, pairs, z1, z2, initial, cols["torque"], load, params, factor,
         plan.dt, plan.n_steps, plan.first_output_step, plan.steps_per_output,
     )  # fmt: skip
     status = np.where(status0 != 0, status0, status)

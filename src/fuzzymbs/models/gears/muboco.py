@@ -17,6 +17,7 @@ theta2 r_b2 with both angles counter-clockwise.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -429,6 +430,12 @@ class MubocoPR:
             elif isinstance(dynamic, Mapping):
                 dynamic = DynamicSettings(**dynamic)
             self.dynamic = dynamic
+            from fuzzymbs.models.gears.dynamics import make_plan
+
+            # the plan holds the torque history as an array: the model stays picklable
+            # even when torque_variation is a lambda (it is dropped after sampling)
+            self.dynamic_plan = make_plan(self)
+            self.dynamic = dataclasses.replace(dynamic, torque_variation=None)
             self.coords = {"time": dynamic.time_grid(pair)}
             self.output_dims = {"dte": ("time",), "dte_spectrum": ("harmonic",)}
             self.coords["harmonic"] = np.arange(1, dynamic.harmonics + 1, dtype=float)
