@@ -50,3 +50,39 @@ def test_bad_references_and_names():
         load_callable("fuzzymbs.models.closed_form:nothing_here")
     with pytest.raises(InvalidParameterError, match=r"registered models are: .*product"):
         get_model("prodcut")
+
+
+def test_registered_name_is_found_without_importing_packages(monkeypatch):
+    available_models()
+    monkeypatch.setattr(registry, "_imported", set())
+    monkeypatch.setattr(registry, "_import_errors", {})
+    imported = []
+    monkeypatch.setattr(registry, "_import_builtin", imported.append)
+    registry.get_model("product")  # already registered: nothing is imported
+    assert imported == []
+
+
+def test_broken_builtin_package_is_reported_not_fatal(monkeypatch, caplog):
+    monkeypatch.setattr(registry, "_imported", set())
+    monkeypatch.setattr(registry, "_import_errors", {})
+    monkeypatch.setattr(
+        registry, "BUILTIN_PACKAGES", (*registry.BUILTIN_PACKAGES, "fuzzymbs.models.no_such_pkg")
+    )
+    assert "product" in available_models()  # the others still load
+    assert "no_such_pkg failed to import" in caplog.text
+    with pytest.raises(InvalidParameterError, match=r"no_such_pkg failed to import \("):
+        get_model("nope")
+
+
+def test_closed_form_study_does_not_import_gear_or_brake_packages():
+    import subprocess
+
+    code = (
+        "import sys; from fuzzymbs.study.registry import get_model; get_model('product'); "
+        "print(any(m.startswith(('fuzzymbs.models.gears', 'fuzzymbs.models.brake')) "
+        "for m in sys.modules))"
+    )
+    completed = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    )
+    assert completed.stdout.strip() == "False"

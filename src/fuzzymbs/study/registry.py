@@ -9,11 +9,14 @@ options as keyword arguments and returns a batched model.
 from __future__ import annotations
 
 import importlib
+import logging
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from fuzzymbs.errors import InvalidParameterError
+
+logger = logging.getLogger(__name__)
 
 #: Packages whose import registers the built-in models.
 BUILTIN_PACKAGES: tuple[str, ...] = (
@@ -77,7 +80,8 @@ class LazyFactory:
 
 
 _REGISTRY: dict[str, ModelSpec] = {}
-_builtins_loaded = False
+_imported: set[str] = set()
+_import_errors: dict[str, str] = {}
 
 
 def register_model(
@@ -122,13 +126,22 @@ def register_model(
     return spec
 
 
-def _load_builtins() -> None:
-    global _builtins_loaded
-    if _builtins_loaded:
+def _import_builtin(package: str) -> None:
+    """Import one built-in model package (once); a broken package is logged, not fatal."""
+    if package in _imported or package in _import_errors:
         return
-    _builtins_loaded = True
-    for package in BUILTIN_PACKAGES:
+    try:
         importlib.import_module(package)
+    except Exception as exc:  # one broken model package must not disable the others
+        _import_errors[package] = f"{type(exc).__name__}: {exc}"
+        logger.warning("built-in model package %s failed to import: %s", package, exc)
+    else:
+        _imported.add(package)
+
+
+def _load_builtins() -> None:
+    for package in BUILTIN_PACKAGES:
+        _import_builtin(package)
 
 
 def available_models() -> dict[str, ModelSpec]:
@@ -140,20 +153,30 @@ def available_models() -> dict[str, ModelSpec]:
 def get_model(name: str) -> ModelSpec:
     """Look up a registered model by name.
 
+    Built-in packages are imported one after another only until the name is
+    found, so a study of a closed-form model does not import the gear or brake
+    kernels.
+
     Raises
     ------
     InvalidParameterError
-        If no model of that name is registered; the message lists the known ones.
+        If no model of that name is registered; the message lists the known ones
+        (and built-in packages that failed to import).
     """
-    _load_builtins()
-    try:
-        return _REGISTRY[name]
-    except KeyError:
-        known = ", ".join(sorted(_REGISTRY)) or "(none)"
-        raise InvalidParameterError(
-            f"unknown model {name!r}; registered models are: {known}; "
-            "a user model is named 'package.module:callable'"
-        ) from None
+    for package in (None, *BUILTIN_PACKAGES):
+        if package is not None:
+            _import_builtin(package)
+        if name in _REGISTRY:
+            return _REGISTRY[name]
+    known = ", ".join(sorted(_REGISTRY)) or "(none)"
+    broken = "".join(
+        f"; built-in package {package} failed to import ({error})"
+        for package, error in _import_errors.items()
+    )
+    raise InvalidParameterError(
+        f"unknown model {name!r}; registered models are: {known}; "
+        f"a user model is named 'package.module:callable'{broken}"
+    )
 
 
 def load_callable(reference: str) -> Callable[..., Any]:
