@@ -98,7 +98,7 @@ def plot_output_membership(
     """
     lower = dataset[f"{output}_lower"]
     upper = dataset[f"{output}_upper"]
-    title = f"{output}"
+    title = f"{dataset.attrs.get('study_name', '')}: membership of {output}"
     if coord is not None:
         lower = lower.sel({coord: value}, method="nearest")
         upper = upper.sel({coord: value}, method="nearest")
