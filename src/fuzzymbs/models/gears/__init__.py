@@ -21,6 +21,7 @@ __all__ = [
     "GearPair",
     "MubocoPR",
     "SpurGear",
+    "gear_pair_dynamic_model",
     "gear_pair_model",
     "identify",
     "iso_mean_ste",
@@ -75,31 +76,42 @@ def make_pair(
     )
 
 
-def gear_pair_model(
-    torque: float = DEFAULT_TORQUE,
-    positions: int = 60,
-    mode: str = "static",
-    contact_exponent: float = 1.0,
-    damping: float = 0.0,
-    dynamic: dict[str, Any] | None = None,
-    **gear_options: Any,
-) -> MubocoPR:
-    """Factory of the registered ``"gear-pair"`` model (study-file options)."""
+def _pair_from_options(gear_options: dict[str, Any], valid_extra: list[str]) -> GearPair:
     from fuzzymbs.errors import InvalidParameterError
 
     unknown = set(gear_options) - set(DEFAULT_PAIR_OPTIONS)
     if unknown:
-        valid = [*DEFAULT_PAIR_OPTIONS, "torque", "positions", "mode", "contact_exponent"]
         raise InvalidParameterError(
             f"unknown gear-pair option(s) {sorted(unknown)}; valid: "
-            f"{sorted([*valid, 'damping', 'dynamic'])}"
+            f"{sorted([*DEFAULT_PAIR_OPTIONS, *valid_extra])}"
         )
-    pair = make_pair(**{**DEFAULT_PAIR_OPTIONS, **gear_options})
+    return make_pair(**{**DEFAULT_PAIR_OPTIONS, **gear_options})
+
+
+def gear_pair_model(
+    torque: float = DEFAULT_TORQUE,
+    positions: int = 60,
+    contact_exponent: float = 1.0,
+    **gear_options: Any,
+) -> MubocoPR:
+    """Factory of the registered ``"gear-pair"`` model: quasi-static STE."""
+    pair = _pair_from_options(gear_options, ["torque", "positions", "contact_exponent"])
+    return MubocoPR(pair, torque=torque, positions=positions, contact_exponent=contact_exponent)
+
+
+def gear_pair_dynamic_model(
+    torque: float = DEFAULT_TORQUE,
+    contact_exponent: float = 1.0,
+    damping: float = 3000.0,
+    dynamic: dict[str, Any] | None = None,
+    **gear_options: Any,
+) -> MubocoPR:
+    """Factory of the registered ``"gear-pair-dynamic"`` model: DTE and its harmonics."""
+    pair = _pair_from_options(gear_options, ["torque", "contact_exponent", "damping", "dynamic"])
     return MubocoPR(
         pair,
         torque=torque,
-        positions=positions,
-        mode=mode,
+        mode="dynamic",
         contact_exponent=contact_exponent,
         damping=damping,
         dynamic=dynamic,
@@ -108,30 +120,44 @@ def gear_pair_model(
 
 def _register() -> None:
     identified = identify(make_pair(**DEFAULT_PAIR_OPTIONS), DEFAULT_TORQUE)
+    parameters = {
+        "tooth_stiffness": ParameterInfo(
+            "N m/rad",
+            "rotational spring k_t of every tooth hinge (both gears)",
+            round(identified.tooth_stiffness, 1),
+        ),
+        "contact_stiffness": ParameterInfo(
+            "N/m",
+            "penalty stiffness k_con of the flank contact (units N/m^m1)",
+            float(f"{identified.contact_stiffness:.6g}"),
+        ),
+        "pinion_tooth_stiffness": ParameterInfo(
+            "N m/rad", "k_t of the pinion teeth only (NaN: use tooth_stiffness)", math.nan
+        ),
+        "wheel_tooth_stiffness": ParameterInfo(
+            "N m/rad", "k_t of the wheel teeth only (NaN: use tooth_stiffness)", math.nan
+        ),
+        "torque": ParameterInfo(
+            "N m", "pinion drive torque T1 (NaN: the model's torque option)", math.nan
+        ),
+    }
+    gear_options = {
+        "pinion_teeth": "z1",
+        "wheel_teeth": "z2",
+        "module": "module m [m]",
+        "face_width": "face width b [m]",
+        "pressure_angle_deg": "rack pressure angle [deg]",
+        "pinion_profile_shift": "x1",
+        "wheel_profile_shift": "x2",
+        "center_distance": "operating centre distance [m] (default: zero backlash)",
+        "youngs_modulus": "E [Pa]",
+        "poisson_ratio": "nu",
+        "density": "rho [kg/m^3]",
+    }
     register_model(
         "gear-pair",
         gear_pair_model,
-        parameters={
-            "tooth_stiffness": ParameterInfo(
-                "N m/rad",
-                "rotational spring k_t of every tooth hinge (both gears)",
-                round(identified.tooth_stiffness, 1),
-            ),
-            "contact_stiffness": ParameterInfo(
-                "N/m",
-                "penalty stiffness k_con of the flank contact (units N/m^m1)",
-                float(f"{identified.contact_stiffness:.6g}"),
-            ),
-            "pinion_tooth_stiffness": ParameterInfo(
-                "N m/rad", "k_t of the pinion teeth only (NaN: use tooth_stiffness)", math.nan
-            ),
-            "wheel_tooth_stiffness": ParameterInfo(
-                "N m/rad", "k_t of the wheel teeth only (NaN: use tooth_stiffness)", math.nan
-            ),
-            "torque": ParameterInfo(
-                "N m", "pinion drive torque T1 (NaN: the model's torque option)", math.nan
-            ),
-        },
+        parameters=parameters,
         outputs={"ste": "m"},
         description=(
             "MUBOCO-PR spur-gear pair (pseudo-rigid hinged teeth, flank contact): "
@@ -140,21 +166,26 @@ def _register() -> None:
         options={
             "torque": "design pinion torque T1 [N m] (identification, reference curve)",
             "positions": "number of mesh positions over one mesh period",
-            "mode": "'static' (STE) or 'dynamic' (DTE, outputs dte and dte_spectrum)",
             "contact_exponent": "m1 of the penalty law F = k delta^m1",
-            "damping": "contact damping c (dynamic mode)",
-            "dynamic": "dynamic-mode settings (speed_rpm, mesh_periods, ...)",
-            "pinion_teeth": "z1",
-            "wheel_teeth": "z2",
-            "module": "module m [m]",
-            "face_width": "face width b [m]",
-            "pressure_angle_deg": "rack pressure angle [deg]",
-            "pinion_profile_shift": "x1",
-            "wheel_profile_shift": "x2",
-            "center_distance": "operating centre distance [m] (default: zero backlash)",
-            "youngs_modulus": "E [Pa]",
-            "poisson_ratio": "nu",
-            "density": "rho [kg/m^3]",
+            **gear_options,
+        },
+    )
+    register_model(
+        "gear-pair-dynamic",
+        gear_pair_dynamic_model,
+        parameters=parameters,
+        outputs={"dte": "m", "dte_spectrum": "m"},
+        description=(
+            "MUBOCO-PR spur-gear pair in time: dynamic transmission error and its "
+            "amplitudes at the mesh frequency and harmonics"
+        ),
+        options={
+            "torque": "mean pinion torque T1 [N m] (identification)",
+            "contact_exponent": "m1 of the penalty law",
+            "damping": "contact damping c [N s/m] (viscous while in contact)",
+            "dynamic": "table: speed_rpm, mesh_periods, output_periods, points_per_mesh, "
+            "harmonics, pinion_inertia, wheel_inertia, load_torque, hinge_damping_ratio",
+            **gear_options,
         },
     )
 
