@@ -114,6 +114,9 @@ def test_invalid_pairs_are_rejected():
         GearPair(pinion, wheel, center_distance=0.139)
     with pytest.raises(InvalidParameterError, match="module"):
         GearPair(pinion, SpurGear(40, 5e-3, B))
+    # large positive shifts at the zero-backlash distance eat the tip clearance
+    with pytest.raises(InvalidParameterError, match="tip clearance"):
+        GearPair(SpurGear(40, M, B, profile_shift=1.0), SpurGear(40, M, B, profile_shift=1.0))
     # a long wheel addendum reaches below the pinion's form circle (start of its involute)
     with pytest.raises(InvalidParameterError, match="interference"):
         GearPair(

@@ -407,6 +407,12 @@ class GearPair:
             )
         if a >= p.tip_radius + w.tip_radius:
             raise InvalidParameterError(f"center_distance {a:.6g} m: the gears do not mesh")
+        for tip, root, name in ((p, w, "pinion"), (w, p, "wheel")):
+            if a - tip.tip_radius - root.root_radius <= 0.0:
+                raise InvalidParameterError(
+                    f"no tip clearance: the {name} tip reaches the mating root circle at "
+                    f"center_distance {a:.6g} m (reduce the addendum or the profile shift)"
+                )
         if self.contact_ratio < 1.0:
             raise InvalidParameterError(
                 f"contact ratio {self.contact_ratio:.4f} < 1 (center_distance {a:.6g} m): "
