@@ -39,7 +39,7 @@ the mean radius), 15 mm thick; caliper 130 mm wide, 6.2 kg.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -407,7 +407,20 @@ class _QuadraticElasticBody(ElasticBody):
 
 
 def _reduce(body: ElasticBody, n_modes: int, design: BrakeDesign, sets: dict) -> ModalBody:
-    return body.reduce(n_modes, method="modal", node_sets=sets, max_frequency=design.max_frequency)
+    """Modal truncation; node sets keep the grid order given here.
+
+    (The reduction stores node sets sorted by mesh index; the brake needs its
+    order -- spring pairs, polar grids -- so the sets are re-indexed here.)
+    """
+    modal = body.reduce(n_modes, method="modal", node_sets=sets, max_frequency=design.max_frequency)
+    ordered = {
+        name: np.searchsorted(modal.node_ids, nodes).astype(np.int64)
+        for name, nodes in sets.items()
+    }
+    for name, idx in ordered.items():
+        if not np.array_equal(modal.node_ids[idx], sets[name]):  # pragma: no cover - guard
+            raise RuntimeError(f"node set {name!r} of body {body.name!r} lost nodes")
+    return replace(modal, node_sets=ordered)
 
 
 def build_bodies(design: BrakeDesign | None = None) -> BrakeBodies:

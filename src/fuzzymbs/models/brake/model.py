@@ -257,6 +257,7 @@ class DiscBrake:
             chunk_size=chunk_size,
         )
         self.coords = self.simulation.coords
+        self.coord_units = {"time": "s"}
         self.output_dims = self.simulation.output_dims
         self.frequencies = {
             name: getattr(bodies, name).frequencies / (2 * np.pi)
