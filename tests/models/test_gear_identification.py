@@ -113,3 +113,18 @@ def test_reference_ste_is_the_double_single_step():
     frac = pair.contact_ratio - 1
     single = positions > frac
     assert ste[single].min() > 1.4 * ste[~single].max()
+
+
+def test_pe_integration_is_converged_and_near_iso():
+    pair = make_pair()
+    s = np.linspace(*pair.path_of_contact, 7)
+    coarse = tooth_compliance(pair.pinion, s)["total"]
+    fine = tooth_compliance(pair.pinion, s, points=4000)["total"]
+    np.testing.assert_allclose(coarse, fine, rtol=1e-4)  # trapezoidal rule, 600 points
+    # independent empirical estimate: the PE mean STE lies within ISO's +-25 % spread
+    from fuzzymbs.models.gears import iso_mean_ste
+
+    ident = identify(pair, 100.0)
+    positions = np.linspace(0, 1, 50, endpoint=False)
+    mean_pe = np.mean(reference_ste(pair, 100.0, positions, ident.contact_stiffness))
+    assert abs(mean_pe / iso_mean_ste(pair, 100.0) - 1.0) < 0.25
