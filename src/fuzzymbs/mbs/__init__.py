@@ -1,1 +1,59 @@
-"""Multibody engine: modal bodies, force laws, contact, integrators, eigenvalues."""
+"""Multibody engine: modal bodies, force laws, contact, integrators, eigenvalues.
+
+Public API (see docs/embs.md)::
+
+    from fuzzymbs.mbs import (System, FixedBody, TranslatingBody, RotatingBody,
+                              NodalForce, Spring, PenaltyContact, symmetric_contact,
+                              CartesianChart, PolarChart, Parameter, TimeProfile,
+                              NodeDisplacement, Coordinate, simulate, SimulationModel,
+                              simulate_reference, steady_state, eigenanalysis)
+
+Names load lazily so that importing the package does not import Numba kernels.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_LAZY: dict[str, str] = {
+    "ModalBody": "fuzzymbs.mbs.modal_body",
+    "FixedBody": "fuzzymbs.mbs.bodies",
+    "TranslatingBody": "fuzzymbs.mbs.bodies",
+    "RotatingBody": "fuzzymbs.mbs.bodies",
+    "NodalForce": "fuzzymbs.mbs.forces",
+    "Spring": "fuzzymbs.mbs.forces",
+    "PenaltyContact": "fuzzymbs.mbs.contact",
+    "symmetric_contact": "fuzzymbs.mbs.contact",
+    "CartesianChart": "fuzzymbs.mbs.contact",
+    "PolarChart": "fuzzymbs.mbs.contact",
+    "Parameter": "fuzzymbs.mbs.parameters",
+    "TimeProfile": "fuzzymbs.mbs.profiles",
+    "System": "fuzzymbs.mbs.system",
+    "CompiledSystem": "fuzzymbs.mbs.system",
+    "NodeDisplacement": "fuzzymbs.mbs.system",
+    "Coordinate": "fuzzymbs.mbs.system",
+    "simulate": "fuzzymbs.mbs.integrate",
+    "simulate_reference": "fuzzymbs.mbs.integrate",
+    "SimulationModel": "fuzzymbs.mbs.integrate",
+    "SimulationResult": "fuzzymbs.mbs.integrate",
+    "steady_state": "fuzzymbs.mbs.linearize",
+    "eigenanalysis": "fuzzymbs.mbs.linearize",
+    "lumped_modal_body": "fuzzymbs.mbs.lumped",
+    "rigid_body": "fuzzymbs.mbs.lumped",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'fuzzymbs.mbs' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
