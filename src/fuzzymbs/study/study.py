@@ -431,10 +431,14 @@ class Study:
         listed = "; ".join(f"sample {i}: {reasons[i]}" for i in indices[:5])
         more = f" (and {len(indices) - 5} more)" if len(indices) > 5 else ""
         levels = ", ".join(f"{mu:.4g}" for mu in self.plan.levels[np.asarray(touched)])
+        advice = (
+            "The core level (mu = 1) is among them, so no level can be bounded."
+            if np.asarray(touched).all()
+            else "Use on_failure='partial' to keep the complete levels."
+        )
         return (
             f"{len(indices)} of {len(self.plan)} samples of study {self.name!r} failed, "
-            f"so the alpha levels mu = {levels} cannot be bounded: {listed}{more}. "
-            "Use on_failure='partial' to keep the complete levels."
+            f"so the alpha levels mu = {levels} cannot be bounded: {listed}{more}. {advice}"
         )
 
     def _raise_if_failed(self, results: Mapping[int, ChunkResult], during: bool) -> None:
