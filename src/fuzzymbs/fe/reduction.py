@@ -397,6 +397,16 @@ def craig_bampton(
     free = body.free_dofs
     interior = np.setdiff1d(free, boundary)
     stiffness, mass = body.stiffness, body.mass_matrix
+    if body.is_free:
+        # K_II is singular exactly when some rigid motion leaves the interface DOFs at rest
+        restricted = body.rigid_body_modes()[boundary]
+        singular_values = np.linalg.svd(restricted, compute_uv=False)
+        if singular_values.size < 6 or singular_values[-1] < 1e-8 * singular_values[0]:
+            raise InvalidParameterError(
+                f"body {body.name!r}: the interior stiffness K_II is singular, the interface "
+                "does not hold the free body (some rigid motion leaves it at rest); use three "
+                "or more non-collinear interface nodes with all components, or clamp the body"
+            )
     k_ii = stiffness[interior][:, interior].tocsc()
     k_ib = stiffness[interior][:, boundary]
     try:
