@@ -112,6 +112,12 @@ def test_errors_are_reported_without_traceback(tmp_path):
     result = runner.invoke(app, ["demo", "no-such-demo", "--out", str(tmp_path)])
     assert result.exit_code == 1 and "shipped demos: " in result.output
     assert "quickstart" in result.output
+    occupied = tmp_path / "a-file"
+    occupied.write_text("")
+    study = resources.files("fuzzymbs") / "demos" / "quickstart" / "01-product.toml"
+    with resources.as_file(study) as path:
+        result = runner.invoke(app, ["run", str(path), "--out", str(occupied)])
+    assert result.exit_code == 1 and "is not a directory" in result.output
     result = runner.invoke(app, ["plot", str(tmp_path / "missing.nc")])
     assert result.exit_code == 1 and "no such file" in result.output
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fuzzymbs.errors import IncompleteResultError
+from fuzzymbs.errors import IncompleteResultError, InvalidParameterError
 
 logger = logging.getLogger(__name__)
 
@@ -61,6 +61,8 @@ def run_study_file(
 
     definition = load_study_file(path)
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InvalidParameterError(f"output folder {out} exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
     summary_path = out / SUMMARY_FILE
     try:
@@ -115,8 +117,6 @@ def demo_files(name: str) -> list[Any]:
         For an unknown demo name; the message lists the shipped demos.
     """
     from importlib import resources
-
-    from fuzzymbs.errors import InvalidParameterError
 
     folder = resources.files("fuzzymbs") / "demos" / name
     files = (
