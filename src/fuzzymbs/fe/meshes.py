@@ -531,7 +531,7 @@ def read_mesh(path: str | Path, boundaries: Mapping[str, CoordinateTest] | None 
         raise InvalidParameterError(f"mesh file {str(path)!r} does not exist")
     try:
         raw = meshio.read(path)
-    except Exception as error:  # meshio raises many types for unreadable files
+    except (Exception, SystemExit) as error:  # meshio raises many types, even SystemExit
         raise InvalidParameterError(
             f"mesh file {str(path)!r} could not be read by meshio: {error}"
         ) from error
