@@ -22,6 +22,15 @@ def test_registered_defaults_are_the_identified_values():
         model.identified.contact_stiffness, rel=1e-6
     )
     assert set(spec.outputs) == {"ste"}
+    # the demo study files state the same modal values
+    import tomllib
+
+    for study in ("01-ste-grid.toml", "02-ste-influence.toml"):
+        parameters = tomllib.loads((DEMO / study).read_text())["parameters"]
+        for name in ("tooth_stiffness", "contact_stiffness"):
+            assert parameters[name]["modal"] == pytest.approx(
+                spec.parameters[name].default, rel=1e-9
+            )
 
 
 def test_grid_demo_study(tmp_path):
