@@ -414,12 +414,16 @@ class MubocoPR:
             if reference:
                 from fuzzymbs.models.gears.potential_energy import reference_ste
 
+                # the PE reference is linear: its contact term is the linear secant
+                # (k_con of a nonlinear law is in N/m^m1 and cannot be used there)
+                linear_contact = (
+                    self.defaults["contact_stiffness"]
+                    if m1 == 1.0
+                    else identify(pair, torque, contact_exponent=1.0).contact_stiffness
+                )
                 self.reference = {
                     "ste": reference_ste(
-                        pair,
-                        torque,
-                        self.positions,
-                        contact_stiffness=self.defaults["contact_stiffness"],
+                        pair, torque, self.positions, contact_stiffness=linear_contact
                     )
                 }
         else:
