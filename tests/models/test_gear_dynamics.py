@@ -14,7 +14,7 @@ def pair():
 
 
 def test_slow_running_dte_approaches_the_static_ste(pair):
-    # At a mesh frequency far below the mesh resonance (100 Hz vs ~4.5 kHz) the dynamic
+    # At a mesh frequency far below the mesh resonance (100 Hz vs ~5 kHz) the dynamic
     # TE follows the quasi-static STE; the residual ringing after each change of the
     # number of pairs in contact is damped by the contact damping (zeta ~ 0.13).
     settings = {"speed_rpm": 300.0, "mesh_periods": 4, "output_periods": 2}
@@ -69,3 +69,53 @@ def test_torque_history_scales_like_the_torque_and_pickles(pair):
     a = clone({})["dte"]
     b = plain({"torque": [200.0]})["dte"]
     np.testing.assert_allclose(a, b, rtol=1e-12)
+
+
+def upward_crossing_frequency(signal, dt):
+    """Mean frequency [Hz] from linearly interpolated upward zero crossings."""
+    x = signal - signal.mean()
+    idx = np.nonzero((x[:-1] < 0) & (x[1:] >= 0))[0]
+    times = (idx - x[idx] / (x[idx + 1] - x[idx])) * dt
+    return 1.0 / np.mean(np.diff(times))
+
+
+@pytest.mark.parametrize(("tooth_stiffness", "tolerance"), [(np.inf, 0.005), (None, 0.02)])
+def test_torque_step_rings_at_the_mesh_natural_frequency(pair, tooth_stiffness, tolerance):
+    # Undamped response to a torque step (x2 at t > 0) in the double-contact zone rings
+    # at f = sqrt(k_mesh (r_b1^2/J1 + r_b2^2/J2)) / (2 pi), k_mesh of the closed form
+    # (pairs in parallel, 1/k_con + d1^2/k_t + d2^2/k_t). Rigid teeth: exact up to the
+    # frequency estimate (0.5 %); elastic teeth: tooth inertia (modes ~9x higher) and
+    # the drift of k_mesh along the zone allow 2 %.
+    import math
+
+    from fuzzymbs.models.gears.identification import hinge_lever_arm
+    from fuzzymbs.models.gears.potential_energy import contact_positions
+
+    settings = {
+        "speed_rpm": 1500.0,
+        "mesh_periods": 2,
+        "output_periods": 1,
+        "points_per_mesh": 1024,
+        "torque_variation": lambda t: np.where(t > 0, 2.0, 1.0),
+    }
+    model = MubocoPR(pair, torque=100.0, mode="dynamic", damping=0.0, dynamic=settings)
+    samples = {} if tooth_stiffness is None else {"tooth_stiffness": [tooth_stiffness]}
+    out = model(samples)
+    assert not out["failed"].any()
+    time = model.coords["time"]
+    position = np.arange(time.size) / 1024  # output starts at a whole mesh period
+    double = position < pair.contact_ratio - 1.0 - 0.02
+    measured = upward_crossing_frequency(out["dte"][0][double], time[1] - time[0])
+    k_con = model.defaults["contact_stiffness"]
+    k_t = model.defaults["tooth_stiffness"] if tooth_stiffness is None else tooth_stiffness
+    s = contact_positions(pair, np.array([0.3]))[0]
+    s = s[np.isfinite(s)]
+    d1 = hinge_lever_arm(pair.pinion, s)
+    d2 = hinge_lever_arm(pair.wheel, pair.line_of_action_length - s)
+    k_mesh = np.sum(1.0 / (1.0 / k_con + d1**2 / k_t + d2**2 / k_t))
+    inv_mass = (
+        pair.pinion.base_radius**2 / pair.pinion.body_inertia
+        + pair.wheel.base_radius**2 / pair.wheel.body_inertia
+    )
+    expected = math.sqrt(k_mesh * inv_mass) / (2 * math.pi)
+    assert measured == pytest.approx(expected, rel=tolerance)
