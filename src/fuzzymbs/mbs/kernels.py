@@ -302,13 +302,37 @@ def _node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node
         for k in range(width):
             pos[k] = 0.0
             vel[k] = 0.0
-        for j in range(nm):
+        # four modes per sweep: a quarter of the loads/stores of pos and vel per product
+        j = 0
+        while j + 4 <= nm:
+            r0 = fpool[psit + j * width : psit + (j + 1) * width]
+            r1 = fpool[psit + (j + 1) * width : psit + (j + 2) * width]
+            r2 = fpool[psit + (j + 2) * width : psit + (j + 3) * width]
+            r3 = fpool[psit + (j + 3) * width : psit + (j + 4) * width]
+            q0 = x[qd0 + j]
+            q1 = x[qd0 + j + 1]
+            q2 = x[qd0 + j + 2]
+            q3 = x[qd0 + j + 3]
+            v0 = x[ndof + qd0 + j]
+            v1 = x[ndof + qd0 + j + 1]
+            v2 = x[ndof + qd0 + j + 2]
+            v3 = x[ndof + qd0 + j + 3]
+            for k in range(width):
+                a = r0[k]
+                b_ = r1[k]
+                c = r2[k]
+                d = r3[k]
+                pos[k] += a * q0 + b_ * q1 + c * q2 + d * q3
+                vel[k] += a * v0 + b_ * v1 + c * v2 + d * v3
+            j += 4
+        while j < nm:
             qj = x[qd0 + j]
             vj = x[ndof + qd0 + j]
             row = fpool[psit + j * width : psit + (j + 1) * width]
             for k in range(width):
                 pos[k] += row[k] * qj
                 vel[k] += row[k] * vj
+            j += 1
         if kind == KIND_ROTATING:
             # x = o + A y, v = A (Omega e x y + ydot), y = xbar + u
             om = rot[b, 1]
@@ -489,9 +513,9 @@ def _map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
     """Generalised forces of the tracked nodes' forces: P^T F and Psi_k^T A^T F.
 
     Nodes without force (out of contact) are skipped: with few nodes in contact the
-    work is one contiguous axpy over the modes per loaded node component; when more
-    than a quarter of a body's tracked nodes are loaded, one dense transposed
-    product over all of them (vectorised dot products) is cheaper.
+    work is one contiguous axpy over the modes per loaded node; when more than a
+    quarter of a body's tracked nodes are loaded, one dense transposed product over
+    all of them (four modes per sweep, vectorised dot products) is cheaper.
     """
     for b in range(bi.shape[0]):
         n0 = bi[b, B_NODE0]
@@ -514,7 +538,7 @@ def _map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
             for a in range(ntr):
                 q_gen[dof0 + a] += bf[b, 3 + 3 * a] * f0 + bf[b, 4 + 3 * a] * f1
                 q_gen[dof0 + a] += bf[b, 5 + 3 * a] * f2
-            if kind == KIND_ROTATING:  # to the body frame (in place: used below)
+            if kind == KIND_ROTATING:  # to the body frame, in place (used below)
                 a = rot_a[b]
                 node_f[i, 0] = a[0, 0] * f0 + a[1, 0] * f1 + a[2, 0] * f2
                 node_f[i, 1] = a[0, 1] * f0 + a[1, 1] * f1 + a[2, 1] * f2
@@ -526,12 +550,34 @@ def _map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
             width = 3 * (n1 - n0)
             flat = node_f.reshape(-1)[3 * n0 : 3 * n1]
             psit = bi[b, B_PSIT0]
-            for j in range(nm):
+            j = 0
+            while j + 4 <= nm:
+                r0 = fpool[psit + j * width : psit + (j + 1) * width]
+                r1 = fpool[psit + (j + 1) * width : psit + (j + 2) * width]
+                r2 = fpool[psit + (j + 2) * width : psit + (j + 3) * width]
+                r3 = fpool[psit + (j + 3) * width : psit + (j + 4) * width]
+                a0 = 0.0
+                a1 = 0.0
+                a2 = 0.0
+                a3 = 0.0
+                for k in range(width):
+                    f = flat[k]
+                    a0 += r0[k] * f
+                    a1 += r1[k] * f
+                    a2 += r2[k] * f
+                    a3 += r3[k] * f
+                target[j] += a0
+                target[j + 1] += a1
+                target[j + 2] += a2
+                target[j + 3] += a3
+                j += 4
+            while j < nm:
                 row = fpool[psit + j * width : psit + (j + 1) * width]
                 acc = 0.0
                 for k in range(width):
                     acc += row[k] * flat[k]
                 target[j] += acc
+                j += 1
             continue
         psi0 = bi[b, B_PSI0]
         for i in range(n0, n1):
