@@ -10,14 +10,21 @@ from __future__ import annotations
 from typing import Any
 
 from fuzzymbs.models.brake.geometry import BrakeBodies, BrakeDesign, Material, build_bodies
-from fuzzymbs.models.brake.model import CONTACT_TREATMENTS, DEFAULTS, DiscBrake, brake_system
+from fuzzymbs.models.brake.model import (
+    CONTACT_TREATMENTS,
+    DEFAULTS,
+    OUTPUTS,
+    PARAMETERS,
+    DiscBrake,
+    brake_system,
+)
 from fuzzymbs.models.brake.stability import (
     BrakeStability,
     StabilityResult,
     growth_rate,
     stability_analysis,
 )
-from fuzzymbs.study.registry import ParameterInfo, register_model
+from fuzzymbs.study.registry import register_model
 
 __all__ = [
     "CONTACT_TREATMENTS",
@@ -35,29 +42,6 @@ __all__ = [
     "growth_rate",
     "stability_analysis",
 ]
-
-PARAMETERS = {
-    "pad_spring_stiffness": ParameterInfo(
-        "N/m", "k: each of the 25 pad-caliper springs (y) per pad", DEFAULTS["pad_spring_stiffness"]
-    ),
-    "caliper_spring_stiffness": ParameterInfo(
-        "N/m",
-        "k_c: each of the 4 caliper-ground springs (y), lower-pad side",
-        DEFAULTS["caliper_spring_stiffness"],
-    ),
-    "nodal_force": ParameterInfo(
-        "N", "F_n: each of the 25 nodal forces pressing a pad on the disc", DEFAULTS["nodal_force"]
-    ),
-    "disc_speed": ParameterInfo(
-        "rad/s", "omega: disc rotation speed about y", DEFAULTS["disc_speed"]
-    ),
-    "penalty_stiffness": ParameterInfo(
-        "N/m", "c_p: contact penalty per contact point", DEFAULTS["penalty_stiffness"]
-    ),
-    "friction_coefficient": ParameterInfo(
-        "-", "mu: Coulomb friction coefficient pad-disc", DEFAULTS["friction_coefficient"]
-    ),
-}
 
 OPTIONS = {
     "t_end": "end time [s] (default 0.01)",
@@ -124,7 +108,7 @@ register_model(
     "brake",
     brake_model,
     parameters=PARAMETERS,
-    outputs={"y_lpad": "m", "y_upad": "m", "y_cali": "m"},
+    outputs=OUTPUTS,
     description="elastic disc brake (disc, 2 pads, caliper; FE + modal reduction), "
     "pad and caliper displacements over time",
     options=OPTIONS,

@@ -38,8 +38,9 @@ from fuzzymbs.mbs.integrate import SimulationModel
 from fuzzymbs.mbs.parameters import Parameter
 from fuzzymbs.mbs.system import CompiledSystem, Coordinate, System
 from fuzzymbs.models.brake.geometry import BrakeBodies, BrakeDesign, build_bodies
+from fuzzymbs.study.registry import ParameterInfo
 
-__all__ = ["CONTACT_TREATMENTS", "DEFAULTS", "DiscBrake", "brake_system"]
+__all__ = ["CONTACT_TREATMENTS", "DEFAULTS", "OUTPUTS", "PARAMETERS", "DiscBrake", "brake_system"]
 
 #: The paper's values (THEORY section 4), SI units.
 DEFAULTS: dict[str, float] = {
@@ -61,6 +62,33 @@ _NON_NEGATIVE = (
 _POSITIVE = ("penalty_stiffness",)
 
 CONTACT_TREATMENTS = ("two-pass", "single-pass")
+
+PARAMETERS = {
+    "pad_spring_stiffness": ParameterInfo(
+        "N/m", "k: each of the 25 pad-caliper springs (y) per pad", DEFAULTS["pad_spring_stiffness"]
+    ),
+    "caliper_spring_stiffness": ParameterInfo(
+        "N/m",
+        "k_c: each of the 4 caliper-ground springs (y), lower-pad side",
+        DEFAULTS["caliper_spring_stiffness"],
+    ),
+    "nodal_force": ParameterInfo(
+        "N", "F_n: each of the 25 nodal forces pressing a pad on the disc", DEFAULTS["nodal_force"]
+    ),
+    "disc_speed": ParameterInfo(
+        "rad/s", "omega: disc rotation speed about y", DEFAULTS["disc_speed"]
+    ),
+    "penalty_stiffness": ParameterInfo(
+        "N/m", "c_p: contact penalty per contact point", DEFAULTS["penalty_stiffness"]
+    ),
+    "friction_coefficient": ParameterInfo(
+        "-", "mu: Coulomb friction coefficient pad-disc", DEFAULTS["friction_coefficient"]
+    ),
+}
+
+#: Outputs of :class:`DiscBrake` and their units (velocities only with ``velocities=True``).
+OUTPUTS = {"y_lpad": "m", "y_upad": "m", "y_cali": "m"}
+VELOCITY_OUTPUTS = {"v_lpad": "m/s", "v_upad": "m/s", "v_cali": "m/s"}
 
 _SIDES = {
     "lower": ("lower_pad", "patch_lower", "-y", "y"),
@@ -214,7 +242,7 @@ class DiscBrake:
         Samples per compiled call (all integrated in one parallel kernel call).
     """
 
-    parameters = tuple(DEFAULTS)
+    parameters = PARAMETERS
 
     def __init__(
         self,
@@ -258,6 +286,7 @@ class DiscBrake:
         )
         self.coords = self.simulation.coords
         self.coord_units = {"time": "s"}
+        self.outputs = {**OUTPUTS, **(VELOCITY_OUTPUTS if velocities else {})}
         self.output_dims = self.simulation.output_dims
         self.frequencies = {
             name: getattr(bodies, name).frequencies / (2 * np.pi)

@@ -1,0 +1,163 @@
+"""Benchmark of the disc-brake studies; prints one JSON line.
+
+    python benchmarks/brake_study.py [--quick]
+
+Measures, on this machine, after compilation (a warm-up call compiles or
+loads the Numba kernels):
+
+* ``study1_warm_s``: wall time of the 33-run study 1 (reduced method, k, k_c
+  +-10 %, F_n +-1 %, 10 ms at dt = 1e-6 s; all 33 samples in one compiled call,
+  prange over the samples). ``--quick``: 1 ms instead of 10 ms (the time
+  scales linearly with the steps; ``study1_warm_s_per_10ms`` extrapolates);
+* ``us_per_sample_step``: wall time per sample and RK4 step of that study
+  (4 right-hand-side evaluations), and ``us_per_rhs`` of one right-hand side
+  (single thread), split into contact passes, node kinematics and the rest;
+* ``large_*``: a streamed study of 9261 samples (grid method, 10 levels, the
+  three study-1 parameters) in chunks of 256 through a chunk store, with a
+  short end time (0.1 ms) so that it finishes here; peak resident memory of the
+  process (``ru_maxrss``) and the output memory a 10 ms study of the same
+  size would hold (N x 3 outputs x 2001 records x 8 bytes, plus the bounds).
+  ``--quick``: 1000 samples (grid, levels 4... the nearest grid size).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import sys
+import tempfile
+import time
+
+import numba
+import numpy as np
+
+from fuzzymbs.mbs import kernels as K
+from fuzzymbs.models.brake import DiscBrake
+from fuzzymbs.study.study import Study
+
+STUDY1 = {
+    "pad_spring_stiffness": {"type": "triangular", "modal": 200e3, "spread": 0.1},
+    "caliper_spring_stiffness": {"type": "triangular", "modal": 1e3, "spread": 0.1},
+    "nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01},
+}
+LEVELS = [0.0, 0.25, 0.5, 0.75, 1.0]
+
+
+@numba.njit
+def _repeat_rhs(n, x, dx, p, data, work):
+    for _ in range(n):
+        K.rhs(1e-4, x, dx, p, data, work)
+
+
+@numba.njit
+def _repeat_contact(n, x, p, data, work):
+    # data = (ndof, bi, bf, node_xbar, dof_k2, dof_c, fpool, ipool, ptab, lg, nfi, ci, cf)
+    bi, bf, fpool, ipool, ci, cf = data[1], data[2], data[6], data[7], data[11], data[12]
+    node_x, node_v, node_f, rot_a = work[1], work[2], work[3], work[5]
+    for _ in range(n):
+        for c in range(ci.shape[0]):
+            K._contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f)
+
+
+@numba.njit
+def _repeat_kinematics(n, x, data, work):
+    ndof, bi, bf, node_xbar, fpool = data[0], data[1], data[2], data[3], data[6]
+    q_gen, node_x, node_v, node_f, rot, rot_a = work
+    for _ in range(n):
+        K._node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
+        K._map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen)
+
+
+def rhs_profile(model: DiscBrake, repeats: int = 20000) -> dict[str, float]:
+    """Single-thread cost of one right-hand side at a loaded state (all points in contact)."""
+    compiled = model.compiled
+    p = compiled.parameters.values({})[0]
+    x = np.zeros(compiled.n_state)
+    x[compiled.body_dofs["lower_pad"].start] = 55e-6
+    x[compiled.body_dofs["upper_pad"].start] = -55e-6
+    dx = np.empty_like(x)
+    work = K.make_work(compiled.data)
+    out = {}
+    for name, func, args in (
+        ("us_per_rhs", _repeat_rhs, (x, dx, p, compiled.data, work)),
+        ("us_contact_passes", _repeat_contact, (x, p, compiled.data, work)),
+        ("us_node_kinematics_and_force_map", _repeat_kinematics, (x, compiled.data, work)),
+    ):
+        func(1, *args)
+        start = time.perf_counter()
+        func(repeats, *args)
+        out[name] = 1e6 * (time.perf_counter() - start) / repeats
+    out["tracked_nodes"] = int(compiled.data[3].shape[0])
+    out["contact_slave_nodes"] = int(compiled.data[11][:, K.C_NSLAVE].sum())
+    out["coordinates"] = int(compiled.n_dofs)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description="disc-brake study benchmark")
+    parser.add_argument("--quick", action="store_true", help="1 ms study 1, 1000-sample stream")
+    args = parser.parse_args()
+    t_end = 1e-3 if args.quick else 1e-2
+    report: dict[str, object] = {
+        "benchmark": "brake_study",
+        "quick": args.quick,
+        "threads": numba.get_num_threads(),
+        "cpus": os.cpu_count(),
+    }
+
+    model = DiscBrake(t_end=t_end)
+    model({"nodal_force": np.array([16e3, 16e3])})  # compile / load the kernels
+    study = Study(model, STUDY1, method="reduced", levels=LEVELS)
+    start = time.perf_counter()
+    result = study.run(chunk_size=len(study.plan), progress=False)
+    elapsed = time.perf_counter() - start
+    n_steps = round(t_end / 1e-6)
+    failed = int(np.asarray(result.dataset["sample_failed"]).sum())
+    report.update(
+        {
+            "study1_samples": len(study.plan),
+            "study1_t_end_s": t_end,
+            "study1_warm_s": round(elapsed, 3),
+            "study1_warm_s_per_10ms": round(elapsed * 1e-2 / t_end, 3),
+            "study1_failed": failed,
+            "us_per_sample_step": round(1e6 * elapsed / (len(study.plan) * n_steps), 2),
+        }
+    )
+    report.update(
+        {k: round(v, 3) if isinstance(v, float) else v for k, v in rhs_profile(model).items()}
+    )
+
+    levels = 4 if args.quick else 10  # grid: (2 m + 1)^3 samples: 729 or 9261
+    short = DiscBrake(t_end=1e-4)
+    big = Study(short, STUDY1, method="grid", levels=levels)
+    with tempfile.TemporaryDirectory() as store:
+        start = time.perf_counter()
+        big.run(chunk_size=256, store=store, progress=False, keep_raw=False)
+        big_elapsed = time.perf_counter() - start
+    n_big = len(big.plan)
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    records = 2001  # 10 ms at the default 5 us record interval
+    levels_count = levels + 1
+    raw_mb = n_big * 3 * records * 8 / 2**20
+    bounds_mb = 2 * levels_count * 3 * records * 8 / 2**20
+    report.update(
+        {
+            "large_samples": n_big,
+            "large_t_end_s": 1e-4,
+            "large_wall_s": round(big_elapsed, 2),
+            "large_peak_rss_mb": round(peak_mb, 1),
+            "large_10ms_raw_outputs_mb": round(raw_mb, 1),
+            "large_10ms_bounds_mb": round(bounds_mb, 2),
+            "large_10ms_estimated_hours": round(
+                report["us_per_sample_step"] * n_big * 10000 / 3.6e9, 2
+            ),
+        }
+    )
+    json.dump(report, sys.stdout)
+    sys.stdout.write("\n")
+
+
+if __name__ == "__main__":
+    main()
