@@ -142,17 +142,17 @@ def _register() -> None:
         ),
     }
     gear_options = {
-        "pinion_teeth": "z1",
-        "wheel_teeth": "z2",
-        "module": "module m [m]",
-        "face_width": "face width b [m]",
-        "pressure_angle_deg": "rack pressure angle [deg]",
-        "pinion_profile_shift": "x1",
-        "wheel_profile_shift": "x2",
+        "pinion_teeth": "z1 (default 20)",
+        "wheel_teeth": "z2 (default 40)",
+        "module": "module m [m] (default 4.5e-3)",
+        "face_width": "face width b [m] (default 20e-3)",
+        "pressure_angle_deg": "rack pressure angle [deg] (default 20)",
+        "pinion_profile_shift": "x1 (default 0)",
+        "wheel_profile_shift": "x2 (default 0)",
         "center_distance": "operating centre distance [m] (default: zero backlash)",
-        "youngs_modulus": "E [Pa]",
-        "poisson_ratio": "nu",
-        "density": "rho [kg/m^3]",
+        "youngs_modulus": "E [Pa] (default 2.1e11)",
+        "poisson_ratio": "nu (default 0.3)",
+        "density": "rho [kg/m^3] (default 7850)",
     }
     register_model(
         "gear-pair",
@@ -164,9 +164,9 @@ def _register() -> None:
             "quasi-static transmission error over one mesh period"
         ),
         options={
-            "torque": "design pinion torque T1 [N m] (identification, reference curve)",
-            "positions": "number of mesh positions over one mesh period",
-            "contact_exponent": "m1 of the penalty law F = k delta^m1",
+            "torque": "design pinion torque T1 [N m] (identification, reference; default 100)",
+            "positions": "number of mesh positions over one mesh period (default 60)",
+            "contact_exponent": "m1 of the penalty law F = k delta^m1 (default 1)",
             **gear_options,
         },
     )
@@ -180,9 +180,9 @@ def _register() -> None:
             "amplitudes at the mesh frequency and harmonics"
         ),
         options={
-            "torque": "mean pinion torque T1 [N m] (identification)",
-            "contact_exponent": "m1 of the penalty law",
-            "damping": "contact damping c [N s/m] (viscous while in contact)",
+            "torque": "mean pinion torque T1 [N m] (identification; default 100)",
+            "contact_exponent": "m1 of the penalty law (default 1)",
+            "damping": "contact damping c [N s/m] (viscous while in contact; default 3000)",
             "dynamic": "table: speed_rpm, mesh_periods, output_periods, points_per_mesh, "
             "harmonics, pinion_inertia, wheel_inertia, load_torque, hinge_damping_ratio",
             **gear_options,
