@@ -59,6 +59,9 @@ def test_contact_ratio_against_roll_angle_formula():
     assert pair.center_distance == pytest.approx(M * 60 / 2, rel=1e-14)
     assert pair.operating_pressure_angle == pytest.approx(math.radians(20), rel=1e-14)
     assert pair.mesh_period(100.0) == pytest.approx(2 * math.pi / 20 / 100.0)
+    # single-contact zone B-D has length (2 - eps) p_b
+    s_b, s_d = pair.single_contact_zone()
+    assert s_d - s_b == pytest.approx((2 - pair.contact_ratio) * pair.base_pitch, rel=1e-12)
 
 
 def test_zero_backlash_center_distance_with_profile_shift():

@@ -489,11 +489,3 @@ class GearPair:
         """Single-contact zone [s_B, s_D] on the line of action [m] (from T1)."""
         s_start, s_end = self.path_of_contact
         return s_end - self.base_pitch, s_start + self.base_pitch
-
-    def contact_radius_pinion(self, s: np.ndarray) -> np.ndarray:
-        """Pinion radius of the contact point at distance s from T1 [m]."""
-        return np.hypot(self.pinion.base_radius, s)
-
-    def contact_radius_wheel(self, s: np.ndarray) -> np.ndarray:
-        """Wheel radius of the contact point at distance s from T1 [m]."""
-        return np.hypot(self.wheel.base_radius, self.line_of_action_length - np.asarray(s))
