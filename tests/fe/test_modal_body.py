@@ -86,3 +86,22 @@ def test_reduce_body_errors():
         body.reduce(3, max_frequency=-1.0)
     with pytest.raises(InvalidParameterError, match="removes every mode"):
         body.reduce(3, max_frequency=1.0, cache=False)
+
+
+def test_index_node_sets_keep_their_order():
+    # spring pairs and polar grids rely on the order of explicit index arrays
+    body = ElasticBody(_pad_mesh(), 10e9, 0.25, 2500.0)
+    order = np.array([30, 2, 17, 5])
+    reduced = body.reduce(3, node_sets={"pairs": order, "top": "top"}, cache=False)
+    np.testing.assert_array_equal(reduced.node_ids[reduced.node_sets["pairs"]], order)
+    assert np.all(np.diff(reduced.node_ids[reduced.node_sets["top"]]) > 0)
+    with pytest.raises(InvalidParameterError, match="repeat"):
+        body.reduce(3, node_sets={"pairs": [1, 1]}, cache=False)
+
+
+def test_mode_signs_are_deterministic():
+    # the largest-magnitude entry of every full-DOF mode is positive
+    body = ElasticBody(_pad_mesh(), 10e9, 0.25, 2500.0)
+    modes = modal_truncation(body, 5).modes
+    largest = modes[np.argmax(np.abs(modes), axis=0), np.arange(5)]
+    assert np.all(largest > 0)

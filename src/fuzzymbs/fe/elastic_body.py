@@ -155,7 +155,11 @@ class ElasticBody:
         return np.flatnonzero(mask)
 
     def node_set(self, spec: FixedSpec) -> NDArray[np.int64]:
-        """Resolve a boundary name, coordinate predicate or index list to sorted node indices."""
+        """Resolve a node specification to node indices.
+
+        Boundary names and coordinate predicates give sorted indices; an index
+        array is checked and returned in the order given (spring pairs, grids).
+        """
         if spec is None:
             return np.zeros(0, dtype=np.int64)
         if isinstance(spec, str):
@@ -168,7 +172,7 @@ class ElasticBody:
                     f"got {mask.shape}"
                 )
             return np.flatnonzero(mask).astype(np.int64)
-        nodes = np.unique(np.asarray(spec))
+        nodes = np.asarray(spec).reshape(-1)
         if nodes.size and (
             not np.issubdtype(nodes.dtype, np.integer)
             or nodes.min() < 0
@@ -177,10 +181,12 @@ class ElasticBody:
             raise InvalidParameterError(
                 f"node indices must be integers in [0, {self.n_nodes}), got {spec!r}"
             )
+        if np.unique(nodes).size != nodes.size:
+            raise InvalidParameterError(f"node indices must not repeat, got {spec!r}")
         return nodes.astype(np.int64)
 
     def _resolve_fixed(self, fixed: FixedSpec) -> NDArray[np.int64]:
-        nodes = self.node_set(fixed)
+        nodes = np.unique(self.node_set(fixed))
         if fixed is not None and nodes.size == 0:
             raise InvalidParameterError(f"fixed={fixed!r} selects no node")
         return nodes

@@ -278,6 +278,9 @@ def _finish(
         elastic = elastic - rigid @ (rigid.T @ (mass @ elastic))
         values, modes = _orthonormalise(elastic, stiffness, mass)
     omega = _angular(values)
+    # deterministic sign: the largest-magnitude entry of each mode is positive
+    largest = np.argmax(np.abs(modes), axis=0)
+    modes = modes * np.where(modes[largest, np.arange(modes.shape[1])] < 0, -1.0, 1.0)
     dropped = np.zeros(0)
     if max_frequency is not None:
         keep = omega <= 2.0 * np.pi * max_frequency
