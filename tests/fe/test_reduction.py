@@ -133,3 +133,26 @@ def test_interface_on_clamped_nodes_is_refused(cantilever):
         static_correction(cantilever, 4, clamped)
     with pytest.raises(InvalidParameterError, match="interface_components"):
         static_correction(cantilever, 4, nodes_in_region(cantilever.mesh, "x_max"), (3,))
+
+
+def test_curved_disc_patch_static_load_is_exact_with_craig_bampton():
+    # clamped annulus (curved 27-node mesh), interface = an annular-sector patch on the top
+    # face with normal (z) components only; reference: full sparse static solve
+    from fuzzymbs.fe import annulus_mesh
+
+    mesh = annulus_mesh(0.1, 0.2, 0.01, 2, 12, 1)
+    disc = ElasticBody(mesh, 210e9, 0.3, 7850.0, fixed="inner")
+
+    def sector(x):
+        return (np.hypot(x[0], x[1]) >= 0.15 * (1 - 1e-9)) & (np.abs(x[1]) <= 0.06)
+
+    patch = nodes_in_region(mesh, "top", sector)
+    basis = craig_bampton(disc, 8, patch, interface_components=(2,))
+    _check_orthonormal(disc, basis)
+    load = np.zeros(disc.n_dofs)
+    load[3 * patch + 2] = -np.linspace(1.0, 2.0, patch.size) * 1e3  # uneven pressure
+    exact = disc.static_deflection(load)
+    reduced = _modal_static_response(basis, load)
+    assert np.abs(reduced - exact).max() < 1e-7 * np.abs(exact).max()
+    truncated = _modal_static_response(modal_truncation(disc, 8 + patch.size), load)
+    assert np.abs(truncated - exact).max() > 1e-3 * np.abs(exact).max()

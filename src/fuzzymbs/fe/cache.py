@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 __all__ = ["cache_dir", "clear", "load", "reduction_key", "store"]
 
 #: bump when the stored layout or the numerics of the reduction change
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 _ARRAY_FIELDS = (
     "node_ids",
