@@ -50,6 +50,8 @@ class Eigenanalysis:
     frequency : (B, 2n) damped frequency ``|Im| / (2 pi)`` [Hz].
     mode_shapes : (B, n, 2n) complex coordinate part of the eigenvectors (max-norm 1).
     unstable : (B, 2n) bool, ``Re lambda > tolerance * |lambda|``.
+    failed : (B,) bool, the steady state did not converge: that sample's eigenvalues,
+        ratios, frequencies and shapes are NaN (never numbers from a wrong state).
     jacobian : (B, 2n, 2n) state matrix A.
     steady_state : SteadyState it was linearised about.
     """
@@ -61,11 +63,12 @@ class Eigenanalysis:
     unstable: NDArray[np.bool_]
     jacobian: NDArray[np.float64]
     steady_state: SteadyState
+    failed: NDArray[np.bool_]
 
     @property
     def stable(self) -> NDArray[np.bool_]:
-        """(B,) True when no eigenvalue grows."""
-        return ~self.unstable.any(axis=1)
+        """(B,) True when no eigenvalue grows (False for failed samples)."""
+        return ~self.unstable.any(axis=1) & ~self.failed
 
 
 def _velocity_step(compiled: CompiledSystem) -> float:
@@ -80,9 +83,15 @@ def jacobian(
     states: NDArray[np.float64],
     t_lin: float = 0.0,
     columns: str = "all",
+    one_sided: bool = False,
 ) -> NDArray[np.float64]:
-    """Central-difference Jacobian of the state derivative, (B, 2n, 2n) (or (B, n, n) of the
-    accelerations w.r.t. the coordinates when ``columns="positions"``)."""
+    """Finite-difference Jacobian of the state derivative, (B, 2n, 2n) (or (B, n, n) of the
+    accelerations w.r.t. the coordinates when ``columns="positions"``).
+
+    Central differences by default. ``one_sided=True`` uses forward differences: at a
+    contact kink (a node with gap ~ 0) that picks the slope of one side, an element of
+    the generalised Jacobian, which keeps Newton's method from stalling there.
+    """
     batch, nstate = states.shape
     n = nstate // 2
     cols = np.arange(n) if columns == "positions" else np.arange(nstate)
@@ -91,15 +100,24 @@ def jacobian(
     h[:, : min(cols.size, n)] = 1e-5 * scale[:, None]
     if cols.size > n:
         h[:, n:] = _velocity_step(compiled)
-    pert = np.repeat(states[:, None, :], 2 * cols.size, axis=1)
     idx = np.arange(cols.size)
-    pert[:, 2 * idx, cols] += h
-    pert[:, 2 * idx + 1, cols] -= h
-    rows = np.repeat(np.arange(batch), 2 * cols.size)
-    f = evaluate_rhs(
-        compiled, params, rows, np.full(rows.size, t_lin), pert.reshape(-1, nstate)
-    ).reshape(batch, 2 * cols.size, nstate)
-    jac = (f[:, 0::2, :] - f[:, 1::2, :]) / (2.0 * h[:, :, None])  # (B, col, row)
+    if one_sided:
+        pert = np.repeat(states[:, None, :], cols.size + 1, axis=1)
+        pert[:, idx, cols] += h
+        rows = np.repeat(np.arange(batch), cols.size + 1)
+        f = evaluate_rhs(
+            compiled, params, rows, np.full(rows.size, t_lin), pert.reshape(-1, nstate)
+        ).reshape(batch, cols.size + 1, nstate)
+        jac = (f[:, :-1, :] - f[:, -1:, :]) / h[:, :, None]
+    else:
+        pert = np.repeat(states[:, None, :], 2 * cols.size, axis=1)
+        pert[:, 2 * idx, cols] += h
+        pert[:, 2 * idx + 1, cols] -= h
+        rows = np.repeat(np.arange(batch), 2 * cols.size)
+        f = evaluate_rhs(
+            compiled, params, rows, np.full(rows.size, t_lin), pert.reshape(-1, nstate)
+        ).reshape(batch, 2 * cols.size, nstate)
+        jac = (f[:, 0::2, :] - f[:, 1::2, :]) / (2.0 * h[:, :, None])  # (B, col, row)
     jac = np.swapaxes(jac, 1, 2)
     if columns == "positions":
         return jac[:, n:, :]
@@ -144,7 +162,7 @@ def steady_state(
             break
         rows = rows_all[active]
         st = np.concatenate([x[active], np.zeros((rows.size, n))], axis=1)
-        jac = jacobian(compiled, params[rows], st, t_lin, columns="positions")
+        jac = jacobian(compiled, params[rows], st, t_lin, columns="positions", one_sided=True)
         try:
             step = -np.linalg.solve(jac, res[active][..., None])[..., 0]
         except np.linalg.LinAlgError as exc:
@@ -207,6 +225,11 @@ def eigenanalysis(
     mag = np.abs(lam)
     with np.errstate(invalid="ignore", divide="ignore"):
         zeta = np.where(mag > 0, -lam.real / np.where(mag > 0, mag, 1.0), 0.0)
+    failed = ~st.converged
+    if failed.any():
+        lam[failed] = np.nan
+        zeta[failed] = np.nan
+        vec[failed] = np.nan
     return Eigenanalysis(
         eigenvalues=lam,
         damping_ratio=zeta,
@@ -215,4 +238,5 @@ def eigenanalysis(
         unstable=lam.real > tolerance * mag,
         jacobian=jac,
         steady_state=st,
+        failed=failed,
     )
