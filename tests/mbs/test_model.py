@@ -167,3 +167,16 @@ def test_node_displacement_output_of_elastic_translating_body():
     w = np.sqrt(2e4 / 1.0)
     ref = com + 2.0 / (4 * 1e4) * (1 - np.cos(w * t))
     np.testing.assert_allclose(res.outputs["top"][0], ref, atol=1e-9)
+
+
+def test_eigenanalysis_of_unconverged_state_is_nan_and_flagged():
+    from fuzzymbs.mbs.linearize import eigenanalysis, steady_state
+
+    from .systems import hoffmann_system
+
+    system = hoffmann_system(0.1).compile()
+    rough = steady_state(system, max_iter=1)  # one Newton step from x = 0: not converged
+    assert not rough.converged.any()
+    result = eigenanalysis(system, state=rough)
+    assert result.failed.all() and np.isnan(result.eigenvalues).all()
+    assert not result.stable.any()

@@ -83,14 +83,13 @@ def jacobian(
     states: NDArray[np.float64],
     t_lin: float = 0.0,
     columns: str = "all",
-    one_sided: bool = False,
 ) -> NDArray[np.float64]:
     """Finite-difference Jacobian of the state derivative, (B, 2n, 2n) (or (B, n, n) of the
     accelerations w.r.t. the coordinates when ``columns="positions"``).
 
-    Central differences by default. ``one_sided=True`` uses forward differences: at a
-    contact kink (a node with gap ~ 0) that picks the slope of one side, an element of
-    the generalised Jacobian, which keeps Newton's method from stalling there.
+    Central differences: exact up to rounding where the right-hand side is linear
+    (springs, penalty contact away from g = 0); at a node with gap ~ 0 they average the
+    two sides, which still gives Newton a usable (non-singular) direction.
     """
     batch, nstate = states.shape
     n = nstate // 2
@@ -101,23 +100,14 @@ def jacobian(
     if cols.size > n:
         h[:, n:] = _velocity_step(compiled)
     idx = np.arange(cols.size)
-    if one_sided:
-        pert = np.repeat(states[:, None, :], cols.size + 1, axis=1)
-        pert[:, idx, cols] += h
-        rows = np.repeat(np.arange(batch), cols.size + 1)
-        f = evaluate_rhs(
-            compiled, params, rows, np.full(rows.size, t_lin), pert.reshape(-1, nstate)
-        ).reshape(batch, cols.size + 1, nstate)
-        jac = (f[:, :-1, :] - f[:, -1:, :]) / h[:, :, None]
-    else:
-        pert = np.repeat(states[:, None, :], 2 * cols.size, axis=1)
-        pert[:, 2 * idx, cols] += h
-        pert[:, 2 * idx + 1, cols] -= h
-        rows = np.repeat(np.arange(batch), 2 * cols.size)
-        f = evaluate_rhs(
-            compiled, params, rows, np.full(rows.size, t_lin), pert.reshape(-1, nstate)
-        ).reshape(batch, 2 * cols.size, nstate)
-        jac = (f[:, 0::2, :] - f[:, 1::2, :]) / (2.0 * h[:, :, None])  # (B, col, row)
+    pert = np.repeat(states[:, None, :], 2 * cols.size, axis=1)
+    pert[:, 2 * idx, cols] += h
+    pert[:, 2 * idx + 1, cols] -= h
+    rows = np.repeat(np.arange(batch), 2 * cols.size)
+    f = evaluate_rhs(
+        compiled, params, rows, np.full(rows.size, t_lin), pert.reshape(-1, nstate)
+    ).reshape(batch, 2 * cols.size, nstate)
+    jac = (f[:, 0::2, :] - f[:, 1::2, :]) / (2.0 * h[:, :, None])  # (B, col, row)
     jac = np.swapaxes(jac, 1, 2)
     if columns == "positions":
         return jac[:, n:, :]
@@ -162,7 +152,7 @@ def steady_state(
             break
         rows = rows_all[active]
         st = np.concatenate([x[active], np.zeros((rows.size, n))], axis=1)
-        jac = jacobian(compiled, params[rows], st, t_lin, columns="positions", one_sided=True)
+        jac = jacobian(compiled, params[rows], st, t_lin, columns="positions")
         try:
             step = -np.linalg.solve(jac, res[active][..., None])[..., 0]
         except np.linalg.LinAlgError as exc:
