@@ -177,39 +177,67 @@ def _angular(values: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _orthonormalise(
-    basis: NDArray[np.float64], stiffness: sp.spmatrix, mass: sp.spmatrix
+    basis: NDArray[np.float64],
+    stiffness: sp.spmatrix,
+    mass: sp.spmatrix,
+    block_size: int = 32,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Re-orthonormalise a basis with the reduced eigenproblem.
 
-    The columns are first made mass-orthonormal by classical Gram-Schmidt with
-    re-orthogonalisation (CGS2, accurate to round-off whatever the conditioning
+    The columns are first made mass-orthonormal by block classical Gram-Schmidt
+    with re-orthogonalisation (CGS2): each block of columns is projected twice
+    against the accepted ones (matrix-matrix products), then orthonormalised
+    column by column (again twice), and finally polished against the accepted
+    columns once more. This is accurate to round-off whatever the conditioning
     of the basis: attachment modes of neighbouring nodes are nearly parallel,
-    and a Gram-matrix approach would square that conditioning). Columns whose
-    remainder falls below 1e-10 of their norm are linearly dependent and dropped.
-    Then ``Q^T K Q = V diag(omega^2) V^T`` and ``Psi = Q V``.
+    and a Gram-matrix (``T^T M T``) approach would square that conditioning.
+    Columns whose remainder falls below 1e-10 of their mass norm are linearly
+    dependent on the earlier ones and dropped. Then ``Q^T K Q = V diag(omega^2)
+    V^T`` and ``Psi = Q V``.
 
     Returns (omega^2 ascending, Psi).
     """
     n_dofs, n_columns = basis.shape
-    q = np.empty((n_dofs, n_columns))
-    mass_q = np.empty((n_dofs, n_columns))
-    kept = 0
-    for column in range(n_columns):
-        vector = basis[:, column].copy()
-        norm_before = np.sqrt(vector @ (mass @ vector))
-        if not np.isfinite(norm_before) or norm_before == 0.0:
-            raise InvalidParameterError("reduced basis has a zero or non-finite column")
-        vector /= norm_before
+    norms = np.sqrt(np.einsum("ij,ij->j", basis, mass @ basis))
+    if not np.all(np.isfinite(norms)) or np.any(norms <= 0.0):
+        raise InvalidParameterError("reduced basis has a zero or non-finite column")
+    basis = basis / norms
+    q_all = np.empty((n_dofs, n_columns))  # accepted columns q_all[:, :accepted]
+    mass_q_all = np.empty((n_dofs, n_columns))
+    accepted = 0
+    for start in range(0, n_columns, block_size):
+        q, mass_q = q_all[:, :accepted], mass_q_all[:, :accepted]
+        block = basis[:, start : start + block_size].copy()
         for _ in range(2):
-            vector -= q[:, :kept] @ (mass_q[:, :kept].T @ vector)
-        mass_vector = mass @ vector
-        norm = np.sqrt(max(float(vector @ mass_vector), 0.0))
-        if norm < 1e-10:
-            continue  # linearly dependent on the columns before it
-        q[:, kept] = vector / norm
-        mass_q[:, kept] = mass_vector / norm
-        kept += 1
-    q = q[:, :kept]
+            block -= q @ (mass_q.T @ block)
+        local = np.empty((n_dofs, block.shape[1]))
+        mass_local = np.empty((n_dofs, block.shape[1]))
+        kept = 0
+        for column in range(block.shape[1]):
+            vector = block[:, column]
+            for _ in range(2):
+                vector = vector - local[:, :kept] @ (mass_local[:, :kept].T @ vector)
+            mass_vector = mass @ vector
+            norm = np.sqrt(max(float(vector @ mass_vector), 0.0))
+            if norm < 1e-10:
+                continue  # linearly dependent on the columns before it
+            local[:, kept] = vector / norm
+            mass_local[:, kept] = mass_vector / norm
+            kept += 1
+        local, mass_local = local[:, :kept], mass_local[:, :kept]
+        if kept and q.shape[1]:
+            # polish: remove the round-off components along earlier blocks, then restore
+            # unit norms with the (near-identity) Gram matrix of the block
+            local -= q @ (mass_q.T @ local)
+            mass_local = mass @ local
+            gram = local.T @ mass_local
+            factor = la.cholesky(0.5 * (gram + gram.T), lower=True)
+            local = la.solve_triangular(factor, local.T, lower=True).T
+            mass_local = la.solve_triangular(factor, mass_local.T, lower=True).T
+        q_all[:, accepted : accepted + kept] = local
+        mass_q_all[:, accepted : accepted + kept] = mass_local
+        accepted += kept
+    q = q_all[:, :accepted]
     reduced_stiffness = q.T @ (stiffness @ q)
     values, rotation = la.eigh(0.5 * (reduced_stiffness + reduced_stiffness.T))
     return values, q @ rotation
