@@ -1,6 +1,6 @@
 """Nominal run of the disc brake: the three signals and their phase diagrams.
 
-    python examples/brake_nominal.py [--out docs/figures] [--stability]
+    python examples/brake_nominal.py [--out docs/figures] [--stability] [--studies DIR]
 
 Integrates the brake at the paper's values (THEORY section 4; 10 ms, dt = 1e-6 s,
 zero initial conditions) with the two-pass contact (the model's default) and,
@@ -11,7 +11,10 @@ quotes and writes
 * ``brake-phase.png``: phase diagrams (y, dy/dt) of the pads and the caliper;
 * with ``--stability``: ``brake-stability-speed.png``, the largest real part of
   the linearised brake against the disc speed, next to the growth rate measured
-  in time integrations (from rest, and from steady sliding plus a 1 nm push).
+  in time integrations (from rest, and from steady sliding plus a 1 nm push);
+* with ``--studies DIR`` (the output of ``fuzzymbs demo brake --out DIR``):
+  ``brake-study1-bands.png``, ``brake-study2-bands.png``, zoomed alpha-cut bands
+  and the width of the support over time, and the time-averaged relative influences.
 """
 
 from __future__ import annotations
@@ -42,7 +45,8 @@ def separation_time(y_l: np.ndarray, y_u: np.ndarray, t: np.ndarray, tol: float)
 def nominal(out: Path) -> dict:
     runs = {}
     for contact in ("two-pass", "single-pass"):
-        model = DiscBrake(contact=contact, velocities=True)
+        # every step recorded: the pads ring at ~30 kHz (33 us period)
+        model = DiscBrake(contact=contact, velocities=True, record_interval=1e-6)
         result = model({"nodal_force": np.array([16e3])})
         if result["failed"].any():
             raise RuntimeError(f"nominal {contact} run failed: {result['failure_reason']}")
@@ -71,17 +75,24 @@ def nominal(out: Path) -> dict:
     fig.savefig(out / "brake-signals.png", dpi=130)
     plt.close(fig)
 
-    fig, axes = plt.subplots(1, 3, figsize=(10.5, 3.6))
+    fig, axes = plt.subplots(1, 3, figsize=(12.0, 3.8), layout="constrained")
     r = runs["two-pass"]
     for ax, (key, label) in zip(axes, SIGNALS, strict=True):
         vel = r["v" + key[1:]]
-        sc = ax.scatter(1e6 * r[key], vel, c=1e3 * t, s=0.5, cmap="viridis")
-        ax.set_xlabel(f"{key} [um]")
-        ax.set_ylabel(f"d{key}/dt [m/s]")
+        scale, unit = (1e3, "mm/s") if key == "y_cali" else (1.0, "m/s")
+        xs, ys = (1e9, "nm") if key == "y_cali" else (1e6, "um")
+        for part, colour in (
+            (t < 2e-3, "tab:blue"),
+            ((t >= 2e-3) & (t < 6e-3), "tab:orange"),
+            (t >= 6e-3, "tab:green"),
+        ):
+            ax.plot(xs * r[key][part], scale * vel[part], lw=0.3, color=colour)
+        ax.set_xlabel(f"{key} [{ys}]")
+        ax.set_ylabel(f"d{key}/dt [{unit}]")
         ax.set_title(f"{label} (two-pass)", fontsize=9)
         ax.grid(alpha=0.3)
-    fig.colorbar(sc, ax=axes, label="time [ms]", shrink=0.9)
-    fig.savefig(out / "brake-phase.png", dpi=130, bbox_inches="tight")
+    axes[0].legend(["0-2 ms", "2-6 ms", "6-10 ms"], fontsize=8)
+    fig.savefig(out / "brake-phase.png", dpi=130)
     plt.close(fig)
     return summary
 
@@ -137,13 +148,75 @@ def stability_versus_speed(out: Path) -> dict:
     }
 
 
+def study_figure(result: Path, out: Path, stem: str) -> dict:
+    """Zoomed alpha-cut bands of a study's three signals and their mu = 0 width over time."""
+    import xarray
+
+    data = xarray.open_dataset(result)
+    t = data["time"].values
+    levels = data["level"].values
+    fig, axes = plt.subplots(3, 3, figsize=(12.0, 7.5), layout="constrained")
+    windows = ((0.0, 0.1e-3), (9.9e-3, 10e-3))
+    widths = {}
+    for row, (key, label) in enumerate(SIGNALS):
+        lower, upper = data[f"{key}_lower"].values, data[f"{key}_upper"].values
+        scale, unit = (1e9, "nm") if key == "y_cali" else (1e6, "um")
+        for col, (a, b) in enumerate(windows):
+            ax = axes[row, col]
+            m = (t >= a) & (t <= b)
+            for j, mu in enumerate(levels):
+                ax.fill_between(
+                    1e3 * t[m],
+                    scale * lower[j, m],
+                    scale * upper[j, m],
+                    color=plt.cm.Blues(0.25 + 0.7 * mu),
+                    lw=0,
+                    label=f"mu={mu:g}",
+                )
+            ax.set_title(f"{label}, {1e3 * a:g}-{1e3 * b:g} ms", fontsize=9)
+            ax.set_ylabel(f"{key} [{unit}]")
+            ax.grid(alpha=0.3)
+        width = upper[0] - lower[0]
+        widths[key] = {"max_support_width": float(width.max()), "at_s": float(t[width.argmax()])}
+        axes[row, 2].plot(1e3 * t, scale * width, lw=0.5)
+        axes[row, 2].set_title(f"{label}: width of the mu = 0 cut", fontsize=9)
+        axes[row, 2].set_ylabel(f"[{unit}]")
+        axes[row, 2].grid(alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("time [ms]")
+    axes[0, 0].legend(fontsize=7, ncol=2)
+    fig.savefig(out / f"{stem}-bands.png", dpi=120)
+    plt.close(fig)
+    rho = {}
+    for key, _ in SIGNALS:
+        rel = data[f"{key}_relative_influence"]
+        rho[key] = {}
+        for a, b in ((0.0, 2e-3), (2e-3, 5e-3), (5e-3, 10e-3)):
+            m = (t >= a) & (t < b)
+            rho[key][f"{1e3 * a:g}-{1e3 * b:g} ms"] = {
+                str(p): round(float(v), 3)
+                for p, v in zip(rel["parameter"].values, rel.values[:, m].mean(axis=1), strict=True)
+            }
+    return {"support_width": widths, "mean_relative_influence": rho}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/figures"))
     parser.add_argument("--stability", action="store_true", help="also the speed sweep")
+    parser.add_argument(
+        "--studies",
+        type=Path,
+        default=None,
+        help="output folder of `fuzzymbs demo brake`: zoomed band figures",
+    )
+    parser.add_argument("--skip-nominal", action="store_true")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    report = {"nominal": nominal(args.out)}
+    report = {} if args.skip_nominal else {"nominal": nominal(args.out)}
+    if args.studies is not None:
+        for name in ("brake-study1", "brake-study2"):
+            report[name] = study_figure(args.studies / name / "result.nc", args.out, name)
     if args.stability:
         report["stability"] = stability_versus_speed(args.out)
     print(json.dumps(report, indent=1))
