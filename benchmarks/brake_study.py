@@ -10,8 +10,11 @@ loads the Numba kernels):
   prange over the samples). ``--quick``: 1 ms instead of 10 ms (the time
   scales linearly with the steps; ``study1_warm_s_per_10ms`` extrapolates);
 * ``us_per_sample_step``: wall time per sample and RK4 step of that study
-  (4 right-hand-side evaluations), and ``us_per_rhs`` of one right-hand side
-  (single thread), split into contact passes, node kinematics and the rest;
+  (4 right-hand-side evaluations); ``cpu_us_per_sample_step`` the same in
+  process CPU time (all threads), which other jobs on the machine do not
+  inflate, and ``study1_idle_cores_s_per_10ms`` = CPU time / threads, the wall
+  time on idle cores; ``us_per_rhs`` CPU time of one right-hand side (single
+  thread), split into contact passes and node kinematics + force map;
 * ``large_*``: a streamed study of 9261 samples (grid method, 10 levels, the
   three study-1 parameters) in chunks of 256 through a chunk store, with a
   short end time (0.1 ms) so that it finishes here; peak resident memory of the
@@ -80,15 +83,15 @@ def rhs_profile(model: DiscBrake, repeats: int = 20000) -> dict[str, float]:
     dx = np.empty_like(x)
     work = K.make_work(compiled.data)
     out = {}
-    for name, func, args in (
+    for name, func, args in (  # process CPU time: single thread, robust against load
         ("us_per_rhs", _repeat_rhs, (x, dx, p, compiled.data, work)),
         ("us_contact_passes", _repeat_contact, (x, p, compiled.data, work)),
         ("us_node_kinematics_and_force_map", _repeat_kinematics, (x, compiled.data, work)),
     ):
         func(1, *args)
-        start = time.perf_counter()
+        start = time.process_time()
         func(repeats, *args)
-        out[name] = 1e6 * (time.perf_counter() - start) / repeats
+        out[name] = 1e6 * (time.process_time() - start) / repeats
     out["tracked_nodes"] = int(compiled.data[3].shape[0])
     out["contact_slave_nodes"] = int(compiled.data[11][:, K.C_NSLAVE].sum())
     out["coordinates"] = int(compiled.n_dofs)
@@ -110,9 +113,9 @@ def main() -> None:
     model = DiscBrake(t_end=t_end)
     model({"nodal_force": np.array([16e3, 16e3])})  # compile / load the kernels
     study = Study(model, STUDY1, method="reduced", levels=LEVELS)
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     result = study.run(chunk_size=len(study.plan), progress=False)
-    elapsed = time.perf_counter() - start
+    elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu_start
     n_steps = round(t_end / 1e-6)
     failed = int(np.asarray(result.dataset["sample_failed"]).sum())
     report.update(
@@ -123,6 +126,12 @@ def main() -> None:
             "study1_warm_s_per_10ms": round(elapsed * 1e-2 / t_end, 3),
             "study1_failed": failed,
             "us_per_sample_step": round(1e6 * elapsed / (len(study.plan) * n_steps), 2),
+            # CPU time of all threads: robust against other jobs sharing the machine;
+            # CPU time / threads is the wall time on otherwise idle cores
+            "study1_cpu_s": round(cpu, 3),
+            "cpu_us_per_sample_step": round(1e6 * cpu / (len(study.plan) * n_steps), 2),
+            "study1_idle_cores_s_per_10ms": round(cpu / numba.get_num_threads() * 1e-2 / t_end, 2),
+            "load_average_1min": round(os.getloadavg()[0], 2),
         }
     )
     report.update(
@@ -150,8 +159,9 @@ def main() -> None:
             "large_peak_rss_mb": round(peak_mb, 1),
             "large_10ms_raw_outputs_mb": round(raw_mb, 1),
             "large_10ms_bounds_mb": round(bounds_mb, 2),
-            "large_10ms_estimated_hours": round(
-                report["us_per_sample_step"] * n_big * 10000 / 3.6e9, 2
+            "large_10ms_idle_cores_hours": round(
+                report["cpu_us_per_sample_step"] * n_big * 1e4 / numba.get_num_threads() / 3.6e9,
+                2,
             ),
         }
     )
