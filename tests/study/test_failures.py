@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fuzzymbs import Triangular
-from fuzzymbs.errors import IncompleteResultError
+from fuzzymbs.errors import IncompleteResultError, ModelOutputError
 from fuzzymbs.study.study import Study
 
 
@@ -120,17 +120,31 @@ def test_all_failed():
         Study(always, PARAMETERS, levels=2).run(progress=False, on_failure="partial")
 
 
-def test_wrong_output_shape_is_reported():
-    def wrong(samples):
+class WrongBatch:
+    """Returns 3 rows whatever the batch size: a broken model, not a failed sample."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def __call__(self, samples):
+        self.calls += 1
         return {"z": np.zeros(3)}
 
-    with pytest.raises(IncompleteResultError, match="leading axis must be the batch"):
-        Study(wrong, PARAMETERS, levels=1).run(progress=False)
+
+@pytest.mark.parametrize("on_failure", ["raise", "partial"])
+def test_wrong_output_shape_is_a_model_error_not_a_failed_sample(on_failure):
+    # the contract violation raises at once (no sample-by-sample retry, no "partial" result)
+    # and names the batch the model was called with
+    model = WrongBatch()
+    study = Study(model, PARAMETERS, levels=1)
+    with pytest.raises(ModelOutputError, match=r"shape \(3,\).*batch of 5 .*samples 0 to 4"):
+        study.run(progress=False, on_failure=on_failure, chunk_size=5)
+    assert model.calls == 1
 
 
 def test_complex_output_is_reported_not_truncated():
     def spectrum(samples):
         return {"z": samples["x1"] * (1 + 1j)}
 
-    with pytest.raises(IncompleteResultError, match="output 'z' is complex"):
+    with pytest.raises(ModelOutputError, match="output 'z' is complex"):
         Study(spectrum, PARAMETERS, levels=1).run(progress=False)

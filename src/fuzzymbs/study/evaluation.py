@@ -102,6 +102,9 @@ def evaluate_chunk(
 
     If the batched call raises, the samples are re-evaluated one by one so
     only the failing ones are marked failed (with the exception as reason).
+    Outputs that break the model contract (not a dict, wrong leading axis,
+    complex or non-numeric values) are a bug of the model, not a failed
+    sample: they raise at once, without re-evaluating sample by sample.
 
     Parameters
     ----------
@@ -113,11 +116,15 @@ def evaluate_chunk(
         Index of the chunk's first sample in the plan.
     outputs : sequence of str, optional
         Outputs to keep (default: all the model returns).
+
+    Raises
+    ------
+    ModelOutputError
+        The model's return value breaks the contract (names the samples).
     """
     size = len(next(iter(columns.values())))
     try:
-        data, failed, reasons = _checked_outputs(model(dict(columns)), size, outputs)
-        return ChunkResult(start, start + size, data, failed, reasons.astype(str))
+        raw = model(dict(columns))
     except Exception as exc:
         if size == 1:
             return ChunkResult(
@@ -127,6 +134,14 @@ def evaluate_chunk(
                 np.ones(1, dtype=bool),
                 np.array([f"{type(exc).__name__}: {exc}"]),
             )
+    else:
+        try:
+            data, failed, reasons = _checked_outputs(raw, size, outputs)
+        except ModelOutputError as exc:
+            raise ModelOutputError(
+                f"{exc} (model called with samples {start} to {start + size - 1}, B = {size})"
+            ) from None
+        return ChunkResult(start, start + size, data, failed, reasons.astype(str))
     # Isolate the failing samples: one call per sample, only after a batched call raised.
     singles = [
         evaluate_chunk(model, {k: v[i : i + 1] for k, v in columns.items()}, start + i, outputs)
