@@ -209,6 +209,7 @@ def test_evaluate_rejects_bad_chunk_size(chunk_size):
         ({"levels": [0.1, 1.0]}, "levels"),
         ({"levels": [0.0, float("nan"), 1.0]}, "levels"),
         ({"levels": True}, "levels"),
+        ({"levels": 2.0}, "levels must be an int >= 1"),
         ({"method": "extended", "nonmonotonic": ["zz"]}, "unknown parameters"),
         ({"method": "reduced", "nonmonotonic": ["a"]}, "only used by method='extended'"),
     ],

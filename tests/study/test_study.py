@@ -165,3 +165,19 @@ def test_netcdf3_fallback_roundtrip(tmp_path, monkeypatch):
     reopened = StudyResult.open(path)
     assert reopened.dataset.identical(result.dataset)
     assert reopened.failed.any() and reopened.status == "partial"
+
+
+@pytest.mark.parametrize("chunk_size", [0, -3, 1.5, True, "4"])
+def test_bad_chunk_size_is_named(chunk_size):
+    study = Study("product", {"x1": Triangular(1, 2, 3)}, levels=1)
+    with pytest.raises(InvalidParameterError, match="chunk_size must be a positive int"):
+        study.run(progress=False, chunk_size=chunk_size)
+
+
+def test_chunk_size_one_equals_one_chunk():
+    # the same samples in 1-sample chunks or in one chunk give bit-identical bounds
+    study = Study("product", {"x1": Triangular(1, 2, 3), "x2": Triangular(9, 10, 11)}, levels=2)
+    single = study.run(progress=False, chunk_size=1).dataset
+    whole = study.run(progress=False, chunk_size=len(study.plan)).dataset
+    np.testing.assert_array_equal(single["z_lower"].values, whole["z_lower"].values)
+    np.testing.assert_array_equal(single["z_upper"].values, whole["z_upper"].values)

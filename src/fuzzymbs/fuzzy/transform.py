@@ -82,6 +82,11 @@ def make_levels(levels: int | ArrayLike) -> NDArray[np.float64]:
         raise InvalidPlanError(
             f"levels must be an int >= 1 or a list of numbers from 0 to 1, got {levels!r}"
         ) from None
+    if mus.ndim == 0:
+        raise InvalidPlanError(
+            f"levels must be an int >= 1 (number of steps) or a list from 0 to 1, got "
+            f"{levels!r} of type {type(levels).__name__}"
+        )
     if (
         mus.ndim != 1
         or mus.size < 2

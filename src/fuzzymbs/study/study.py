@@ -309,11 +309,15 @@ class Study:
             raise InvalidParameterError(
                 f"on_failure={on_failure!r}; allowed: {', '.join(ON_FAILURE)}"
             )
-        if chunk_size is not None and (not isinstance(chunk_size, int) or chunk_size < 1):
+        if chunk_size is not None and (
+            isinstance(chunk_size, bool)
+            or not isinstance(chunk_size, int | np.integer)
+            or chunk_size < 1
+        ):
             raise InvalidParameterError(f"chunk_size must be a positive int, got {chunk_size!r}")
         started = time.perf_counter()
         count = len(self.plan)
-        size = chunk_size or DEFAULT_CHUNK_SIZE
+        size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
         chunk_store = None
         if store is not None:
             chunk_store = ChunkStore.open(store, self.identity(), count, size, resume=resume)
