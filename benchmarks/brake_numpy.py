@@ -255,9 +255,7 @@ class NumpyRHS:
         j1 = np.where(j + 1 < nv, j + 1, 0)
         grid = c["grid"]
         corners = np.stack([grid[i, j], grid[i + 1, j], grid[i + 1, j1], grid[i, j1]], axis=1)
-        weights = np.stack(
-            [(1 - xi) * (1 - eta), xi * (1 - eta), xi * eta, (1 - xi) * eta], axis=1
-        )
+        weights = np.stack([(1 - xi) * (1 - eta), xi * (1 - eta), xi * eta, (1 - xi) * eta], axis=1)
         normal = c["normals"][i, j]
         if rotating:
             normal = normal @ a.T
@@ -301,8 +299,9 @@ class NumpyRHS:
             else:
                 angle = rot[b][0]
                 vecs = self.fpool[v0 : v0 + 3 * nm].reshape(3, nm)
+                cos, sin = np.cos(angle), np.sin(angle)
                 q_gen[dof0 : dof0 + nm] += magnitude * (
-                    np.cos(angle) * vecs[0] + (1 - np.cos(angle)) * vecs[1] - np.sin(angle) * vecs[2]
+                    cos * vecs[0] + (1 - cos) * vecs[1] - sin * vecs[2]
                 )
         if len(self.contacts):
             self.stats.calls += 1

@@ -1,0 +1,224 @@
+"""Brake study 1 (33 runs) with fuzzymbs against per-sample baselines.
+
+fuzzymbs: ``Study("brake", ...)`` with k, k_c +-10 % and F_n +-1 %, reduced
+method on mu = 0, .25, .5, .75, 1 (33 runs), RK4 at dt = 1e-6 s, all 33 samples
+in one compiled, sample-parallel call. Full mode integrates the paper's 10 ms;
+``--quick`` integrates 1 ms and reports the 10 ms figure as ten times that
+(the cost per step is constant; the JSON says which end time was run).
+
+Baselines, one sample at a time (each reports its cost per sample-step and
+the figure scaled to 33 samples x 10 000 steps; they run a subset of steps):
+
+* ``numpy_loop``: :mod:`brake_numpy` -- the same equations in plain NumPy,
+  Python RK4 loop. Its trajectory is compared with the kernel's.
+* ``solve_ivp``: SciPy ``solve_ivp`` on the engine's compiled right-hand side
+  (one call per evaluation), at the loosest tolerance whose error against a
+  tight DOP853 reference is no larger than fuzzymbs's RK4 error over the same
+  window (RK45 and DOP853 are both tried; the cheaper one counts).
+"""
+
+from __future__ import annotations
+
+import inspect
+import time
+from typing import Any
+
+import numpy as np
+from bench_common import best_time, log
+
+from fuzzymbs.fuzzy.numbers import Triangular
+from fuzzymbs.study.study import Study
+
+DT = 1e-6
+RECORD = 5e-6
+STUDY_END = 0.01
+OUTPUTS = ("y_lpad", "y_upad", "y_cali")
+NOMINAL = {"pad_spring_stiffness": 200e3, "caliper_spring_stiffness": 1e3, "nodal_force": 16e3}
+
+
+def brake_study(t_end: float = STUDY_END, chunk_size: int = 33) -> Study:
+    """Study 1 of the paper: 33 runs of the brake (reduced method, 5 levels)."""
+    k, kc, fn = (NOMINAL[n] for n in NOMINAL)
+    return Study(
+        "brake",
+        {
+            "pad_spring_stiffness": Triangular(0.9 * k, k, 1.1 * k),
+            "caliper_spring_stiffness": Triangular(0.9 * kc, kc, 1.1 * kc),
+            "nodal_force": Triangular(0.99 * fn, fn, 1.01 * fn),
+        },
+        method="reduced",
+        levels=[0.0, 0.25, 0.5, 0.75, 1.0],
+        outputs=list(OUTPUTS),
+        model_options={"t_end": t_end, "chunk_size": chunk_size},
+        name="brake-study1-bench",
+    )
+
+
+def brake_model(t_end: float, record_interval: float = RECORD) -> Any:
+    """The registered brake model with the given end time (defaults otherwise)."""
+    from fuzzymbs.models.brake import brake_model as factory
+
+    return factory(t_end=t_end, record_interval=record_interval)
+
+
+def output_matrix(model: Any) -> np.ndarray:
+    """Rows w with output = w . state, in the order of OUTPUTS."""
+    compiled = model.compiled
+    return np.array([compiled.output_functional(model.simulation.outputs[n]) for n in OUTPUTS])
+
+
+def parameter_row(model: Any, sample: dict[str, float] | None = None) -> np.ndarray:
+    """The compiled parameter row of one sample (defaults where not given)."""
+    columns = {k: np.atleast_1d(float(v)) for k, v in (sample or NOMINAL).items()}
+    return model.compiled.parameters.values(columns)
+
+
+def engine_rhs(model: Any, params: np.ndarray) -> Any:
+    """f(t, x) of one sample through the engine's public ``evaluate_rhs`` (compiled kernel)."""
+    from fuzzymbs.mbs.integrate import evaluate_rhs
+
+    compiled = model.compiled
+    rows = np.zeros(1, dtype=np.int64)
+    scalar_time = "t" in inspect.signature(evaluate_rhs).parameters
+
+    def f(t: float, x: np.ndarray) -> np.ndarray:
+        when = float(t) if scalar_time else np.array([t])
+        return evaluate_rhs(compiled, params, rows, when, x[None, :])[0]
+
+    return f
+
+
+def kernel_outputs(model: Any, sample: dict[str, float] | None = None) -> np.ndarray:
+    """(3, T) outputs of one sample from the compiled batched kernel."""
+    columns = {k: np.atleast_1d(float(v)) for k, v in (sample or NOMINAL).items()}
+    result = model(columns)
+    return np.array([result[n][0] for n in OUTPUTS])
+
+
+# ------------------------------------------------------------------------------ baselines
+def numpy_loop(steps: int, record_every: int = 5) -> dict[str, Any]:
+    """Per-sample-step cost of the NumPy RK4 loop, its agreement with the kernel, contact stats."""
+    from brake_numpy import NumpyRHS, rk4_numpy
+
+    model = brake_model(steps * DT, record_every * DT)
+    rhs = NumpyRHS(model.compiled.data, parameter_row(model)[0])
+    x0 = np.zeros(model.compiled.n_state)
+    w = output_matrix(model)
+    rk4_numpy(rhs, x0, DT, 2, 1, w)  # warm-up
+    rhs.stats.__init__()
+    start = time.perf_counter()
+    baseline = rk4_numpy(rhs, x0, DT, steps, record_every, w)
+    per_step = (time.perf_counter() - start) / steps
+    kernel = kernel_outputs(model)
+    scale = np.max(np.abs(kernel), axis=1)
+    return {
+        "seconds_per_sample_step": per_step,
+        "steps_timed": steps,
+        "max_abs_diff_m": float(np.max(np.abs(baseline - kernel))),
+        "max_rel_diff": float(np.max(np.max(np.abs(baseline - kernel), axis=1) / scale)[()]),
+        "active_fraction": rhs.stats.active / max(rhs.stats.checked, 1),
+    }
+
+
+def _error(y: np.ndarray, reference: np.ndarray) -> float:
+    """Largest output error relative to that output's largest magnitude."""
+    scale = np.max(np.abs(reference), axis=1)
+    return float(np.max(np.max(np.abs(y - reference), axis=1) / scale))
+
+
+def solve_ivp_matched(window: float, quick: bool) -> dict[str, Any]:
+    """solve_ivp at the tolerance that matches RK4's error over ``window`` seconds."""
+    import scipy.integrate
+
+    model = brake_model(window)
+    params = parameter_row(model)
+    f = engine_rhs(model, params)
+    f(0.0, np.zeros(model.compiled.n_state))  # compile / load
+    times = model.coords["time"]
+    w = output_matrix(model)
+    x0 = np.zeros(model.compiled.n_state)
+
+    def solve(method: str, rtol: float, atol: float) -> tuple[np.ndarray, float, int]:
+        start = time.perf_counter()
+        sol = scipy.integrate.solve_ivp(
+            f, (0.0, window), x0, method=method, t_eval=times, rtol=rtol, atol=atol
+        )
+        elapsed = time.perf_counter() - start
+        if not sol.success:
+            raise RuntimeError(f"solve_ivp {method} rtol={rtol}: {sol.message}")
+        return w @ sol.y, elapsed, int(sol.nfev)
+
+    reference, ref_seconds, _ = solve("DOP853", 1e-13, 1e-18)
+    rk4 = kernel_outputs(model)
+    rk4_error = _error(rk4, reference)
+    log(f"brake: RK4 (dt = 1 us) error over {window * 1e3:g} ms: {rk4_error:.2e}")
+    tried = []
+    best = None
+    for method in ("RK45", "DOP853"):
+        for exponent in range(4, 14):
+            rtol = 10.0**-exponent
+            y, seconds, nfev = solve(method, rtol, rtol * 1e-6)
+            err = _error(y, reference)
+            tried.append({"method": method, "rtol": rtol, "error": err, "seconds": seconds})
+            if err <= rk4_error:
+                if best is None or seconds < best["seconds"]:
+                    best = {"method": method, "rtol": rtol, "atol": rtol * 1e-6}
+                    best.update({"error": err, "seconds": seconds, "nfev": nfev})
+                break
+            if seconds > (20.0 if quick else 120.0):
+                break  # this method cannot reach the error in reasonable time
+    if best is None:
+        raise RuntimeError(f"no solve_ivp tolerance reached the RK4 error {rk4_error:.2e}")
+    return {
+        "window_s": window,
+        "rk4_error": rk4_error,
+        "reference_seconds": ref_seconds,
+        "chosen": best,
+        "tried": tried,
+        "seconds_per_sample_step": best["seconds"] / round(window / DT),
+    }
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    """Time the brake study and the per-sample baselines; return the figures."""
+    end = 1e-3 if quick else STUDY_END
+    study = brake_study(end)
+    runs = len(study.plan)
+    steps = round(end / DT)
+    log(f"brake: {runs} runs x {steps} steps; warm-up (compile or load cache)")
+    brake_study(20 * DT).run(progress=False)  # compiles the kernels (or loads the cache)
+    study_seconds = best_time(lambda: study.run(progress=False), repeat=1 if not quick else 2)
+    scale_to_paper = STUDY_END / end
+    per_sample_step = study_seconds / (runs * steps)
+    log(f"brake: study {study_seconds:.2f} s for {end * 1e3:g} ms ({per_sample_step * 1e6:.2f} us)")
+
+    total_steps = runs * round(STUDY_END / DT)
+    numpy_result = numpy_loop(60 if quick else 400)
+    log(f"brake: numpy loop {numpy_result['seconds_per_sample_step'] * 1e3:.2f} ms/sample-step")
+    ivp = solve_ivp_matched(2e-4 if quick else 1e-3, quick)
+    log(f"brake: solve_ivp {ivp['chosen']} -> {ivp['seconds_per_sample_step'] * 1e6:.1f} us")
+    study_paper = study_seconds * scale_to_paper
+    numpy_seconds = numpy_result["seconds_per_sample_step"] * total_steps
+    ivp_seconds = ivp["seconds_per_sample_step"] * total_steps
+    return {
+        "brake_runs": runs,
+        "brake_end_time_run_s": end,
+        "brake_study_seconds": study_paper,
+        "brake_study_seconds_measured": study_seconds,
+        "brake_seconds_per_sample_step": per_sample_step,
+        "brake_numpy_loop_seconds_per_sample_step": numpy_result["seconds_per_sample_step"],
+        "brake_numpy_loop_steps_timed": numpy_result["steps_timed"],
+        "brake_numpy_loop_seconds_scaled": numpy_seconds,
+        "brake_numpy_loop_max_rel_diff": numpy_result["max_rel_diff"],
+        "brake_contact_active_fraction": numpy_result["active_fraction"],
+        "brake_speedup_vs_numpy_loop": numpy_seconds / study_paper,
+        "brake_solve_ivp": ivp,
+        "brake_solve_ivp_seconds_scaled": ivp_seconds,
+        "brake_speedup_vs_solve_ivp": ivp_seconds / study_paper,
+    }
+
+
+if __name__ == "__main__":
+    import json
+
+    print(json.dumps(run(quick=True)))
