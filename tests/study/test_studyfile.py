@@ -113,6 +113,27 @@ BAD_CASES = {
         VALID.replace("levels = [0, 0.5, 1]", "levels = [0, 0.7, 0.5, 1]"),
         r"key 'study\.levels'.*strictly increasing",
     ),
+    # TOML values are typed: a boolean or a string is not a count (pydantic would coerce them)
+    "levels as boolean": (
+        VALID.replace("levels = [0, 0.5, 1]", "levels = true"),
+        r"key 'study\.levels'.*int >= 1 \(e\.g\. 4\) or an increasing list",
+    ),
+    "levels as string": (
+        VALID.replace("levels = [0, 0.5, 1]", 'levels = "4"'),
+        r"key 'study\.levels'.*int >= 1 \(e\.g\. 4\) or an increasing list",
+    ),
+    "levels fractional": (
+        VALID.replace("levels = [0, 0.5, 1]", "levels = 4.5"),
+        r"key 'study\.levels'.*int >= 1 \(e\.g\. 4\) or an increasing list",
+    ),
+    "chunk size as boolean": (
+        VALID.replace("chunk_size = 16", "chunk_size = true"),
+        r"key 'run\.chunk_size'.*valid integer",
+    ),
+    "chunk size as string": (
+        VALID.replace("chunk_size = 16", 'chunk_size = "16"'),
+        r"key 'run\.chunk_size'.*valid integer",
+    ),
     "missing model": (
         VALID.replace('name = "damped-oscillator"', ""),
         r"missing required key 'model\.name'",

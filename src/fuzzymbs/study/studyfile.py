@@ -37,7 +37,7 @@ ON_FAILURE = ("raise", "fail-fast", "partial")
 
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=False)
+    model_config = ConfigDict(extra="forbid", strict=True)  # TOML is typed: no "4" or true for 4
 
 
 class StudySection(_Section):
@@ -49,6 +49,16 @@ class StudySection(_Section):
     levels: int | list[float] = 4
     outputs: list[str] | None = None
     nonmonotonic: list[str] = Field(default_factory=list)
+
+    @field_validator("levels", mode="before")
+    @classmethod
+    def _check_levels_type(cls, value: Any) -> Any:
+        if isinstance(value, bool) or not isinstance(value, int | list):
+            raise ValueError(
+                "levels must be an int >= 1 (e.g. 4) or an increasing list from 0 to 1 "
+                "(e.g. [0, 0.5, 1])"
+            )
+        return value
 
     @field_validator("levels")
     @classmethod
