@@ -48,6 +48,8 @@ def test_iso_tr_6336_30_example_1():
 
 
 def test_low_line_load_reduces_stiffness():
+    # ISO 6336-1 method B: below F_t K_A / b = 100 N/mm, c' is scaled by (F_t K_A / b / 100)^0.25;
+    # 50 N/mm gives 0.5^0.25 exactly (closed form, round-off tolerance)
     full = iso_tooth_stiffness((20, 40), (0, 0), 1.6)
     low = iso_tooth_stiffness((20, 40), (0, 0), 1.6, line_load=50.0)
     assert low.single / full.single == pytest.approx(0.5**0.25, rel=1e-12)
