@@ -73,6 +73,10 @@ def test_invalid_parameters_rejected(model):
         spec.factory(design={"disc_radius": 0.2})
     with pytest.raises(InvalidParameterError, match="contact"):
         DiscBrake(contact="three-pass")
+    with pytest.raises(InvalidParameterError, match="disc_clamp"):
+        BrakeDesign(disc_clamp="bolted").validate()
+    with pytest.raises(InvalidParameterError, match="disc_thickness"):
+        BrakeDesign(disc_thickness=-0.01).validate()
 
 
 def test_registered_parameters_match_the_model(model):

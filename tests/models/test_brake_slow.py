@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fuzzymbs.models.brake import DEFAULTS, DiscBrake
+from fuzzymbs.mbs.linearize import steady_state
+from fuzzymbs.models.brake import DEFAULTS, BrakeDesign, DiscBrake
 from fuzzymbs.study.study import Study
 
 pytestmark = pytest.mark.slow
@@ -61,3 +62,20 @@ def test_study1_runs_and_nodal_force_dominates_the_pads():
     assert mean["caliper_spring_stiffness"] < 1e-2
     lower, upper = data["y_lpad_lower"].values, data["y_lpad_upper"].values
     assert (upper >= lower).all()
+
+
+def test_hat_clamp_breaks_the_mirror_symmetry():
+    # Clamping the disc only at the lower edge of its bore (a one-sided hat) anchors its
+    # lower face: the disc's compression and the friction load reach the support
+    # asymmetrically, and the static pad offsets differ by micrometres (steady sliding:
+    # +59.5 / -53.8 um), while the symmetric clamp keeps them equal.
+    offsets = {}
+    for clamp in ("inner", "hat"):
+        compiled = DiscBrake(BrakeDesign(disc_clamp=clamp), t_end=1e-4).compiled
+        st = steady_state(compiled)
+        assert st.converged.all()
+        y_l = st.x[0, compiled.body_dofs["lower_pad"].start]
+        y_u = st.x[0, compiled.body_dofs["upper_pad"].start]
+        offsets[clamp] = y_l + y_u
+    assert abs(offsets["inner"]) < 1e-8
+    assert abs(offsets["hat"]) > 1e-6

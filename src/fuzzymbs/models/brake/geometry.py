@@ -39,14 +39,13 @@ the mean radius), 15 mm thick; caliper 130 mm wide, 6.2 kg.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, replace
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
-from skfem import Basis, BilinearForm, ElementHex2, ElementVector, Mesh, MeshHex2, asm
-from skfem.helpers import dot
-from skfem.models.elasticity import lame_parameters, linear_elasticity
+from skfem import Mesh
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.fe.elastic_body import ElasticBody
@@ -92,6 +91,11 @@ class BrakeDesign:
     disc_radial_elements, disc_circumferential_elements : int
         27-node hexahedra of the disc mesh (one through the thickness). The
         radial node spacing must give the 4 patch radii (see module docstring).
+    disc_clamp : {"inner", "hat"}
+        ``"inner"``: the whole inner cylinder r = disc_inner_radius is clamped
+        (mirror-symmetric about the disc mid-plane). ``"hat"``: only its edge on
+        the lower face (y = 0) is clamped, a crude model of a hat joined to the
+        friction ring on one side; it breaks the mirror symmetry.
     pad_thickness : float
         Pad thickness (lining + back plate) [m].
     caliper_width, caliper_jaw_thickness, caliper_bridge_thickness : float
@@ -117,6 +121,7 @@ class BrakeDesign:
     caliper_jaw_thickness: float = 0.025
     caliper_bridge_thickness: float = 0.025
     caliper_clearance: float = 0.010
+    disc_clamp: str = "inner"
     disc_material: Material = field(default=GREY_CAST_IRON)
     pad_material: Material = field(default=PAD_EQUIVALENT)
     caliper_material: Material = field(default=STEEL)
@@ -204,6 +209,10 @@ class BrakeDesign:
         for name in ("disc_modes", "pad_modes", "caliper_modes"):
             if int(getattr(self, name)) < 1:
                 raise InvalidParameterError(f"brake design {name} must be >= 1")
+        if self.disc_clamp not in ("inner", "hat"):
+            raise InvalidParameterError(
+                f"brake design disc_clamp must be 'inner' or 'hat', got {self.disc_clamp!r}"
+            )
         if self.pad_radii[0] <= self.disc_inner_radius:
             raise InvalidParameterError("brake design: the pads reach the clamped hat radius")
 
@@ -378,49 +387,26 @@ def _caliper_sets(
 # ---------------------------------------------------------------------------- bodies
 
 
-@BilinearForm
-def _vector_mass(u, v, w):  # scikit-fem form signature
-    return dot(u, v)
-
-
-class _QuadraticElasticBody(ElasticBody):
-    """ElasticBody whose 27-node hexahedra are integrated with 3 x 3 x 3 Gauss points.
-
-    Brake-local adapter: ``ElasticBody._assemble`` picks the quadrature order with
-    ``isinstance(mesh, MeshHex1)``, which is also true for ``MeshHex2`` (a
-    subclass), so quadratic meshes get 2 x 2 x 2 points: a rank-deficient mass
-    matrix and spurious zero-energy modes. This assembles the same matrices
-    (DOF 3 j + c, scikit-fem's interleaved ElementVector order) with the vector
-    forms at the full order. Remove once fuzzymbs.fe integrates MeshHex2 fully.
-    """
-
-    def _assemble(self) -> None:
-        if not isinstance(self.mesh, MeshHex2):
-            super()._assemble()
-            return
-        basis = Basis(self.mesh, ElementVector(ElementHex2()), intorder=4)
-        lam, mu = lame_parameters(self.youngs_modulus, self.poisson_ratio)
-        stiffness = asm(linear_elasticity(lam, mu), basis)
-        mass = self.density * asm(_vector_mass, basis)
-        self._stiffness = ((stiffness + stiffness.T) * 0.5).tocsr()
-        self._mass = ((mass + mass.T) * 0.5).tocsr()
-
-
 def _reduce(body: ElasticBody, n_modes: int, design: BrakeDesign, sets: dict) -> ModalBody:
-    """Modal truncation; node sets keep the grid order given here.
-
-    (The reduction stores node sets sorted by mesh index; the brake needs its
-    order -- spring pairs, polar grids -- so the sets are re-indexed here.)
-    """
+    """Modal truncation keeping the node sets in the (grid, spring-pair) order given."""
     modal = body.reduce(n_modes, method="modal", node_sets=sets, max_frequency=design.max_frequency)
-    ordered = {
-        name: np.searchsorted(modal.node_ids, nodes).astype(np.int64)
-        for name, nodes in sets.items()
-    }
-    for name, idx in ordered.items():
-        if not np.array_equal(modal.node_ids[idx], sets[name]):  # pragma: no cover - guard
-            raise RuntimeError(f"node set {name!r} of body {body.name!r} lost nodes")
-    return replace(modal, node_sets=ordered)
+    for name, nodes in sets.items():  # springs pair nodes by position in the set
+        if not np.array_equal(modal.node_ids[modal.node_sets[name]], nodes):
+            raise RuntimeError(f"node set {name!r} of body {body.name!r} lost its order")
+    return modal
+
+
+def _disc_clamp(design: BrakeDesign) -> str | Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
+    """Clamped disc nodes: the inner cylinder, or (``"hat"``) its lower-face edge only."""
+    if design.disc_clamp == "inner":
+        return "inner"
+    limit = design.disc_inner_radius * (1.0 + 1e-9)  # tolerance: nodes from cos/sin
+    height = 1e-9 * design.disc_thickness
+
+    def lower_edge(x: NDArray[np.float64]) -> NDArray[np.bool_]:
+        return (np.hypot(x[0], x[2]) <= limit) & (x[1] <= height)
+
+    return lower_edge
 
 
 def build_bodies(design: BrakeDesign | None = None) -> BrakeBodies:
@@ -448,8 +434,13 @@ def build_bodies(design: BrakeDesign | None = None) -> BrakeBodies:
         "patch_lower": _grid_nodes(dnodes, boundary_nodes(dmesh, "bottom"), radii, angles, "disc"),
     }
     m = design.disc_material
-    disc = _QuadraticElasticBody(
-        dmesh, m.youngs_modulus, m.poisson_ratio, m.density, fixed="inner", name="disc"
+    disc = ElasticBody(
+        dmesh,
+        m.youngs_modulus,
+        m.poisson_ratio,
+        m.density,
+        fixed=_disc_clamp(design),
+        name="disc",
     )
 
     pads = {}
@@ -459,16 +450,12 @@ def build_bodies(design: BrakeDesign | None = None) -> BrakeBodies:
         pmesh = pad_mesh(design, side)
         sets = _pad_sets(design, pmesh, side)
         back_positions[side] = mesh_nodes(pmesh)[sets["back"]]
-        body = _QuadraticElasticBody(
-            pmesh, m.youngs_modulus, m.poisson_ratio, m.density, name=f"{side}_pad"
-        )
+        body = ElasticBody(pmesh, m.youngs_modulus, m.poisson_ratio, m.density, name=f"{side}_pad")
         pads[side] = _reduce(body, design.pad_modes, design, sets)
 
     cmesh = caliper_mesh(design)
     m = design.caliper_material
-    caliper = _QuadraticElasticBody(
-        cmesh, m.youngs_modulus, m.poisson_ratio, m.density, name="caliper"
-    )
+    caliper = ElasticBody(cmesh, m.youngs_modulus, m.poisson_ratio, m.density, name="caliper")
     caliper_sets = _caliper_sets(design, cmesh, back_positions)
     return BrakeBodies(
         disc=_reduce(disc, design.disc_modes, design, disc_sets),
