@@ -203,3 +203,15 @@ def test_bad_files_name_file_key_and_allowed(tmp_path, case):
 def test_missing_file(tmp_path):
     with pytest.raises(StudyFileError, match="not found"):
         load_study_file(tmp_path / "nothing.toml")
+
+
+def test_literal_choices_match_the_engine():
+    # pydantic needs literal types; they must list exactly what the engine and runner accept
+    from typing import get_args
+
+    from fuzzymbs.fuzzy.transform import METHODS
+    from fuzzymbs.study.study import ON_FAILURE
+    from fuzzymbs.study.studyfile import RunSection, StudySection
+
+    assert get_args(StudySection.model_fields["method"].annotation) == METHODS
+    assert get_args(RunSection.model_fields["on_failure"].annotation) == ON_FAILURE

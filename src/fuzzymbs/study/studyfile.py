@@ -32,9 +32,6 @@ from fuzzymbs.errors import (
 )
 from fuzzymbs.study.parameters import FUZZY_TYPES
 
-METHODS = ("general", "reduced", "extended", "grid")
-ON_FAILURE = ("raise", "fail-fast", "partial")
-
 
 class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)  # TOML is typed: no "4" or true for 4
