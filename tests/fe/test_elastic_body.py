@@ -154,3 +154,12 @@ def test_bad_inputs_are_named(kwargs, message):
 def test_static_deflection_of_free_body_is_refused(free_pad):
     with pytest.raises(InvalidParameterError, match="free-free"):
         free_pad.static_deflection(np.zeros(free_pad.n_dofs))
+
+
+def test_static_deflection_checks_the_loads(cantilever):
+    with pytest.raises(InvalidParameterError, match=r"loads must have shape \(\d+,\)"):
+        cantilever.static_deflection(np.ones(5))
+    loads = np.zeros(cantilever.n_dofs)
+    loads[-1] = np.nan
+    with pytest.raises(InvalidParameterError, match="finite"):
+        cantilever.static_deflection(loads)

@@ -156,3 +156,14 @@ def test_curved_disc_patch_static_load_is_exact_with_craig_bampton():
     assert np.abs(reduced - exact).max() < 1e-7 * np.abs(exact).max()
     truncated = _modal_static_response(modal_truncation(disc, 8 + patch.size), load)
     assert np.abs(truncated - exact).max() > 1e-3 * np.abs(exact).max()
+
+
+def test_more_modes_than_free_dofs_is_refused(free_pad):
+    # 75 nodes x 3 = 225 DOFs: 225 elastic + 6 rigid modes cannot exist
+    with pytest.raises(InvalidParameterError, match=r"231 eigenmodes requested.*only 225 free"):
+        modal_truncation(free_pad, 225)
+
+
+def test_unknown_reduction_option_is_named(free_pad):
+    with pytest.raises(InvalidParameterError, match=r"unknown reduction option\(s\) \['modes'\]"):
+        free_pad.reduce(4, modes=3)

@@ -312,6 +312,13 @@ class ElasticBody:
         from scipy.sparse.linalg import splu
 
         f = np.asarray(loads, dtype=np.float64)
+        if f.ndim not in (1, 2) or f.shape[0] != self.n_dofs:
+            raise InvalidParameterError(
+                f"loads must have shape ({self.n_dofs},) or ({self.n_dofs}, k) (3 per node), "
+                f"got {f.shape}"
+            )
+        if not np.all(np.isfinite(f)):
+            raise InvalidParameterError("loads must be finite (no NaN or inf)")
         free = self.free_dofs
         stiffness = self.stiffness[free][:, free].tocsc()
         u = np.zeros_like(f)
@@ -320,8 +327,16 @@ class ElasticBody:
 
     def reduce(self, n_modes: int, **options: Any) -> ModalBody:
         """Modally reduce this body; see :func:`fuzzymbs.fe.reduction.reduce_body`."""
+        import inspect
+
         from fuzzymbs.fe.reduction import reduce_body
 
+        allowed = list(inspect.signature(reduce_body).parameters)[2:]
+        unknown = sorted(set(options) - set(allowed))
+        if unknown:
+            raise InvalidParameterError(
+                f"unknown reduction option(s) {unknown}; options: {', '.join(allowed)}"
+            )
         return reduce_body(self, n_modes, **options)
 
     def __repr__(self) -> str:

@@ -157,6 +157,11 @@ def _lowest_eigenpairs(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The ``count`` lowest eigenpairs of K x = lambda M x by shift-invert about ``sigma < 0``."""
     n = stiffness.shape[0]
+    if count > n:
+        raise InvalidParameterError(
+            f"{count} eigenmodes requested (n_modes plus the rigid-body modes of a free body), "
+            f"but the body has only {n} free DOFs; lower n_modes or refine the mesh"
+        )
     if count >= n - 1:
         # tiny problems: dense solver (eigsh needs k < n)
         values, vectors = la.eigh(stiffness.toarray(), mass.toarray())
