@@ -140,6 +140,20 @@ def test_bad_samples_raise(model):
         model({"tooth_stiffness": [np.nan, 1e4]})
     with pytest.raises(InvalidParameterError, match="same length"):
         model({"tooth_stiffness": [1e4, 2e4], "torque": [1.0]})
+    # NaN is "not set" only for the parameters registered with a NaN default, and only
+    # for a whole column; inf only for tooth stiffness (a rigid tooth)
+    with pytest.raises(
+        InvalidParameterError, match="contact_stiffness must be positive and finite"
+    ):
+        model({"contact_stiffness": [np.nan]})
+    with pytest.raises(
+        InvalidParameterError, match="contact_stiffness must be positive and finite"
+    ):
+        model({"contact_stiffness": [np.inf]})
+    with pytest.raises(InvalidParameterError, match="tooth_stiffness must be positive"):
+        model({"tooth_stiffness": [np.nan]})
+    with pytest.raises(InvalidParameterError, match="torque must be positive and finite"):
+        model({"torque": [np.inf]})
 
 
 def test_bad_options_raise(pair):

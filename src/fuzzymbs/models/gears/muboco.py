@@ -275,6 +275,12 @@ def solve_static_batch(g, positions, pairs, torque, k_con, m1, kt1, kt2):
     return ste, wheel_moment, pair_force, pair_kind, status, last1, last2
 
 
+#: Columns whose registered default is NaN, "not set": an all-NaN column means "use the fallback".
+UNSET_BY_NAN = ("pinion_tooth_stiffness", "wheel_tooth_stiffness", "torque")
+#: Columns that may be +inf (a rigid tooth).
+MAY_BE_INFINITE = ("tooth_stiffness", "pinion_tooth_stiffness", "wheel_tooth_stiffness")
+
+
 def _column(samples: Mapping[str, Any], name: str, size: int | None) -> np.ndarray | None:
     if name not in samples or samples[name] is None:
         return None
@@ -283,13 +289,19 @@ def _column(samples: Mapping[str, Any], name: str, size: int | None) -> np.ndarr
         values = np.full(1 if size is None else size, float(values))
     if values.ndim != 1:
         raise InvalidParameterError(f"sample column {name!r} must be 1-D (B,), got {values.shape}")
-    if np.isnan(values).all():
+    if name in UNSET_BY_NAN and np.isnan(values).all():
         return None
-    if not np.all(np.isfinite(values) | np.isposinf(values)) or np.any(values <= 0.0):
-        bad = values[~(values > 0.0)] if np.any(~(values > 0.0)) else values[np.isnan(values)]
-        raise InvalidParameterError(
-            f"{name} must be positive (inf allowed for rigid teeth), got {bad[:3]!r}"
+    allowed = np.isfinite(values) | (np.isposinf(values) if name in MAY_BE_INFINITE else False)
+    if not np.all(allowed & (values > 0.0)):
+        bad = values[~(allowed & (values > 0.0))]
+        valid = (
+            "positive (inf allowed: a rigid tooth)"
+            if name in MAY_BE_INFINITE
+            else ("positive and finite")
         )
+        if name in UNSET_BY_NAN:
+            valid += "; all NaN means not set"
+        raise InvalidParameterError(f"{name} must be {valid}, got {bad[:3]!r}")
     return values
 
 
