@@ -163,6 +163,10 @@ def test_bad_options_raise(pair):
         MubocoPR(pair, torque=-5.0)
     with pytest.raises(InvalidParameterError, match="mode"):
         MubocoPR(pair, mode="quasi")
+    with pytest.raises(InvalidParameterError, match="torque must be a number"):
+        MubocoPR(pair, torque="100 N m")
+    with pytest.raises(InvalidParameterError, match=r"unknown dynamic setting\(s\) \['rpm'\]"):
+        MubocoPR(pair, mode="dynamic", dynamic={"rpm": 3000.0})
 
 
 def test_model_is_picklable_and_labelled(model):

@@ -382,7 +382,10 @@ class MubocoPR:
             raise InvalidParameterError("pair must be a GearPair")
         if mode not in ("static", "dynamic"):
             raise InvalidParameterError(f"mode must be 'static' or 'dynamic', got {mode!r}")
-        torque = float(torque)
+        try:
+            torque = float(torque)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(f"torque must be a number [N m], got {torque!r}") from None
         if not math.isfinite(torque) or torque <= 0.0:
             raise InvalidParameterError(f"torque must be a positive pinion torque, got {torque!r}")
         m1 = float(contact_exponent)
@@ -444,6 +447,12 @@ class MubocoPR:
             if dynamic is None:
                 dynamic = DynamicSettings()
             elif isinstance(dynamic, Mapping):
+                allowed = [f.name for f in dataclasses.fields(DynamicSettings)]
+                unknown = sorted(set(dynamic) - set(allowed))
+                if unknown:
+                    raise InvalidParameterError(
+                        f"unknown dynamic setting(s) {unknown}; settings: {', '.join(allowed)}"
+                    )
                 dynamic = DynamicSettings(**dynamic)
             self.dynamic = dynamic
             from fuzzymbs.models.gears.dynamics import make_plan
