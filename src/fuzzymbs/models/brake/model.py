@@ -227,7 +227,7 @@ class DiscBrake:
         RK4 step [s] (paper: 1e-6 s).
     record_interval : float
         Output sampling interval [s] (a multiple of dt; 5 us resolves the
-        ~30 kHz pad-on-disc oscillation with about 7 points per period).
+        32 kHz pad-on-disc ringing with about 6 points per period).
     contact : {"two-pass", "single-pass"}
         Contact treatment; two-pass by default (docs/brake.md explains why).
     regularization_velocity : float
