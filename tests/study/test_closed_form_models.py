@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.models.closed_form import make_damped_oscillator, make_product
 from fuzzymbs.models.closed_form.oscillator import free_response
 
@@ -54,6 +55,16 @@ def test_oscillator_outputs_reference_and_failures():
     assert np.isnan(out["displacement"][1:]).all()
 
 
-def test_oscillator_rejects_bad_options():
-    with pytest.raises(ValueError, match="time_steps"):
-        make_damped_oscillator(time_steps=1)
+@pytest.mark.parametrize(
+    ("options", "fragment"),
+    [
+        ({"time_steps": 1}, "time_steps must be an integer >= 2"),
+        ({"time_steps": "many"}, "time_steps must be an integer >= 2"),
+        ({"duration": float("nan")}, "duration must be a finite number > 0"),
+        ({"duration": -1.0}, "duration must be a finite number > 0"),
+        ({"initial_displacement": float("inf")}, "initial_displacement must be a finite"),
+    ],
+)
+def test_oscillator_rejects_bad_options(options, fragment):
+    with pytest.raises(InvalidParameterError, match=fragment):
+        make_damped_oscillator(**options)

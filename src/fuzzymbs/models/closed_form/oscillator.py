@@ -25,6 +25,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from fuzzymbs.errors import InvalidParameterError
+
 #: Default parameters (SI): a 1 kg mass on a 1 kN/m spring, zeta = 0.05.
 DEFAULT_MASS = 1.0
 DEFAULT_STIFFNESS = 1000.0
@@ -102,10 +104,28 @@ class DampedOscillator:
     def __init__(
         self, duration: float = 1.0, time_steps: int = 401, initial_displacement: float = 0.01
     ) -> None:
-        if not duration > 0:
-            raise ValueError(f"duration must be > 0 s, got {duration!r}")
-        if int(time_steps) < 2:
-            raise ValueError(f"time_steps must be >= 2, got {time_steps!r}")
+        if (
+            isinstance(duration, bool)
+            or not isinstance(duration, int | float)
+            or not (0.0 < duration < np.inf)
+        ):
+            raise InvalidParameterError(
+                f"duration must be a finite number > 0 [s], got {duration!r}"
+            )
+        if (
+            isinstance(time_steps, bool)
+            or not isinstance(time_steps, int | np.integer)
+            or (time_steps < 2)
+        ):
+            raise InvalidParameterError(f"time_steps must be an integer >= 2, got {time_steps!r}")
+        if (
+            isinstance(initial_displacement, bool)
+            or not isinstance(initial_displacement, int | float)
+            or not np.isfinite(initial_displacement)
+        ):
+            raise InvalidParameterError(
+                f"initial_displacement must be a finite number [m], got {initial_displacement!r}"
+            )
         self.duration = float(duration)
         self.time_steps = int(time_steps)
         self.initial_displacement = float(initial_displacement)
@@ -135,6 +155,20 @@ class DampedOscillator:
         return solution.y[0]
 
     def __call__(self, samples: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Free response of a batch of oscillators.
+
+        Parameters
+        ----------
+        samples : mapping
+            ``mass`` [kg], ``stiffness`` [N/m], ``damping`` [N s/m], each (B,).
+
+        Returns
+        -------
+        dict
+            ``displacement`` (B, T) [m] over ``coords["time"]``, ``natural_frequency``
+            (B,) [Hz], and ``failed`` / ``failure_reason`` (B,) for non-physical samples
+            (mass or stiffness <= 0, damping < 0).
+        """
         mass = np.asarray(samples["mass"], dtype=float)
         stiffness = np.asarray(samples["stiffness"], dtype=float)
         damping = np.asarray(samples["damping"], dtype=float)

@@ -24,6 +24,7 @@ class ProductModel:
     coords: dict[str, np.ndarray] = {}  # noqa: RUF012 - scalar output, no trailing axes
 
     def __call__(self, samples: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``{"z": x1 * x2}`` for samples ``{"x1": (B,), "x2": (B,)}``."""
         x1 = np.asarray(samples["x1"], dtype=float)
         x2 = np.asarray(samples["x2"], dtype=float)
         return {"z": x1 * x2}
