@@ -531,6 +531,23 @@ class MubocoPR:
         }
 
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """Evaluate a batch of samples (the study-model interface).
+
+        Parameters
+        ----------
+        samples : mapping of str to (B,) array
+            Any of ``tooth_stiffness`` [N m/rad], ``pinion_tooth_stiffness``,
+            ``wheel_tooth_stiffness`` [N m/rad] (inf: rigid teeth),
+            ``contact_stiffness`` [N/m^m1] and ``torque`` [N m]; missing ones take
+            the model's defaults.
+
+        Returns
+        -------
+        dict
+            Static mode: ``ste`` (B, P) [m] over ``coords["position"]``; dynamic mode:
+            ``dte`` (B, N) [m] and ``dte_spectrum`` (B, H) [m]. Both: ``failed`` (B,)
+            bool and ``failure_reason`` (B,) str (non-converged or no contact).
+        """
         if self.mode == "dynamic":
             from fuzzymbs.models.gears.dynamics import simulate
 
