@@ -67,7 +67,7 @@ FAST = {"reassoc", "contract", "arcp"}
 
 @nb.njit(cache=True, inline="always")
 def _profile(fpool, ptab, k, t):
-    """Value, integral from t = 0, and slope of piecewise-linear profile k at time t."""
+    """Value, integral from t = 0, and slope (right-continuous) of profile k at time t."""
     s = ptab[k, 0]
     m = ptab[k, 1]
     ts = fpool[s : s + m]
@@ -81,7 +81,7 @@ def _profile(fpool, ptab, k, t):
 @nb.njit(cache=True, inline="always")
 def _segment(ts, vs, cs, t):
     m = ts.shape[0]
-    if t <= ts[0]:
+    if t < ts[0]:
         return vs[0], cs[0] + vs[0] * (t - ts[0]), 0.0
     if t >= ts[m - 1]:
         return vs[m - 1], cs[m - 1] + vs[m - 1] * (t - ts[m - 1]), 0.0
