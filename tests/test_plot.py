@@ -103,3 +103,14 @@ def test_partial_result_is_plotted_without_incomplete_levels(tmp_path):
     assert "PARTIAL" in figure.axes[0].get_title()
     written = write_plots(dataset, tmp_path, formats=("png",))
     assert all(path.stat().st_size > 1000 for path in written)
+
+
+def test_unknown_output_or_coordinate_is_named(oscillator):
+    from fuzzymbs.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match=r"no 'velocity_lower'.*displacement"):
+        plot_fuzzy_signal(oscillator, "velocity")
+    with pytest.raises(InvalidParameterError, match=r"no coordinate 'position'.*time"):
+        plot_output_membership(oscillator, "displacement", "position", 0.1)
+    with pytest.raises(InvalidParameterError, match=r"no 'velocity_absolute_influence'"):
+        plot_influence(oscillator, "velocity")

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from fuzzymbs.errors import InvalidParameterError
+
 if TYPE_CHECKING:  # pragma: no cover
     import xarray
     from matplotlib.figure import Figure
@@ -46,6 +48,31 @@ def _label(dataset: xarray.Dataset, name: str, variable: str | None = None) -> s
 def _coord_label(dataset: xarray.Dataset, dim: str) -> str:
     units = dataset[dim].attrs.get("units") if dim in dataset.coords else None
     return f"{dim} [{units}]" if units else dim
+
+
+def _variable(dataset: xarray.Dataset, output: str, suffix: str) -> xarray.DataArray:
+    """``dataset[f"{output}_{suffix}"]``, or an error naming the outputs that can be plotted."""
+    name = f"{output}_{suffix}"
+    if name not in dataset:
+        available = sorted(
+            str(key)[: -len(f"_{suffix}")]
+            for key in dataset.data_vars
+            if str(key).endswith(f"_{suffix}") and str(key) != f"parameter_{suffix}"
+        )
+        raise InvalidParameterError(
+            f"the result has no {name!r}; outputs with {suffix!r}: {', '.join(available) or 'none'}"
+        )
+    return dataset[name]
+
+
+def _at(array: xarray.DataArray, coord: str, value: float) -> xarray.DataArray:
+    """The slice of ``array`` nearest to ``coord = value``, or an error naming its coords."""
+    if coord not in array.dims:
+        raise InvalidParameterError(
+            f"{array.name!r} has no coordinate {coord!r}; its coordinates: "
+            f"{', '.join(map(str, array.dims[1:])) or 'none (scalar output)'}"
+        )
+    return array.sel({coord: value}, method="nearest")
 
 
 def _membership_polygon(
@@ -96,15 +123,15 @@ def plot_output_membership(
 
     The nearest coordinate value is used; the title states which one.
     """
-    lower = dataset[f"{output}_lower"]
-    upper = dataset[f"{output}_upper"]
+    lower = _variable(dataset, output, "lower")
+    upper = _variable(dataset, output, "upper")
     title = f"{dataset.attrs.get('study_name', '')}: membership of {output}"
     if coord is not None:
-        lower = lower.sel({coord: value}, method="nearest")
-        upper = upper.sel({coord: value}, method="nearest")
+        lower = _at(lower, coord, value)
+        upper = _at(upper, coord, value)
         title += f" at {coord} = {float(lower[coord]):.6g}"
     if lower.ndim != 1:
-        raise ValueError(
+        raise InvalidParameterError(
             f"output {output!r} has dims {lower.dims[1:]}; choose coord and value to plot "
             "a membership function"
         )
@@ -134,10 +161,10 @@ def plot_fuzzy_signal(dataset: xarray.Dataset, output: str) -> Figure:
     The nominal signal is drawn on top, and the model's reference curve (if
     the result holds ``{output}_reference``) on top of that.
     """
-    lower = dataset[f"{output}_lower"]
-    upper = dataset[f"{output}_upper"]
+    lower = _variable(dataset, output, "lower")
+    upper = _variable(dataset, output, "upper")
     if lower.ndim != 2:
-        raise ValueError(f"output {output!r} is not a signal over one coordinate")
+        raise InvalidParameterError(f"output {output!r} is not a signal over one coordinate")
     dim = lower.dims[1]
     x = dataset[dim].values if dim in dataset.coords else np.arange(lower.shape[1])
     figure = _figure(7.0, 4.0)
@@ -179,8 +206,8 @@ def plot_fuzzy_signal(dataset: xarray.Dataset, output: str) -> Figure:
 def plot_influence(dataset: xarray.Dataset, output: str) -> Figure:
     """Absolute and relative influence per parameter: stacked areas over the
     coordinate for a signal, bars for a scalar output."""
-    absolute = dataset[f"{output}_absolute_influence"]
-    relative = dataset[f"{output}_relative_influence"]
+    absolute = _variable(dataset, output, "absolute_influence")
+    relative = _variable(dataset, output, "relative_influence")
     names = [str(n) for n in dataset["parameter"].values]
     figure = _figure(9.0, 3.6)
     left, right = figure.subplots(1, 2)
@@ -199,7 +226,9 @@ def plot_influence(dataset: xarray.Dataset, output: str) -> Figure:
         right.set_ylim(0, 1)
         right.legend(loc="upper right", fontsize="small")
     else:
-        raise ValueError(f"influence of {output!r} has more than one coordinate; not plotted")
+        raise InvalidParameterError(
+            f"influence of {output!r} has more than one coordinate; not plotted"
+        )
     units = dataset[f"{output}_lower"].attrs.get("units")
     left.set_title("absolute influence kappa")
     left.set_ylabel(f"kappa [{units}]" if units else "kappa")

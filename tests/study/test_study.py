@@ -181,3 +181,11 @@ def test_chunk_size_one_equals_one_chunk():
     whole = study.run(progress=False, chunk_size=len(study.plan)).dataset
     np.testing.assert_array_equal(single["z_lower"].values, whole["z_lower"].values)
     np.testing.assert_array_equal(single["z_upper"].values, whole["z_upper"].values)
+
+
+def test_alpha_cut_of_unknown_output_or_bad_level_is_named():
+    result = product_study().run(progress=False)
+    with pytest.raises(InvalidParameterError, match=r"no output 'w'; outputs: z"):
+        result.alpha_cut("w", 0.5)
+    with pytest.raises(InvalidParameterError, match=r"mu must lie in \[0, 1\]"):
+        result.alpha_cut("z", 1.5)

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from fuzzymbs.errors import UnsupportedOperationError
+from fuzzymbs.errors import InvalidParameterError, UnsupportedOperationError
 from fuzzymbs.study.store import json_safe
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -274,10 +274,10 @@ class StudyResult:
     def alpha_cut(self, output: str, mu: float) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of ``output`` at level ``mu`` (the next computed level up; never interpolated)."""
         if output not in self.outputs:
-            raise KeyError(f"no output {output!r}; outputs: {', '.join(self.outputs)}")
+            raise InvalidParameterError(f"no output {output!r}; outputs: {', '.join(self.outputs)}")
         levels = self.dataset["level"].values
         if not 0.0 <= mu <= 1.0:
-            raise ValueError(f"mu must lie in [0, 1], got {mu!r}")
+            raise InvalidParameterError(f"mu must lie in [0, 1], got {mu!r}")
         index = min(int(np.searchsorted(levels, mu - 1e-12, side="left")), len(levels) - 1)
         return (
             self.dataset[f"{output}_lower"].values[index],
