@@ -189,3 +189,11 @@ def test_alpha_cut_of_unknown_output_or_bad_level_is_named():
         result.alpha_cut("w", 0.5)
     with pytest.raises(InvalidParameterError, match=r"mu must lie in \[0, 1\]"):
         result.alpha_cut("z", 1.5)
+
+
+def test_invalid_definition_names_a_short_parameter_name():
+    # a one-letter name occurs in almost any message: it must still be named explicitly
+    from fuzzymbs.study.parameters import fuzzy_number_from_definition
+
+    with pytest.raises(InvalidFuzzyNumberError, match=r"parameter 'a': .*spread must be >= 0"):
+        fuzzy_number_from_definition({"type": "triangular", "modal": 1.0, "spread": -0.1}, "a")

@@ -101,7 +101,7 @@ def fuzzy_number_from_definition(definition: Mapping[str, Any], name: str = "par
         )
     except InvalidFuzzyNumberError as exc:
         message = str(exc)
-        if name in message:
+        if f"parameter {name!r}" in message:
             raise
         raise InvalidFuzzyNumberError(f"parameter {name!r}: {message}") from exc
     except (TypeError, ValueError) as exc:
