@@ -167,3 +167,17 @@ def test_more_modes_than_free_dofs_is_refused(free_pad):
 def test_unknown_reduction_option_is_named(free_pad):
     with pytest.raises(InvalidParameterError, match=r"unknown reduction option\(s\) \['modes'\]"):
         free_pad.reduce(4, modes=3)
+
+
+@pytest.mark.parametrize(
+    ("options", "fragment"),
+    [
+        ({"n_modes": "4"}, "n_modes must be an integer >= 0"),
+        ({"n_modes": 2.5}, "n_modes must be an integer >= 0"),
+        ({"n_modes": 4, "max_frequency": "1 kHz"}, "max_frequency must be > 0"),
+        ({"n_modes": 4, "max_frequency": float("nan")}, "max_frequency must be > 0"),
+    ],
+)
+def test_bad_reduction_options_are_named(free_pad, options, fragment):
+    with pytest.raises(InvalidParameterError, match=fragment):
+        free_pad.reduce(**options, cache=False)

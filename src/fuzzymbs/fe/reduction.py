@@ -333,13 +333,17 @@ def _finish(
 
 
 def _check_options(n_modes: int, rigid_body_modes: str, max_frequency: float | None) -> None:
-    if isinstance(n_modes, bool) or int(n_modes) != n_modes or n_modes < 0:
+    if isinstance(n_modes, bool) or not isinstance(n_modes, int | np.integer) or n_modes < 0:
         raise InvalidParameterError(f"n_modes must be an integer >= 0, got {n_modes!r}")
     if rigid_body_modes not in ("exclude", "include"):
         raise InvalidParameterError(
             f"rigid_body_modes must be 'exclude' or 'include', got {rigid_body_modes!r}"
         )
-    if max_frequency is not None and not (np.isfinite(max_frequency) and max_frequency > 0):
+    if max_frequency is not None and (
+        isinstance(max_frequency, bool)
+        or not isinstance(max_frequency, int | float | np.number)
+        or not (np.isfinite(max_frequency) and max_frequency > 0)
+    ):
         raise InvalidParameterError(
             f"max_frequency must be > 0 [Hz] or None, got {max_frequency!r}"
         )
