@@ -8,7 +8,7 @@ energy T + V written out independently below for conservation.
 import numpy as np
 
 from fuzzymbs.mbs.bodies import RotatingBody, TranslatingBody
-from fuzzymbs.mbs.contact import CartesianChart, PenaltyContact, PolarChart
+from fuzzymbs.mbs.contact import CartesianChart, PenaltyContact, PolarChart, symmetric_contact
 from fuzzymbs.mbs.forces import NodalForce, Spring
 from fuzzymbs.mbs.integrate import simulate, simulate_reference
 from fuzzymbs.mbs.linearize import eigenanalysis, steady_state
@@ -182,3 +182,58 @@ def test_energy_conserved_through_impact():
     w = highest_frequency()
     drift = np.abs(e - e[0]).max() / scale  # measured ~6e-7
     assert drift < 2 * (w * 5e-5) ** 2
+
+
+def two_pass_system():
+    """An elastic 3 x 3-node pad (point masses on y-springs to a translating backing plate) pressed
+    with 3 N per node on the spinning elastic disc, symmetric (two-pass) contact with
+    friction, the pad frame held by a y-spring: both passes, both bodies elastic."""
+    g = np.linspace(-0.012, 0.012, 3)
+    xx, zz = np.meshgrid(0.1 + g, g, indexing="ij")
+    nodes = np.stack([xx, np.zeros(xx.shape), zz], -1).reshape(-1, 3)
+    # node 9: the backing plate, rigid with the frame (its mass keeps the frame translation
+    # independent of the nine face modes, else the mass matrix would be singular)
+    nodes = np.vstack([nodes, [(0.1, 0.01, 0.0)]])
+    stiff = np.zeros((30, 30))
+    for i in range(9):
+        stiff[3 * i + 1, 3 * i + 1] = 4e3
+    masses = np.append(np.full(9, 0.02), 0.2)
+    pad = lumped_modal_body("pad", nodes, masses, stiff, free_dofs=3 * np.arange(9) + 1)
+    system = System()
+    system.add_body(RotatingBody(elastic_disc(), "y", speed=2.0, damping_ratio=0.01))
+    system.add_body(TranslatingBody(pad, ["y"], damping_ratio=0.01))
+    system.add(NodalForce("press", "pad", np.arange(9), "y", -3.0))
+    system.add(Spring("hold", "pad", [4], stiffness=500.0, damping=0.5, direction="y"))
+    system.add(
+        *symmetric_contact(
+            "c",
+            "pad",
+            np.arange(9),
+            CartesianChart("x", "z", origin=(0.1, 0.0, 0.0)),
+            "disc",
+            np.arange(12),
+            PolarChart("y", "x"),
+            penalty=2e4,
+            friction=0.4,
+            normal_a="-y",
+            normal_b="y",
+        )
+    )
+    return system
+
+
+def test_rk4_matches_dop853_two_pass_elastic_contact():
+    system = two_pass_system().compile()
+    outputs = {
+        "pad_y": Coordinate("pad", 0),
+        "pad_node": NodeDisplacement("pad", 0, "y"),
+        "disc_y": NodeDisplacement("disc", 6, "y"),
+    }
+    res = simulate(system, t_end=0.03, dt=2e-6, record_interval=1e-3, outputs=outputs)
+    ref = simulate_reference(
+        system, t_end=0.03, outputs=outputs, times=res.time, rtol=1e-10, atol=1e-15, max_step=1e-4
+    )
+    for name in outputs:
+        scale = np.abs(ref[name]).max()
+        assert scale > 1e-6  # the pad really moved and pressed the disc
+        np.testing.assert_allclose(res.outputs[name][0], ref[name], atol=1e-9 * scale)
