@@ -267,3 +267,30 @@ def test_stability_flags_unstable_speed_consistent_with_integration(model):
     assert rates[0] < 0
     # 10 %: measured 3.6 % (window fit of a single growing mode plus the decaying rest)
     assert rates[1] == pytest.approx(result.max_real_part[1], rel=0.10)
+
+
+def test_stability_model_outputs_and_coords():
+    model = get_model("brake-stability").factory(n_modes=3)
+    out = model({"disc_speed": np.array([1.0, 10.0])})
+    assert model.coords["mode_rank"].tolist() == [0, 1, 2]
+    assert out["real_parts"].shape == out["frequencies"].shape == (2, 3)
+    for name in ("max_real_part", "least_stable_frequency", "unstable_modes", "failed"):
+        assert out[name].shape == (2,)
+    assert not out["failed"].any()
+    # ranked: the first column is the largest real part of each sample
+    assert (np.diff(out["real_parts"], axis=1) <= 0).all()
+    np.testing.assert_array_equal(out["max_real_part"], out["real_parts"][:, 0])
+    assert out["unstable_modes"][0] == 0 and out["unstable_modes"][1] >= 1
+
+
+def test_demo_study_files_validate():
+    from fuzzymbs.study.pipeline import demo_files
+    from fuzzymbs.study.studyfile import load_study_file
+
+    files = demo_files("brake")
+    assert [f.name for f in files][:2] == ["01-study1.toml", "02-study2.toml"]
+    for f in files:
+        definition = load_study_file(str(f))
+        # reduced method, 3 parameters on 5 levels: 1 + 4 x 8 = 33 runs (THEORY section 4)
+        if len(definition.study.plan.names) == 3:
+            assert len(definition.study.plan) == 33

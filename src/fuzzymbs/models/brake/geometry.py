@@ -33,7 +33,7 @@ Default materials (room temperature, handbook values):
 * caliper: steel, E = 210 GPa, nu = 0.3, rho = 7850 kg/m^3.
 
 Default geometry: a solid passenger-car disc of 300 mm diameter and 22 mm
-thickness clamped at 150 mm diameter; pads 45 mm x 50 deg (about 105 mm long at
+thickness clamped at 150 mm diameter; pads 45 mm x 49.5 deg (about 103 mm long at
 the mean radius), 15 mm thick; caliper 130 mm wide, 6.2 kg.
 """
 
