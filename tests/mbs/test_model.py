@@ -180,3 +180,12 @@ def test_eigenanalysis_of_unconverged_state_is_nan_and_flagged():
     result = eigenanalysis(system, state=rough)
     assert result.failed.all() and np.isnan(result.eigenvalues).all()
     assert not result.stable.any()
+
+
+def test_shared_name_with_two_defaults_is_refused():
+    system = System()
+    system.add_body(TranslatingBody(rigid_body("mass", MASS), ["y"]))
+    system.add(Spring("s1", "mass", [0], stiffness=Parameter("k", 100.0), direction="y"))
+    system.add(Spring("s2", "mass", [0], stiffness=Parameter("k", 200.0), direction="y"))
+    with pytest.raises(InvalidParameterError, match="one default"):
+        system.compile()

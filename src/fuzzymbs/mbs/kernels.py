@@ -1,7 +1,7 @@
 """Compiled right-hand side and batched integrators of an elastic multibody system.
 
 All system data arrive as one tuple of flat arrays (built by
-:func:`fuzzymbs.mbs.system.compile_system`, layout documented there); the
+:meth:`fuzzymbs.mbs.system.System.compile`, layout documented there); the
 per-sample scalars (stiffnesses, forces, penalty, friction, speeds) are one row
 of a ``(B, n_slots)`` parameter table. No allocation happens inside a time
 step: each sample allocates its work arrays once. BLAS is not used; the small
@@ -143,41 +143,6 @@ def _rotation(axis, angle, out):
     out[2, 0] = z * x * v - y * s
     out[2, 1] = z * y * v + x * s
     out[2, 2] = c + z * z * v
-
-
-@nb.njit(cache=True)
-def _locate(grid, n, value, periodic):
-    """Cell i with grid[i] <= value <= grid[i+1] and the local coordinate in [0, 1]; -1 outside.
-
-    O(1) for (near-)uniform grids: the first guess comes from the mean spacing and
-    the two while loops correct it by a cell at most.
-    """
-    g0 = grid[0]
-    if periodic:
-        if value < g0:
-            value += _TWO_PI
-        elif value >= g0 + _TWO_PI:
-            value -= _TWO_PI
-        i = int((value - g0) * (n / _TWO_PI))
-        if i > n - 1:
-            i = n - 1
-        while i > 0 and value < grid[i]:
-            i -= 1
-        while i < n - 1 and value > grid[i + 1]:
-            i += 1
-        upper = grid[i + 1] if i < n - 1 else g0 + _TWO_PI
-        return i, (value - grid[i]) / (upper - grid[i])
-    last = grid[n - 1]
-    if value < g0 or value > last:
-        return -1, 0.0
-    i = int((value - g0) * ((n - 1) / (last - g0)))
-    if i > n - 2:
-        i = n - 2
-    while i > 0 and value < grid[i]:
-        i -= 1
-    while i < n - 2 and value > grid[i + 1]:
-        i += 1
-    return i, (value - grid[i]) / (grid[i + 1] - grid[i])
 
 
 @nb.njit(cache=True, fastmath=FAST)

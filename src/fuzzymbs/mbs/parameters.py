@@ -75,6 +75,12 @@ class ParameterTable:
         if not np.isfinite(default) or default < minimum:
             raise InvalidParameterError(f"{label} must be finite and >= {minimum}, got {default!r}")
         name = value.name if isinstance(value, Parameter) else None
+        for other in self.slots:
+            if name is not None and other.parameter == name and other.default != default:
+                raise InvalidParameterError(
+                    f"parameter {name!r} has default {other.default!r} at {other.label} but "
+                    f"{default!r} at {label}; one name must have one default"
+                )
         self.slots.append(Slot(label, default, name, minimum))
         return len(self.slots) - 1
 
