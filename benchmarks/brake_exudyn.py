@@ -170,10 +170,14 @@ def run_exudyn(steps: int, record_every: int = 5) -> tuple[np.ndarray, float]:
     # rotations (constraint elimination in the explicit solver) leaves the y equation exact
     centre = pad.first_moment / pad.mass
     rigid = mbs.AddNode(NodeRigidBodyRxyz(referenceCoordinates=[*centre, 0.0, 0.0, 0.0]))
-    modal = mbs.AddNode(NodeGenericODE2(numberOfODE2Coordinates=n_modes,
-                                        referenceCoordinates=[0.0] * n_modes,
-                                        initialCoordinates=[0.0] * n_modes,
-                                        initialCoordinates_t=[0.0] * n_modes))  # fmt: skip
+    modal = mbs.AddNode(
+        NodeGenericODE2(
+            numberOfODE2Coordinates=n_modes,
+            referenceCoordinates=[0.0] * n_modes,
+            initialCoordinates=[0.0] * n_modes,
+            initialCoordinates_t=[0.0] * n_modes,
+        )
+    )
 
     def contact_force(mbs_: Any, t: float, item: int, q: Any, q_t: Any) -> np.ndarray:
         q = np.asarray(q)
@@ -230,15 +234,27 @@ def run_exudyn(steps: int, record_every: int = 5) -> tuple[np.ndarray, float]:
         marker = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=rigid, coordinate=coordinate))
         mbs.AddObject(CoordinateConstraint(markerNumbers=[ground_marker, marker]))
     for node in back:
-        marker = mbs.AddMarker(MarkerSuperElementPosition(bodyNumber=body, meshNodeNumbers=[node],
-                                                          weightingFactors=[1.0]))  # fmt: skip
+        marker = mbs.AddMarker(
+            MarkerSuperElementPosition(
+                bodyNumber=body, meshNodeNumbers=[node], weightingFactors=[1.0]
+            )
+        )
         anchor = mbs.AddMarker(MarkerBodyPosition(bodyNumber=ground, localPosition=xbar[node]))
-        mbs.AddObject(ObjectConnectorCartesianSpringDamper(markerNumbers=[anchor, marker],
-                                                           stiffness=[0.0, SPRING, 0.0],
-                                                           damping=[0.0, 0.0, 0.0]))  # fmt: skip
+        mbs.AddObject(
+            ObjectConnectorCartesianSpringDamper(
+                markerNumbers=[anchor, marker],
+                stiffness=[0.0, SPRING, 0.0],
+                damping=[0.0, 0.0, 0.0],
+            )
+        )
         mbs.AddLoad(LoadForceVector(markerNumber=marker, loadVector=[0.0, NODAL_FORCE, 0.0]))
-    sensor = mbs.AddSensor(SensorNode(nodeNumber=rigid, storeInternal=True,
-                                      outputVariableType=exu.OutputVariableType.Displacement))  # fmt: skip
+    sensor = mbs.AddSensor(
+        SensorNode(
+            nodeNumber=rigid,
+            storeInternal=True,
+            outputVariableType=exu.OutputVariableType.Displacement,
+        )
+    )
     mbs.Assemble()
 
     settings = exu.SimulationSettings()

@@ -42,7 +42,7 @@ def rhs_flops(data: tuple, active_fraction: float = 1.0) -> dict[str, float]:
     active_fraction : float
         Share of checked slave nodes that are in contact (0..1).
     """
-    ndof, bi, _, _, _, _, _, _, _, lg, nfi, ci, _ = data
+    _, bi, _, _, _, _, _, _, _, lg, nfi, ci, _ = data
     terms = {"springs": 0.0, "nodal_forces": 0.0, "kinematics": 0.0, "contact": 0.0}
     terms.update({"force_mapping": 0.0, "equations_of_motion": 0.0})
     for _, n, _, _, _ in lg:

@@ -1,0 +1,138 @@
+"""Scaling: batch size (brake), parameter count (general method), Dask LocalCluster vs inline.
+
+* Batch: the brake model integrated for a short end time with 1, 33, 343 and
+  2401 samples in one compiled call; cost per sample-step and the fraction of
+  the matmul flop bound reached (:mod:`brake_flops`).
+* Parameters: general transformation method with 2 to 6 triangular
+  parameters on m = 4 levels, closed-form model
+  ``z = sum_i i x_i + prod_i x_i`` (vectorised); runs after de-duplication and
+  the study's wall time (plan, evaluation, retransformation, dataset).
+* Dask: the brake study (33 runs, short end time, 3 chunks of 11) on a
+  ``distributed.LocalCluster`` of 2 single-threaded worker processes against
+  the inline executor (2 Numba threads); cluster start-up is timed apart.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+from bench_common import best_time, log
+
+BATCHES = (1, 33, 343, 2401)
+
+
+def batch_scaling(steps: int, flops_per_sample_step: float, bound_gflops: float) -> list[dict]:
+    """Cost per sample-step of the brake kernel for each batch size."""
+    from brake_bench import DT, brake_model
+
+    rows = []
+    rng = np.random.default_rng(7)
+    for batch in BATCHES:
+        model = brake_model(steps * DT)
+        model.simulation.settings["chunk_size"] = batch  # one compiled call for the batch
+        samples = {
+            "pad_spring_stiffness": 200e3 * rng.uniform(0.9, 1.1, batch),
+            "caliper_spring_stiffness": 1e3 * rng.uniform(0.9, 1.1, batch),
+            "nodal_force": 16e3 * rng.uniform(0.99, 1.01, batch),
+        }
+        model(samples)  # warm-up (compile or load cache, thread pool)
+        seconds = best_time(lambda m=model, s=samples: m(s), repeat=3 if batch < 343 else 1)
+        per = seconds / (batch * steps)
+        gflops = flops_per_sample_step / per / 1e9
+        rows.append(
+            {
+                "batch": batch,
+                "steps": steps,
+                "seconds": seconds,
+                "seconds_per_sample_step": per,
+                "gflops": gflops,
+                "fraction_of_flop_bound": gflops / bound_gflops,
+            }
+        )
+        log(f"scaling: batch {batch}: {per * 1e6:.2f} us/sample-step, {gflops:.2f} GFLOP/s")
+    return rows
+
+
+def _closed_form(samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    values = list(samples.values())
+    total = sum((i + 1) * v for i, v in enumerate(values))
+    return {"z": total + np.prod(values, axis=0)}
+
+
+def parameter_scaling(max_parameters: int = 6, levels: int = 4) -> list[dict]:
+    """Runs and wall time of general-method studies with 2..max_parameters parameters."""
+    from fuzzymbs.fuzzy.numbers import Triangular
+    from fuzzymbs.study.study import Study
+
+    rows = []
+    for n in range(2, max_parameters + 1):
+        parameters = {f"x{i + 1}": Triangular(0.9, 1.0, 1.1 + 0.1 * i) for i in range(n)}
+
+        def run(parameters: dict = parameters) -> Any:
+            study = Study(_closed_form, parameters, method="general", levels=levels)
+            return study, study.run(progress=False, keep_raw=False)
+
+        study, _ = run()
+        seconds = best_time(run, repeat=3)
+        naive = sum(k**n for k in range(1, levels + 2))
+        rows.append({"parameters": n, "runs": len(study.plan), "runs_without_reuse": naive})
+        rows[-1]["seconds"] = seconds
+        log(f"scaling: general method, {n} parameters: {len(study.plan)} runs, {seconds:.3f} s")
+    return rows
+
+
+def dask_vs_inline(steps: int) -> dict[str, Any]:
+    """Brake study (33 runs, ``steps`` steps) on a Dask LocalCluster and inline."""
+    from brake_bench import DT, brake_study
+    from distributed import Client, LocalCluster
+
+    from fuzzymbs.fuzzy import NonMonotonicWarning
+
+    study = brake_study(steps * DT, chunk_size=11)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonMonotonicWarning)
+        study.run(progress=False)
+        inline = best_time(lambda: study.run(progress=False), repeat=2)
+        started = time.perf_counter()
+        # one Numba thread per worker process: the two workers share the two cores
+        os.environ["NUMBA_NUM_THREADS"] = "1"
+        try:
+            cluster = LocalCluster(
+                n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+            )
+        finally:
+            os.environ.pop("NUMBA_NUM_THREADS", None)
+        client = Client(cluster)
+        startup = time.perf_counter() - started
+        try:
+            first_start = time.perf_counter()
+            first = study.run(executor=client, progress=False)
+            first_run = time.perf_counter() - first_start
+            seconds = best_time(lambda: study.run(executor=client, progress=False), repeat=2)
+            again = study.run(executor=client, progress=False)
+        finally:
+            client.close()
+            cluster.close()
+    reference = study.run(progress=False)
+    # the design promises bit-identical results on every executor
+    same = all(
+        np.array_equal(again.dataset[key].values, reference.dataset[key].values, equal_nan=True)
+        for key in ("y_lpad_samples", "y_upad_samples", "y_cali_samples", "y_lpad_lower")
+    )
+    log(f"scaling: dask {seconds:.2f} s (start-up {startup:.1f} s), inline {inline:.2f} s")
+    del first
+    return {
+        "steps": steps,
+        "runs": len(study.plan),
+        "chunks": 3,
+        "inline_seconds": inline,
+        "dask_seconds": seconds,
+        "dask_first_run_seconds": first_run,
+        "dask_cluster_startup_seconds": startup,
+        "dask_over_inline": seconds / inline,
+        "identical_results": bool(same),
+    }

@@ -1,0 +1,117 @@
+"""Smoke test of the benchmark code: tiny sizes, structure, and baseline correctness.
+
+Never asserts times. The per-sample baselines must compute the same model as
+fuzzymbs, so each is checked against the compiled kernel:
+
+* the NumPy brake RHS + Python RK4 loop (an independent re-implementation of the
+  equations) against the batched RK4 kernel's trajectory;
+* the interpreted MUBOCO-PR solver (the kernels' source without Numba) against
+  the compiled batched STE;
+* the flop count against a hand count of one term.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+BENCH = Path(__file__).resolve().parent.parent / "benchmarks"
+sys.path.insert(0, str(BENCH))
+
+
+@pytest.fixture(scope="module")
+def brake():
+    brake_bench = pytest.importorskip("brake_bench")
+    return brake_bench, brake_bench.brake_model(40e-6, record_interval=5e-6)
+
+
+def test_numpy_brake_loop_reproduces_the_kernel_trajectory(brake):
+    from brake_numpy import NumpyRHS, rk4_numpy
+
+    brake_bench, model = brake
+    sample = {
+        "pad_spring_stiffness": 210e3,
+        "caliper_spring_stiffness": 0.95e3,
+        "nodal_force": 16.1e3,
+    }
+    rhs = NumpyRHS(model.compiled.data, brake_bench.parameter_row(model, sample)[0])
+    x0 = np.zeros(model.compiled.n_state)
+    ours = rk4_numpy(rhs, x0, 1e-6, 40, 5, brake_bench.output_matrix(model))
+    kernel = brake_bench.kernel_outputs(model, sample)
+    assert ours.shape == kernel.shape == (3, 9)
+    # same equations, same RK4 steps: only round-off (and the kernel's reassociating
+    # fastmath) separates them; 1e-9 relative to the pads' motion (~1e-5 m here)
+    scale = np.max(np.abs(kernel[:2]))
+    assert scale > 1e-6  # the pads really moved
+    np.testing.assert_allclose(ours, kernel, rtol=0, atol=1e-9 * scale)
+    assert rhs.stats.active > 0  # contact was closed during the run
+
+
+def test_numpy_rhs_matches_engine_rhs_at_a_random_state(brake):
+    from brake_numpy import NumpyRHS
+
+    brake_bench, model = brake
+    params = brake_bench.parameter_row(model)
+    rng = np.random.default_rng(3)
+    state = 1e-6 * rng.standard_normal(model.compiled.n_state)
+    engine = brake_bench.engine_rhs(model, params)(2.5e-3, state)
+    ours = NumpyRHS(model.compiled.data, params[0])(2.5e-3, state)
+    np.testing.assert_allclose(ours, engine, rtol=0, atol=1e-9 * np.max(np.abs(engine)))
+
+
+def test_interpreted_gear_solver_equals_compiled():
+    from gear_bench import interpreted_ste
+    from interpreted import interpreted_gear_solver
+
+    from fuzzymbs.models.gears import gear_pair_model
+
+    model = gear_pair_model(positions=4)
+    samples = {"tooth_stiffness": np.array([14000.0]), "contact_stiffness": np.array([9e8])}
+    compiled = model(samples)["ste"]
+    plain = interpreted_ste(model, samples, interpreted_gear_solver())
+    # identical source and arithmetic order: equal to a few ulps of the STE (~1e-5 m)
+    np.testing.assert_allclose(plain, compiled, rtol=1e-12, atol=1e-18)
+
+
+def test_flop_count_terms(brake):
+    from brake_flops import RK4_STAGES, step_flops
+
+    _, model = brake
+    data = model.compiled.data
+    count = step_flops(data, active_fraction=0.5)
+    bi = data[1]
+    # kinematics: 2 products (U, Udot) x 2 flops x 3 components x nodes x modes per body
+    modal = sum(4 * 3 * (row[5] - row[4]) * row[3] for row in bi)
+    assert count["rhs_terms"]["kinematics"] >= modal
+    assert count["flops_per_sample_step"] > RK4_STAGES * count["flops_per_rhs"]
+    assert count["coordinates"] == data[0]
+    more = step_flops(data, active_fraction=1.0)["flops_per_sample_step"]
+    assert more > count["flops_per_sample_step"]  # contact work grows with touching nodes
+
+
+def test_targets_and_table_structure():
+    import run
+
+    figures = {key: 1.0 for key, _, _ in run.TARGETS}
+    figures["brake_study_seconds"] = 10.0
+    rows = run.targets(figures)
+    assert set(rows) == {key for key, _, _ in run.TARGETS}
+    assert rows["brake_study_seconds"]["met"] is False
+    assert rows["brake_study_seconds"]["factor_missing"] == pytest.approx(2.0)
+    assert rows["gear_study_seconds"]["met"] is True
+    figures["targets"] = rows
+    assert "brake_study_seconds" in run.table(figures)
+    json.dumps(figures, allow_nan=False)
+
+
+def test_parameter_scaling_counts_runs():
+    import scaling
+
+    rows = scaling.parameter_scaling(max_parameters=3, levels=2)
+    # general method: sum_{k=1}^{m+1} k^n points per parameter count n (THEORY section 1)
+    assert [r["runs_without_reuse"] for r in rows] == [1 + 4 + 9, 1 + 8 + 27]
+    assert all(0 < r["runs"] <= r["runs_without_reuse"] for r in rows)
