@@ -274,13 +274,24 @@ def test_stability_model_outputs_and_coords():
     out = model({"disc_speed": np.array([1.0, 10.0])})
     assert model.coords["mode_rank"].tolist() == [0, 1, 2]
     assert out["real_parts"].shape == out["frequencies"].shape == (2, 3)
-    for name in ("max_real_part", "least_stable_frequency", "unstable_modes", "failed"):
+    for name in (
+        "max_real_part",
+        "least_stable_frequency",
+        "unstable_modes",
+        "failed",
+        "pad_max_real_part",
+        "pad_mode_frequency",
+    ):
         assert out[name].shape == (2,)
     assert not out["failed"].any()
     # ranked: the first column is the largest real part of each sample
     assert (np.diff(out["real_parts"], axis=1) <= 0).all()
     np.testing.assert_array_equal(out["max_real_part"], out["real_parts"][:, 0])
     assert out["unstable_modes"][0] == 0 and out["unstable_modes"][1] >= 1
+    # the pads' least stable mode: damped at 1 rad/s (friction), and at 10 rad/s it is
+    # the unstable mode-coupling pair itself (the pads take part in it)
+    assert out["pad_max_real_part"][0] < out["max_real_part"][0] <= 0
+    assert out["pad_max_real_part"][1] == out["max_real_part"][1]
 
 
 def test_demo_study_files_validate():

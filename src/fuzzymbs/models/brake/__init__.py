@@ -62,6 +62,7 @@ STABILITY_OPTIONS = {
     "regularization_velocity": OPTIONS["regularization_velocity"],
     "modal_damping_ratio": OPTIONS["modal_damping_ratio"],
     "n_modes": "number of least stable eigenvalue pairs reported (default 6)",
+    "pad_participation": "pad-translation share that makes a mode a pad mode (default 0.1)",
     "design": OPTIONS["design"],
 }
 
@@ -122,6 +123,8 @@ register_model(
         "max_real_part": "1/s",
         "least_stable_frequency": "Hz",
         "unstable_modes": "-",
+        "pad_max_real_part": "1/s",
+        "pad_mode_frequency": "Hz",
         "real_parts": "1/s",
         "frequencies": "Hz",
     },

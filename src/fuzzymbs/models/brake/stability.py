@@ -56,6 +56,12 @@ class StabilityResult:
         Number of eigenvalue pairs with ``sigma > tolerance |lambda|``.
     converged : (B,) bool
         Whether the Newton steady state converged (False: the sample's results are NaN).
+    pad_real_part, pad_frequency : (B,) [1/s], [Hz]
+        Real part and frequency of the least stable mode *the pads take part in*:
+        the larger pad-translation component of its eigenvector is at least
+        ``pad_participation`` (coordinate part scaled to max-norm 1). Below the
+        onset of instability the least stable mode overall is a nearly undamped
+        caliper or disc mode that the pad signals hardly show.
     """
 
     real_parts: NDArray[np.float64]
@@ -63,6 +69,8 @@ class StabilityResult:
     damping_ratios: NDArray[np.float64]
     unstable_count: NDArray[np.int64]
     converged: NDArray[np.bool_]
+    pad_real_part: NDArray[np.float64]
+    pad_frequency: NDArray[np.float64]
 
     @property
     def max_real_part(self) -> NDArray[np.float64]:
@@ -76,6 +84,7 @@ def stability_analysis(
     *,
     n_modes: int = 6,
     tolerance: float = 1e-6,
+    pad_participation: float = 0.1,
 ) -> StabilityResult:
     """Complex eigenvalues of the brake linearised about steady sliding, for a batch.
 
@@ -89,9 +98,16 @@ def stability_analysis(
         Number k of least stable eigenvalue pairs returned.
     tolerance : float
         A pair is unstable when ``sigma > tolerance |lambda|`` (round-off guard).
+    pad_participation : float
+        Threshold in (0, 1] of the pad-translation share that makes a mode a "pad
+        mode" (see :class:`StabilityResult`).
     """
     if int(n_modes) != n_modes or n_modes < 1:
         raise InvalidParameterError(f"n_modes must be an integer >= 1, got {n_modes!r}")
+    if not 0 < pad_participation <= 1:
+        raise InvalidParameterError(
+            f"pad_participation must lie in (0, 1], got {pad_participation!r}"
+        )
     columns = check_samples(samples or {})
     analysis = eigenanalysis(compiled, columns, tolerance=tolerance)
     lam = analysis.eigenvalues
@@ -107,12 +123,22 @@ def stability_analysis(
     zeta = np.where(mag > 0, -real / np.where(mag > 0, mag, 1.0), 0.0)
     unstable = ((lam.real > tolerance * np.abs(lam)) & (lam.imag >= 0)).sum(axis=1)
     converged = analysis.steady_state.converged.copy()
+    pads = [compiled.body_dofs[name].start for name in ("lower_pad", "upper_pad")]
+    share = np.abs(analysis.mode_shapes[:, pads, :]).max(axis=1)  # (B, 2n)
+    candidates = np.where((lam.imag >= 0) & (share >= pad_participation), lam.real, -np.inf)
+    best = candidates.argmax(axis=1)[:, None]
+    pad_lam = np.take_along_axis(lam, best, axis=1)[:, 0]
+    found = np.isfinite(np.take_along_axis(candidates, best, axis=1)[:, 0]) & converged
+    pad_real = np.where(found, pad_lam.real, np.nan)
+    pad_freq = np.where(found, np.abs(pad_lam.imag) / (2 * np.pi), np.nan)
     for arr in (real, freq, zeta):
         arr[~converged] = np.nan
     if real.shape[1] < k:  # fewer pairs than requested: pad with NaN
         pad = np.full((batch, k - real.shape[1]), np.nan)
         real, freq, zeta = (np.hstack([a, pad]) for a in (real, freq, zeta))
-    return StabilityResult(real, freq, zeta, unstable.astype(np.int64), converged)
+    return StabilityResult(
+        real, freq, zeta, unstable.astype(np.int64), converged, pad_real, pad_freq
+    )
 
 
 def growth_rate(
@@ -161,6 +187,8 @@ class BrakeStability:
     """Batched model: least stable modes of the linearised brake per sample.
 
     Outputs ``max_real_part`` (B,) [1/s], ``least_stable_frequency`` (B,) [Hz],
+    ``pad_max_real_part`` (B,) [1/s] and ``pad_mode_frequency`` (B,) [Hz] (least
+    stable mode with pad participation, see :class:`StabilityResult`),
     ``real_parts`` and ``frequencies`` (B, k) over ``coords["mode_rank"]``,
     ``unstable_modes`` (B,) and the ``failed`` / ``failure_reason`` flags (Newton
     steady state not converged). Same parameters as :class:`DiscBrake`.
@@ -172,6 +200,8 @@ class BrakeStability:
         As for :class:`~fuzzymbs.models.brake.model.DiscBrake`.
     n_modes : int
         Number k of least stable pairs reported.
+    pad_participation : float
+        Threshold of the pad outputs ``pad_max_real_part`` / ``pad_mode_frequency``.
     """
 
     def __init__(
@@ -182,8 +212,10 @@ class BrakeStability:
         regularization_velocity: float = 1e-3,
         modal_damping_ratio: float = 0.0,
         n_modes: int = 6,
+        pad_participation: float = 0.1,
     ) -> None:
         self.design = design or BrakeDesign()
+        self.pad_participation = float(pad_participation)
         bodies = build_bodies(self.design)
         system = brake_system(bodies, contact, regularization_velocity, modal_damping_ratio)
         self.compiled = system.compile()
@@ -193,6 +225,8 @@ class BrakeStability:
             "max_real_part": (),
             "least_stable_frequency": (),
             "unstable_modes": (),
+            "pad_max_real_part": (),
+            "pad_mode_frequency": (),
             "real_parts": ("mode_rank",),
             "frequencies": ("mode_rank",),
             "failed": (),
@@ -200,13 +234,17 @@ class BrakeStability:
         }
 
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
-        result = stability_analysis(self.compiled, samples, n_modes=self.n_modes)
+        result = stability_analysis(
+            self.compiled, samples, n_modes=self.n_modes, pad_participation=self.pad_participation
+        )
         failed = ~result.converged
         reason = np.where(failed, "steady sliding state (Newton) did not converge", "")
         return {
             "max_real_part": result.real_parts[:, 0].copy(),
             "least_stable_frequency": result.frequencies[:, 0].copy(),
             "unstable_modes": result.unstable_count.astype(float),
+            "pad_max_real_part": result.pad_real_part,
+            "pad_mode_frequency": result.pad_frequency,
             "real_parts": result.real_parts,
             "frequencies": result.frequencies,
             "failed": failed,
