@@ -60,7 +60,9 @@ class PolarChart:
     """Annular-patch chart about ``axis`` through ``origin``: radius r and angle theta.
 
     theta is measured from ``reference`` (projected onto the plane normal to the
-    axis) towards ``axis x reference``, in (-pi, pi].
+    axis) towards ``axis x reference``, in (-pi, pi]. A sector patch must not
+    straddle theta = +-pi: choose ``reference`` inside the sector (a full annulus
+    is detected as periodic and is fine).
     """
 
     axis: ArrayLike | str = "y"
