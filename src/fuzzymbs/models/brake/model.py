@@ -90,6 +90,8 @@ PARAMETERS = {
 OUTPUTS = {"y_lpad": "m", "y_upad": "m", "y_cali": "m"}
 VELOCITY_OUTPUTS = {"v_lpad": "m/s", "v_upad": "m/s", "v_cali": "m/s"}
 
+# per side: pad body, disc patch, normal of the disc patch (towards the pad), normal of
+# the pad face (towards the disc) = direction of the press forces
 _SIDES = {
     "lower": ("lower_pad", "patch_lower", "-y", "y"),
     "upper": ("upper_pad", "patch_upper", "y", "-y"),
