@@ -197,3 +197,24 @@ def test_invalid_definition_names_a_short_parameter_name():
 
     with pytest.raises(InvalidFuzzyNumberError, match=r"parameter 'a': .*spread must be >= 0"):
         fuzzy_number_from_definition({"type": "triangular", "modal": 1.0, "spread": -0.1}, "a")
+
+
+def test_output_names_that_would_overwrite_dataset_variables_are_refused():
+    from fuzzymbs.errors import ModelOutputError
+
+    # "parameter_lower" holds the input cuts: an output "parameter" silently lost its bounds
+    def named_parameter(samples):
+        return {"parameter": 2.0 * samples["x"]}
+
+    with pytest.raises(ModelOutputError, match=r"'parameter'.*'parameter_lower'"):
+        Study(named_parameter, {"x": Triangular(1, 2, 3)}, levels=1).run(progress=False)
+
+    # declared outputs are checked before anything is evaluated
+    class Declared:
+        outputs = {"z": "m", "z_mean": "m"}  # noqa: RUF012 - z_mean_gain is also z's mean gain
+
+        def __call__(self, samples):
+            raise AssertionError("must not be evaluated")
+
+    with pytest.raises(ModelOutputError, match=r"'z_mean_gain'.*output 'z'"):
+        Study(Declared(), {"x": Triangular(1, 2, 3)}, levels=1)

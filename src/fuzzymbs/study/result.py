@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from fuzzymbs.errors import InvalidParameterError, UnsupportedOperationError
+from fuzzymbs.errors import InvalidParameterError, ModelOutputError, UnsupportedOperationError
 from fuzzymbs.study.store import json_safe
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -106,6 +106,45 @@ def _output_layout(
     return dims, used
 
 
+#: dataset variables that do not belong to one output (an output must not shadow them)
+STUDY_VARIABLES = (
+    "samples",
+    "sample_failed",
+    "failure_reason",
+    "level_usage",
+    "level_complete",
+    "parameter_lower",
+    "parameter_upper",
+)
+_OUTPUT_SUFFIXES = (
+    "lower",
+    "upper",
+    "nominal",
+    "reference",
+    "samples",
+    "gain",
+    "mean_gain",
+    "absolute_influence",
+    "relative_influence",
+)
+
+
+def check_output_names(outputs: Mapping[str, Any]) -> None:
+    """Refuse output names whose variables would overwrite study variables or each other."""
+    seen: dict[str, str] = {}
+    for name in outputs:
+        for suffix in _OUTPUT_SUFFIXES:
+            variable = f"{name}_{suffix}"
+            clash = variable in STUDY_VARIABLES or variable in seen
+            if clash:
+                other = seen.get(variable, "the study's own variables")
+                raise ModelOutputError(
+                    f"model output name {name!r} gives the dataset variable {variable!r}, "
+                    f"which is already used by {other}; rename the output"
+                )
+            seen[variable] = f"output {name!r}"
+
+
 def build_dataset(
     study: Study,
     outputs: Mapping[str, np.ndarray],
@@ -142,6 +181,7 @@ def build_dataset(
     }
     data: dict[str, Any] = {}
     influence_outputs = []
+    check_output_names(outputs)
     for name, result in fuzzy.items():
         dims, used = _output_layout(study, name, result.shape)
         for dim, values in used.items():

@@ -27,7 +27,7 @@ from fuzzymbs.errors import (
 )
 from fuzzymbs.study.evaluation import ChunkResult, evaluate_chunk
 from fuzzymbs.study.registry import ModelSpec, ParameterInfo, get_model, load_callable
-from fuzzymbs.study.result import StudyResult, build_dataset
+from fuzzymbs.study.result import StudyResult, build_dataset, check_output_names
 
 __all__ = ["DEFAULT_CHUNK_SIZE", "ON_FAILURE", "Study", "StudyResult"]
 
@@ -194,6 +194,7 @@ class Study:
                     )
         self.outputs: tuple[str, ...] | None = tuple(outputs) if outputs else None
         self.output_names: tuple[str, ...] = self.outputs or tuple(known_outputs or ())
+        check_output_names(dict.fromkeys(self.output_names))  # before any evaluation
         self.name = name or (self.model_name.split(":")[-1].split(".")[-1])
         self.description = description
 
