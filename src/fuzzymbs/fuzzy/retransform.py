@@ -29,10 +29,28 @@ if TYPE_CHECKING:  # pragma: no cover
     from fuzzymbs.fuzzy.influence import Influence
     from fuzzymbs.fuzzy.transform import Plan
 
-__all__ = ["FuzzyResult", "NonMonotonicWarning", "retransform"]
+__all__ = ["FuzzyResult", "NonMonotonicWarning", "cut_index", "retransform"]
 
 #: relative tolerance of the monotonicity guard (round-off must not warn)
 MONOTONIC_RTOL = 1e-9
+
+
+def cut_index(levels: NDArray[np.float64], mu: float) -> int:
+    """Index of the computed level whose cut answers a query at ``mu``.
+
+    That is the lowest level >= ``mu`` (the next level up; nothing is
+    interpolated); a level within 1e-12 of ``mu`` counts as ``mu`` itself.
+
+    Raises
+    ------
+    InvalidFuzzyNumberError
+        If ``mu`` is not a number in [0, 1].
+    """
+    value = check_level(mu)
+    index = int(np.searchsorted(levels, value, side="left"))
+    if index > 0 and abs(levels[index - 1] - value) <= 1e-12:
+        index -= 1
+    return min(index, len(levels) - 1)
 
 
 class FuzzyResult:
@@ -118,12 +136,7 @@ class FuzzyResult:
         InvalidFuzzyNumberError
             If ``mu`` is outside [0, 1].
         """
-        value = check_level(mu)
-        index = int(np.searchsorted(self.levels, value, side="left"))
-        # a level within round-off of mu counts as that level
-        if index > 0 and abs(self.levels[index - 1] - value) <= 1e-12:
-            index -= 1
-        index = min(index, len(self.levels) - 1)
+        index = cut_index(self.levels, mu)
         return self.lower[index].copy(), self.upper[index].copy()
 
     def influence(self, weights: str | ArrayLike = "membership") -> Influence:

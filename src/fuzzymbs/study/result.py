@@ -32,7 +32,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from fuzzymbs.errors import InvalidParameterError, ModelOutputError, UnsupportedOperationError
+from fuzzymbs.errors import (
+    InvalidFuzzyNumberError,
+    InvalidParameterError,
+    ModelOutputError,
+    UnsupportedOperationError,
+)
 from fuzzymbs.study.store import json_safe
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -315,10 +320,12 @@ class StudyResult:
         """Bounds of ``output`` at level ``mu`` (the next computed level up; never interpolated)."""
         if output not in self.outputs:
             raise InvalidParameterError(f"no output {output!r}; outputs: {', '.join(self.outputs)}")
-        levels = self.dataset["level"].values
-        if not 0.0 <= mu <= 1.0:
-            raise InvalidParameterError(f"mu must lie in [0, 1], got {mu!r}")
-        index = min(int(np.searchsorted(levels, mu - 1e-12, side="left")), len(levels) - 1)
+        from fuzzymbs.fuzzy.retransform import cut_index
+
+        try:
+            index = cut_index(self.dataset["level"].values, mu)
+        except InvalidFuzzyNumberError as exc:
+            raise InvalidParameterError(str(exc)) from None
         return (
             self.dataset[f"{output}_lower"].values[index],
             self.dataset[f"{output}_upper"].values[index],
