@@ -81,9 +81,11 @@ def run(
     verbose: VerboseOption = False,
 ) -> None:
     """Run STUDY_FILE; write OUT/result.nc, plots and OUT/summary.txt (rerun resumes)."""
+    from fuzzymbs.study.study import ON_FAILURE
+
     _setup_logging(quiet, verbose)
-    if on_failure is not None and on_failure not in ("raise", "fail-fast", "partial"):
-        raise _fail(f"--on-failure {on_failure!r}; allowed: raise, fail-fast, partial")
+    if on_failure is not None and on_failure not in ON_FAILURE:
+        raise _fail(f"--on-failure {on_failure!r}; allowed: {', '.join(ON_FAILURE)}")
     _run_one(
         study_file,
         out,
@@ -176,6 +178,7 @@ def info(
 ) -> None:
     """List the registered models (parameters with units, outputs, options), methods, demos."""
     from fuzzymbs.errors import FuzzymbsError
+    from fuzzymbs.fuzzy.transform import METHODS
     from fuzzymbs.study.pipeline import demo_names
     from fuzzymbs.study.registry import available_models, get_model
 
@@ -195,7 +198,7 @@ def info(
         if spec.options:
             lines.append("    options:")
             lines += [f"      {k}: {v}" for k, v in spec.options.items()]
-    lines.append("Methods: general, reduced, extended, grid")
+    lines.append(f"Methods: {', '.join(METHODS)}")
     lines.append("Executors: inline, processes[:N], dask://HOST:PORT")
     lines.append(f"Demos: {', '.join(demo_names()) or '(none)'}")
     typer.echo("\n".join(lines))
