@@ -175,6 +175,7 @@ def test_evaluate_chunks_match_single_call():
         (lambda s: {"z": np.float64(1.0)}, "NumPy array"),
         (lambda s: {"z": s["a"][:-1]}, "leading axis"),
         (lambda s: {"z": np.array(["x"] * len(s["a"]))}, "numeric"),
+        (lambda s: {"z": s["a"], "failure_reason": np.full(len(s["a"]), "")}, "Study"),
     ],
 )
 def test_evaluate_rejects_bad_model_outputs(model, fragment):

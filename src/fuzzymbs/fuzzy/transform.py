@@ -505,7 +505,15 @@ def _check_model_output(
                 f"got shape {value.shape}"
             )
         if not (np.issubdtype(value.dtype, np.number) or value.dtype == np.bool_):
-            raise ModelOutputError(f"model output {key!r} must be numeric, got dtype {value.dtype}")
+            hint = (
+                " (failure flags and reasons are read by fuzzymbs.Study; with a bare plan, "
+                "drop them and pass failed=... to retransform)"
+                if key == "failure_reason"
+                else ""
+            )
+            raise ModelOutputError(
+                f"model output {key!r} must be numeric, got dtype {value.dtype}{hint}"
+            )
         if seen and seen[key][0].shape[1:] != value.shape[1:]:
             raise ModelOutputError(
                 f"model output {key!r} changed trailing shape between chunks: "
