@@ -183,3 +183,18 @@ def test_failed_samples_are_flagged_not_averaged(model):
     assert out["failed"].tolist() == [False, True]
     assert np.isnan(out["ste"][1]).all() and np.isfinite(out["ste"][0]).all()
     assert out["failure_reason"][1] != ""
+
+
+def test_identity_changes_with_every_setting(pair, model):
+    # a study store keyed on identity() must not mix results of differently set models
+    same = MubocoPR(pair, torque=100.0, positions=80, reference=False)
+    assert same.identity() == model.identity()
+    others = [
+        MubocoPR(pair, torque=120.0, positions=80, reference=False),
+        MubocoPR(pair, torque=100.0, positions=81, reference=False),
+        MubocoPR(pair, torque=100.0, positions=80, reference=False, contact_exponent=1.5),
+        MubocoPR(pair, torque=100.0, positions=80, reference=False, tooth_stiffness=2e4),
+        MubocoPR(make_pair(module=5e-3), torque=100.0, positions=80, reference=False),
+    ]
+    digests = {other.identity() for other in others}
+    assert len(digests) == len(others) and model.identity() not in digests

@@ -146,3 +146,26 @@ def test_complete_store_needs_no_executor(tmp_path):
     # an unreachable cluster is never contacted when every chunk is stored
     result = _study(Counting()).run(store=tmp_path, executor="dask://127.0.0.1:1", progress=False)
     assert result.provenance["executor"].startswith("none")
+
+
+class Scaled:
+    """z = scale * x1 * x2, identified by its scale through identity()."""
+
+    coords: dict = {}  # noqa: RUF012
+
+    def __init__(self, scale):
+        self.scale = scale
+
+    def identity(self):
+        return {"scale": self.scale}
+
+    def __call__(self, samples):
+        return {"z": self.scale * samples["x1"] * samples["x2"]}
+
+
+def test_model_identity_hook_keeps_differently_configured_objects_apart(tmp_path):
+    Study(Scaled(1.0), PARAMETERS, levels=2).run(store=tmp_path, progress=False)
+    with pytest.raises(StoreMismatchError, match="model_identity"):
+        Study(Scaled(2.0), PARAMETERS, levels=2).run(store=tmp_path, progress=False)
+    again = Study(Scaled(1.0), PARAMETERS, levels=2).run(store=tmp_path, progress=False)
+    assert again.provenance["evaluated"] == 0

@@ -236,14 +236,23 @@ class Study:
         return {k: str(v) for k, v in declared.items()} if isinstance(declared, Mapping) else {}
 
     def identity(self) -> dict[str, Any]:
-        """What a result store must match: plan fingerprint, model, options, crisp values."""
-        return {
+        """What a result store must match: plan fingerprint, model, options, crisp values.
+
+        A model object may add its own settings by defining ``identity()``
+        returning plain data (e.g. a digest of its configuration); without it,
+        a model passed as an object is identified by its name only.
+        """
+        identity = {
             "plan_fingerprint": self.plan.fingerprint(),
             "model": self.model_name,
             "model_options": self.model_options,
             "constants": self.constants,
             "outputs": list(self.outputs) if self.outputs else None,
         }
+        model_identity = getattr(self.model, "identity", None)
+        if callable(model_identity):
+            identity["model_identity"] = model_identity()
+        return identity
 
     def columns(self, start: int, stop: int) -> dict[str, np.ndarray]:
         """Every parameter column (fuzzy and crisp) of samples ``start:stop``."""

@@ -466,6 +466,34 @@ class MubocoPR:
             self.coords["harmonic"] = np.arange(1, dynamic.harmonics + 1, dtype=float)
             self.reference = {}
 
+    def identity(self) -> str:
+        """SHA-256 digest of every setting that changes the outputs (for result stores).
+
+        Two models with equal digests give equal outputs for equal samples, so a
+        study store made with one is valid for the other.
+        """
+        import hashlib
+
+        digest = hashlib.sha256()
+        settings = (
+            repr(self.pair),
+            self.mode,
+            self.torque,
+            self.contact_exponent,
+            self.damping,
+            self.damping_exponents,
+            sorted(self.defaults.items()),
+        )
+        digest.update(repr(settings).encode())
+        if self.mode == "static":
+            digest.update(np.ascontiguousarray(self.positions, dtype="<f8").tobytes())
+        else:
+            digest.update(repr(self.dynamic).encode())
+            torque_factor = self.dynamic_plan.torque_factor
+            if torque_factor is not None:
+                digest.update(np.ascontiguousarray(torque_factor, dtype="<f8").tobytes())
+        return digest.hexdigest()
+
     # ---- sample handling ---------------------------------------------------------------
     def stiffness_columns(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
         """Per-sample torque, contact stiffness and both tooth stiffnesses, defaults filled."""
