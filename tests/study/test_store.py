@@ -169,3 +169,16 @@ def test_model_identity_hook_keeps_differently_configured_objects_apart(tmp_path
         Study(Scaled(2.0), PARAMETERS, levels=2).run(store=tmp_path, progress=False)
     again = Study(Scaled(1.0), PARAMETERS, levels=2).run(store=tmp_path, progress=False)
     assert again.provenance["evaluated"] == 0
+
+
+def test_oscillator_object_settings_are_part_of_the_identity(tmp_path):
+    from fuzzymbs.models.closed_form import make_damped_oscillator
+
+    parameters = {"stiffness": Triangular.relative(1000.0, 0.1)}
+    Study(make_damped_oscillator(time_steps=5), parameters, levels=1).run(
+        store=tmp_path, progress=False
+    )
+    with pytest.raises(StoreMismatchError, match="model_identity"):
+        Study(make_damped_oscillator(time_steps=6), parameters, levels=1).run(
+            store=tmp_path, progress=False
+        )

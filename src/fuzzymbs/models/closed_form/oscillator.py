@@ -134,6 +134,14 @@ class DampedOscillator:
         self.output_dims = {"displacement": ("time",), "natural_frequency": ()}
         self.reference = {"displacement": self._numerical_reference()}
 
+    def identity(self) -> dict[str, float]:
+        """The settings that change the outputs (part of a result store's identity)."""
+        return {
+            "duration": self.duration,
+            "time_steps": self.time_steps,
+            "initial_displacement": self.initial_displacement,
+        }
+
     def _numerical_reference(self) -> np.ndarray:
         """x(t) at the default parameters by numerical integration (independent of the formula)."""
         from scipy.integrate import solve_ivp
