@@ -174,7 +174,7 @@ def test_model_identity_hook_keeps_differently_configured_objects_apart(tmp_path
 def test_oscillator_object_settings_are_part_of_the_identity(tmp_path):
     from fuzzymbs.models.closed_form import make_damped_oscillator
 
-    parameters = {"stiffness": Triangular.relative(1000.0, 0.1)}
+    parameters = {"stiffness": Triangular.relative(1000.0, 0.1), "mass": 1.0, "damping": 3.0}
     Study(make_damped_oscillator(time_steps=5), parameters, levels=1).run(
         store=tmp_path, progress=False
     )
