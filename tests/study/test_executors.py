@@ -47,7 +47,7 @@ def test_dask_local_cluster_equals_inline(inline_result):
             threads_per_worker=2,
             processes=False,
             protocol="tcp",
-            dashboard_address=None,
+            dashboard_address=":0",  # a free port: 8787 may be taken by another cluster
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
