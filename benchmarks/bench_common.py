@@ -67,6 +67,20 @@ def _lscpu() -> dict[str, str]:
     return info
 
 
+def _source_state() -> str:
+    """Commit of the measured tree, '+dirty' when src/ has uncommitted changes."""
+    try:
+        head = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--", "src"], cwd=REPO, capture_output=True, text=True
+        ).stdout.strip()
+    except OSError:
+        return "unknown"
+    return (head or "unknown") + ("+dirty" if dirty else "")
+
+
 def machine() -> dict[str, Any]:
     """CPU, core count and the versions of everything the timings depend on."""
     import numba
@@ -93,6 +107,7 @@ def machine() -> dict[str, Any]:
     except Exception:  # layout differs between NumPy versions; the name is informative only
         pass
     return {
+        "source": _source_state(),
         "platform": platform.platform(),
         "cpu": _lscpu(),
         "cpu_count": os.cpu_count(),

@@ -88,7 +88,10 @@ def run(quick: bool = False) -> dict[str, Any]:
     first = study.run(progress=False)
     assert not first.failed.any(), "gear benchmark study has failed samples"
 
-    study_seconds = best_time(lambda: study.run(progress=False), repeat=3 if quick else 5)
+    repeats = 3 if quick else 5
+    cpu_start = time.process_time()
+    study_seconds = best_time(lambda: study.run(progress=False), repeat=repeats)
+    study_cpu = (time.process_time() - cpu_start) / repeats  # all threads, per run
     model_seconds = best_time(lambda: model(samples), repeat=3 if quick else 5)
     batched = model(samples)["ste"]
 
@@ -101,7 +104,7 @@ def run(quick: bool = False) -> dict[str, Any]:
 
     # interpreted solver, one sample at a time: a subset in quick mode (per-sample cost)
     solver = interpreted_gear_solver()
-    subset = 3 if quick else runs
+    subset = 2 if quick else runs
     picks = np.linspace(0, runs - 1, subset).round().astype(int)
     sub = {name: values[picks] for name, values in samples.items()}
     start = time.perf_counter()
@@ -120,6 +123,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         "gear_positions": POSITIONS,
         "gear_study_seconds": study_seconds,
         "gear_model_seconds": model_seconds,
+        "gear_study_cpu_seconds": study_cpu,
         "gear_python_loop_seconds": python_loop_seconds,
         "gear_python_loop_samples_timed": subset,
         "gear_python_loop_seconds_per_sample": python_per_sample,

@@ -71,7 +71,7 @@ def startup(quick: bool = False) -> dict[str, Any]:
     and times the start-up from the default Numba cache that the rest of the
     benchmark run has filled.
     """
-    end = 1e-3 if quick else 1e-2
+    end = 5e-4 if quick else 1e-2
     with tempfile.TemporaryDirectory(prefix="fuzzymbs-numba-") as cache:
         env = {"NUMBA_CACHE_DIR": cache}
         cold = None
