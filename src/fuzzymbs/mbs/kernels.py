@@ -36,6 +36,9 @@ KIND_FIXED, KIND_TRANSLATING, KIND_ROTATING = 0, 1, 2
     C_MU,
     C_PERIODIC,
 ) = range(14)
+# contact float table columns beyond the chart frame (0-8), eps (9) and normal damping (10):
+# per-pass constants of the cell look-up, computed once by System.compile
+CF_USCALE, CF_UUNIFORM, CF_VSCALE, CF_VUNIFORM = range(11, 15)
 # failure codes
 OK, NONFINITE, OUT_OF_BOUND = 0, 1, 2
 FAILURE_REASONS = {
@@ -63,6 +66,9 @@ _ATAN_COEF = (
 # Reassociation and FMA contraction let LLVM vectorise the small dot products; NaN/inf
 # semantics are kept (no 'nnan'/'ninf') so that blown-up samples are still detected.
 FAST = {"reassoc", "contract", "arcp"}
+# error_model="numpy" on loops with float divisions: x / 0 gives inf/NaN (caught by the
+# integrators' finiteness check) instead of a ZeroDivisionError branch per division,
+# which would keep LLVM from vectorising the loop.
 
 
 @nb.njit(cache=True, inline="always")
@@ -125,6 +131,33 @@ def atan2(y, x):
     if y < 0.0:
         angle = -angle
     return angle
+
+
+@nb.njit(cache=True, inline="always")
+def _atan2_select(y, x):
+    """:func:`atan2` without branches (selects only), so that a loop over it vectorises.
+
+    The same operations in the same order as :func:`atan2`, hence the same result.
+    """
+    ax = abs(x)
+    ay = abs(y)
+    swap = ay > ax
+    num = ax if swap else ay
+    den = ay if swap else ax
+    safe_den = 1.0 if den == 0.0 else den
+    t = num / safe_den
+    big = t > _TAN_PI_8
+    t = (t - 1.0) / (t + 1.0) if big else t
+    shift = 0.25 * np.pi if big else 0.0
+    z = t * t
+    poly = _ATAN_COEF[9]
+    for k in range(8, -1, -1):
+        poly = poly * z + _ATAN_COEF[k]
+    angle = t * poly + shift
+    angle = 0.5 * np.pi - angle if swap else angle
+    angle = np.pi - angle if x < 0.0 else angle
+    angle = -angle if y < 0.0 else angle
+    return 0.0 if den == 0.0 else angle
 
 
 @nb.njit(cache=True)
@@ -388,7 +421,7 @@ def _node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node
                 node_v[i, 2] += w2
 
 
-@nb.njit(cache=True, fastmath=FAST)
+@nb.njit(cache=True, fastmath=FAST, error_model="numpy")
 def _contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f):
     """Penalty normal force and regularised Coulomb friction of one contact pass."""
     mb = ci[c, C_MBODY]
@@ -440,30 +473,39 @@ def _contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, 
     cu = o0 * ua0 + o1 * ua1 + o2 * ua2 + chart_o_u
     cv = o0 * va0 + o1 * va1 + o2 * va2 + chart_o_v
     # O(1) cell look-up: index = (value - first) * scale; on a uniform grid that is the
-    # cell and its local coordinate directly, otherwise a start for a short walk
+    # cell and its local coordinate directly, otherwise a start for a short walk (the
+    # scales and uniformity flags are constant per pass: computed by System.compile)
     u_first = ugrid[0]
-    u_scale = (nu - 1) / (ugrid[nu - 1] - u_first)
-    u_uniform = _is_uniform(ugrid, nu - 1)
+    u_scale = cf[c, CF_USCALE]
+    u_uniform = cf[c, CF_UUNIFORM] != 0.0
     v_first = vgrid[0]
-    v_span = _TWO_PI if periodic else vgrid[nv - 1] - v_first
     v_cells = nv if periodic else nv - 1
-    v_scale = v_cells / v_span
-    v_uniform = _is_uniform(vgrid, nv - 1) and (
-        not periodic or abs(v_first + _TWO_PI - vgrid[nv - 1] - (vgrid[1] - v_first)) < 1e-9
-    )
+    v_scale = cf[c, CF_VSCALE]
+    v_uniform = cf[c, CF_VUNIFORM] != 0.0
     kinetic = mu != 0.0 or damping != 0.0  # frictionless, undamped: no velocities needed
-    for s in slaves:
+    # chart coordinates of all slaves first, into two contiguous scratch columns at the
+    # end of node_x, so that sqrt, division and the arctangent run SIMD over the slaves
+    nslave = slaves.shape[0]
+    flat = node_x.reshape(-1)
+    chart_u = flat[flat.size - 2 * nslave : flat.size - nslave]
+    chart_v = flat[flat.size - nslave :]
+    for k in range(nslave):
+        s = slaves[k]
         xs0 = node_x[s, 0]
         xs1 = node_x[s, 1]
         xs2 = node_x[s, 2]
-        a1 = xs0 * ua0 + xs1 * ua1 + xs2 * ua2 - cu
-        a2 = xs0 * va0 + xs1 * va1 + xs2 * va2 - cv
-        if polar:
-            u = np.sqrt(a1 * a1 + a2 * a2)
-            v = atan2(a2, a1)
-        else:
-            u = a1
-            v = a2
+        chart_u[k] = xs0 * ua0 + xs1 * ua1 + xs2 * ua2 - cu
+        chart_v[k] = xs0 * va0 + xs1 * va1 + xs2 * va2 - cv
+    if polar:
+        for k in range(nslave):
+            a1 = chart_u[k]
+            a2 = chart_v[k]
+            chart_u[k] = np.sqrt(a1 * a1 + a2 * a2)
+            chart_v[k] = _atan2_select(a2, a1)
+    for k in range(nslave):
+        s = slaves[k]
+        u = chart_u[k]
+        v = chart_v[k]
         fu = (u - u_first) * u_scale
         if not (0.0 <= fu <= nu - 1):
             continue  # off the patch: no contact, nothing else computed
@@ -518,7 +560,7 @@ def _contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, 
         xm0 = wa * node_x[na, 0] + wb * node_x[nb_, 0] + wc * node_x[nc, 0] + wd * node_x[nd, 0]
         xm1 = wa * node_x[na, 1] + wb * node_x[nb_, 1] + wc * node_x[nc, 1] + wd * node_x[nd, 1]
         xm2 = wa * node_x[na, 2] + wb * node_x[nb_, 2] + wc * node_x[nc, 2] + wd * node_x[nd, 2]
-        gap = n0 * (xs0 - xm0) + n1 * (xs1 - xm1) + n2 * (xs2 - xm2)
+        gap = n0 * (node_x[s, 0] - xm0) + n1 * (node_x[s, 1] - xm1) + n2 * (node_x[s, 2] - xm2)
         if gap >= 0.0:
             continue
         if not kinetic:
@@ -669,13 +711,23 @@ def _map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
 
 @nb.njit(cache=True)
 def make_work(sysdata):
-    """Per-sample work arrays of the right-hand side."""
+    """Per-sample work arrays of the right-hand side.
+
+    ``(q_gen (n), node_x, node_v, node_f (tracked, 3), rot (bodies, 6), rot_a (bodies, 3, 3))``;
+    node_x has extra rows at its end, scratch of the contact passes.
+    """
     ndof = sysdata[0]
     nbody = sysdata[1].shape[0]
     ntracked = sysdata[3].shape[0]
+    ci = sysdata[11]
+    max_slaves = 0
+    for c in range(ci.shape[0]):
+        max_slaves = max(max_slaves, ci[c, C_NSLAVE])
+    # node_x: the tracked nodes, then scratch rows for two chart coordinates per slave
+    scratch_rows = (2 * max_slaves + 2) // 3
     return (
         np.zeros(ndof),
-        np.zeros((ntracked, 3)),
+        np.zeros((ntracked + scratch_rows, 3)),
         np.zeros((ntracked, 3)),
         np.zeros((ntracked, 3)),
         np.zeros((nbody, 6)),

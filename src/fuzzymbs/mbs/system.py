@@ -27,8 +27,9 @@ Layout of ``CompiledSystem.data`` (the tuple passed to every kernel):
   stiffness and unit damping matrices (n x n each), stiffness slot, damping slot.
 * ``nfi`` (nodal forces, 5): body, offset of the generalised force vector(s), profile
   index (-1: constant), magnitude slot, rotating flag (then 3 vectors, see kernels).
-* ``ci`` (contact passes, 14) / ``cf`` (contact passes, 11): see kernels.C_* and the
-  chart frame (origin, two in-plane axes), eps, normal damping.
+* ``ci`` (contact passes, 14) / ``cf`` (contact passes, 15): see kernels.C_* and the
+  chart frame (origin, two in-plane axes), eps, normal damping, then the cell
+  look-up constants (kernels.CF_*: u scale, u uniform, v scale, v uniform).
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs import kernels as K
 from fuzzymbs.mbs.bodies import Body, FixedBody, RotatingBody, TranslatingBody, unit_vector
-from fuzzymbs.mbs.contact import PenaltyContact, build_patch
+from fuzzymbs.mbs.contact import Patch, PenaltyContact, build_patch
 from fuzzymbs.mbs.forces import NodalForce, Spring, resolve_nodes
 from fuzzymbs.mbs.parameters import ParameterTable
 from fuzzymbs.mbs.profiles import TimeProfile
@@ -202,6 +203,26 @@ def _add_profile(pools: _Pools, profiles: list, profile: TimeProfile) -> int:
     pools.addf(profile.cumulative())
     profiles.append((start, profile.times.size))
     return len(profiles) - 1
+
+
+def _lookup_constants(patch: Patch) -> list[float]:
+    """Scales and uniformity flags of the O(1) cell look-up (kernels.CF_USCALE...CF_VUNIFORM).
+
+    Index scale = cells / span of each grid direction; a periodic angle grid spans 2 pi
+    and is uniform only if its wrap-around cell has the width of the others.
+    """
+    u = patch.u
+    v = patch.v
+    u_scale = (u.size - 1) / (u[-1] - u[0])
+    u_uniform = K._is_uniform(u, u.size - 1)
+    if patch.periodic:
+        v_scale = v.size / (2.0 * np.pi)
+        wrap = v[0] + 2.0 * np.pi - v[-1]
+        v_uniform = K._is_uniform(v, v.size - 1) and abs(wrap - (v[1] - v[0])) < 1e-9
+    else:
+        v_scale = (v.size - 1) / (v[-1] - v[0])
+        v_uniform = K._is_uniform(v, v.size - 1)
+    return [u_scale, float(u_uniform), v_scale, float(v_uniform)]
 
 
 def _compile(system: System) -> CompiledSystem:
@@ -393,7 +414,11 @@ def _compile(system: System) -> CompiledSystem:
         row[K.C_MU] = table.add(c.friction, f"contact {c.name!r} friction", 0.0)
         row[K.C_PERIODIC] = int(patch.periodic)
         ci_rows.append(row)
-        cf_rows.append(np.concatenate([frame, [c.regularization_velocity, c.normal_damping]]))
+        cf_rows.append(
+            np.concatenate(
+                [frame, [c.regularization_velocity, c.normal_damping], _lookup_constants(patch)]
+            )
+        )
 
     if not table.slots:
         table.add(0.0, "unused")
@@ -410,6 +435,6 @@ def _compile(system: System) -> CompiledSystem:
         np.array(lg_rows, dtype=np.int64).reshape(-1, 5),
         np.array(nf_rows, dtype=np.int64).reshape(-1, 5),
         np.array(ci_rows, dtype=np.int64).reshape(-1, 14),
-        np.array(cf_rows, dtype=np.float64).reshape(-1, 11),
+        np.array(cf_rows, dtype=np.float64).reshape(-1, 15),
     )
     return CompiledSystem(data, table, ndof, body_dofs, dict(system.bodies), translation_axes)
