@@ -150,12 +150,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     large = [r["fraction_of_flop_bound"] for r in figures["scaling_batches"] if r["batch"] >= 343]
     figures["brake_fraction_of_flop_bound"] = min(large)
     figures["brake_profile"] = profile_brake.profile(
-        batch=66 if quick else 343,
+        batch=33 if quick else 343,
         steps=20 if quick else 200,
         active_fraction=figures["brake_contact_active_fraction"],
     )
     figures["scaling_parameters"] = scaling.parameter_scaling(6)
-    figures["scaling_dask"] = scaling.dask_vs_inline(200 if quick else 1000)
+    figures["scaling_dask"] = scaling.dask_vs_inline(100 if quick else 1000)
     figures["startup"] = startup.startup(quick)
     figures["peak_rss_mb"] = figures["startup"]["cached"].get("peak_rss_mb")
 

@@ -120,9 +120,14 @@ def dask_vs_inline(steps: int) -> dict[str, Any]:
             cluster.close()
     reference = study.run(progress=False)
     # the design promises bit-identical results on every executor
+    keys = ("y_lpad_samples", "y_upad_samples", "y_cali_samples", "y_lpad_lower")
     same = all(
-        np.array_equal(again.dataset[key].values, reference.dataset[key].values, equal_nan=True)
-        for key in ("y_lpad_samples", "y_upad_samples", "y_cali_samples", "y_lpad_lower")
+        np.array_equal(again.dataset[k].values, reference.dataset[k].values, equal_nan=True)
+        for k in keys
+    )
+    largest = max(
+        float(np.nanmax(np.abs(again.dataset[k].values - reference.dataset[k].values)))
+        for k in keys
     )
     log(f"scaling: dask {seconds:.2f} s (start-up {startup:.1f} s), inline {inline:.2f} s")
     del first
@@ -136,4 +141,5 @@ def dask_vs_inline(steps: int) -> dict[str, Any]:
         "dask_cluster_startup_seconds": startup,
         "dask_over_inline": seconds / inline,
         "identical_results": bool(same),
+        "max_abs_difference_m": largest,
     }
