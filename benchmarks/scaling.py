@@ -27,7 +27,11 @@ BATCHES = (1, 33, 343, 2401)
 
 
 def batch_scaling(steps: int, flops_per_sample_step: float, bound_gflops: float) -> list[dict]:
-    """Cost per sample-step of the brake kernel for each batch size."""
+    """Cost per sample-step of the brake kernel for each batch size.
+
+    Wall time (against the machine's bound) and CPU time of all threads (against
+    one core's matmul rate: ``gflops_per_core``), the latter unaffected by other jobs.
+    """
     from brake_bench import DT, brake_model
 
     rows = []
@@ -41,7 +45,10 @@ def batch_scaling(steps: int, flops_per_sample_step: float, bound_gflops: float)
             "nodal_force": 16e3 * rng.uniform(0.99, 1.01, batch),
         }
         model(samples)  # warm-up (compile or load cache, thread pool)
+        cpu_start = time.process_time()
         seconds = best_time(lambda m=model, s=samples: m(s), repeat=3)
+        # CPU time of all threads per sample-step: the work, whatever else shares the cores
+        cpu_per = (time.process_time() - cpu_start) / (3 * batch * steps)
         per = seconds / (batch * steps)
         gflops = flops_per_sample_step / per / 1e9
         rows.append(
@@ -52,6 +59,8 @@ def batch_scaling(steps: int, flops_per_sample_step: float, bound_gflops: float)
                 "seconds_per_sample_step": per,
                 "gflops": gflops,
                 "fraction_of_flop_bound": gflops / bound_gflops,
+                "cpu_seconds_per_sample_step": cpu_per,
+                "gflops_per_core": flops_per_sample_step / cpu_per / 1e9,
             }
         )
         log(f"scaling: batch {batch}: {per * 1e6:.2f} us/sample-step, {gflops:.2f} GFLOP/s")
