@@ -385,7 +385,20 @@ def _node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node
             e0 = bf[b, 12]
             e1 = bf[b, 13]
             e2 = bf[b, 14]
+            # A and the origin as scalars: no reloads through the (bodies, 3, 3) array
             a = rot_a[b]
+            a00 = a[0, 0]
+            a01 = a[0, 1]
+            a02 = a[0, 2]
+            a10 = a[1, 0]
+            a11 = a[1, 1]
+            a12 = a[1, 2]
+            a20 = a[2, 0]
+            a21 = a[2, 1]
+            a22 = a[2, 2]
+            o0 = bf[b, 0]
+            o1 = bf[b, 1]
+            o2 = bf[b, 2]
             for i in range(n0, n1):
                 u0 = node_xbar[i, 0] + node_x[i, 0]
                 u1 = node_xbar[i, 1] + node_x[i, 1]
@@ -393,9 +406,12 @@ def _node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node
                 z0 = node_v[i, 0] + om * (e1 * u2 - e2 * u1)
                 z1 = node_v[i, 1] + om * (e2 * u0 - e0 * u2)
                 z2 = node_v[i, 2] + om * (e0 * u1 - e1 * u0)
-                for c in range(3):
-                    node_x[i, c] = bf[b, c] + a[c, 0] * u0 + a[c, 1] * u1 + a[c, 2] * u2
-                    node_v[i, c] = a[c, 0] * z0 + a[c, 1] * z1 + a[c, 2] * z2
+                node_x[i, 0] = o0 + a00 * u0 + a01 * u1 + a02 * u2
+                node_x[i, 1] = o1 + a10 * u0 + a11 * u1 + a12 * u2
+                node_x[i, 2] = o2 + a20 * u0 + a21 * u1 + a22 * u2
+                node_v[i, 0] = a00 * z0 + a01 * z1 + a02 * z2
+                node_v[i, 1] = a10 * z0 + a11 * z1 + a12 * z2
+                node_v[i, 2] = a20 * z0 + a21 * z1 + a22 * z2
         else:
             r0 = bf[b, 0]
             r1 = bf[b, 1]
@@ -642,22 +658,44 @@ def _map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
         ntr = bi[b, B_NTR]
         nm = bi[b, B_NM]
         qd0 = dof0 + ntr
+        # one branch-free sweep: count the loaded nodes and sum the forces (the frame
+        # translations take the resultant; per-node updates of q_gen were a chain of
+        # dependent loads and stores)
         loaded = 0
+        sum0 = 0.0
+        sum1 = 0.0
+        sum2 = 0.0
         for i in range(n0, n1):
             f0 = node_f[i, 0]
             f1 = node_f[i, 1]
             f2 = node_f[i, 2]
-            if f0 == 0.0 and f1 == 0.0 and f2 == 0.0:
-                continue
-            loaded += 1
-            for a in range(ntr):
-                q_gen[dof0 + a] += bf[b, 3 + 3 * a] * f0 + bf[b, 4 + 3 * a] * f1
-                q_gen[dof0 + a] += bf[b, 5 + 3 * a] * f2
-            if kind == KIND_ROTATING:  # to the body frame, in place (used below)
-                a = rot_a[b]
-                node_f[i, 0] = a[0, 0] * f0 + a[1, 0] * f1 + a[2, 0] * f2
-                node_f[i, 1] = a[0, 1] * f0 + a[1, 1] * f1 + a[2, 1] * f2
-                node_f[i, 2] = a[0, 2] * f0 + a[1, 2] * f1 + a[2, 2] * f2
+            sum0 += f0
+            sum1 += f1
+            sum2 += f2
+            loaded += (f0 != 0.0) | (f1 != 0.0) | (f2 != 0.0)
+        if loaded == 0:
+            continue
+        for a in range(ntr):
+            q_gen[dof0 + a] += bf[b, 3 + 3 * a] * sum0 + bf[b, 4 + 3 * a] * sum1
+            q_gen[dof0 + a] += bf[b, 5 + 3 * a] * sum2
+        if kind == KIND_ROTATING:  # to the body frame, in place (zero stays zero)
+            a = rot_a[b]
+            a00 = a[0, 0]
+            a01 = a[0, 1]
+            a02 = a[0, 2]
+            a10 = a[1, 0]
+            a11 = a[1, 1]
+            a12 = a[1, 2]
+            a20 = a[2, 0]
+            a21 = a[2, 1]
+            a22 = a[2, 2]
+            for i in range(n0, n1):
+                f0 = node_f[i, 0]
+                f1 = node_f[i, 1]
+                f2 = node_f[i, 2]
+                node_f[i, 0] = a00 * f0 + a10 * f1 + a20 * f2
+                node_f[i, 1] = a01 * f0 + a11 * f1 + a21 * f2
+                node_f[i, 2] = a02 * f0 + a12 * f1 + a22 * f2
         if loaded == 0 or nm == 0:
             continue
         target = q_gen[qd0 : qd0 + nm]
