@@ -55,11 +55,11 @@ def brake_study(t_end: float = STUDY_END, chunk_size: int = 33) -> Study:
     )
 
 
-def brake_model(t_end: float, record_interval: float = RECORD) -> Any:
+def brake_model(t_end: float, record_interval: float = RECORD, chunk_size: int = 64) -> Any:
     """The registered brake model with the given end time (defaults otherwise)."""
     from fuzzymbs.models.brake import brake_model as factory
 
-    return factory(t_end=t_end, record_interval=record_interval)
+    return factory(t_end=t_end, record_interval=record_interval, chunk_size=chunk_size)
 
 
 def output_matrix(model: Any) -> np.ndarray:

@@ -37,8 +37,7 @@ def batch_scaling(steps: int, flops_per_sample_step: float, bound_gflops: float)
     rows = []
     rng = np.random.default_rng(7)
     for batch in BATCHES:
-        model = brake_model(steps * DT)
-        model.simulation.settings["chunk_size"] = batch  # one compiled call for the batch
+        model = brake_model(steps * DT, chunk_size=batch)  # one compiled call for the batch
         samples = {
             "pad_spring_stiffness": 200e3 * rng.uniform(0.9, 1.1, batch),
             "caliper_spring_stiffness": 1e3 * rng.uniform(0.9, 1.1, batch),
