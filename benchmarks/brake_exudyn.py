@@ -265,10 +265,10 @@ def run_exudyn(steps: int, record_every: int = 5) -> tuple[np.ndarray, float]:
     ti.explicit.eliminateConstraints = True
     ti.explicit.computeEndOfStepAccelerations = False
     ti.verboseMode = 0
-    settings.solutionSettings.writeSolutionToFile = False
-    settings.solutionSettings.sensorsWritePeriod = record_every * DT
-    settings.displayComputationTime = False
-    settings.displayStatistics = False
+    settings.solution.file.write = False  # Exudyn >= 1.12 names
+    settings.solution.sensors.writePeriod = record_every * DT
+    settings.show.computationTime = False
+    settings.show.statistics = False
     start = time.perf_counter()
     mbs.SolveDynamic(settings)
     seconds = time.perf_counter() - start
