@@ -6,7 +6,7 @@ Prints the tables of that section: errors of y_lpad/y_upad over the first 0.2 ms
 against DOP853 (rtol 1e-10) for dt = 2 us ... 7.8 ns; the error at dt = 1 us with one
 thing switched at a time; the stiffest eigenvalue of the linearised brake times dt;
 and (without ``--quick``) the 10 ms runs and the F_n +-1 % band at 1 us against a fine
-step. About 3 min on one core; ``--quick`` about 1.5 min.
+step. About 3 min on one core; ``--quick`` about 25 s.
 """
 
 from __future__ import annotations
