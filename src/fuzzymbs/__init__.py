@@ -11,8 +11,9 @@ the heavy stages (Numba kernels, scikit-fem) load only when used.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from fuzzymbs._lazy import lazy_exports
 
 __version__ = "0.1.0.dev0"
 
@@ -60,14 +61,4 @@ if TYPE_CHECKING:  # pragma: no cover - for static analysers only
     from fuzzymbs.study.study import Study, StudyResult
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'fuzzymbs' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_exports("fuzzymbs", globals(), _LAZY)

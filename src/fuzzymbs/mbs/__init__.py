@@ -13,8 +13,7 @@ Names load lazily so that importing the package does not import Numba kernels.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from fuzzymbs._lazy import lazy_exports
 
 _LAZY: dict[str, str] = {
     "ModalBody": "fuzzymbs.mbs.modal_body",
@@ -46,14 +45,4 @@ _LAZY: dict[str, str] = {
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'fuzzymbs.mbs' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_exports("fuzzymbs.mbs", globals(), _LAZY)
