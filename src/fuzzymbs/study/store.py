@@ -7,8 +7,13 @@ only; they are read with ``allow_pickle=False``.
 
 Layout::
 
-    STORE/manifest.json        identity of the study, sample count, chunk size
+    STORE/manifest.json        identity of the study, code version, sample count, chunk size
     STORE/chunk-000000.npz     start, stop, failed, failure_reason, output__<name>
+
+The manifest's ``code`` record (fuzzymbs version, model source digest, see
+:mod:`fuzzymbs.study.code_version`) keeps chunks of different code apart: a
+store written by other code is only reopened with ``resume=False``, which
+discards its chunks and records the running code.
 """
 
 from __future__ import annotations
@@ -53,6 +58,32 @@ def _normalised(value: Any) -> Any:
     return json.loads(json.dumps(json_safe(value), sort_keys=True, allow_nan=False))
 
 
+def _describe_code(code: Any) -> str:
+    """E.g. "fuzzymbs 0.1.0, model source 3f2a9c0b1d4e" (digest shortened to 12 hex digits)."""
+    code = code if isinstance(code, dict) else {}
+    digest = code.get("model_source")
+    source = f"model source {digest[:12]}" if isinstance(digest, str) else "no model source digest"
+    return f"fuzzymbs {code.get('fuzzymbs_version', 'unknown')}, {source}"
+
+
+def _code_mismatch(path: Path, stored: Any, running: dict[str, Any]) -> str:
+    """Message for a store whose chunks were computed by other code."""
+    stored = stored if isinstance(stored, dict) else {}
+    changed = []
+    if stored.get("fuzzymbs_version") != running.get("fuzzymbs_version"):
+        changed.append("the fuzzymbs version")
+    if stored.get("model_source") != running.get("model_source"):
+        changed.append("the model's source code")
+    what = " and ".join(changed) or "its code record"
+    return (
+        f"store {path} holds chunks computed by other code ({what} changed): "
+        f"stored chunks by {_describe_code(stored)}; this run is {_describe_code(running)}. "
+        "Results of different code are not mixed: rerun with resume=False (CLI: --fresh) "
+        "to discard the stored chunks and recompute them in this directory, or choose a "
+        "new store directory to keep the old ones."
+    )
+
+
 def _write_atomic(path: Path, write: Any) -> None:
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     with temporary.open("wb") as handle:
@@ -60,6 +91,11 @@ def _write_atomic(path: Path, write: Any) -> None:
         handle.flush()
         os.fsync(handle.fileno())
     os.replace(temporary, path)
+
+
+def _write_manifest(path: Path, manifest: dict[str, Any]) -> None:
+    text = json.dumps(manifest, indent=2, sort_keys=True)
+    _write_atomic(path, lambda handle: handle.write(text.encode()))
 
 
 class ChunkStore:
@@ -82,8 +118,9 @@ class ChunkStore:
         n_samples: int,
         chunk_size: int,
         resume: bool = True,
+        code: dict[str, Any] | None = None,
     ) -> ChunkStore:
-        """Create the store, or reopen it if it was made for the same study.
+        """Create the store, or reopen it if it was made for the same study and code.
 
         Parameters
         ----------
@@ -96,15 +133,26 @@ class ChunkStore:
         chunk_size : int
             Samples per chunk for a new store; a reopened store keeps its own.
         resume : bool
-            If False, the chunks of a matching store are discarded.
+            If False, the chunks of a matching store are discarded (also when they
+            were computed by other code; the manifest then records ``code``).
+        code : dict, optional
+            What code computes the chunks, e.g. ``{"fuzzymbs_version": "0.1.0",
+            "model_source": "<sha256>" or None}``; default: the running fuzzymbs
+            version only. A store without this record (written before it existed)
+            is reopened with a warning and gets the record.
 
         Raises
         ------
         StoreMismatchError
-            If the directory holds a store of a different study (or not a store).
+            If the directory holds a store of a different study (or not a store),
+            or, with ``resume=True``, chunks computed by other code (the message
+            names both code versions).
         """
+        from fuzzymbs.study.code_version import fuzzymbs_version
+
         path = Path(path)
         identity = _normalised(identity)
+        code = _normalised(code if code is not None else {"fuzzymbs_version": fuzzymbs_version()})
         manifest_path = path / "manifest.json"
         if manifest_path.exists():
             try:
@@ -123,11 +171,33 @@ class ChunkStore:
             differing = sorted(
                 key for key in set(stored) | set(identity) if stored.get(key) != identity.get(key)
             )
+            stored_code = manifest.get("code")
             if differing or manifest.get("n_samples") != n_samples:
+                also = (
+                    f" It was also written by other code ({_describe_code(stored_code)}; "
+                    f"this run is {_describe_code(code)})."
+                    if stored_code is not None and stored_code != code
+                    else ""
+                )
                 raise StoreMismatchError(
                     f"store {path} belongs to a different study (differs in: "
                     f"{', '.join(differing) or 'n_samples'}); its chunks are not reused. "
-                    "Delete the store directory or choose another one."
+                    f"Delete the store directory or choose another one.{also}"
+                )
+            if stored_code is None:
+                logger.warning(
+                    "store %s does not record the code that computed its chunks (written "
+                    "before fuzzymbs recorded it); assuming %s",
+                    path,
+                    _describe_code(code),
+                )
+            elif stored_code != code:
+                if resume:
+                    raise StoreMismatchError(_code_mismatch(path, stored_code, code))
+                logger.info(
+                    "store %s: discarding chunks computed by %s (resume=False)",
+                    path,
+                    _describe_code(stored_code),
                 )
             store = cls(path, identity, n_samples, int(manifest["chunk_size"]))
             if store.chunk_size != chunk_size:
@@ -139,6 +209,9 @@ class ChunkStore:
                 )
             if not resume:
                 store.clear()
+            if stored_code != code:  # record the code that computes the chunks from now on
+                manifest["code"] = code
+                _write_manifest(manifest_path, manifest)
             return store
         if path.exists() and any(path.glob("chunk-*.npz")):
             raise StoreMismatchError(
@@ -149,13 +222,11 @@ class ChunkStore:
             "format": FORMAT,
             "version": VERSION,
             "identity": identity,
+            "code": code,
             "n_samples": n_samples,
             "chunk_size": chunk_size,
         }
-        _write_atomic(
-            manifest_path,
-            lambda handle: handle.write(json.dumps(manifest, indent=2, sort_keys=True).encode()),
-        )
+        _write_manifest(manifest_path, manifest)
         return cls(path, identity, n_samples, chunk_size)
 
     def chunk_path(self, index: int) -> Path:

@@ -106,6 +106,7 @@ class Study:
 
         self.model_options = _json_options(model_options or {})
         self.spec: ModelSpec | None = None
+        self._factory: Callable[..., Any] | None = None  # named models: for the source digest
         if isinstance(model, str):
             self.model_name = model
             if ":" in model:
@@ -119,6 +120,7 @@ class Study:
                     raise InvalidParameterError(
                         f"model {model!r} has no option(s) {unknown}; its options: {allowed}"
                     )
+            self._factory = factory
             try:
                 self.model = factory(**self.model_options)
             except TypeError as exc:
@@ -254,6 +256,17 @@ class Study:
             identity["model_identity"] = model_identity()
         return identity
 
+    def code_version(self) -> dict[str, Any]:
+        """What code computes the samples: fuzzymbs version and model source digest.
+
+        A result store records it next to :meth:`identity` and refuses to resume
+        chunks computed by other code (see :mod:`fuzzymbs.study.code_version`;
+        the digest is None for models defined outside fuzzymbs).
+        """
+        from fuzzymbs.study.code_version import code_version
+
+        return code_version(self.model, self._factory)
+
     def columns(self, start: int, stop: int) -> dict[str, np.ndarray]:
         """Every parameter column (fuzzy and crisp) of samples ``start:stop``."""
         block = self.plan.samples[start:stop]
@@ -295,7 +308,8 @@ class Study:
             Directory where every finished chunk is written before the next is
             awaited; a rerun with the same study evaluates only missing chunks.
         resume : bool
-            Reuse the chunks of a matching store (False: discard them).
+            Reuse the chunks of a matching store (False: discard them, also when
+            they were computed by another fuzzymbs version or model source).
         progress : bool
             Show a progress bar with ETA (Rich) on stderr.
         on_failure : {"raise", "fail-fast", "partial"}
@@ -310,7 +324,8 @@ class Study:
         IncompleteResultError
             Samples failed and ``on_failure`` is not "partial" (or no level is complete).
         StoreMismatchError
-            ``store`` holds chunks of a different study.
+            ``store`` holds chunks of a different study, or (with ``resume=True``)
+            chunks computed by another fuzzymbs version or model source.
         """
         from fuzzymbs.study.executors import resolve_executor
         from fuzzymbs.study.store import ChunkStore
@@ -330,7 +345,9 @@ class Study:
         size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
         chunk_store = None
         if store is not None:
-            chunk_store = ChunkStore.open(store, self.identity(), count, size, resume=resume)
+            chunk_store = ChunkStore.open(
+                store, self.identity(), count, size, resume=resume, code=self.code_version()
+            )
             size = chunk_store.chunk_size
         chunk_count = math.ceil(count / size)
         results: dict[int, ChunkResult] = {}

@@ -1,0 +1,165 @@
+"""Which code computes a study's samples: the fuzzymbs version and a digest of the model source.
+
+A chunk store records this next to the study identity, so that a resumed run
+does not mix chunks computed by an older fuzzymbs, or by an edited model, with
+new ones (see :mod:`fuzzymbs.study.store`).
+
+The source digest covers models defined inside the fuzzymbs package (the
+built-in models, or a model object or ``"fuzzymbs...:factory"`` reference whose
+code lives in fuzzymbs): the SHA-256 of the ``.py`` files of the model's
+modules and of every fuzzymbs module they import, followed transitively
+through the ``import`` statements (read with :mod:`ast`, nothing is
+imported). Names a package re-exports lazily by string (``fuzzymbs.mbs``'s
+``_LAZY`` table) are not followed, so model code imports the defining module
+itself. Any edit of those files, comments included, changes the digest. A
+model defined outside fuzzymbs gets no digest (None): its code is identified
+only by its name and its optional ``identity()`` method.
+"""
+
+from __future__ import annotations
+
+import ast
+import hashlib
+import logging
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+logger = logging.getLogger(__name__)
+
+_PACKAGE = "fuzzymbs"
+
+
+def fuzzymbs_version() -> str:
+    """The version string of the running fuzzymbs (``fuzzymbs.__version__``)."""
+    from fuzzymbs import __version__
+
+    return __version__
+
+
+def _package_root() -> Path:
+    import fuzzymbs
+
+    return Path(fuzzymbs.__file__).resolve().parent
+
+
+def _module_file(root: Path, module: str) -> Path | None:
+    """Source file of a fuzzymbs module or package, or None if ``module`` names no file."""
+    parts = module.split(".")
+    if parts[0] != _PACKAGE or len(parts) < 2:  # the root package only holds lazy names
+        return None
+    base = root.joinpath(*parts[1:])
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def _imported_modules(tree: ast.AST, module: str, is_package: bool) -> set[str]:
+    """Every module name an ``import`` statement anywhere in ``tree`` may load.
+
+    ``from a.b import c`` yields ``a.b`` and ``a.b.c`` (c may be a submodule);
+    names that are no file are dropped by the caller.
+    """
+    names: set[str] = set()
+    package = module if is_package else module.rpartition(".")[0]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:  # relative import: resolve against this module's package
+                anchor = package.split(".")
+                anchor = anchor[: len(anchor) - (node.level - 1)]
+                base = ".".join([*anchor, node.module] if node.module else anchor)
+            else:
+                base = node.module or ""
+            names.add(base)
+            names.update(f"{base}.{alias.name}" for alias in node.names)
+    return names
+
+
+def source_files(modules: Iterable[str]) -> list[Path] | None:
+    """Files of the fuzzymbs ``modules`` and of the fuzzymbs modules they import, sorted.
+
+    Returns None when a module's source cannot be read or parsed (e.g. an
+    installation without ``.py`` files), so that no partial digest is recorded.
+    """
+    root = _package_root()
+    queue = [m for m in modules if m.startswith(_PACKAGE + ".")]
+    seen: dict[str, Path] = {}
+    while queue:
+        module = queue.pop()
+        if module in seen:
+            continue
+        path = _module_file(root, module)
+        if path is None:
+            continue
+        seen[module] = path
+        try:
+            tree = ast.parse(path.read_bytes(), filename=str(path))
+        except (OSError, SyntaxError, ValueError) as exc:
+            logger.warning("cannot read the source of %s (%s); no model source digest", module, exc)
+            return None
+        is_package = path.name == "__init__.py"
+        queue.extend(
+            name
+            for name in _imported_modules(tree, module, is_package)
+            if name.startswith(_PACKAGE + ".") and name not in seen
+        )
+    return sorted(set(seen.values()))
+
+
+def source_digest(modules: Iterable[str]) -> str | None:
+    """SHA-256 (hex) of the source files of ``modules`` and their fuzzymbs imports.
+
+    Each file contributes its path relative to the package and its bytes, so
+    a renamed file changes the digest too. None if no module lies inside
+    fuzzymbs or a source file is unreadable.
+    """
+    files = source_files(modules)
+    if not files:
+        return None
+    root = _package_root()
+    digest = hashlib.sha256()
+    try:
+        for path in files:
+            digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+            digest.update(path.read_bytes() + b"\0")
+    except OSError as exc:
+        logger.warning("cannot read model source (%s); no model source digest", exc)
+        return None
+    return digest.hexdigest()
+
+
+def model_modules(model: Any, factory: Any = None) -> list[str]:
+    """Modules defining ``model`` (its class or function) and its ``factory``, if any.
+
+    A :class:`~fuzzymbs.study.registry.LazyFactory` contributes the module of
+    its ``"package.module:callable"`` reference.
+    """
+    modules = []
+    for obj in (model, factory):
+        if obj is None:
+            continue
+        reference = getattr(obj, "reference", None)
+        if isinstance(reference, str) and ":" in reference:
+            modules.append(reference.partition(":")[0])
+        kind = obj if hasattr(obj, "__qualname__") else type(obj)
+        module = getattr(kind, "__module__", None)
+        if isinstance(module, str):
+            modules.append(module)
+    return sorted(set(modules))
+
+
+def code_version(model: Any, factory: Any = None) -> dict[str, Any]:
+    """What a chunk store records about the code: fuzzymbs version and model source digest.
+
+    Returns
+    -------
+    dict
+        ``{"fuzzymbs_version": str, "model_source": str or None}``.
+    """
+    return {
+        "fuzzymbs_version": fuzzymbs_version(),
+        "model_source": source_digest(model_modules(model, factory)),
+    }

@@ -1,0 +1,151 @@
+"""Chunk store and code version: chunks of other fuzzymbs versions or model sources never mix."""
+
+import json
+import logging
+import shutil
+from pathlib import Path
+
+import pytest
+
+import fuzzymbs
+from fuzzymbs import Triangular
+from fuzzymbs.errors import StoreMismatchError
+from fuzzymbs.study import code_version
+from fuzzymbs.study.study import Study
+
+PARAMETERS = {"x1": Triangular(1, 2, 3), "x2": Triangular(9, 10, 11)}
+PACKAGE = Path(fuzzymbs.__file__).resolve().parent
+
+
+def _study(model="product"):
+    return Study(model, PARAMETERS, levels=2, name="versioned")  # 9 samples
+
+
+def _edit_manifest(store, **code):
+    path = store / "manifest.json"
+    manifest = json.loads(path.read_text())
+    manifest["code"].update(code)
+    path.write_text(json.dumps(manifest))
+
+
+def _manifest_code(store):
+    return json.loads((store / "manifest.json").read_text())["code"]
+
+
+def test_manifest_records_version_and_model_source(tmp_path):
+    _study().run(store=tmp_path, progress=False)
+    code = _manifest_code(tmp_path)
+    assert code["fuzzymbs_version"] == fuzzymbs.__version__
+    assert len(code["model_source"]) == 64 and int(code["model_source"], 16) >= 0  # SHA-256 hex
+
+
+def test_other_fuzzymbs_version_is_refused_until_resume_false(tmp_path):
+    first = _study().run(store=tmp_path, progress=False)
+    _edit_manifest(tmp_path, fuzzymbs_version="0.0.1")
+    with pytest.raises(StoreMismatchError) as error:
+        _study().run(store=tmp_path, progress=False)
+    message = str(error.value)
+    assert "fuzzymbs version" in message and "model's source" not in message
+    assert "fuzzymbs 0.0.1" in message and f"fuzzymbs {fuzzymbs.__version__}" in message
+    assert "resume=False" in message and "--fresh" in message and "new store directory" in message
+    assert len(list(tmp_path.glob("chunk-*.npz"))) == 1  # the refusal deletes nothing
+
+    fresh = _study().run(store=tmp_path, progress=False, resume=False)
+    assert fresh.provenance["evaluated"] == 9 and fresh.provenance["reused_from_store"] == 0
+    assert _manifest_code(tmp_path)["fuzzymbs_version"] == fuzzymbs.__version__
+    assert first.dataset["z_upper"].values.tolist() == fresh.dataset["z_upper"].values.tolist()
+    again = _study().run(store=tmp_path, progress=False)  # same version: resumes
+    assert again.provenance["evaluated"] == 0 and again.provenance["reused_from_store"] == 9
+
+
+def test_same_version_resumes(tmp_path):
+    _study().run(store=tmp_path, progress=False)
+    again = _study().run(store=tmp_path, progress=False)
+    assert again.provenance["evaluated"] == 0
+
+
+def test_changed_model_source_is_refused(tmp_path):
+    _study().run(store=tmp_path, progress=False)
+    stored = _manifest_code(tmp_path)["model_source"]
+    _edit_manifest(tmp_path, model_source="0" * 64)
+    with pytest.raises(StoreMismatchError) as error:
+        _study().run(store=tmp_path, progress=False)
+    message = str(error.value)
+    assert "model's source code changed" in message and "fuzzymbs version" not in message
+    assert "model source 000000000000" in message and f"model source {stored[:12]}" in message
+
+
+def test_model_outside_fuzzymbs_records_the_version_only(tmp_path):
+    def product(samples):
+        return {"z": samples["x1"] * samples["x2"]}
+
+    _study(product).run(store=tmp_path, progress=False)
+    assert _manifest_code(tmp_path) == {
+        "fuzzymbs_version": fuzzymbs.__version__,
+        "model_source": None,
+    }
+    _edit_manifest(tmp_path, fuzzymbs_version="9.9")
+    with pytest.raises(StoreMismatchError, match=r"fuzzymbs 9\.9, no model source digest"):
+        _study(product).run(store=tmp_path, progress=False)
+
+
+def test_store_without_code_record_is_reopened_and_gets_one(tmp_path, caplog):
+    _study().run(store=tmp_path, progress=False)
+    path = tmp_path / "manifest.json"
+    manifest = json.loads(path.read_text())
+    del manifest["code"]  # as written before the code version was recorded
+    path.write_text(json.dumps(manifest))
+    with caplog.at_level(logging.WARNING, logger="fuzzymbs.study.store"):
+        again = _study().run(store=tmp_path, progress=False)
+    assert again.provenance["evaluated"] == 0
+    assert "does not record the code" in caplog.text
+    assert _manifest_code(tmp_path)["fuzzymbs_version"] == fuzzymbs.__version__
+
+
+def test_other_study_and_other_code_names_both(tmp_path):
+    _study().run(store=tmp_path, progress=False)
+    _edit_manifest(tmp_path, fuzzymbs_version="0.0.1")
+    other = Study("product", {"x1": Triangular(1, 2, 4), "x2": PARAMETERS["x2"]}, levels=2)
+    with pytest.raises(StoreMismatchError, match=r"different study.*also written by other code"):
+        other.run(store=tmp_path, progress=False, resume=False)  # resume=False: still refused
+
+
+def test_source_files_follow_imports():
+    product = code_version.source_files(["fuzzymbs.models.closed_form.product"])
+    oscillator = code_version.source_files(["fuzzymbs.models.closed_form.oscillator"])
+    assert [p.relative_to(PACKAGE).as_posix() for p in product] == ["models/closed_form/product.py"]
+    assert "errors.py" in [p.relative_to(PACKAGE).as_posix() for p in oscillator]
+    brake = {
+        p.relative_to(PACKAGE).as_posix()
+        for p in code_version.source_files(["fuzzymbs.models.brake"])
+    }
+    # the brake's digest covers the FE and multibody code it is built from, not other models
+    assert "fe/elastic_body.py" in brake and "models/brake/model.py" in brake
+    assert any(name.startswith("mbs/") for name in brake)
+    assert not any(name.startswith(("models/gears/", "models/closed_form/")) for name in brake)
+    assert code_version.source_files(["numpy", "tests.study"]) == []
+    assert code_version.source_digest(["numpy"]) is None
+
+
+def test_digest_changes_with_imported_source_only(tmp_path, monkeypatch):
+    # a copy of the package, so that its files can be edited
+    copy = tmp_path / "fuzzymbs"
+    for name in ("errors.py", "models/closed_form/oscillator.py", "models/gears/geometry.py"):
+        (copy / name).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(PACKAGE / name, copy / name)
+    monkeypatch.setattr(code_version, "_package_root", lambda: copy)
+    modules = ["fuzzymbs.models.closed_form.oscillator"]
+    before = code_version.source_digest(modules)
+    assert before == code_version.source_digest(modules)  # deterministic
+
+    with (copy / "models/gears/geometry.py").open("a") as handle:  # not imported by the model
+        handle.write("\n# unrelated edit\n")
+    assert code_version.source_digest(modules) == before
+    with (copy / "errors.py").open("a") as handle:  # imported by the model
+        handle.write("\n# edit\n")
+    assert code_version.source_digest(modules) != before
+
+    (copy / "errors.py").write_text(
+        "def broken(:\n"
+    )  # unparsable: no digest rather than a partial one
+    assert code_version.source_digest(modules) is None
