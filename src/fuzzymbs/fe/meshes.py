@@ -76,13 +76,50 @@ def _order(order: int) -> int:
 # --------------------------------------------------------------------------- boundaries
 
 
-def _facets_where(mesh: Mesh, test: CoordinateTest) -> NDArray[np.int64]:
-    """Boundary facets all of whose vertices pass ``test`` (coordinates (3, k) -> bool (k,))."""
+def _span(x: NDArray[np.float64]) -> str:
+    """Bounding box of coordinates x (3, k) as text, e.g. "x [0, 0.06], y [...], z [...] m"."""
+    bounds = zip("xyz", x.min(axis=1), x.max(axis=1), strict=True)
+    return ", ".join(f"{axis} [{low:.6g}, {high:.6g}]" for axis, low, high in bounds) + " m"
+
+
+def _facets_where(mesh: Mesh, name: str, test: CoordinateTest) -> NDArray[np.int64]:
+    """Boundary facets all of whose vertices pass ``test`` (coordinates (3, k) -> bool (k,)).
+
+    Raises
+    ------
+    InvalidParameterError
+        If the test's answer has the wrong shape, or no facet passes: the
+        message names the boundary and the test, the bounding box of the
+        mesh's boundary vertices and of the vertices that do pass, if any.
+    """
     facets = mesh.boundary_facets()
     vertices = mesh.facets[:, facets]  # (n_vertices_per_facet, n_facets)
     coordinates = mesh.p[:, vertices.ravel()]
-    inside = np.asarray(test(coordinates), dtype=bool).reshape(vertices.shape)
-    return np.asarray(facets[inside.all(axis=0)], dtype=np.int64)
+    inside = np.asarray(test(coordinates), dtype=bool)
+    if inside.shape != (vertices.size,):
+        raise InvalidParameterError(
+            f"test of boundary {name!r} must return one boolean per vertex ({vertices.size}), "
+            f"got shape {inside.shape}"
+        )
+    selected = inside.reshape(vertices.shape).all(axis=0)
+    if not selected.any():
+        label = getattr(test, "__qualname__", None) or repr(test)
+        candidates = np.unique(vertices)
+        passing = np.unique(vertices.ravel()[inside])
+        found = (
+            f"{passing.size} of the {candidates.size} boundary vertices pass (spanning "
+            f"{_span(mesh.p[:, passing])}), but no boundary facet has all its vertices "
+            "passing; a facet belongs to the boundary only when every vertex passes"
+            if passing.size
+            else f"it rejects all {candidates.size} boundary vertices"
+        )
+        raise InvalidParameterError(
+            f"boundary {name!r} (test {label}) selects no boundary facet: {found}. The "
+            f"boundary vertices span {_span(mesh.p[:, candidates])}; check the test's "
+            "coordinates, units [m] and tolerance (relative, e.g. r <= a (1 + 1e-9) on "
+            "curved surfaces)."
+        )
+    return np.asarray(facets[selected], dtype=np.int64)
 
 
 def with_named_boundaries(mesh: Mesh, tests: Mapping[str, CoordinateTest]) -> Mesh:
@@ -101,15 +138,16 @@ def with_named_boundaries(mesh: Mesh, tests: Mapping[str, CoordinateTest]) -> Me
     -------
     Mesh
         A new mesh whose ``boundaries`` hold the previous and the new names.
+
+    Raises
+    ------
+    InvalidParameterError
+        If a test selects no boundary facet (the message names the boundary,
+        the test and the bounding boxes needed to see why).
     """
     boundaries = dict(mesh.boundaries or {})
     for name, test in tests.items():
-        facets = _facets_where(mesh, test)
-        if facets.size == 0:
-            raise InvalidParameterError(
-                f"boundary {name!r} selects no boundary facet; check its test"
-            )
-        boundaries[name] = facets
+        boundaries[name] = _facets_where(mesh, name, test)
     return mesh.with_boundaries(boundaries)
 
 

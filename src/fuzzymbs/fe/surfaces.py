@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from skfem import Mesh
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.fe.meshes import _span
 
 __all__ = [
     "boundary_faces",
@@ -35,13 +36,67 @@ __all__ = [
 NodeTest = Callable[[NDArray[np.float64]], NDArray[np.bool_]]
 
 
+def _predicate_label(predicate: NodeTest) -> str:
+    return getattr(predicate, "__qualname__", None) or repr(predicate)
+
+
+def _no_match(
+    mesh: Mesh,
+    boundary: str,
+    predicate: NodeTest,
+    selecting: str,
+    candidates: NDArray[np.int64],
+    keep: NDArray[np.bool_],
+) -> InvalidParameterError:
+    """Error for a predicate selection that matched nothing, with what the user needs to see why.
+
+    ``candidates`` are the boundary's node indices (repeated per face for face
+    selections) and ``keep`` the predicate's answer for each.
+    """
+    nodes = np.unique(candidates)
+    passing = np.unique(candidates[keep])
+    where = f"boundary {boundary!r} (nodes span {_span(mesh.doflocs[:, nodes])})"
+    if passing.size:  # faces only: some nodes pass, but no face has all of them
+        reason = (
+            f"{passing.size} of its {nodes.size} nodes pass (spanning "
+            f"{_span(mesh.doflocs[:, passing])}), but no face has all its nodes passing; "
+            "a face is selected only when every one of its nodes passes"
+        )
+    else:
+        reason = f"the predicate rejects all {nodes.size} of its nodes"
+        try:  # diagnosis only: does it accept nodes elsewhere (a wrong boundary name)?
+            everywhere = np.asarray(predicate(mesh.doflocs), dtype=bool)
+        except Exception:  # a predicate written for boundary nodes only may fail here
+            everywhere = None
+        if everywhere is not None and everywhere.shape == (mesh.doflocs.shape[1],):
+            elsewhere = np.flatnonzero(everywhere)
+            reason += (
+                f"; it accepts {elsewhere.size} nodes elsewhere in the mesh "
+                f"({_span(mesh.doflocs[:, elsewhere])}), so check the boundary name"
+                if elsewhere.size
+                else "; it accepts no node of the mesh at all"
+            )
+    return InvalidParameterError(
+        f"predicate {_predicate_label(predicate)} selects no {selecting} on {where}: {reason}. "
+        f"The mesh spans {_span(mesh.doflocs)}; check the predicate's coordinates, units [m] "
+        "and tolerances."
+    )
+
+
 def _boundary_facets(mesh: Mesh, boundary: str) -> NDArray[np.int64]:
     boundaries = mesh.boundaries or {}
     if boundary not in boundaries:
         raise InvalidParameterError(
             f"unknown boundary {boundary!r}; this mesh has {sorted(boundaries)}"
         )
-    return np.asarray(boundaries[boundary], dtype=np.int64)
+    facets = np.asarray(boundaries[boundary], dtype=np.int64)
+    if facets.size == 0:
+        raise InvalidParameterError(
+            f"boundary {boundary!r} of this mesh holds no facet (the mesh spans "
+            f"{_span(mesh.doflocs)}); define it with with_named_boundaries or use another "
+            f"of {sorted(name for name, f in boundaries.items() if np.size(f))}"
+        )
+    return facets
 
 
 def _is_quadratic(mesh: Mesh) -> bool:
@@ -81,6 +136,11 @@ def boundary_faces(mesh: Mesh, boundary: str) -> NDArray[np.int64]:
     -------
     ndarray, shape (n_faces, 4 | 9 | 3 | 6)
         Node indices per face, corners counter-clockwise about the outward normal.
+
+    Raises
+    ------
+    InvalidParameterError
+        If the mesh has no boundary of that name, or it holds no facet.
     """
     facets = _boundary_facets(mesh, boundary)
     corners = mesh.facets[:, facets].T.copy()  # (n_faces, 3|4), any cyclic or sorted order
@@ -118,7 +178,7 @@ def boundary_faces(mesh: Mesh, boundary: str) -> NDArray[np.int64]:
 
 
 def boundary_nodes(mesh: Mesh, boundary: str) -> NDArray[np.int64]:
-    """Sorted indices of all nodes on a named boundary."""
+    """Sorted indices of all nodes on a named boundary (errors as :func:`boundary_faces`)."""
     return np.unique(boundary_faces(mesh, boundary))
 
 
@@ -140,7 +200,15 @@ def nodes_in_region(
     Returns
     -------
     ndarray
-        Sorted node indices.
+        Sorted node indices, at least one.
+
+    Raises
+    ------
+    InvalidParameterError
+        Unknown or empty boundary, a predicate answer of the wrong shape, or no
+        node passing: the message names the predicate and boundary, the
+        boundary's and the mesh's bounding boxes, and whether the predicate
+        accepts nodes elsewhere in the mesh.
     """
     nodes = boundary_nodes(mesh, boundary)
     if predicate is None:
@@ -150,13 +218,19 @@ def nodes_in_region(
         raise InvalidParameterError(
             f"predicate must return one boolean per node ({nodes.size}), got shape {keep.shape}"
         )
+    if not keep.any():
+        raise _no_match(mesh, boundary, predicate, "node", nodes, keep)
     return nodes[keep]
 
 
 def faces_in_region(
     mesh: Mesh, boundary: str, predicate: NodeTest | None = None
 ) -> NDArray[np.int64]:
-    """Faces of a named boundary all of whose nodes pass ``predicate`` (rows of node indices)."""
+    """Faces of a named boundary all of whose nodes pass ``predicate`` (rows of node indices).
+
+    Parameters and errors as :func:`nodes_in_region`; no face passing is an
+    error that also says how many of the boundary's nodes pass and where they lie.
+    """
     faces = boundary_faces(mesh, boundary)
     if predicate is None:
         return faces
@@ -165,7 +239,10 @@ def faces_in_region(
         raise InvalidParameterError(
             f"predicate must return one boolean per node ({faces.size}), got shape {keep.shape}"
         )
-    return faces[keep.reshape(faces.shape).all(axis=1)]
+    selected = keep.reshape(faces.shape).all(axis=1)
+    if not selected.any():
+        raise _no_match(mesh, boundary, predicate, "face", faces.ravel(), keep)
+    return faces[selected]
 
 
 def face_shape_functions(xi: ArrayLike, eta: ArrayLike, n_nodes: int) -> NDArray[np.float64]:
