@@ -149,3 +149,25 @@ def test_digest_changes_with_imported_source_only(tmp_path, monkeypatch):
         "def broken(:\n"
     )  # unparsable: no digest rather than a partial one
     assert code_version.source_digest(modules) is None
+
+
+def test_cli_refuses_other_code_and_fresh_recomputes(tmp_path):
+    from importlib import resources
+
+    from typer.testing import CliRunner
+
+    from fuzzymbs.cli import app
+
+    runner = CliRunner()
+    study = resources.files("fuzzymbs") / "demos" / "quickstart" / "01-product.toml"
+    out = tmp_path / "out"
+    with resources.as_file(study) as path:
+        command = ["run", str(path), "--out", str(out), "-q", "--no-plots"]
+        assert runner.invoke(app, command).exit_code == 0
+        _edit_manifest(out / "chunks", fuzzymbs_version="0.0.1")
+        refused = runner.invoke(app, command)
+        assert refused.exit_code == 1 and "Traceback" not in refused.output
+        assert "fuzzymbs 0.0.1" in refused.output and "--fresh" in refused.output
+        assert runner.invoke(app, [*command, "--fresh"]).exit_code == 0
+        assert runner.invoke(app, command).exit_code == 0  # recorded again: resumes
+    assert _manifest_code(out / "chunks")["fuzzymbs_version"] == fuzzymbs.__version__
