@@ -119,3 +119,27 @@ def _error(select, *args):
     with pytest.raises(InvalidParameterError) as error:
         select(*args)
     return str(error.value)
+
+
+def test_elastic_body_node_set_refuses_empty_predicates_and_lists():
+    from fuzzymbs.fe import ElasticBody
+
+    body = ElasticBody(PAD, youngs_modulus=210e9, poisson_ratio=0.3, density=7850.0)
+    # non-empty: the same 15 nodes as the boundary-free predicate on the raw coordinates
+    nodes = mesh_nodes(PAD)
+
+    def top_left(x):
+        return (np.abs(x[2] - 0.015) < TOLERANCE) & (x[0] <= 0.03 + TOLERANCE)
+
+    expected = np.flatnonzero(top_left(nodes.T))
+    np.testing.assert_array_equal(body.node_set(top_left), expected)
+    assert expected.size == 15
+
+    def above_the_pad(x):
+        return x[2] > 0.02
+
+    message = r"above_the_pad selects no node.*z \[0, 0.015\]"
+    with pytest.raises(InvalidParameterError, match=message):
+        body.node_set(above_the_pad)
+    with pytest.raises(InvalidParameterError, match="is empty"):
+        body.node_set([])

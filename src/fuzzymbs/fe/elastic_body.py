@@ -30,7 +30,7 @@ from skfem import (
 from skfem.models.elasticity import lame_parameters
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.fe.meshes import mesh_nodes
+from fuzzymbs.fe.meshes import _span, mesh_nodes
 from fuzzymbs.fe.surfaces import boundary_nodes
 from fuzzymbs.mbs.modal_body import ModalBody
 
@@ -171,9 +171,17 @@ class ElasticBody:
                     f"node predicate must return a boolean mask of shape ({self.n_nodes},), "
                     f"got {mask.shape}"
                 )
+            if not mask.any():
+                name = getattr(spec, "__qualname__", None) or repr(spec)
+                raise InvalidParameterError(
+                    f"node predicate {name} selects no node of the mesh (it spans "
+                    f"{_span(self.nodes.T)}); check its coordinates, units [m] and tolerances"
+                )
             return np.flatnonzero(mask).astype(np.int64)
         nodes = np.asarray(spec).reshape(-1)
-        if nodes.size and (
+        if nodes.size == 0:
+            raise InvalidParameterError(f"node index list {spec!r} is empty")
+        if (
             not np.issubdtype(nodes.dtype, np.integer)
             or nodes.min() < 0
             or nodes.max() >= self.n_nodes
