@@ -39,6 +39,12 @@ def test_manifest_records_version_and_model_source(tmp_path):
     assert len(code["model_source"]) == 64 and int(code["model_source"], 16) >= 0  # SHA-256 hex
 
 
+def test_result_provenance_records_the_same_code_as_the_store(tmp_path):
+    result = _study().run(store=tmp_path, progress=False)
+    assert result.provenance["code"] == _manifest_code(tmp_path)
+    assert _study().run(progress=False).provenance["code"] == _manifest_code(tmp_path)
+
+
 def test_other_fuzzymbs_version_is_refused_until_resume_false(tmp_path):
     first = _study().run(store=tmp_path, progress=False)
     _edit_manifest(tmp_path, fuzzymbs_version="0.0.1")

@@ -230,6 +230,7 @@ def build_dataset(
     provenance = {
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "versions": package_versions(),
+        "code": study.code_version(),
         "study": study.name,
         "model": study.model_name,
         "model_options": study.model_options,
