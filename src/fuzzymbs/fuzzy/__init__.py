@@ -7,6 +7,12 @@ The engine never imports a model: a model is any callable
 from fuzzymbs.fuzzy.influence import Influence
 from fuzzymbs.fuzzy.numbers import FuzzyNumber, Gaussian, PiecewiseLinear, Trapezoidal, Triangular
 from fuzzymbs.fuzzy.retransform import FuzzyResult
+from fuzzymbs.fuzzy.screening import (
+    Screening,
+    ScreeningWarning,
+    nonmonotonic_parameters,
+    screening_samples,
+)
 from fuzzymbs.fuzzy.transform import METHODS, NonMonotonicWarning, Plan, plan
 
 __all__ = [
@@ -18,7 +24,11 @@ __all__ = [
     "NonMonotonicWarning",
     "PiecewiseLinear",
     "Plan",
+    "Screening",
+    "ScreeningWarning",
     "Trapezoidal",
     "Triangular",
+    "nonmonotonic_parameters",
     "plan",
+    "screening_samples",
 ]

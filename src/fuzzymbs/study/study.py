@@ -5,29 +5,41 @@ The only place where the fuzzy engine and a model meet::
     study = Study("product", {"x1": Triangular(1, 2, 3), "x2": Triangular(9, 10, 11)})
     result = study.run()                 # -> StudyResult (xarray.Dataset inside)
     result.dataset["z_lower"]            # alpha-cut bounds per level
+
+With ``method="extended", nonmonotonic="auto"`` the study first evaluates the
+screening of :mod:`fuzzymbs.fuzzy.screening` (every parameter's axis through
+the modal point) with the same model, executor and store, and builds the
+extended plan with the parameters found non-monotonic.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import math
 import time
+import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from fuzzymbs.errors import (
     IncompleteResultError,
     InvalidParameterError,
+    InvalidPlanError,
+    UnsupportedOperationError,
 )
 from fuzzymbs.study.evaluation import ChunkResult, evaluate_chunk
 from fuzzymbs.study.registry import ModelSpec, ParameterInfo, get_model, load_callable
 from fuzzymbs.study.result import StudyResult, build_dataset, check_output_names
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fuzzymbs.fuzzy.transform import Plan
 
 __all__ = ["DEFAULT_CHUNK_SIZE", "ON_FAILURE", "Study", "StudyResult"]
 
@@ -36,6 +48,10 @@ logger = logging.getLogger(__name__)
 #: Samples per task unless the study says otherwise (hundreds per task, one model call each).
 DEFAULT_CHUNK_SIZE = 256
 ON_FAILURE = ("raise", "fail-fast", "partial")
+#: ``nonmonotonic`` value asking the study to find the non-monotonic parameters itself
+AUTO = "auto"
+#: sub-folder of a store holding the screening chunks of a ``nonmonotonic="auto"`` study
+SCREENING_FOLDER = "screening"
 
 
 def _model_label(model: Any) -> str:
@@ -73,8 +89,15 @@ class Study:
         Subset of the model outputs to keep (default: all).
     model_options : mapping, optional
         Keyword options for the model factory (registered or referenced models).
-    nonmonotonic : sequence of str, optional
-        Parameters that get interior points (method "extended").
+    nonmonotonic : sequence of str or "auto", optional
+        Parameters that get interior points (method "extended"). ``"auto"``:
+        find them by a screening run before the plan is built (see
+        :meth:`screen`); the plan is then known only after :meth:`screen` or
+        :meth:`run`. A parameter literally named "auto" is given as ``["auto"]``.
+    screening_rtol : float, optional
+        With ``nonmonotonic="auto"``: reversals along a parameter's axis up to
+        this fraction of an output element's range are ignored (default
+        :data:`fuzzymbs.fuzzy.screening.DEFAULT_RTOL`).
     name, description : str, optional
         Labels used in results, summaries and output folders.
 
@@ -96,11 +119,13 @@ class Study:
         outputs: Sequence[str] | None = None,
         *,
         model_options: Mapping[str, Any] | None = None,
-        nonmonotonic: Sequence[str] | None = None,
+        nonmonotonic: Sequence[str] | str | None = None,
+        screening_rtol: float | None = None,
         name: str | None = None,
         description: str = "",
     ) -> None:
         from fuzzymbs.fuzzy.numbers import FuzzyNumber
+        from fuzzymbs.fuzzy.screening import DEFAULT_RTOL, screening_samples
         from fuzzymbs.fuzzy.transform import plan as make_plan
         from fuzzymbs.study.parameters import fuzzy_number_from_definition
 
@@ -180,7 +205,28 @@ class Study:
         if not fuzzy:
             raise InvalidParameterError("a study needs at least one fuzzy parameter")
         self.constants = crisp
-        self.plan = make_plan(fuzzy, method=method, levels=levels, nonmonotonic=nonmonotonic)
+        self._fuzzy = fuzzy
+        self._levels = levels
+        #: the screening report of a ``nonmonotonic="auto"`` study once screened, else None
+        self.screening: dict[str, Any] | None = None
+        self.auto_nonmonotonic = isinstance(nonmonotonic, str) and nonmonotonic == AUTO
+        self._plan: Plan | None = None
+        if self.auto_nonmonotonic:
+            if method != "extended":
+                raise InvalidPlanError(
+                    f"nonmonotonic={AUTO!r} is only used by method='extended', not {method!r}"
+                )
+            self._screening_samples = screening_samples(fuzzy, levels)
+            self.screening_rtol = DEFAULT_RTOL if screening_rtol is None else screening_rtol
+            _check_rtol(self.screening_rtol)
+        else:
+            self.screening_rtol = None
+            if screening_rtol is not None:
+                raise InvalidPlanError(
+                    f"screening_rtol={screening_rtol!r} is only used with "
+                    f"nonmonotonic={AUTO!r}, not {nonmonotonic!r}"
+                )
+            self._plan = make_plan(fuzzy, method=method, levels=levels, nonmonotonic=nonmonotonic)
 
         known_outputs = self._declared_outputs()
         if outputs is not None:
@@ -199,6 +245,22 @@ class Study:
         check_output_names(dict.fromkeys(self.output_names))  # before any evaluation
         self.name = name or (self.model_name.split(":")[-1].split(".")[-1])
         self.description = description
+
+    @property
+    def plan(self) -> Plan:
+        """The sampling plan (for ``nonmonotonic="auto"``: known after :meth:`screen`).
+
+        Raises
+        ------
+        UnsupportedOperationError
+            For an auto study that has not been screened yet.
+        """
+        if self._plan is None:
+            raise UnsupportedOperationError(
+                f"study {self.name!r} uses nonmonotonic={AUTO!r}: its extended plan is built "
+                "from a screening run of the model; call study.screen() or study.run() first"
+            )
+        return self._plan
 
     # ----------------------------------------------------------------- helpers
     @staticmethod
@@ -244,8 +306,11 @@ class Study:
         returning plain data (e.g. a digest of its configuration); without it,
         a model passed as an object is identified by its name only.
         """
+        return {"plan_fingerprint": self.plan.fingerprint(), **self._model_identity()}
+
+    def _model_identity(self) -> dict[str, Any]:
+        """The part of :meth:`identity` that does not depend on the plan."""
         identity = {
-            "plan_fingerprint": self.plan.fingerprint(),
             "model": self.model_name,
             "model_options": self.model_options,
             "constants": self.constants,
@@ -255,6 +320,24 @@ class Study:
         if callable(model_identity):
             identity["model_identity"] = model_identity()
         return identity
+
+    def _screening_identity(self) -> dict[str, Any]:
+        """What a screening store must match: screening points, rtol, model (as identity)."""
+        screening = self._screening_samples
+        digest = hashlib.sha256()
+        description = {
+            "names": list(screening.names),
+            "levels": np.asarray(self._plan_levels()).tolist(),
+            "parameters": {name: number.to_dict() for name, number in self._fuzzy.items()},
+        }
+        digest.update(json.dumps(description, sort_keys=True).encode())
+        digest.update(np.ascontiguousarray(screening.samples, dtype="<f8").tobytes())
+        return {"screening_fingerprint": digest.hexdigest(), **self._model_identity()}
+
+    def _plan_levels(self) -> np.ndarray:
+        from fuzzymbs.fuzzy.transform import make_levels
+
+        return make_levels(self._levels)
 
     def code_version(self) -> dict[str, Any]:
         """What code computes the samples: fuzzymbs version and model source digest.
@@ -269,15 +352,23 @@ class Study:
 
     def columns(self, start: int, stop: int) -> dict[str, np.ndarray]:
         """Every parameter column (fuzzy and crisp) of samples ``start:stop``."""
-        block = self.plan.samples[start:stop]
-        columns = {
-            name: np.ascontiguousarray(block[:, i]) for i, name in enumerate(self.plan.names)
-        }
+        return self._columns(self.plan.samples, start, stop)
+
+    def _columns(self, samples: np.ndarray, start: int, stop: int) -> dict[str, np.ndarray]:
+        """Every parameter column of rows ``start:stop`` of a sample table (plan or screening)."""
+        block = samples[start:stop]
+        columns = {name: np.ascontiguousarray(block[:, i]) for i, name in enumerate(self._fuzzy)}
         for name, value in self.constants.items():
             columns[name] = np.full(stop - start, value)
         return columns
 
     def __repr__(self) -> str:
+        if self._plan is None:
+            return (
+                f"Study(model={self.model_name!r}, parameters={list(self._fuzzy)}, "
+                f"method='extended', levels={len(self._plan_levels()) - 1}, "
+                f"nonmonotonic={AUTO!r} (not screened yet))"
+            )
         return (
             f"Study(model={self.model_name!r}, parameters={list(self.plan.names)}, "
             f"method={self.plan.method!r}, levels={len(self.plan.levels) - 1}, "
@@ -327,96 +418,57 @@ class Study:
             ``store`` holds chunks of a different study, or (with ``resume=True``)
             chunks computed by another fuzzymbs version or model source.
         """
-        from fuzzymbs.study.executors import resolve_executor
         from fuzzymbs.study.store import ChunkStore
 
-        if on_failure not in ON_FAILURE:
-            raise InvalidParameterError(
-                f"on_failure={on_failure!r}; allowed: {', '.join(ON_FAILURE)}"
-            )
-        if chunk_size is not None and (
-            isinstance(chunk_size, bool)
-            or not isinstance(chunk_size, int | np.integer)
-            or chunk_size < 1
-        ):
-            raise InvalidParameterError(f"chunk_size must be a positive int, got {chunk_size!r}")
+        _check_run_settings(on_failure, chunk_size)
         started = time.perf_counter()
-        count = len(self.plan)
-        size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
-        chunk_store = None
-        if store is not None:
-            chunk_store = ChunkStore.open(
-                store, self.identity(), count, size, resume=resume, code=self.code_version()
-            )
-            size = chunk_store.chunk_size
-        chunk_count = math.ceil(count / size)
-        results: dict[int, ChunkResult] = {}
-        if chunk_store is not None:
-            for index in chunk_store.finished():
-                if index < chunk_count:
-                    stored = chunk_store.read(index)
-                    if stored is not None:
-                        results[index] = stored
-        missing = [i for i in range(chunk_count) if i not in results]
-        reused = sum(results[i].size for i in results)
-        logger.info(
-            "study %s: %d samples in %d chunks of %d; %d chunks from the store, %d to evaluate",
-            self.name,
-            count,
-            chunk_count,
-            size,
-            len(results),
-            len(missing),
-        )
-        if on_failure == "fail-fast":
-            self._raise_if_failed(results, during=True)
-
-        # nothing to evaluate: do not start workers or connect to a cluster
-        resolved = resolve_executor(executor if missing else None)
-        if not missing:
-            resolved.label = "none (every chunk from the store)"
-        if resolved.label.startswith("processes"):
-            self._check_picklable(resolved)
-        evaluated = 0
+        requested_size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
+        code = self.code_version() if store is not None else None
+        # one executor for the screening and the plan, started only if something is evaluated
+        work = _LazyExecutor(executor, self._check_picklable)
         try:
-            with _progress_bar(progress, count, reused, self.name) as advance:
-                pending: dict[Future, int] = {}
-                queue = list(missing)
-                while queue or pending:
-                    while queue and len(pending) < resolved.in_flight:
-                        index = queue.pop(0)
-                        start, stop = index * size, min((index + 1) * size, count)
-                        future = resolved.executor.submit(
-                            evaluate_chunk,
-                            self.model,
-                            self.columns(start, stop),
-                            start,
-                            self.outputs,
-                        )
-                        pending[future] = index
-                    done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
-                    for future in done:
-                        index = pending.pop(future)
-                        chunk = future.result()
-                        if chunk_store is not None:
-                            chunk_store.write(index, chunk)
-                        results[index] = chunk
-                        evaluated += chunk.size
-                        advance(chunk.size)
-                        if chunk.failed.any():
-                            logger.warning(
-                                "chunk %d: %d of %d samples failed (first: %s)",
-                                index,
-                                int(chunk.failed.sum()),
-                                chunk.size,
-                                chunk.reasons[np.flatnonzero(chunk.failed)[0]],
-                            )
-                            if on_failure == "fail-fast":
-                                for other in pending:
-                                    other.cancel()
-                                self._raise_if_failed(results, during=True)
+            if self._plan is None:
+                self._screen(work, requested_size, store, resume, progress, on_failure, code)
+            count = len(self.plan)
+            size = requested_size
+            chunk_store = None
+            if store is not None:
+                chunk_store = ChunkStore.open(
+                    store, self.identity(), count, size, resume=resume, code=code
+                )
+                size = chunk_store.chunk_size
+            chunk_count = math.ceil(count / size)
+            results = _stored_chunks(chunk_store, chunk_count)
+            missing = [i for i in range(chunk_count) if i not in results]
+            reused = sum(results[i].size for i in results)
+            logger.info(
+                "study %s: %d samples in %d chunks of %d; %d chunks from the store, %d to evaluate",
+                self.name,
+                count,
+                chunk_count,
+                size,
+                len(results),
+                len(missing),
+            )
+            if on_failure == "fail-fast":
+                self._raise_if_failed(results, during=True)
+            evaluated = self._evaluate_chunks(
+                self.plan.samples,
+                missing,
+                size,
+                results,
+                chunk_store,
+                work,
+                progress=(progress, reused, self.name),
+                fail_fast=(
+                    (lambda: self._raise_if_failed(results, during=True))
+                    if on_failure == "fail-fast"
+                    else None
+                ),
+            )
         finally:
-            resolved.close()
+            work.close()
+        executor_label = work.label or "none (every chunk from the store)"
 
         ordered = [results[i] for i in range(chunk_count)]
         outputs, failed, reasons = _assemble(ordered, count)
@@ -436,12 +488,246 @@ class Study:
             wall_time=wall_time,
             evaluated=evaluated,
             reused=reused,
-            executor=resolved.label,
+            executor=executor_label,
             chunk_size=size,
             on_failure=on_failure,
             keep_raw=keep_raw,
         )
+        if self.screening is not None:
+            from fuzzymbs.study.store import json_safe
+
+            provenance = json.loads(dataset.attrs["provenance"])
+            provenance["screening"] = self.screening
+            dataset.attrs["provenance"] = json.dumps(
+                json_safe(provenance), sort_keys=True, allow_nan=False
+            )
         return StudyResult(dataset)
+
+    def screen(
+        self,
+        executor: Any = None,
+        chunk_size: int | None = None,
+        store: str | Path | None = None,
+        resume: bool = True,
+        progress: bool = False,
+        on_failure: str = "raise",
+    ) -> dict[str, Any]:
+        """Screen a ``nonmonotonic="auto"`` study and build its extended plan.
+
+        :meth:`run` does this itself; call it to see the detected parameters
+        (and the plan size) before running the plan. The model is evaluated
+        at :func:`~fuzzymbs.fuzzy.screening.screening_samples` (with the
+        crisp values of the study), chunk by chunk on ``executor``; with a
+        ``store``, the chunks go to ``STORE/screening/`` and a rerun reuses
+        them. Failed screening samples are left out of the decision (listed
+        in the report), except with ``on_failure="fail-fast"``, which raises.
+        A second call returns the first report.
+
+        Returns
+        -------
+        dict
+            The report of :func:`~fuzzymbs.fuzzy.screening.nonmonotonic_parameters`
+            plus ``evaluated``, ``reused_from_store``, ``failure_reasons``
+            (row -> reason of excluded samples) and ``warnings``; also kept as
+            :attr:`screening` and in the result's provenance.
+
+        Raises
+        ------
+        UnsupportedOperationError
+            The study does not use ``nonmonotonic="auto"``.
+        IncompleteResultError
+            Screening samples failed so that a parameter's axis keeps fewer than
+            3 points (or with ``on_failure="fail-fast"``, any failed).
+        StoreMismatchError
+            ``STORE/screening`` holds the screening of a different study or code.
+        """
+        if not self.auto_nonmonotonic:
+            raise UnsupportedOperationError(
+                f"study {self.name!r} names its non-monotonic parameters (or uses method "
+                f"{self.plan.method!r}); only a study with nonmonotonic={AUTO!r} is screened"
+            )
+        if self.screening is None:
+            _check_run_settings(on_failure, chunk_size)
+            size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
+            code = self.code_version() if store is not None else None
+            work = _LazyExecutor(executor, self._check_picklable)
+            try:
+                self._screen(work, size, store, resume, progress, on_failure, code)
+            finally:
+                work.close()
+        assert self.screening is not None
+        return self.screening
+
+    def _screen(
+        self,
+        work: _LazyExecutor,
+        size: int,
+        store: str | Path | None,
+        resume: bool,
+        progress: bool,
+        on_failure: str,
+        code: dict[str, Any] | None,
+    ) -> None:
+        """Evaluate the screening samples, decide, and build the extended plan."""
+        from fuzzymbs.fuzzy.screening import nonmonotonic_parameters
+        from fuzzymbs.fuzzy.transform import plan as make_plan
+        from fuzzymbs.study.store import ChunkStore
+
+        screening = self._screening_samples
+        count = len(screening.samples)
+        chunk_store = None
+        if store is not None:
+            chunk_store = ChunkStore.open(
+                Path(store) / SCREENING_FOLDER,
+                self._screening_identity(),
+                count,
+                size,
+                resume=resume,
+                code=code,
+            )
+            size = chunk_store.chunk_size
+        chunk_count = math.ceil(count / size)
+        results = _stored_chunks(chunk_store, chunk_count)
+        missing = [i for i in range(chunk_count) if i not in results]
+        reused = sum(results[i].size for i in results)
+        logger.info(
+            "study %s: screening for non-monotonic parameters, %d samples, %d from the store",
+            self.name,
+            count,
+            reused,
+        )
+
+        def stop_at_failure() -> None:
+            failed, reasons = _assemble([results[i] for i in sorted(results)], count)[1:]
+            if failed.any():
+                raise IncompleteResultError(
+                    f"stopped early (fail-fast): screening of study {self.name!r}: "
+                    + self._screening_failures(failed, reasons)
+                )
+
+        fail_fast = stop_at_failure if on_failure == "fail-fast" else None
+        if fail_fast is not None and results:
+            fail_fast()
+        evaluated = self._evaluate_chunks(
+            screening.samples,
+            missing,
+            size,
+            results,
+            chunk_store,
+            work,
+            progress=(progress, reused, f"{self.name} (screening)"),
+            fail_fast=fail_fast,
+        )
+        outputs, failed, reasons = _assemble([results[i] for i in range(chunk_count)], count)
+        if failed.all():
+            raise IncompleteResultError(
+                f"all {count} screening samples of study {self.name!r} failed; "
+                f"first reason: {reasons[0]}"
+            )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                report = nonmonotonic_parameters(
+                    screening, outputs, self.screening_rtol, failed=failed
+                )
+            except IncompleteResultError as exc:
+                raise IncompleteResultError(
+                    f"screening of study {self.name!r}: {exc} "
+                    + self._screening_failures(failed, reasons)
+                ) from exc
+        report["warnings"] = [str(w.message) for w in caught]
+        for text in report["warnings"]:
+            logger.warning("study %s: %s", self.name, text)
+        report["failure_reasons"] = {
+            str(row): str(reasons[row]) or "non-finite output" for row in report["excluded_samples"]
+        }
+        report["evaluated"] = int(evaluated)
+        report["reused_from_store"] = int(reused)
+        self._plan = make_plan(
+            self._fuzzy, method="extended", levels=self._levels, nonmonotonic=report["nonmonotonic"]
+        )
+        self.screening = report
+        logger.info(
+            "study %s: screening (%d runs) found non-monotonic parameters %s; extended plan "
+            "of %d samples",
+            self.name,
+            count,
+            report["nonmonotonic"],
+            len(self._plan),
+        )
+
+    def _screening_failures(self, failed: np.ndarray, reasons: np.ndarray) -> str:
+        """E.g. "failed screening samples: row 3 (x1=1.5): diverged; ..." (first five)."""
+        rows = np.flatnonzero(failed)
+        samples = self._screening_samples.samples
+        listed = "; ".join(
+            f"row {row} ("
+            + ", ".join(f"{n}={v:.6g}" for n, v in zip(self._fuzzy, samples[row], strict=True))
+            + f"): {reasons[row] or 'non-finite output'}"
+            for row in rows[:5]
+        )
+        more = f" (and {len(rows) - 5} more)" if len(rows) > 5 else ""
+        return f"failed screening samples: {listed}{more}"
+
+    def _evaluate_chunks(
+        self,
+        samples: np.ndarray,
+        missing: Sequence[int],
+        size: int,
+        results: dict[int, ChunkResult],
+        chunk_store: Any,
+        work: _LazyExecutor,
+        *,
+        progress: tuple[bool, int, str],
+        fail_fast: Callable[[], None] | None,
+    ) -> int:
+        """Evaluate chunks ``missing`` of ``samples`` into ``results`` (and the store).
+
+        Returns the number of samples evaluated. ``fail_fast`` is called (and
+        pending chunks cancelled) after a chunk with a failed sample.
+        """
+        count = len(samples)
+        enabled, already, label = progress
+        evaluated = 0
+        with _progress_bar(enabled, count, already, label) as advance:
+            pending: dict[Future, int] = {}
+            queue = list(missing)
+            resolved = work.get() if queue else None
+            while queue or pending:
+                assert resolved is not None
+                while queue and len(pending) < resolved.in_flight:
+                    index = queue.pop(0)
+                    start, stop = index * size, min((index + 1) * size, count)
+                    future = resolved.executor.submit(
+                        evaluate_chunk,
+                        self.model,
+                        self._columns(samples, start, stop),
+                        start,
+                        self.outputs,
+                    )
+                    pending[future] = index
+                done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
+                for future in done:
+                    index = pending.pop(future)
+                    chunk = future.result()
+                    if chunk_store is not None:
+                        chunk_store.write(index, chunk)
+                    results[index] = chunk
+                    evaluated += chunk.size
+                    advance(chunk.size)
+                    if chunk.failed.any():
+                        logger.warning(
+                            "chunk %d: %d of %d samples failed (first: %s)",
+                            index,
+                            int(chunk.failed.sum()),
+                            chunk.size,
+                            chunk.reasons[np.flatnonzero(chunk.failed)[0]],
+                        )
+                        if fail_fast is not None:
+                            for other in pending:
+                                other.cancel()
+                            fail_fast()
+        return evaluated
 
     def _check_picklable(self, resolved: Any) -> None:
         """Fail early and clearly when the model cannot travel to worker processes."""
@@ -482,6 +768,60 @@ class Study:
         if failed.any():
             message = self._failure_message(failed, reasons, self.plan.levels_touched(failed))
             raise IncompleteResultError(("stopped early (fail-fast): " if during else "") + message)
+
+
+def _check_run_settings(on_failure: str, chunk_size: Any) -> None:
+    if on_failure not in ON_FAILURE:
+        raise InvalidParameterError(f"on_failure={on_failure!r}; allowed: {', '.join(ON_FAILURE)}")
+    if chunk_size is not None and (
+        isinstance(chunk_size, bool)
+        or not isinstance(chunk_size, int | np.integer)
+        or chunk_size < 1
+    ):
+        raise InvalidParameterError(f"chunk_size must be a positive int, got {chunk_size!r}")
+
+
+def _check_rtol(value: Any) -> None:
+    from fuzzymbs.fuzzy.screening import _check_tolerance
+
+    _check_tolerance("screening_rtol", value)
+
+
+class _LazyExecutor:
+    """The run's executor, started on first use (a run served by the store starts none)."""
+
+    def __init__(self, spec: Any, check: Callable[[Any], None]) -> None:
+        self.spec = spec
+        self._check = check  # closes the executor and raises if the model cannot travel
+        self._resolved: Any = None
+        self.label: str | None = None
+
+    def get(self) -> Any:
+        if self._resolved is None:
+            from fuzzymbs.study.executors import resolve_executor
+
+            resolved = resolve_executor(self.spec)
+            if resolved.label.startswith("processes"):
+                self._check(resolved)
+            self._resolved = resolved
+            self.label = resolved.label
+        return self._resolved
+
+    def close(self) -> None:
+        if self._resolved is not None:
+            self._resolved.close()
+
+
+def _stored_chunks(chunk_store: Any, chunk_count: int) -> dict[int, ChunkResult]:
+    """The readable chunks of a store (none without one)."""
+    results: dict[int, ChunkResult] = {}
+    if chunk_store is not None:
+        for index in chunk_store.finished():
+            if index < chunk_count:
+                stored = chunk_store.read(index)
+                if stored is not None:
+                    results[index] = stored
+    return results
 
 
 def _assemble(

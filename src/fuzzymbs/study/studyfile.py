@@ -2,7 +2,8 @@
 
 Layout (see docs/studies.md)::
 
-    [study]      name, description, method, levels, outputs, nonmonotonic
+    [study]      name, description, method, levels, outputs, nonmonotonic (list or "auto"),
+                 screening_rtol
     [model]      name ("registry-name" or "package.module:callable"), [model.options]
     [parameters] one table (fuzzy) or number (crisp) per model parameter
     [run]        executor, chunk_size, on_failure
@@ -45,7 +46,20 @@ class StudySection(_Section):
     method: Literal["general", "reduced", "extended", "grid"] = "reduced"
     levels: int | list[float] = 4
     outputs: list[str] | None = None
-    nonmonotonic: list[str] = Field(default_factory=list)
+    nonmonotonic: list[str] | Literal["auto"] = Field(default_factory=list)
+    screening_rtol: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
+
+    @field_validator("nonmonotonic", mode="before")
+    @classmethod
+    def _check_nonmonotonic(cls, value: Any) -> Any:
+        if value == "auto" or (
+            isinstance(value, list) and all(isinstance(name, str) for name in value)
+        ):
+            return value
+        raise ValueError(
+            'nonmonotonic must be a list of parameter names (e.g. ["mass"]) or "auto" '
+            "(found by a screening run; method 'extended' only)"
+        )
 
     @field_validator("levels", mode="before")
     @classmethod
@@ -259,6 +273,7 @@ def load_study_file(path: str | Path) -> StudyDefinition:
             outputs=parsed.study.outputs,
             model_options=parsed.model.options,
             nonmonotonic=parsed.study.nonmonotonic or None,
+            screening_rtol=parsed.study.screening_rtol,
             name=name,
             description=parsed.study.description,
         )
