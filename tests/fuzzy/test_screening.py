@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fuzzymbs.errors import IncompleteResultError, InvalidPlanError, ModelOutputError
-from fuzzymbs.fuzzy import Trapezoidal, Triangular, plan
+from fuzzymbs.fuzzy import NonMonotonicWarning, Trapezoidal, Triangular, plan
 from fuzzymbs.fuzzy.screening import (
     ScreeningWarning,
     nonmonotonic_parameters,
@@ -231,3 +231,25 @@ def test_extended_with_detected_names_matches_general_where_reduced_is_too_narro
     # the reduced corners miss x1 = 2 and x2 near pi/2: the mu = 0 cut is too narrow
     assert reduced.lower[0] > general.lower[0] + 0.5
     assert reduced.upper[0] < general.upper[0] - 1e-3
+
+
+def test_documented_limit_off_axis_reversal_is_missed_but_warned_after_the_fact():
+    # z = x2 (1 - 4 (x1 - 1)^2), x1 = TFN(0, 1, 2), x2 = TFN(0, 0, 1): at the modal x2 = 0
+    # the x1 axis is flat and at the modal x1 = 1 the x2 axis is linear, so the screening
+    # sees nothing; off the axes (x2 = 1) z has an interior maximum 1 at x1 = 1 that the
+    # corners (z = -3 or 0) miss. Closed form at mu = 0: max z = 1. (docs/fuzzy.md)
+    numbers = {"x1": Triangular(0, 1, 2), "x2": Triangular(0, 0, 1)}
+
+    def model(samples):
+        return {"z": samples["x2"] * (1 - 4 * (samples["x1"] - 1) ** 2)}
+
+    screening = screening_samples(numbers, 4)
+    columns = {name: screening.samples[:, i] for i, name in enumerate(screening.names)}
+    assert nonmonotonic_parameters(screening, model(columns))["nonmonotonic"] == []
+    extended = plan(numbers, "extended", 4, nonmonotonic=[])
+    with pytest.warns(NonMonotonicWarning, match="not monotonic in every parameter"):
+        narrow = extended.retransform(extended.evaluate(model)["z"])
+    # nested corner maximum: mu = 0.75 corner x1 = 0.75 or 1.25, x2 = 0.25: 0.25 (1 - 0.25)
+    assert narrow.upper[0] == pytest.approx(0.1875, abs=1e-15)
+    general = plan(numbers, "general", 4)
+    assert general.retransform(general.evaluate(model)["z"]).upper[0] == pytest.approx(1.0)
