@@ -322,7 +322,10 @@ class Study:
         return identity
 
     def _screening_identity(self) -> dict[str, Any]:
-        """What a screening store must match: screening points, rtol, model (as identity)."""
+        """What a screening store must match: the screening points and the model.
+
+        Not the tolerance: the decision is made again from the stored outputs.
+        """
         screening = self._screening_samples
         digest = hashlib.sha256()
         description = {
@@ -388,6 +391,10 @@ class Study:
     ) -> StudyResult:
         """Evaluate the plan's samples chunk by chunk and retransform.
 
+        A ``nonmonotonic="auto"`` study not screened yet is screened first
+        (see :meth:`screen`), on the same executor and, with a store, into
+        ``STORE/screening/``.
+
         Parameters
         ----------
         executor : None, str, Executor or distributed.Client
@@ -413,7 +420,8 @@ class Study:
         Raises
         ------
         IncompleteResultError
-            Samples failed and ``on_failure`` is not "partial" (or no level is complete).
+            Samples failed and ``on_failure`` is not "partial" (or no level is complete),
+            or screening samples failed so that the screening cannot decide.
         StoreMismatchError
             ``store`` holds chunks of a different study, or (with ``resume=True``)
             chunks computed by another fuzzymbs version or model source.
