@@ -71,6 +71,9 @@ def test_auto_study_detects_names_and_matches_general():
         np.testing.assert_allclose(dataset["z_lower"].values, fuzzy.lower, rtol=0, atol=1e-12)
         np.testing.assert_allclose(dataset["z_upper"].values, fuzzy.upper, rtol=0, atol=1e-12)
     assert not any("not monotonic" in text for text in result.provenance["warnings"])
+    assert "Screening: 25 runs along each parameter's axis; non-monotonic: x1, x2" in (
+        result.summary()
+    )
 
 
 def test_auto_needs_extended_and_rtol_only_with_auto():

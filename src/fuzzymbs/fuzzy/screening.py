@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import IncompleteResultError, InvalidPlanError, ModelOutputError
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
-from fuzzymbs.fuzzy.transform import make_levels
+from fuzzymbs.fuzzy.transform import checked_parameters, make_levels
 
 __all__ = [
     "DEFAULT_ROUNDOFF",
@@ -79,23 +79,6 @@ class Screening(NamedTuple):
     axes: tuple[NDArray[np.intp], ...]
 
 
-def _checked_parameters(parameters: Mapping[str, FuzzyNumber]) -> dict[str, FuzzyNumber]:
-    """The same checks (and messages) as :class:`~fuzzymbs.fuzzy.transform.Plan`."""
-    if not isinstance(parameters, Mapping) or len(parameters) == 0:
-        raise InvalidPlanError(
-            f"parameters must be a non-empty mapping of name -> FuzzyNumber, got {parameters!r}"
-        )
-    for name, number in parameters.items():
-        if not isinstance(name, str) or not name:
-            raise InvalidPlanError(f"parameter names must be non-empty strings, got {name!r}")
-        if not isinstance(number, FuzzyNumber):
-            raise InvalidPlanError(
-                f"parameter {name!r} must be a FuzzyNumber (e.g. Triangular), "
-                f"got {type(number).__name__}"
-            )
-    return dict(parameters)
-
-
 def screening_samples(
     parameters: Mapping[str, FuzzyNumber], levels: int | ArrayLike = 4
 ) -> Screening:
@@ -126,7 +109,7 @@ def screening_samples(
     >>> s.samples.shape   # 1 modal point + 2 parameters x 4 cut bounds
     (9, 2)
     """
-    numbers = _checked_parameters(parameters)
+    numbers = checked_parameters(parameters)
     mus = make_levels(levels)
     names = tuple(numbers)
     modal = np.array([number.modal for number in numbers.values()])

@@ -148,6 +148,30 @@ def _corner_values(lower: NDArray, upper: NDArray, j: int) -> NDArray[np.float64
     return np.array([lower[j], upper[j]])
 
 
+def checked_parameters(parameters: Mapping[str, FuzzyNumber]) -> dict[str, FuzzyNumber]:
+    """``parameters`` as a dict after checking it is a non-empty name -> FuzzyNumber mapping.
+
+    Raises
+    ------
+    InvalidPlanError
+        Not a mapping, empty, a name that is not a non-empty string, or a value
+        that is not a :class:`~fuzzymbs.fuzzy.numbers.FuzzyNumber`.
+    """
+    if not isinstance(parameters, Mapping) or len(parameters) == 0:
+        raise InvalidPlanError(
+            f"parameters must be a non-empty mapping of name -> FuzzyNumber, got {parameters!r}"
+        )
+    for name, number in parameters.items():
+        if not isinstance(name, str) or not name:
+            raise InvalidPlanError(f"parameter names must be non-empty strings, got {name!r}")
+        if not isinstance(number, FuzzyNumber):
+            raise InvalidPlanError(
+                f"parameter {name!r} must be a FuzzyNumber (e.g. Triangular), "
+                f"got {type(number).__name__}"
+            )
+    return dict(parameters)
+
+
 class Plan:
     """Sample points of a transformation-method scheme and their level bookkeeping.
 
@@ -180,19 +204,7 @@ class Plan:
     ) -> None:
         if not isinstance(method, str) or method not in METHODS:
             raise InvalidPlanError(f"unknown method {method!r}; valid methods: {list(METHODS)}")
-        if not isinstance(parameters, Mapping) or len(parameters) == 0:
-            raise InvalidPlanError(
-                f"parameters must be a non-empty mapping of name -> FuzzyNumber, got {parameters!r}"
-            )
-        for name, number in parameters.items():
-            if not isinstance(name, str) or not name:
-                raise InvalidPlanError(f"parameter names must be non-empty strings, got {name!r}")
-            if not isinstance(number, FuzzyNumber):
-                raise InvalidPlanError(
-                    f"parameter {name!r} must be a FuzzyNumber (e.g. Triangular), "
-                    f"got {type(number).__name__}"
-                )
-        self.parameters: dict[str, FuzzyNumber] = dict(parameters)
+        self.parameters: dict[str, FuzzyNumber] = checked_parameters(parameters)
         self.names: tuple[str, ...] = tuple(self.parameters)
         self.method = method
         self.levels = make_levels(levels)

@@ -247,6 +247,8 @@ def build_dataset(
         "wall_time_s": round(float(wall_time), 6),
         "warnings": warning_texts,
     }
+    if study.screening is not None:  # nonmonotonic="auto": what the screening found
+        provenance["screening"] = study.screening
     dataset = xarray.Dataset(data, coords=coords)
     dataset.attrs.update(
         {

@@ -426,7 +426,6 @@ class Study:
             ``store`` holds chunks of a different study, or (with ``resume=True``)
             chunks computed by another fuzzymbs version or model source.
         """
-        from fuzzymbs.study.store import ChunkStore
 
         _check_run_settings(on_failure, chunk_size)
         started = time.perf_counter()
@@ -438,17 +437,9 @@ class Study:
             if self._plan is None:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
             count = len(self.plan)
-            size = requested_size
-            chunk_store = None
-            if store is not None:
-                chunk_store = ChunkStore.open(
-                    store, self.identity(), count, size, resume=resume, code=code
-                )
-                size = chunk_store.chunk_size
-            chunk_count = math.ceil(count / size)
-            results = _stored_chunks(chunk_store, chunk_count)
-            missing = [i for i in range(chunk_count) if i not in results]
-            reused = sum(results[i].size for i in results)
+            chunk_store, size, chunk_count, results, missing, reused = _open_chunks(
+                store, self.identity(), count, requested_size, resume, code
+            )
             logger.info(
                 "study %s: %d samples in %d chunks of %d; %d chunks from the store, %d to evaluate",
                 self.name,
@@ -501,14 +492,6 @@ class Study:
             on_failure=on_failure,
             keep_raw=keep_raw,
         )
-        if self.screening is not None:
-            from fuzzymbs.study.store import json_safe
-
-            provenance = json.loads(dataset.attrs["provenance"])
-            provenance["screening"] = self.screening
-            dataset.attrs["provenance"] = json.dumps(
-                json_safe(provenance), sort_keys=True, allow_nan=False
-            )
         return StudyResult(dataset)
 
     def screen(
@@ -579,25 +562,17 @@ class Study:
         """Evaluate the screening samples, decide, and build the extended plan."""
         from fuzzymbs.fuzzy.screening import nonmonotonic_parameters
         from fuzzymbs.fuzzy.transform import plan as make_plan
-        from fuzzymbs.study.store import ChunkStore
 
         screening = self._screening_samples
         count = len(screening.samples)
-        chunk_store = None
-        if store is not None:
-            chunk_store = ChunkStore.open(
-                Path(store) / SCREENING_FOLDER,
-                self._screening_identity(),
-                count,
-                size,
-                resume=resume,
-                code=code,
-            )
-            size = chunk_store.chunk_size
-        chunk_count = math.ceil(count / size)
-        results = _stored_chunks(chunk_store, chunk_count)
-        missing = [i for i in range(chunk_count) if i not in results]
-        reused = sum(results[i].size for i in results)
+        chunk_store, size, chunk_count, results, missing, reused = _open_chunks(
+            None if store is None else Path(store) / SCREENING_FOLDER,
+            self._screening_identity(),
+            count,
+            size,
+            resume,
+            code,
+        )
         logger.info(
             "study %s: screening for non-monotonic parameters, %d samples, %d from the store",
             self.name,
@@ -818,6 +793,33 @@ class _LazyExecutor:
     def close(self) -> None:
         if self._resolved is not None:
             self._resolved.close()
+
+
+def _open_chunks(
+    store: str | Path | None,
+    identity: dict[str, Any],
+    count: int,
+    size: int,
+    resume: bool,
+    code: dict[str, Any] | None,
+) -> tuple[Any, int, int, dict[int, ChunkResult], list[int], int]:
+    """Open (or skip, without ``store``) the chunk store of ``count`` samples.
+
+    Returns the store (or None), the chunk size in force (a resumed store keeps
+    its own), the chunk count, the chunks already stored, the missing chunk
+    indices and the number of samples reused.
+    """
+    from fuzzymbs.study.store import ChunkStore
+
+    chunk_store = None
+    if store is not None:
+        chunk_store = ChunkStore.open(store, identity, count, size, resume=resume, code=code)
+        size = chunk_store.chunk_size
+    chunk_count = math.ceil(count / size)
+    results = _stored_chunks(chunk_store, chunk_count)
+    missing = [i for i in range(chunk_count) if i not in results]
+    reused = sum(results[i].size for i in results)
+    return chunk_store, size, chunk_count, results, missing, reused
 
 
 def _stored_chunks(chunk_store: Any, chunk_count: int) -> dict[int, ChunkResult]:

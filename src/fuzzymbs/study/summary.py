@@ -51,6 +51,13 @@ def summarize(dataset: xarray.Dataset) -> str:
         f"Executor: {provenance['executor']}  chunk size: {provenance['chunk_size']}  "
         f"wall time: {provenance['wall_time_s']:.3g} s",
     ]
+    screening = provenance.get("screening")
+    if screening is not None:  # nonmonotonic="auto"
+        found = ", ".join(screening["nonmonotonic"]) or "none"
+        lines.append(
+            f"Screening: {screening['runs']} runs along each parameter's axis; "
+            f"non-monotonic: {found}"
+        )
     if attrs["status"] == "complete":
         lines.append("Status: complete")
     else:
