@@ -162,9 +162,13 @@ def build_dataset(
     executor: str,
     chunk_size: int,
     on_failure: str,
+    code: Mapping[str, Any],
     keep_raw: bool = True,
 ) -> xarray.Dataset:
-    """Retransform the outputs and assemble the result dataset (layout in the module doc)."""
+    """Retransform the outputs and assemble the result dataset (layout in the module doc).
+
+    ``code`` is :meth:`Study.code_version` as the run computed it (the store records the same).
+    """
     import xarray
 
     plan = study.plan
@@ -230,7 +234,7 @@ def build_dataset(
     provenance = {
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "versions": package_versions(),
-        "code": study.code_version(),
+        "code": dict(code),
         "study": study.name,
         "model": study.model_name,
         "model_options": study.model_options,

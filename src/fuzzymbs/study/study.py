@@ -430,7 +430,7 @@ class Study:
         _check_run_settings(on_failure, chunk_size)
         started = time.perf_counter()
         requested_size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
-        code = self.code_version() if store is not None else None
+        code = self.code_version()  # recorded by the store and in the provenance
         # one executor for the screening and the plan, started only if something is evaluated
         work = _LazyExecutor(executor, self._check_picklable)
         try:
@@ -490,6 +490,7 @@ class Study:
             executor=executor_label,
             chunk_size=size,
             on_failure=on_failure,
+            code=code,
             keep_raw=keep_raw,
         )
         return StudyResult(dataset)
