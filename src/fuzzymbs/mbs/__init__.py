@@ -6,7 +6,8 @@ Public API (see docs/embs.md)::
                               NodalForce, Spring, PenaltyContact, symmetric_contact,
                               CartesianChart, PolarChart, Parameter, TimeProfile,
                               NodeDisplacement, Coordinate, simulate, SimulationModel,
-                              simulate_reference, steady_state, eigenanalysis)
+                              simulate_reference, steady_state, eigenanalysis,
+                              rk4_step_stability, rk4_step_limit)
 
 Names load lazily so that importing the package does not import Numba kernels.
 """
@@ -38,6 +39,9 @@ _LAZY: dict[str, str] = {
     "SimulationResult": "fuzzymbs.mbs.integrate",
     "steady_state": "fuzzymbs.mbs.linearize",
     "eigenanalysis": "fuzzymbs.mbs.linearize",
+    "rk4_step_stability": "fuzzymbs.mbs.step_stability",
+    "rk4_step_limit": "fuzzymbs.mbs.step_stability",
+    "StepStability": "fuzzymbs.mbs.step_stability",
     "lumped_modal_body": "fuzzymbs.mbs.lumped",
     "rigid_body": "fuzzymbs.mbs.lumped",
 }

@@ -36,6 +36,7 @@ from fuzzymbs.mbs.contact import PenaltyContact, PolarChart
 from fuzzymbs.mbs.forces import NodalForce, Spring
 from fuzzymbs.mbs.integrate import SimulationModel
 from fuzzymbs.mbs.parameters import Parameter
+from fuzzymbs.mbs.step_stability import StepStability, rk4_step_stability
 from fuzzymbs.mbs.system import CompiledSystem, Coordinate, System
 from fuzzymbs.models.brake.geometry import BrakeBodies, BrakeDesign, build_bodies
 from fuzzymbs.study.registry import ParameterInfo
@@ -303,3 +304,17 @@ class DiscBrake:
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
         """Integrate a batch of samples; failed samples are NaN rows flagged in ``failed``."""
         return self.simulation(check_samples(samples))
+
+    def step_stability(
+        self, samples: Mapping[str, Any] | None = None, dt: float | None = None
+    ) -> StepStability:
+        """Is the RK4 step stable for the brake linearised at steady sliding?
+
+        See :func:`fuzzymbs.mbs.step_stability.rk4_step_stability`. ``dt``
+        defaults to the model's step. At the paper's 1 us it is not: the
+        friction-damped pad modes (real eigenvalues near -8.9e6 1/s at 1 rad/s)
+        need ``dt`` below about 0.31 us (docs/brake.md, "Accuracy of the time
+        integration").
+        """
+        step = self.simulation.settings["dt"] if dt is None else dt
+        return rk4_step_stability(self.compiled, check_samples(samples or {}), dt=step)
