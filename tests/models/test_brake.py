@@ -292,6 +292,11 @@ def test_stability_model_outputs_and_coords():
     # the unstable mode-coupling pair itself (the pads take part in it)
     assert out["pad_max_real_part"][0] < out["max_real_part"][0] <= 0
     assert out["pad_max_real_part"][1] == out["max_real_part"][1]
+    # the RK4 step limit: at 1 rad/s set by the friction-damped pad modes (about -8.9e6
+    # 1/s, so 2.785 / 8.9e6 = 0.31 us, below the paper's 1 us); ten times larger at 10
+    # rad/s, where the friction damping mu f_N / v_slide is ten times smaller
+    assert out["rk4_max_step"].shape == (2,)
+    assert 2.5e-7 < out["rk4_max_step"][0] < 3.5e-7 < 3.0e-6 < out["rk4_max_step"][1] < 3.4e-6
 
 
 def test_demo_study_files_validate():

@@ -125,6 +125,7 @@ register_model(
         "unstable_modes": "-",
         "pad_max_real_part": "1/s",
         "pad_mode_frequency": "Hz",
+        "rk4_max_step": "s",
         "real_parts": "1/s",
         "frequencies": "Hz",
     },

@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.linearize import eigenanalysis
+from fuzzymbs.mbs.step_stability import rk4_step_limit
 from fuzzymbs.mbs.system import CompiledSystem
 from fuzzymbs.models.brake.geometry import BrakeDesign, build_bodies
 from fuzzymbs.models.brake.model import brake_system, check_samples
@@ -62,6 +63,10 @@ class StabilityResult:
         ``pad_participation`` (coordinate part scaled to max-norm 1). Below the
         onset of instability the least stable mode overall is a nearly undamped
         caliper or disc mode that the pad signals hardly show.
+    rk4_max_step : (B,) [s]
+        Largest classic-RK4 step that integrates every decaying or undamped mode
+        stably (:func:`fuzzymbs.mbs.step_stability.rk4_step_limit`): the time
+        integration's step should stay below it.
     """
 
     real_parts: NDArray[np.float64]
@@ -71,6 +76,7 @@ class StabilityResult:
     converged: NDArray[np.bool_]
     pad_real_part: NDArray[np.float64]
     pad_frequency: NDArray[np.float64]
+    rk4_max_step: NDArray[np.float64]
 
     @property
     def max_real_part(self) -> NDArray[np.float64]:
@@ -136,8 +142,9 @@ def stability_analysis(
     if real.shape[1] < k:  # fewer pairs than requested: pad with NaN
         pad = np.full((batch, k - real.shape[1]), np.nan)
         real, freq, zeta = (np.hstack([a, pad]) for a in (real, freq, zeta))
+    rk4_max_step, _ = rk4_step_limit(lam, tolerance)
     return StabilityResult(
-        real, freq, zeta, unstable.astype(np.int64), converged, pad_real, pad_freq
+        real, freq, zeta, unstable.astype(np.int64), converged, pad_real, pad_freq, rk4_max_step
     )
 
 
@@ -190,8 +197,9 @@ class BrakeStability:
     ``pad_max_real_part`` (B,) [1/s] and ``pad_mode_frequency`` (B,) [Hz] (least
     stable mode with pad participation, see :class:`StabilityResult`),
     ``real_parts`` and ``frequencies`` (B, k) over ``coords["mode_rank"]``,
-    ``unstable_modes`` (B,) and the ``failed`` / ``failure_reason`` flags (Newton
-    steady state not converged). Same parameters as :class:`DiscBrake`.
+    ``unstable_modes`` (B,), ``rk4_max_step`` (B,) [s] (largest stable RK4 step,
+    see :class:`StabilityResult`) and the ``failed`` / ``failure_reason`` flags
+    (Newton steady state not converged). Same parameters as :class:`DiscBrake`.
 
     Parameters
     ----------
@@ -227,6 +235,7 @@ class BrakeStability:
             "unstable_modes": (),
             "pad_max_real_part": (),
             "pad_mode_frequency": (),
+            "rk4_max_step": (),
             "real_parts": ("mode_rank",),
             "frequencies": ("mode_rank",),
             "failed": (),
@@ -245,6 +254,7 @@ class BrakeStability:
             "unstable_modes": result.unstable_count.astype(float),
             "pad_max_real_part": result.pad_real_part,
             "pad_mode_frequency": result.pad_frequency,
+            "rk4_max_step": result.rk4_max_step,
             "real_parts": result.real_parts,
             "frequencies": result.frequencies,
             "failed": failed,
