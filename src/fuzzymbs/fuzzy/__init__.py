@@ -13,6 +13,7 @@ from fuzzymbs.fuzzy.screening import (
     nonmonotonic_parameters,
     screening_samples,
 )
+from fuzzymbs.fuzzy.sparse_grid import SparseGrid, sparse_grid
 from fuzzymbs.fuzzy.transform import METHODS, NonMonotonicWarning, Plan, plan
 
 __all__ = [
@@ -26,9 +27,11 @@ __all__ = [
     "Plan",
     "Screening",
     "ScreeningWarning",
+    "SparseGrid",
     "Trapezoidal",
     "Triangular",
     "nonmonotonic_parameters",
     "plan",
     "screening_samples",
+    "sparse_grid",
 ]

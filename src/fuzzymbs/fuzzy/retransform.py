@@ -4,6 +4,16 @@ Bounds are nested by construction (Hanss): ``lower^(m)`` is the minimum over
 the level-m outputs and, going down, ``lower^(j) = min(lower^(j+1), min over
 the level-j outputs)``; likewise the upper bounds with max. Outputs may have
 any trailing shape (time, nodes, ...); everything is element-wise.
+
+Sparse plans (Klimke & Wohlmuth 2005) bound each level by a search of the
+sparse-grid interpolant over the level's cut box: the candidates are the
+samples inside the box (their model outputs) and a tensor grid of the box
+(``k = max(3, floor(search_points^(1/n)))`` points per parameter, corners
+included) evaluated by the interpolant; the bounds are their min/max, nested
+as above. For scalar outputs the three best candidates for the minimum (and
+for the maximum) then start a bounded L-BFGS-B search of the interpolant in
+the box (SciPy); outputs with a trailing shape keep the grid search, whose
+extrema between grid points are found up to the grid spacing.
 """
 
 from __future__ import annotations
@@ -16,12 +26,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import (
+    IncompleteResultError,
     InvalidFuzzyNumberError,
     ModelOutputError,
     UnsupportedOperationError,
 )
 from fuzzymbs.fuzzy.numbers import check_level
-from fuzzymbs.fuzzy.transform import NonMonotonicWarning, _unique_rows
+from fuzzymbs.fuzzy.transform import NonMonotonicWarning, _cartesian, _unique_rows
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray
@@ -267,11 +278,34 @@ def retransform(
         marked failed.
     InvalidPlanError
         A malformed ``failed`` mask.
+    IncompleteResultError
+        A sparse plan with failed samples (its interpolant needs every sample).
     """
     mask = plan.check_failed(failed)
     values = _checked_outputs(plan, outputs, mask, name)
     count_levels = len(plan.levels)
     shape = values.shape[1:]
+    if plan.method == "sparse":
+        if mask.any():
+            raise IncompleteResultError(
+                f"output {name!r}: {int(mask.sum())} of {len(plan)} samples of the sparse plan "
+                f"failed (first: sample {int(np.flatnonzero(mask)[0])}); the sparse-grid "
+                "interpolant needs every sample, so no level can be bounded. Fix the failing "
+                "runs or use another method (e.g. 'general') to keep the complete levels"
+            )
+        own_lower, own_upper = _sparse_own_bounds(plan, values)
+        lower = np.minimum.accumulate(own_lower[::-1], axis=0)[::-1]
+        upper = np.maximum.accumulate(own_upper[::-1], axis=0)[::-1]
+        return FuzzyResult(
+            plan.levels,
+            lower.reshape((count_levels, *shape)),
+            upper.reshape((count_levels, *shape)),
+            nominal=values[plan.nominal_index],
+            method=plan.method,
+            _plan=plan,
+            _outputs=values,
+            _failed=mask,
+        )
     # failed samples must not enter a min/max: +inf / -inf are neutral there
     for_min = np.where(_expand(mask, values), np.inf, values)
     for_max = np.where(_expand(mask, values), -np.inf, values)
@@ -302,6 +336,100 @@ def retransform(
         _outputs=values,
         _failed=mask,
     )
+
+
+#: float64 elements per block of interpolation weights or interpolated values
+_SEARCH_BLOCK_ELEMENTS = 2_000_000
+
+
+def points_per_parameter(search_points: int, count_parameters: int) -> int:
+    """Search-grid points per parameter: ``max(3, floor(search_points^(1/n)))``."""
+    k = max(1, round(search_points ** (1.0 / count_parameters)))
+    while k > 1 and k**count_parameters > search_points:
+        k -= 1
+    while (k + 1) ** count_parameters <= search_points:
+        k += 1
+    return max(3, k)
+
+
+def _sparse_own_bounds(plan: Plan, values: NDArray) -> tuple[NDArray, NDArray]:
+    """Per-level min/max (L, E) of a sparse plan's candidates (see the module docstring)."""
+    count_levels, count_parameters = plan.cut_lower.shape
+    flat = values.reshape(len(plan), -1)
+    node_values = flat[plan.node_index]
+    grid = plan.sparse_grid
+    per_parameter = points_per_parameter(plan.search_points, count_parameters)
+    block = max(1, _SEARCH_BLOCK_ELEMENTS // max(len(grid), flat.shape[1]))
+    own_lower = np.empty((count_levels, flat.shape[1]))
+    own_upper = np.empty((count_levels, flat.shape[1]))
+    for j in range(count_levels):
+        low, high = plan.cut_lower[j], plan.cut_upper[j]
+        inside = np.all((plan.samples >= low) & (plan.samples <= high), axis=1)
+        # the modal point is a sample inside every cut box, so `inside` is never empty
+        own_lower[j] = flat[inside].min(axis=0)
+        own_upper[j] = flat[inside].max(axis=0)
+        # np.linspace returns the bounds exactly; a zero-width cut gives one value
+        axes = [
+            np.unique(np.linspace(low[i], high[i], per_parameter)) for i in range(count_parameters)
+        ]
+        points = _cartesian(axes)
+        # grid points that are samples keep their model output (already counted)
+        _, inverse = _unique_rows(np.concatenate((plan.samples, points), axis=0))
+        points = points[inverse[len(plan) :] >= len(plan)]
+        unit = plan.to_unit_cube(points)
+        pieces = []
+        for start in range(0, len(unit), block):
+            interpolated = grid.weights(unit[start : start + block]) @ node_values
+            np.minimum(own_lower[j], interpolated.min(axis=0), out=own_lower[j])
+            np.maximum(own_upper[j], interpolated.max(axis=0), out=own_upper[j])
+            if flat.shape[1] == 1:
+                pieces.append(interpolated[:, 0])
+        if flat.shape[1] == 1 and np.any(high > low):
+            # scalar output: polish the best candidates with a local search of the interpolant
+            candidates = np.concatenate((plan.to_unit_cube(plan.samples[inside]), unit), axis=0)
+            candidate_values = np.concatenate((flat[inside, 0], *pieces))
+            box = list(zip(plan.to_unit_cube(low), plan.to_unit_cube(high), strict=True))
+            for sign, bound in ((1.0, own_lower), (-1.0, own_upper)):
+                starts = candidates[np.argsort(sign * candidate_values)[:_REFINE_STARTS]]
+                best = _local_search(grid, node_values[:, 0], starts, box, sign)
+                bound[j, 0] = min(sign * bound[j, 0], best) * sign
+    return own_lower, own_upper
+
+
+#: candidates that start a local search per bound (scalar outputs of sparse plans)
+_REFINE_STARTS = 3
+
+
+def _local_search(
+    grid: Any,
+    node_values: NDArray[np.float64],
+    starts: NDArray[np.float64],
+    box: list[tuple[float, float]],
+    sign: float,
+) -> float:
+    """Smallest ``sign * interpolant`` found by L-BFGS-B from each start within the box.
+
+    Value and central-difference gradient (step 1e-6 in the unit cube, one-sided
+    at its faces) come from one weights call of 2n + 1 points.
+    """
+    from scipy.optimize import minimize
+
+    count = len(box)
+    step = 1e-6 * np.eye(count)
+
+    def value_and_gradient(unit: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+        plus = np.clip(unit + step, 0.0, 1.0)
+        minus = np.clip(unit - step, 0.0, 1.0)
+        values = sign * (grid.weights(np.vstack((unit[None, :], plus, minus))) @ node_values)
+        spacing = np.diagonal(plus - minus)
+        return float(values[0]), (values[1 : count + 1] - values[count + 1 :]) / spacing
+
+    best = np.inf
+    for start in starts:
+        found = minimize(value_and_gradient, start, jac=True, method="L-BFGS-B", bounds=box)
+        if np.isfinite(found.fun):
+            best = min(best, float(found.fun))
+    return best
 
 
 def _expand(mask: NDArray[np.bool_], values: NDArray) -> NDArray[np.bool_]:

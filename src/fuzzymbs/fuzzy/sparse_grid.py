@@ -231,18 +231,21 @@ class SparseGrid:
         """
         x = self._checked_points(points)
         count = len(x)
+        # basis[d][i]: (m_i, P) Lagrange basis of 1-D level i >= 2 in dimension d (level 1 is 1)
         basis = [
-            {i: _lagrange_basis(x[:, d], nodes) for i, nodes in self._nodes_1d.items()}
+            {i: _lagrange_basis(x[:, d], nodes).T for i, nodes in self._nodes_1d.items() if i > 1}
             for d in range(self.dimension)
         ]
-        result = np.zeros((count, len(self)))
-        for (index, coefficient), columns in zip(self.terms, self._term_nodes, strict=True):
-            tensor = np.full((count, 1), coefficient)
+        # accumulate node-major (N, P): each term adds whole rows
+        result = np.zeros((len(self), count))
+        for (index, coefficient), rows in zip(self.terms, self._term_nodes, strict=True):
+            tensor = np.full((1, count), coefficient)
             for d, i in enumerate(index):
-                factor = basis[d][i]
-                tensor = (tensor[:, :, None] * factor[:, None, :]).reshape(count, -1)
-            result[:, columns] += tensor
-        return result
+                if i > 1:
+                    factor = basis[d][i]
+                    tensor = (tensor[:, None, :] * factor[None, :, :]).reshape(-1, count)
+            result[rows] += tensor
+        return result.T
 
     def interpolate(self, points: ArrayLike, values: ArrayLike) -> NDArray[np.float64]:
         """Interpolant at ``points`` of data ``values`` given at the nodes.

@@ -23,8 +23,16 @@ Schemes (``mu_j``, j = 0..m, with cuts ``[a_i^(j), b_i^(j)]`` of parameter i):
 ``"grid"``
     At level j the full factorial of all cut bounds of levels j..m (the full
     alpha-bound grid; exact on the grid for any model).
+``"sparse"``
+    The nodes of a Smolyak sparse grid on Clenshaw-Curtis points
+    (:mod:`fuzzymbs.fuzzy.sparse_grid`, level ``sparse_level``) mapped to the
+    support box (the mu = 0 cut); retransformation interpolates the outputs
+    and searches each cut box for the interpolant's min/max (Klimke &
+    Wohlmuth, Fuzzy Sets and Systems 154 (2005) 432). Every sample serves
+    every level.
 
-Every plan also contains the all-modal point (sample 0), evaluated at level m.
+Every plan also contains the all-modal point (sample 0), evaluated at level m
+(for ``"sparse"``: a candidate of every level's search).
 Identical points are evaluated once: points are built from the same cut values
 and merged by exact floating-point equality.
 """
@@ -45,7 +53,12 @@ from fuzzymbs.fuzzy.numbers import FuzzyNumber
 __all__ = ["METHODS", "NonMonotonicWarning", "Plan", "make_levels", "plan"]
 
 #: sampling schemes understood by :func:`plan`
-METHODS: tuple[str, ...] = ("general", "reduced", "extended", "grid")
+METHODS: tuple[str, ...] = ("general", "reduced", "extended", "grid", "sparse")
+
+#: default ``sparse_level`` (Smolyak's q = n + 3: exact for polynomials of total degree 3)
+DEFAULT_SPARSE_LEVEL = 3
+#: default number of search points per cut box of a sparse plan (at least 3^n are used)
+DEFAULT_SEARCH_POINTS = 20_000
 
 
 class NonMonotonicWarning(UserWarning):
@@ -189,6 +202,9 @@ class Plan:
         One of :data:`METHODS`.
     nonmonotonic : tuple of str
         Parameters with interior points (``"extended"`` only).
+    sparse_level, search_points : int or None
+        Sparse-grid level ``q - n`` and search points per cut box (``"sparse"``
+        only, else None).
     samples : ndarray, shape (N, n)
         Unique sample points; row 0 is the all-modal (nominal) point.
     cut_lower, cut_upper : ndarray, shape (L, n)
@@ -201,6 +217,9 @@ class Plan:
         method: str = "reduced",
         levels: int | ArrayLike = 4,
         nonmonotonic: Iterable[str] | None = None,
+        *,
+        sparse_level: int | None = None,
+        search_points: int | None = None,
     ) -> None:
         if not isinstance(method, str) or method not in METHODS:
             raise InvalidPlanError(f"unknown method {method!r}; valid methods: {list(METHODS)}")
@@ -225,6 +244,9 @@ class Plan:
             )
         # keep the parameter order, drop repeats
         self.nonmonotonic: tuple[str, ...] = tuple(n for n in self.names if n in nonmonotonic)
+        self.sparse_level, self.search_points = _sparse_options(
+            method, len(self.names), sparse_level, search_points
+        )
 
         cuts = np.stack([number.cuts(self.levels) for number in self.parameters.values()], axis=1)
         self.cut_lower: NDArray[np.float64] = cuts[:, :, 0]  # (L, n)
@@ -260,6 +282,9 @@ class Plan:
         ]
 
     def _build(self) -> None:
+        if self.method == "sparse":
+            self._build_sparse()
+            return
         count_levels = len(self.levels)
         modal_point = np.array([[number.modal for number in self.parameters.values()]])
         level_points = [_cartesian(values) for values in self._level_values()]
@@ -286,6 +311,106 @@ class Plan:
         self._level_usage = usage
         if self.method in ("reduced", "extended"):
             self._corner_index = self._corners()
+
+    def _build_sparse(self) -> None:
+        """Modal point first, then the sparse-grid nodes mapped to the support box."""
+        from fuzzymbs.fuzzy.sparse_grid import SparseGrid
+
+        assert self.sparse_level is not None  # set by _sparse_options for "sparse"
+        count_levels, count_parameters = self.cut_lower.shape
+        self._sparse_grid = SparseGrid(count_parameters, self.sparse_level)
+        modal_point = np.array([[number.modal for number in self.parameters.values()]])
+        nodes = self.to_parameter_space(self._sparse_grid.nodes)
+        unique, inverse = _unique_rows(np.concatenate((modal_point, nodes), axis=0))
+        self.samples = unique
+        self.samples.setflags(write=False)
+        self._nominal_index = int(inverse[0])
+        self._node_index: NDArray[np.intp] = inverse[1:]
+        self._node_index.setflags(write=False)
+        everything = np.arange(len(unique), dtype=np.intp)
+        everything.setflags(write=False)
+        self._level_index = [everything] * count_levels
+        self._points_without_reuse = len(unique)
+        # the interpolant behind every level's bounds needs every sample
+        usage = np.ones((count_levels, len(unique)), dtype=bool)
+        usage.setflags(write=False)
+        self._level_usage = usage
+
+    def to_parameter_space(self, unit_points: ArrayLike) -> NDArray[np.float64]:
+        """Map points of the unit cube [0, 1]^n to the support box (the mu = 0 cut)."""
+        unit = np.asarray(unit_points, dtype=float)
+        low, high = self.cut_lower[0], self.cut_upper[0]
+        # this form maps 0 and 1 exactly onto the support bounds
+        return low * (1.0 - unit) + high * unit
+
+    def to_unit_cube(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Map parameter points (P, n) of the support box to [0, 1]^n.
+
+        A parameter with a zero-width support maps to 0.5 (every node has the
+        same value there, so the interpolant does not depend on it).
+        """
+        values = np.asarray(points, dtype=float)
+        low, high = self.cut_lower[0], self.cut_upper[0]
+        width = high - low
+        safe = np.where(width > 0.0, width, 1.0)
+        unit = np.where(width > 0.0, (values - low) / safe, 0.5)
+        return np.clip(unit, 0.0, 1.0)
+
+    @property
+    def sparse_grid(self) -> Any:
+        """The :class:`~fuzzymbs.fuzzy.sparse_grid.SparseGrid` of a sparse plan (unit cube)."""
+        self._require_sparse("sparse_grid")
+        return self._sparse_grid
+
+    @property
+    def node_index(self) -> NDArray[np.intp]:
+        """(N_nodes,) sample index of every sparse-grid node (sparse plans only)."""
+        self._require_sparse("node_index")
+        return self._node_index
+
+    def _require_sparse(self, what: str) -> None:
+        if self.method != "sparse":
+            raise UnsupportedOperationError(
+                f"{what} exists for method='sparse' plans only, not {self.method!r}"
+            )
+
+    def interpolate(self, outputs: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
+        """Sparse-grid interpolant of model outputs at parameter points (sparse plans only).
+
+        Parameters
+        ----------
+        outputs : array_like, shape (N, ...)
+            Model outputs at :attr:`samples` (all finite).
+        points : array_like, shape (P, n)
+            Parameter points inside the support box (parameter order of :attr:`names`).
+
+        Returns
+        -------
+        ndarray, shape (P, ...)
+        """
+        self._require_sparse("interpolate")
+        values = np.asarray(outputs, dtype=float)
+        if values.ndim == 0 or values.shape[0] != len(self):
+            raise ModelOutputError(
+                f"outputs must have leading axis N={len(self)} (one row per sample), got "
+                f"shape {values.shape}"
+            )
+        if not np.all(np.isfinite(values)):
+            raise ModelOutputError("outputs must be finite to build the sparse-grid interpolant")
+        array = np.asarray(points, dtype=float)
+        if array.ndim != 2 or array.shape[1] != len(self.names):
+            raise InvalidPlanError(
+                f"points must have shape (P, {len(self.names)}), got {array.shape}"
+            )
+        low, high = self.cut_lower[0], self.cut_upper[0]
+        span = np.maximum(np.abs(low), np.abs(high))
+        outside = (array < low - 1e-12 * span) | (array > high + 1e-12 * span)
+        if outside.any():
+            raise InvalidPlanError(
+                "points must lie in the support box of the parameters (the interpolant does "
+                f"not extrapolate); {int(outside.any(axis=1).sum())} point(s) are outside"
+            )
+        return self._sparse_grid.interpolate(self.to_unit_cube(array), values[self._node_index])
 
     def _corners(self) -> NDArray[np.intp]:
         """Sample index of every corner: (L, 2^n), corner s uses b_i where bit n-1-i of s is set.
@@ -455,7 +580,7 @@ class Plan:
 
     # ------------------------------------------------------------ serialising
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able description: method, levels, parameters (and nonmonotonic names)."""
+        """JSON-able description: method, levels, parameters, nonmonotonic, sparse options."""
         description: dict[str, Any] = {
             "method": self.method,
             "levels": self.levels.tolist(),
@@ -463,6 +588,9 @@ class Plan:
         }
         if self.nonmonotonic:
             description["nonmonotonic"] = list(self.nonmonotonic)
+        if self.method == "sparse":
+            description["sparse_level"] = self.sparse_level
+            description["search_points"] = self.search_points
         return description
 
     @classmethod
@@ -477,6 +605,8 @@ class Plan:
                 method=data["method"],
                 levels=data["levels"],
                 nonmonotonic=data.get("nonmonotonic"),
+                sparse_level=data.get("sparse_level"),
+                search_points=data.get("search_points"),
             )
         except (KeyError, AttributeError, TypeError) as error:
             raise InvalidPlanError(
@@ -533,11 +663,55 @@ def _check_model_output(
             )
 
 
+def _sparse_options(
+    method: str, count_parameters: int, sparse_level: Any, search_points: Any
+) -> tuple[int | None, int | None]:
+    """Checked ``(sparse_level, search_points)`` with defaults for "sparse", (None, None) else."""
+    if method != "sparse":
+        given = [
+            f"{key}={value!r}"
+            for key, value in (("sparse_level", sparse_level), ("search_points", search_points))
+            if value is not None
+        ]
+        if given:
+            raise InvalidPlanError(
+                f"{', '.join(given)} only apply to method='sparse', not {method!r}"
+            )
+        return None, None
+    if sparse_level is None:
+        sparse_level = DEFAULT_SPARSE_LEVEL
+    if (
+        isinstance(sparse_level, bool)
+        or not isinstance(sparse_level, int | np.integer)
+        or sparse_level < 1
+    ):
+        raise InvalidPlanError(
+            f"sparse_level must be an int >= 1 (Smolyak level q - n; {DEFAULT_SPARSE_LEVEL} "
+            f"by default), got {sparse_level!r}"
+        )
+    minimum = 3**count_parameters
+    if search_points is None:
+        search_points = max(DEFAULT_SEARCH_POINTS, minimum)
+    if (
+        isinstance(search_points, bool)
+        or not isinstance(search_points, int | np.integer)
+        or search_points < minimum
+    ):
+        raise InvalidPlanError(
+            f"search_points must be an int >= 3^n = {minimum} for n = {count_parameters} "
+            f"parameters (at least 3 points per parameter in each cut box), got {search_points!r}"
+        )
+    return int(sparse_level), int(search_points)
+
+
 def plan(
     parameters: Mapping[str, FuzzyNumber],
     method: str = "reduced",
     levels: int | ArrayLike = 4,
     nonmonotonic: Iterable[str] | None = None,
+    *,
+    sparse_level: int | None = None,
+    search_points: int | None = None,
 ) -> Plan:
     """Build a transformation-method sampling plan.
 
@@ -545,12 +719,20 @@ def plan(
     ----------
     parameters : mapping of str to FuzzyNumber
         Fuzzy parameters by name (their order fixes the sample columns).
-    method : {"general", "reduced", "extended", "grid"}
+    method : {"general", "reduced", "extended", "grid", "sparse"}
         Sampling scheme (see the module docstring and docs/theory.md).
     levels : int or array_like
         ``m`` for mu_j = j/m, or an increasing list from 0 to 1.
     nonmonotonic : iterable of str, optional
         Parameters that get interior points (``"extended"`` only).
+    sparse_level : int, optional
+        ``"sparse"`` only: Smolyak level ``q - n >= 1`` of the sparse grid
+        (default 3; the interpolant reproduces polynomials of total degree <=
+        sparse_level).
+    search_points : int, optional
+        ``"sparse"`` only: points of the tensor search grid per cut box,
+        ``k = floor(search_points^(1/n))`` per parameter (default
+        ``max(20000, 3^n)``; at least ``3^n``).
 
     Returns
     -------
@@ -560,6 +742,7 @@ def plan(
     ------
     InvalidPlanError
         Unknown method, bad levels, unknown or misplaced nonmonotonic names,
+        sparse options that are invalid or given with another method,
         parameters that are not fuzzy numbers.
 
     Examples
@@ -569,4 +752,11 @@ def plan(
     >>> len(p)
     33
     """
-    return Plan(parameters, method=method, levels=levels, nonmonotonic=nonmonotonic)
+    return Plan(
+        parameters,
+        method=method,
+        levels=levels,
+        nonmonotonic=nonmonotonic,
+        sparse_level=sparse_level,
+        search_points=search_points,
+    )

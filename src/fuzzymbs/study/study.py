@@ -81,7 +81,7 @@ class Study:
         Parameter name -> :class:`~fuzzymbs.fuzzy.numbers.FuzzyNumber`, a
         study-file definition such as ``{"type": "triangular", "modal": 2e5,
         "spread": 0.1}``, or a plain number (a crisp value overriding the default).
-    method : {"general", "reduced", "extended", "grid"}
+    method : {"general", "reduced", "extended", "grid", "sparse"}
         Transformation scheme.
     levels : int or sequence of float
         Number of alpha levels m (mu_j = j/m) or explicit levels from 0 to 1.
@@ -98,6 +98,9 @@ class Study:
         With ``nonmonotonic="auto"``: reversals along a parameter's axis up to
         this fraction of an output element's range are ignored (default
         :data:`fuzzymbs.fuzzy.screening.DEFAULT_RTOL`).
+    sparse_level, search_points : int, optional
+        Method "sparse" only: sparse-grid level and search points per cut box
+        (see :func:`fuzzymbs.fuzzy.transform.plan`).
     name, description : str, optional
         Labels used in results, summaries and output folders.
 
@@ -121,6 +124,8 @@ class Study:
         model_options: Mapping[str, Any] | None = None,
         nonmonotonic: Sequence[str] | str | None = None,
         screening_rtol: float | None = None,
+        sparse_level: int | None = None,
+        search_points: int | None = None,
         name: str | None = None,
         description: str = "",
     ) -> None:
@@ -216,6 +221,10 @@ class Study:
                 raise InvalidPlanError(
                     f"nonmonotonic={AUTO!r} is only used by method='extended', not {method!r}"
                 )
+            if sparse_level is not None or search_points is not None:
+                raise InvalidPlanError(
+                    "sparse_level and search_points only apply to method='sparse', not 'extended'"
+                )
             self._screening_samples = screening_samples(fuzzy, levels)
             self.screening_rtol = DEFAULT_RTOL if screening_rtol is None else screening_rtol
             _check_rtol(self.screening_rtol)
@@ -226,7 +235,14 @@ class Study:
                     f"screening_rtol={screening_rtol!r} is only used with "
                     f"nonmonotonic={AUTO!r}, not {nonmonotonic!r}"
                 )
-            self._plan = make_plan(fuzzy, method=method, levels=levels, nonmonotonic=nonmonotonic)
+            self._plan = make_plan(
+                fuzzy,
+                method=method,
+                levels=levels,
+                nonmonotonic=nonmonotonic,
+                sparse_level=sparse_level,
+                search_points=search_points,
+            )
 
         known_outputs = self._declared_outputs()
         if outputs is not None:

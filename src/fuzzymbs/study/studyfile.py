@@ -3,7 +3,7 @@
 Layout (see docs/studies.md)::
 
     [study]      name, description, method, levels, outputs, nonmonotonic (list or "auto"),
-                 screening_rtol
+                 screening_rtol, sparse_level, search_points (method "sparse")
     [model]      name ("registry-name" or "package.module:callable"), [model.options]
     [parameters] one table (fuzzy) or number (crisp) per model parameter
     [run]        executor, chunk_size, on_failure
@@ -43,11 +43,13 @@ class StudySection(_Section):
 
     name: str | None = None
     description: str = ""
-    method: Literal["general", "reduced", "extended", "grid"] = "reduced"
+    method: Literal["general", "reduced", "extended", "grid", "sparse"] = "reduced"
     levels: int | list[float] = 4
     outputs: list[str] | None = None
     nonmonotonic: list[str] | Literal["auto"] = Field(default_factory=list)
     screening_rtol: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
+    sparse_level: int | None = Field(default=None, ge=1)
+    search_points: int | None = Field(default=None, ge=1)
 
     @field_validator("nonmonotonic", mode="before")
     @classmethod
@@ -274,6 +276,8 @@ def load_study_file(path: str | Path) -> StudyDefinition:
             model_options=parsed.model.options,
             nonmonotonic=parsed.study.nonmonotonic or None,
             screening_rtol=parsed.study.screening_rtol,
+            sparse_level=parsed.study.sparse_level,
+            search_points=parsed.study.search_points,
             name=name,
             description=parsed.study.description,
         )
