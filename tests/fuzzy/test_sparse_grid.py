@@ -29,9 +29,11 @@ def brute_force_nodes(n: int, level: int) -> set[tuple[float, ...]]:
     return union
 
 
-# Counts of the Clenshaw-Curtis Smolyak grid for q = n, n+1, ... (Novak & Ritter, Numer. Math.
-# 75 (1996) 79, and Klimke's spinterp documentation list 1, 5, 13, 29, 65 for d = 2 and
-# 1, 7, 25, 69, 177 for d = 3); re-derived here by the brute-force union above.
+# Counts of the Clenshaw-Curtis Smolyak grid for q = n, n+1, ...: 1, 5, 13, 29, 65 (n = 2) and
+# 1, 7, 25, 69, 177 (n = 3) as recalled from the literature (e.g. J. Burkardt, "Counting
+# abscissas in sparse grids", 2014; the 1-D convention 1, 3, 5, 9, 17 is that of his
+# SPARSE_GRID_CC); the multi-dimensional tables were not found to check, so the test also
+# derives every count independently by the brute-force union above.
 @pytest.mark.parametrize(
     ("n", "counts"), [(1, [1, 3, 5, 9, 17]), (2, [1, 5, 13, 29, 65]), (3, [1, 7, 25, 69, 177])]
 )
