@@ -204,7 +204,7 @@ def test_evaluate_rejects_bad_chunk_size(chunk_size):
 @pytest.mark.parametrize(
     ("kwargs", "fragment"),
     [
-        ({"method": "sparse"}, "unknown method"),
+        ({"method": "monte-carlo"}, "unknown method"),
         ({"levels": 0}, "levels"),
         ({"levels": [0.0, 0.6, 0.5, 1.0]}, "levels"),
         ({"levels": [0.1, 1.0]}, "levels"),

@@ -98,7 +98,7 @@ BAD_CASES = {
     "unknown section": (VALID + "\n[output]\nx = 1\n", r"unknown key 'output'.*allowed keys"),
     "wrong method": (
         VALID.replace('method = "reduced"', 'method = "reducd"'),
-        r"key 'study\.method'.*'general', 'reduced', 'extended' or 'grid'",
+        r"key 'study\.method'.*'general', 'reduced', 'extended', 'grid' or 'sparse'",
     ),
     "wrong type": (
         VALID.replace("chunk_size = 16", 'chunk_size = "many"'),
