@@ -1,12 +1,14 @@
-"""Scaling: batch size (brake), parameter count (general method), Dask LocalCluster vs inline.
+"""Scaling: batch size (brake), parameter count (general, sparse method), Dask vs inline.
 
 * Batch: the brake model integrated for a short end time with 1, 33, 343 and
   2401 samples in one compiled call; cost per sample-step and the fraction of
   the matmul flop bound reached (:mod:`brake_flops`).
-* Parameters: general transformation method with 2 to 6 triangular
-  parameters on m = 4 levels, closed-form model
-  ``z = sum_i i x_i + prod_i x_i`` (vectorised); runs after de-duplication and
-  the study's wall time (plan, evaluation, retransformation, dataset).
+* Parameters: general and sparse (default level) transformation methods with
+  2 to 6 triangular parameters on m = 4 levels, closed-form model
+  ``z = sum_i i x_i + prod_i x_i`` (vectorised); runs after de-duplication,
+  the study's wall time (plan, evaluation, retransformation, dataset) and the
+  sparse bounds' largest error against the general method's (exact here: the
+  model is monotonic).
 * Dask: the brake study (33 runs, short end time, 2 chunks of 17 and 16) on a
   ``distributed.LocalCluster`` of 2 worker processes with one thread (and one
   Numba thread) each, against the inline executor (one chunk after the other,
@@ -73,24 +75,42 @@ def _closed_form(samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 
 
 def parameter_scaling(max_parameters: int = 6, levels: int = 4) -> list[dict]:
-    """Runs and wall time of general-method studies with 2..max_parameters parameters."""
+    """Runs and wall time of general- and sparse-method studies with 2..max_parameters parameters.
+
+    The model is monotonic, so the general method's bounds are exact (its samples
+    include every cut box's corners); the sparse method's largest bound error
+    against them, relative to the output range at mu = 0, is ``sparse_max_rel_error``.
+    """
     from fuzzymbs.fuzzy.numbers import Triangular
     from fuzzymbs.study.study import Study
 
     rows = []
     for n in range(2, max_parameters + 1):
         parameters = {f"x{i + 1}": Triangular(0.9, 1.0, 1.1 + 0.1 * i) for i in range(n)}
+        results = {}
+        for method in ("general", "sparse"):
 
-        def run(parameters: dict = parameters) -> Any:
-            study = Study(_closed_form, parameters, method="general", levels=levels)
-            return study, study.run(progress=False, keep_raw=False)
+            def run(parameters: dict = parameters, method: str = method) -> Any:
+                study = Study(_closed_form, parameters, method=method, levels=levels)
+                return study, study.run(progress=False, keep_raw=False)
 
-        study, _ = run()
-        seconds = best_time(run, repeat=3)
+            study, result = run()
+            results[method] = (len(study.plan), best_time(run, repeat=3), result.dataset)
+        runs, seconds, general = results["general"]
+        sparse_runs, sparse_seconds, sparse = results["sparse"]
+        span = float(general["z_upper"][0] - general["z_lower"][0])
+        error = max(
+            float(np.abs(sparse[f"z_{side}"] - general[f"z_{side}"]).max())
+            for side in ("lower", "upper")
+        )
         naive = sum(k**n for k in range(1, levels + 2))
-        rows.append({"parameters": n, "runs": len(study.plan), "runs_without_reuse": naive})
-        rows[-1]["seconds"] = seconds
-        log(f"scaling: general method, {n} parameters: {len(study.plan)} runs, {seconds:.3f} s")
+        rows.append({"parameters": n, "runs": runs, "runs_without_reuse": naive})
+        rows[-1].update({"seconds": seconds, "sparse_runs": sparse_runs})
+        rows[-1].update({"sparse_seconds": sparse_seconds, "sparse_max_rel_error": error / span})
+        log(
+            f"scaling: {n} parameters: general {runs} runs, {seconds:.3f} s; sparse "
+            f"{sparse_runs} runs, {sparse_seconds:.3f} s, bound error {error / span:.1e}"
+        )
     return rows
 
 
