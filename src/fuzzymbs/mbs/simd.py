@@ -1,0 +1,257 @@
+"""Four-lane float64 vectors for Numba kernels: one LLVM ``<4 x double>`` per value.
+
+Numba gives no SIMD type, and LLVM's loop vectoriser leaves the lockstep
+kernels (:mod:`fuzzymbs.mbs.lanes`) scalar: their arrays may alias and Numba
+cannot say otherwise (docs/embs.md, "Samples in lockstep"). This module
+declares the vector type directly, so that every operation on it *is* one
+AVX2 instruction, whatever the aliasing:
+
+* :func:`load` / :func:`store`: four consecutive float64 of a C-contiguous
+  1-d array (lane-minor layout: element ``i`` of lane ``l`` at ``4 i + l``);
+* :func:`splat`, :func:`broadcast`, :func:`make`, :func:`get`: build and read
+  vectors;
+* ``+ - * /`` and unary ``-`` between vectors and with scalars, :func:`fma`,
+  :func:`sqrt`, :func:`floor`, :func:`vabs`;
+* selects ``where_lt(a, b, x, y) = a < b ? x : y`` (per lane) and friends, so
+  that branches become masks.
+
+Inside ``@njit(fastmath=...)`` functions Numba's fast-math pass flags these
+operations like scalar ones. Inputs outside the array are not checked: the
+callers index within their own work arrays.
+"""
+
+from __future__ import annotations
+
+import operator
+
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic, models, overload, register_model
+
+LANES = 4
+
+
+class Vec4Type(types.Type):
+    """Numba type of a 4-lane float64 vector."""
+
+    def __init__(self) -> None:
+        super().__init__(name="Vec4")
+
+
+vec4 = Vec4Type()
+_VECTOR = ir.VectorType(ir.DoubleType(), LANES)
+_I32 = ir.IntType(32)
+
+
+@register_model(Vec4Type)
+class _Vec4Model(models.PrimitiveModel):
+    def __init__(self, dmm, fe_type):
+        super().__init__(dmm, fe_type, _VECTOR)
+
+
+def _element_pointer(context, builder, arytype, ary, index):
+    data = context.make_array(arytype)(context, builder, ary).data
+    return builder.bitcast(builder.gep(data, [index]), _VECTOR.as_pointer())
+
+
+def _is_float_array(arr) -> bool:
+    return isinstance(arr, types.Array) and arr.dtype == types.float64 and arr.ndim == 1
+
+
+@intrinsic
+def load(typingctx, arr, index):
+    """``arr[index : index + 4]`` as a vector (1-d C-contiguous float64 array)."""
+    if not (_is_float_array(arr) and isinstance(index, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.load(_element_pointer(context, builder, sig.args[0], *args), align=8)
+
+    return vec4(arr, index), codegen
+
+
+@intrinsic
+def store(typingctx, arr, index, value):
+    """``arr[index : index + 4] = value``."""
+    if not (_is_float_array(arr) and isinstance(index, types.Integer) and value == vec4):
+        return None
+
+    def codegen(context, builder, sig, args):
+        pointer = _element_pointer(context, builder, sig.args[0], args[0], args[1])
+        builder.store(args[2], pointer, align=8)
+        return context.get_dummy_value()
+
+    return types.none(arr, index, value), codegen
+
+
+@intrinsic
+def splat(typingctx, x):
+    """All four lanes equal to the scalar x."""
+    if not isinstance(x, (types.Float, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        value = context.cast(builder, args[0], sig.args[0], types.float64)
+        vector = ir.Constant(_VECTOR, ir.Undefined)
+        for k in range(LANES):
+            vector = builder.insert_element(vector, value, ir.Constant(_I32, k))
+        return vector
+
+    return vec4(x), codegen
+
+
+@intrinsic
+def broadcast(typingctx, arr, index):
+    """All four lanes equal to ``arr[index]`` (no negative-index wrap-around: index >= 0)."""
+    if not (_is_float_array(arr) and isinstance(index, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        data = context.make_array(sig.args[0])(context, builder, args[0]).data
+        value = builder.load(builder.gep(data, [args[1]]), align=8)
+        vector = ir.Constant(_VECTOR, ir.Undefined)
+        for k in range(LANES):
+            vector = builder.insert_element(vector, value, ir.Constant(_I32, k))
+        return vector
+
+    return vec4(arr, index), codegen
+
+
+@intrinsic
+def make(typingctx, a, b, c, d):
+    """The vector (a, b, c, d)."""
+
+    def codegen(context, builder, sig, args):
+        vector = ir.Constant(_VECTOR, ir.Undefined)
+        for k in range(LANES):
+            value = context.cast(builder, args[k], sig.args[k], types.float64)
+            vector = builder.insert_element(vector, value, ir.Constant(_I32, k))
+        return vector
+
+    return vec4(a, b, c, d), codegen
+
+
+@intrinsic
+def get(typingctx, v, lane):
+    """Lane ``lane`` of v as a scalar."""
+    if v != vec4 or not isinstance(lane, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.extract_element(args[0], args[1])
+
+    return types.float64(v, lane), codegen
+
+
+def _binary(instruction: str):
+    @intrinsic
+    def op(typingctx, a, b):
+        if a != vec4 or b != vec4:
+            return None
+
+        def codegen(context, builder, sig, args):
+            return getattr(builder, instruction)(args[0], args[1])
+
+        return vec4(a, b), codegen
+
+    return op
+
+
+_add = _binary("fadd")
+_sub = _binary("fsub")
+_mul = _binary("fmul")
+_div = _binary("fdiv")
+
+
+def _llvm_call(name: str, n_args: int):
+    def codegen(context, builder, sig, args):
+        fnty = ir.FunctionType(_VECTOR, [_VECTOR] * n_args)
+        fn = cgutils.get_or_insert_function(builder.module, fnty, name)
+        return builder.call(fn, list(args))
+
+    return codegen
+
+
+@intrinsic
+def fma(typingctx, a, b, c):
+    """a * b + c with one rounding."""
+    if not (a == vec4 and b == vec4 and c == vec4):
+        return None
+    return vec4(a, b, c), _llvm_call("llvm.fma.v4f64", 3)
+
+
+@intrinsic
+def sqrt(typingctx, a):
+    """Square root per lane."""
+    if a != vec4:
+        return None
+    return vec4(a), _llvm_call("llvm.sqrt.v4f64", 1)
+
+
+@intrinsic
+def floor(typingctx, a):
+    """Largest integer <= a, per lane (as float64)."""
+    if a != vec4:
+        return None
+    return vec4(a), _llvm_call("llvm.floor.v4f64", 1)
+
+
+@intrinsic
+def vabs(typingctx, a):
+    """Absolute value per lane."""
+    if a != vec4:
+        return None
+    return vec4(a), _llvm_call("llvm.fabs.v4f64", 1)
+
+
+def _select(predicate: str):
+    @intrinsic
+    def op(typingctx, a, b, x, y):
+        if not (a == vec4 and b == vec4 and x == vec4 and y == vec4):
+            return None
+
+        def codegen(context, builder, sig, args):
+            mask = builder.fcmp_ordered(predicate, args[0], args[1])
+            return builder.select(mask, args[2], args[3])
+
+        return vec4(a, b, x, y), codegen
+
+    return op
+
+
+#: ``where_lt(a, b, x, y)``: x where a < b, else y (a NaN lane takes y).
+where_lt = _select("<")
+#: x where a <= b, else y.
+where_le = _select("<=")
+#: x where a == b, else y.
+where_eq = _select("==")
+
+
+def _overload_arithmetic(opfunc, vector_op) -> None:
+    def typer(a, b):
+        if isinstance(a, Vec4Type) and isinstance(b, Vec4Type):
+            return lambda a, b: vector_op(a, b)
+        if isinstance(a, Vec4Type) and isinstance(b, (types.Float, types.Integer)):
+            return lambda a, b: vector_op(a, splat(b))
+        if isinstance(b, Vec4Type) and isinstance(a, (types.Float, types.Integer)):
+            return lambda a, b: vector_op(splat(a), b)
+        return None
+
+    overload(opfunc)(typer)
+
+
+for _opfunc, _vector_op in (
+    (operator.add, _add),
+    (operator.sub, _sub),
+    (operator.mul, _mul),
+    (operator.truediv, _div),
+):
+    _overload_arithmetic(_opfunc, _vector_op)
+
+
+@overload(operator.neg)
+def _neg(a):
+    if isinstance(a, Vec4Type):
+        return lambda a: _sub(splat(0.0), a)
+    return None
