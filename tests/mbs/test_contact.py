@@ -44,11 +44,17 @@ def test_static_penetration_equals_load_over_penalty():
     np.testing.assert_allclose(st.x[:, 0], [-100.0 / 1e6, -100.0 / 4e6], rtol=1e-9)
 
 
-def test_damped_settling_reaches_static_penetration():
+@pytest.mark.parametrize("kernel", ["samples", "lanes"])
+def test_damped_settling_reaches_static_penetration(kernel):
     # contact damping d_n = 2 zeta sqrt(c_p m) with zeta = 0.5: settles within ~0.05 s
     system = pressed_block(100.0, 1e6, damping=2 * 0.5 * np.sqrt(1e6 * 2.0))
     res = simulate(
-        system, t_end=0.2, dt=1e-5, record_interval=1e-3, outputs={"y": Coordinate("block")}
+        system,
+        t_end=0.2,
+        dt=1e-5,
+        record_interval=1e-3,
+        outputs={"y": Coordinate("block")},
+        kernel=kernel,
     )
     np.testing.assert_allclose(res.outputs["y"][0, -1], -1e-4, rtol=1e-6)
 
@@ -184,12 +190,14 @@ def test_friction_force_is_mu_times_normal_force_when_sliding():
     np.testing.assert_allclose(st.x[:, 1], -200.0 / 1e7, rtol=1e-6)
 
 
-def test_friction_time_integration_settles_to_mu_normal_force():
+@pytest.mark.parametrize("kernel", ["samples", "lanes"])
+def test_friction_time_integration_settles_to_mu_normal_force(kernel):
     # tangential dashpot: zeta = 0.2 on the 100 rad/s block mode, e^-20t decay
     system = friction_block(spring_damping=2 * 0.2 * np.sqrt(1e4 * 1.0))
     res = simulate(
         system,
         {"mu": np.array([0.3, 0.7])},
+        kernel=kernel,
         t_end=1.0,
         dt=1e-4,
         record_interval=1e-2,

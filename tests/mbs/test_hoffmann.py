@@ -64,7 +64,8 @@ def test_linearised_threshold_matches_mu_crit(model):
     assert result.unstable[1].sum() == 2
 
 
-def test_time_integration_grows_above_and_decays_below_threshold():
+@pytest.mark.parametrize("kernel", ["samples", "lanes"])
+def test_time_integration_grows_above_and_decays_below_threshold(kernel):
     mu_c = hoffmann_mu_crit()
     damping = 1.0  # N s/m per spring: zeta ~ 3e-3
     system = hoffmann_system(Parameter("mu", 0.0), damping=damping).compile()
@@ -80,6 +81,7 @@ def test_time_integration_grows_above_and_decays_below_threshold():
         dt=dt,
         initial_state=x0,
         outputs={"z": Coordinate("block", 0)},
+        kernel=kernel,
     )
     assert not res.failed.any()
     z = res.outputs["z"] - st.x[:, [0]]

@@ -6,6 +6,7 @@ energy T + V written out independently below for conservation.
 """
 
 import numpy as np
+import pytest
 
 from fuzzymbs.mbs.bodies import RotatingBody, TranslatingBody
 from fuzzymbs.mbs.contact import CartesianChart, PenaltyContact, PolarChart, symmetric_contact
@@ -57,14 +58,17 @@ def rotating_contact_system():
     return system
 
 
-def test_rk4_matches_dop853_on_rotating_elastic_contact():
+@pytest.mark.parametrize("kernel", ["samples", "lanes"])
+def test_rk4_matches_dop853_on_rotating_elastic_contact(kernel):
     system = rotating_contact_system().compile()
     outputs = {
         "block_y": Coordinate("block", 1),
         "block_z": Coordinate("block", 0),
         "disc_y": NodeDisplacement("disc", 0, "y"),
     }
-    res = simulate(system, t_end=0.05, dt=2e-6, record_interval=1e-3, outputs=outputs)
+    res = simulate(
+        system, t_end=0.05, dt=2e-6, record_interval=1e-3, outputs=outputs, kernel=kernel
+    )
     ref = simulate_reference(
         system, t_end=0.05, outputs=outputs, times=res.time, rtol=1e-10, atol=1e-15, max_step=1e-4
     )
@@ -222,14 +226,17 @@ def two_pass_system():
     return system
 
 
-def test_rk4_matches_dop853_two_pass_elastic_contact():
+@pytest.mark.parametrize("kernel", ["samples", "lanes"])
+def test_rk4_matches_dop853_two_pass_elastic_contact(kernel):
     system = two_pass_system().compile()
     outputs = {
         "pad_y": Coordinate("pad", 0),
         "pad_node": NodeDisplacement("pad", 0, "y"),
         "disc_y": NodeDisplacement("disc", 6, "y"),
     }
-    res = simulate(system, t_end=0.03, dt=2e-6, record_interval=1e-3, outputs=outputs)
+    res = simulate(
+        system, t_end=0.03, dt=2e-6, record_interval=1e-3, outputs=outputs, kernel=kernel
+    )
     ref = simulate_reference(
         system, t_end=0.03, outputs=outputs, times=res.time, rtol=1e-10, atol=1e-15, max_step=1e-4
     )

@@ -243,6 +243,9 @@ class DiscBrake:
         A sample whose |y| output exceeds this [m] is stopped and flagged failed.
     chunk_size : int
         Samples per compiled call (all integrated in one parallel kernel call).
+    kernel : {"auto", "lanes", "samples"}
+        RK4 kernel (see :func:`fuzzymbs.mbs.integrate.simulate`): by default
+        four samples in lockstep per SIMD vector, leftovers one by one.
     """
 
     parameters = PARAMETERS
@@ -260,6 +263,7 @@ class DiscBrake:
         velocities: bool = False,
         displacement_bound: float = 1e-3,
         chunk_size: int = 64,
+        kernel: str = "auto",
     ) -> None:
         self.design = design or BrakeDesign()
         self.contact = contact
@@ -286,6 +290,7 @@ class DiscBrake:
             record_interval=record_interval,
             displacement_bound=displacement_bound,
             chunk_size=chunk_size,
+            kernel=kernel,
         )
         self.coords = self.simulation.coords
         self.coord_units = {"time": "s"}

@@ -1,0 +1,157 @@
+"""The lockstep kernel (four samples per SIMD vector) against the per-sample kernel.
+
+The per-sample kernel is the reference here: it is checked against closed forms
+and DOP853 elsewhere (tests/mbs), and the closed-form and DOP853 tests that
+integrate in time also run with ``kernel="lanes"`` (test_contact, test_hoffmann,
+test_reference). Both kernels evaluate the same formulas; they differ in FMA
+contraction and summation order only, so they must agree to rounding growth.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs import kernels as K
+from fuzzymbs.mbs import simd
+from fuzzymbs.mbs.integrate import _lane_split, simulate
+from fuzzymbs.mbs.system import Coordinate
+from fuzzymbs.models.brake import DiscBrake
+
+
+@pytest.fixture(scope="module")
+def brake():
+    return DiscBrake(t_end=4e-4, record_interval=1e-5).compiled
+
+
+OUTPUTS = {
+    "y_lpad": Coordinate("lower_pad", 0),
+    "y_upad": Coordinate("upper_pad", 0),
+    "v_lpad": Coordinate("lower_pad", 0, velocity=True),
+}
+
+
+def _brake_samples(n: int, seed: int = 1) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return {
+        "pad_spring_stiffness": 200e3 * rng.uniform(0.8, 1.2, n),
+        "caliper_spring_stiffness": 1e3 * rng.uniform(0.8, 1.2, n),
+        "nodal_force": 16e3 * rng.uniform(0.9, 1.1, n),
+        "disc_speed": np.where(np.arange(n) % 2 == 0, 1.0, 400.0) * rng.uniform(1.0, 1.1, n),
+        "penalty_stiffness": 1e8 * rng.uniform(0.8, 1.2, n),
+        "friction_coefficient": np.where(np.arange(n) % 5 == 2, 0.0, rng.uniform(0.3, 0.9, n)),
+    }
+
+
+def test_brake_lanes_equal_samples_kernel(brake):
+    # 11 samples: two whole blocks and a padded one; every parameter varies per lane,
+    # one lane in five is frictionless inside a block with friction, and the disc
+    # speeds (1 and 400 rad/s alternating) turn the lanes' discs apart by more than two
+    # master cells, so the per-lane (gather) contact path runs as well as the shared-cell
+    # path
+    samples = _brake_samples(11)
+    speeds = samples["disc_speed"]
+    t_end = 4e-4
+    # premise: the polar cells of the disc patch are 1 / v_scale rad wide
+    v_scale = brake.data[12][0, K.CF_VSCALE]
+    assert (speeds[1] - speeds[0]) * t_end * v_scale > 2
+    runs = {
+        kernel: simulate(brake, samples, t_end=t_end, dt=1e-6, outputs=OUTPUTS, kernel=kernel)
+        for kernel in ("samples", "lanes")
+    }
+    assert not runs["samples"].failed.any() and not runs["lanes"].failed.any()
+    for name in OUTPUTS:
+        ref = runs["samples"].outputs[name]
+        scale = np.abs(ref).max()
+        assert scale > 0
+        # same formulas, other rounding: measured 2.5e-13 of the signal's range over
+        # 400 steps (the pads ring, which amplifies round-off); bound 1e-10
+        np.testing.assert_allclose(runs["lanes"].outputs[name], ref, rtol=0, atol=1e-10 * scale)
+
+
+def test_auto_kernel_equals_samples_kernel_per_sample(brake):
+    samples = _brake_samples(7, seed=3)  # auto: one block of 4, three left over -> padded
+    a = simulate(brake, samples, t_end=1e-4, dt=1e-6, outputs=OUTPUTS, kernel="auto")
+    b = simulate(brake, samples, t_end=1e-4, dt=1e-6, outputs=OUTPUTS, kernel="samples")
+    for name in OUTPUTS:
+        scale = np.abs(b.outputs[name]).max()
+        np.testing.assert_allclose(a.outputs[name], b.outputs[name], atol=1e-10 * scale)
+
+
+def test_failed_lane_is_reported_and_leaves_its_block_mates_alone(brake):
+    # lane 1's force is 100 times too large: it leaves the 1 mm displacement bound after
+    # 4 us (both kernels); the other lanes of its block, integrated on for 96 steps with
+    # the failed lane repeating a healthy one, must be those of the per-sample kernel
+    # (measured 5e-15 apart)
+    samples = _brake_samples(4, seed=5)
+    samples["nodal_force"][1] = 1.6e6
+    runs = {
+        kernel: simulate(
+            brake,
+            samples,
+            t_end=1e-4,
+            dt=1e-6,
+            outputs=OUTPUTS,
+            displacement_bound=1e-3,
+            kernel=kernel,
+        )
+        for kernel in ("samples", "lanes")
+    }
+    lanes, ref = runs["lanes"], runs["samples"]
+    assert ref.failed.tolist() == [False, True, False, False]
+    assert lanes.failed.tolist() == ref.failed.tolist()
+    assert lanes.failure_reason.tolist() == ref.failure_reason.tolist()
+    np.testing.assert_array_equal(lanes.failure_time, ref.failure_time)
+    assert 0 < lanes.failure_time[1] < 1e-4
+    assert np.isnan(lanes.outputs["y_lpad"][1]).all()
+    healthy = [0, 2, 3]
+    scale = np.abs(ref.outputs["y_lpad"][healthy]).max()
+    np.testing.assert_allclose(
+        lanes.outputs["y_lpad"][healthy], ref.outputs["y_lpad"][healthy], atol=1e-10 * scale
+    )
+
+
+@pytest.mark.parametrize(
+    ("n", "kernel", "expected"),
+    [
+        (33, "auto", 32),  # one left over: per sample
+        (6, "auto", 4),  # two left over: per sample
+        (7, "auto", 7),  # three left over: a padded block
+        (3, "auto", 3),
+        (1, "auto", 0),
+        (5, "lanes", 5),
+        (8, "samples", 0),
+    ],
+)
+def test_lane_split(n, kernel, expected):
+    assert _lane_split(n, kernel) == expected
+
+
+def test_unknown_kernel_is_named(brake):
+    with pytest.raises(InvalidParameterError, match="kernel must be one of"):
+        simulate(brake, t_end=1e-5, dt=1e-6, outputs=OUTPUTS, kernel="gpu")
+
+
+def test_simd_primitives_against_numpy():
+    import numba as nb
+
+    @nb.njit
+    def apply(a, b, out):
+        for k in range(0, a.size, simd.LANES):
+            x = simd.load(a, k)
+            y = simd.load(b, k)
+            r = simd.fma(x, y, simd.sqrt(simd.vabs(x))) / (y + 2.0) - simd.floor(x)
+            r = simd.where_lt(x, y, r, -r)
+            simd.store(out, k, r + simd.broadcast(a, 0) * simd.make(1, 2, 3, simd.get(y, 3)))
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=16)
+    b = rng.normal(size=16)
+    out = np.empty(16)
+    apply(a, b, out)
+    r = (a * b + np.sqrt(np.abs(a))) / (b + 2.0) - np.floor(a)
+    r = np.where(a < b, r, -r)
+    lane_factor = np.stack([np.ones(4), np.full(4, 2.0), np.full(4, 3.0), b[3::4]], 1).ravel()
+    expected = r + a[0] * lane_factor
+    np.testing.assert_allclose(out, expected, rtol=1e-14, atol=1e-14)
