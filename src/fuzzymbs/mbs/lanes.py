@@ -86,11 +86,16 @@ def make_lane_work(sysdata):
 
     ``(q_gen (n L), node_x, node_v, node_f (tracked 3 L), rot (bodies 3 L): angle,
     speed, acceleration, rot_a (bodies 9 L), scratch (SCRATCH L), cells (7 L) int,
-    rot3 (3, 3))``. Scratch rows: see the ``S_*`` constants.
+    rot3 (3, 3), charts (2 slaves L): chart coordinates u, v of a pass's slaves)``.
+    Scratch rows: see the ``S_*`` constants.
     """
     ndof = sysdata[0]
     nbody = sysdata[1].shape[0]
     ntracked = sysdata[3].shape[0]
+    ci = sysdata[11]
+    max_slaves = 0
+    for c in range(ci.shape[0]):
+        max_slaves = max(max_slaves, ci[c, C_NSLAVE])
     return (
         np.zeros(ndof * L),
         np.zeros(ntracked * 3 * L),
@@ -101,6 +106,7 @@ def make_lane_work(sysdata):
         np.zeros(SCRATCH * L),
         np.zeros(7 * L, dtype=np.int64),
         np.zeros((3, 3)),
+        np.zeros(2 * max_slaves * L),
     )
 
 
@@ -125,7 +131,7 @@ def rhs_lanes(t, x, dx, p, sysdata, work):
         ci,
         cf,
     ) = sysdata
-    q_gen, node_x, node_v, node_f, rot, rot_a, scratch, cells, rot3 = work
+    q_gen, node_x, node_v, node_f, rot, rot_a, scratch, cells, rot3, charts = work
     nbody = bi.shape[0]
     for i in range(ndof):
         V.store(dx, L * i, V.load(x, L * (ndof + i)))
@@ -201,7 +207,22 @@ def rhs_lanes(t, x, dx, p, sysdata, work):
             node_f[i] = 0.0
         for c in range(ci.shape[0]):
             _contact_pass_lanes(
-                c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f, scratch, cells
+                c,
+                x,
+                p,
+                bi,
+                bf,
+                ci,
+                cf,
+                fpool,
+                ipool,
+                rot_a,
+                node_x,
+                node_v,
+                node_f,
+                scratch,
+                cells,
+                charts,
             )
         _map_node_forces_lanes(bi, bf, fpool, rot_a, node_f, q_gen)
 
@@ -477,7 +498,7 @@ def _cells_per_lane(u_vec, v_vec, ugrid, vgrid, nu, nv, periodic, scales, v_cell
 
 @nb.njit(cache=True, fastmath=FAST, error_model="numpy")
 def _contact_pass_lanes(
-    c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f, scratch, cells
+    c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f, scratch, cells, charts
 ):
     """Penalty normal force and regularised Coulomb friction of one pass, four lanes."""
     mb = ci[c, C_MBODY]
@@ -547,20 +568,31 @@ def _contact_pass_lanes(
     v_uniform = cf[c, CF_VUNIFORM] != 0.0
     scales = (u_scale, u_uniform, v_scale, v_uniform)
     one = V.splat(1.0)
-    for k in range(slaves.shape[0]):
-        s = slaves[k]
-        ms = L * 3 * s
+    # chart coordinates of all slaves first: independent, long-latency (sqrt, atan2)
+    # work that the out-of-order core overlaps across slaves, and fewer live registers
+    # in the main loop below
+    nslave = slaves.shape[0]
+    for k in range(nslave):
+        ms = L * 3 * slaves[k]
         xs0 = V.load(node_x, ms)
         xs1 = V.load(node_x, ms + L)
         xs2 = V.load(node_x, ms + 2 * L)
         a1 = xs0 * ua0 + xs1 * ua1 + xs2 * ua2 - cu
         a2 = xs0 * va0 + xs1 * va1 + xs2 * va2 - cv
         if polar:
-            u_vec = V.sqrt(a1 * a1 + a2 * a2)
-            v_vec = _atan2_lanes(a2, a1)
+            V.store(charts, L * k, V.sqrt(a1 * a1 + a2 * a2))
+            V.store(charts, L * (nslave + k), _atan2_lanes(a2, a1))
         else:
-            u_vec = a1
-            v_vec = a2
+            V.store(charts, L * k, a1)
+            V.store(charts, L * (nslave + k), a2)
+    for k in range(nslave):
+        s = slaves[k]
+        ms = L * 3 * s
+        xs0 = V.load(node_x, ms)
+        xs1 = V.load(node_x, ms + L)
+        xs2 = V.load(node_x, ms + 2 * L)
+        u_vec = V.load(charts, L * k)
+        v_vec = V.load(charts, L * (nslave + k))
         # master cell of every lane: vectorised on uniform grids when all lanes share
         # it (the usual case), else per lane
         fast = False
@@ -730,6 +762,18 @@ def _contact_pass_lanes(
                     node_f[node + 2 * L] -= w * g2
 
 
+@nb.njit(cache=True, inline="always")
+def _loaded(f0, f1, f2):
+    """True if the force (f0, f1, f2) is not zero in some lane (NaN counts as loaded)."""
+    size = V.vabs(f0) + V.vabs(f1) + V.vabs(f2)
+    return (
+        V.get(size, 0) != 0.0
+        or V.get(size, 1) != 0.0
+        or V.get(size, 2) != 0.0
+        or V.get(size, 3) != 0.0
+    )
+
+
 @nb.njit(cache=True, fastmath=FAST)
 def _map_node_forces_lanes(bi, bf, fpool, rot_a, node_f, q_gen):
     """Generalised forces of the tracked nodes' forces, four lanes per vector.
@@ -761,10 +805,7 @@ def _map_node_forces_lanes(bi, bf, fpool, rot_a, node_f, q_gen):
             sum0 = sum0 + f0
             sum1 = sum1 + f1
             sum2 = sum2 + f2
-            for lane in range(3 * L):
-                if node_f[m + lane] != 0.0:
-                    loaded += 1
-                    break
+            loaded += _loaded(f0, f1, f2)
         if loaded == 0:
             continue
         for a in range(ntr):
@@ -845,10 +886,7 @@ def _map_node_forces_lanes(bi, bf, fpool, rot_a, node_f, q_gen):
             f0 = V.load(node_f, m)
             f1 = V.load(node_f, m + L)
             f2 = V.load(node_f, m + 2 * L)
-            nonzero = False
-            for lane in range(3 * L):
-                nonzero = nonzero or node_f[m + lane] != 0.0
-            if not nonzero:
+            if not _loaded(f0, f1, f2):
                 continue
             row = psi0 + (i - n0) * 3 * nm
             for j in range(nm):
