@@ -2,19 +2,25 @@
 
     python benchmarks/brake_study.py [--quick]
 
-Measures, on this machine, after compilation (a warm-up call compiles or
-loads the Numba kernels):
+Measures, on this machine, after compilation (a warm-up study of 20 steps
+compiles or loads the Numba kernels and imports what building a result needs):
 
 * ``study1_warm_s``: wall time of the 33-run study 1 (reduced method, k, k_c
-  +-10 %, F_n +-1 %, 10 ms at dt = 1e-6 s; all 33 samples in one compiled call,
-  prange over the samples). ``--quick``: 1 ms instead of 10 ms (the time
-  scales linearly with the steps; ``study1_warm_s_per_10ms`` extrapolates);
+  +-10 %, F_n +-1 %, 10 ms at dt = 1e-6 s; all 33 samples in one call: 8 blocks
+  of four samples in lockstep, prange over the blocks, then the 33rd sample on
+  its own). ``study1_samples_kernel_warm_s``: the same study with
+  ``kernel="samples"`` (one sample per thread iteration), the formulation
+  before the lockstep kernel, as the baseline of the same run. ``--quick``:
+  1 ms instead of 10 ms (the time scales linearly with the steps;
+  ``study1_warm_s_per_10ms`` extrapolates);
 * ``us_per_sample_step``: wall time per sample and RK4 step of that study
   (4 right-hand-side evaluations); ``cpu_us_per_sample_step`` the same in
   process CPU time (all threads), which other jobs on the machine do not
   inflate, and ``study1_idle_cores_s_per_10ms`` = CPU time / threads, the wall
   time on idle cores; ``us_per_rhs`` CPU time of one right-hand side (single
-  thread), split into contact passes and node kinematics + force map;
+  thread, per-sample kernel), split into contact passes and node kinematics +
+  force map; ``us_per_lane_rhs`` etc. the same for the lockstep kernel, per
+  lane (a block's right-hand side / 4);
 * ``large_*``: a streamed study of 9261 samples (grid method, 10 levels, the
   three study-1 parameters) in chunks of 256 through a chunk store, with a
   short end time (0.1 ms) so that it finishes here; peak resident memory of the
@@ -41,6 +47,7 @@ import numba
 import numpy as np
 
 from fuzzymbs.mbs import kernels as K
+from fuzzymbs.mbs import lanes as KL
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.study.study import Study
 
@@ -75,6 +82,55 @@ def _repeat_kinematics(n, x, data, work):
     for _ in range(n):
         K._node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
         K._map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen)
+
+
+@numba.njit
+def _repeat_rhs_lanes(n, x, dx, p, data, work):
+    for _ in range(n):
+        KL.rhs_lanes(1e-4, x, dx, p, data, work)
+
+
+@numba.njit
+def _repeat_contact_lanes(n, x, p, data, work):
+    bi, bf, fpool, ipool, ci, cf = data[1], data[2], data[6], data[7], data[11], data[12]
+    node_x, node_v, node_f, rot_a, scratch, cells, charts = (
+        work[1],
+        work[2],
+        work[3],
+        work[5],
+        work[6],
+        work[7],
+        work[9],
+    )
+    for _ in range(n):
+        for c in range(ci.shape[0]):
+            KL._contact_pass_lanes(
+                c,
+                x,
+                p,
+                bi,
+                bf,
+                ci,
+                cf,
+                fpool,
+                ipool,
+                rot_a,
+                node_x,
+                node_v,
+                node_f,
+                scratch,
+                cells,
+                charts,
+            )
+
+
+@numba.njit
+def _repeat_kinematics_lanes(n, x, data, work):
+    ndof, bi, bf, node_xbar, fpool = data[0], data[1], data[2], data[3], data[6]
+    q_gen, node_x, node_v, node_f, rot, rot_a = work[:6]
+    for _ in range(n):
+        KL._node_kinematics_lanes(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
+        KL._map_node_forces_lanes(bi, bf, fpool, rot_a, node_f, q_gen)
 
 
 class FullSizeStandIn:
@@ -115,6 +171,24 @@ def rhs_profile(model: DiscBrake, repeats: int = 20000) -> dict[str, float]:
         start = time.process_time()
         func(repeats, *args)
         out[name] = 1e6 * (time.process_time() - start) / repeats
+    lanes = KL.L
+    xl = np.ascontiguousarray(np.repeat(x, lanes))
+    pl = np.ascontiguousarray(np.repeat(p, lanes))
+    dxl = np.empty_like(xl)
+    work_l = KL.make_lane_work(compiled.data)
+    for name, func, args in (
+        ("us_per_lane_rhs", _repeat_rhs_lanes, (xl, dxl, pl, compiled.data, work_l)),
+        ("us_per_lane_contact_passes", _repeat_contact_lanes, (xl, pl, compiled.data, work_l)),
+        (
+            "us_per_lane_node_kinematics_and_force_map",
+            _repeat_kinematics_lanes,
+            (xl, compiled.data, work_l),
+        ),
+    ):
+        func(1, *args)
+        start = time.process_time()
+        func(repeats, *args)
+        out[name] = 1e6 * (time.process_time() - start) / (repeats * lanes)
     out["tracked_nodes"] = int(compiled.data[3].shape[0])
     out["contact_slave_nodes"] = int(compiled.data[11][:, K.C_NSLAVE].sum())
     out["coordinates"] = int(compiled.n_dofs)
@@ -133,12 +207,20 @@ def main() -> None:
         "cpus": os.cpu_count(),
     }
 
+    # warm-up: compiles or loads both kernels (33 = 8 blocks + 1 sample) and imports
+    # what building the result dataset needs (xarray's lazy imports, about 1 s)
+    Study(DiscBrake(t_end=2e-5), STUDY1, method="reduced", levels=LEVELS).run(progress=False)
     model = DiscBrake(t_end=t_end)
-    model({"nodal_force": np.array([16e3, 16e3])})  # compile / load the kernels
     study = Study(model, STUDY1, method="reduced", levels=LEVELS)
     start, cpu_start = time.perf_counter(), time.process_time()
     result = study.run(chunk_size=len(study.plan), progress=False)
     elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu_start
+    baseline = Study(
+        DiscBrake(t_end=t_end, kernel="samples"), STUDY1, method="reduced", levels=LEVELS
+    )
+    start = time.perf_counter()
+    baseline.run(chunk_size=len(study.plan), progress=False)
+    baseline_elapsed = time.perf_counter() - start
     n_steps = round(t_end / 1e-6)
     failed = int(np.asarray(result.dataset["sample_failed"]).sum())
     report.update(
@@ -147,6 +229,8 @@ def main() -> None:
             "study1_t_end_s": t_end,
             "study1_warm_s": round(elapsed, 3),
             "study1_warm_s_per_10ms": round(elapsed * 1e-2 / t_end, 3),
+            "study1_samples_kernel_warm_s": round(baseline_elapsed, 3),
+            "study1_lanes_speedup": round(baseline_elapsed / elapsed, 2),
             "study1_failed": failed,
             "us_per_sample_step": round(1e6 * elapsed / (len(study.plan) * n_steps), 2),
             # CPU time of all threads: robust against other jobs sharing the machine;
