@@ -1,9 +1,9 @@
 """Public time-integration API: batched fixed-step RK4 and a DOP853 reference.
 
 :func:`simulate` integrates a batch of samples with the compiled RK4 kernels
-(chunks of samples; within a chunk, ``prange`` over blocks of four samples in
-lockstep, :mod:`fuzzymbs.mbs.lanes`, or over single samples,
-:func:`fuzzymbs.mbs.kernels.rk4_batch`).
+(chunks of samples, one parallel call per chunk: blocks of four samples in
+lockstep, :mod:`fuzzymbs.mbs.lanes`, and single samples,
+:func:`fuzzymbs.mbs.kernels.integrate_sample`).
 :class:`SimulationModel` wraps a compiled system as a fuzzymbs model,
 ``model({name: (B,)}) -> {output: (B, T)}`` with ``model.coords = {"time": t}``.
 :func:`simulate_reference` integrates one sample with SciPy's adaptive DOP853
@@ -133,26 +133,22 @@ def simulate(
         o = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec))
         st = np.zeros(sl.stop - sl.start, dtype=np.int64)
         ft = np.full(sl.stop - sl.start, np.nan)
-        n = sl.stop - sl.start
-        split = _lane_split(n, kernel)
-        for lo, hi, integrator in ((0, split, KL.rk4_lanes), (split, n, K.rk4_batch)):
-            if hi <= lo:
-                continue
-            rows = slice(sl.start + lo, sl.start + hi)
-            integrator(
-                compiled.data,
-                np.ascontiguousarray(params[rows]),
-                np.ascontiguousarray(x0[rows]),
-                0.0,
-                float(dt),
-                n_steps,
-                every,
-                out_w,
-                bounds,
-                o[lo:hi],
-                st[lo:hi],
-                ft[lo:hi],
-            )
+        # one parallel call per chunk: blocks of four in lockstep and single samples
+        KL.rk4_auto(
+            compiled.data,
+            np.ascontiguousarray(params[sl]),
+            np.ascontiguousarray(x0[sl]),
+            0.0,
+            float(dt),
+            n_steps,
+            every,
+            out_w,
+            bounds,
+            o,
+            st,
+            ft,
+            _lane_split(sl.stop - sl.start, kernel),
+        )
         out[sl] = o
         status[sl] = st
         fail_t[sl] = ft

@@ -786,57 +786,66 @@ def rk4_batch(
     bound : (n_out,) an output with |y| > bound stops the sample (status OUT_OF_BOUND).
     status, fail_t : (B,) per-sample status code and failure time [s] (NaN if ok).
     """
-    nsamples = params.shape[0]
+    for b in nb.prange(params.shape[0]):
+        integrate_sample(
+            sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t, b
+        )
+
+
+@nb.njit(cache=True)
+def integrate_sample(
+    sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t, b
+):
+    """RK4 of sample b of the batch (arguments as :func:`rk4_batch`), on the calling thread."""
     nstate = x0.shape[1]
     nout = out_w.shape[0]
-    for b in nb.prange(nsamples):
-        work = make_work(sysdata)
-        p = params[b]
-        x = x0[b].copy()
-        k1 = np.empty(nstate)
-        k2 = np.empty(nstate)
-        k3 = np.empty(nstate)
-        k4 = np.empty(nstate)
-        xt = np.empty(nstate)
-        status[b] = OK
-        fail_t[b] = np.nan
-        rec = 0
-        for step in range(n_steps + 1):
-            t = t0 + step * dt
-            if step % record_every == 0:
-                for o in range(nout):
-                    y = 0.0
-                    for i in range(nstate):
-                        y += out_w[o, i] * x[i]
-                    out[b, o, rec] = y
-                    if not abs(y) <= bound[o]:  # also catches NaN
-                        status[b] = OUT_OF_BOUND if np.isfinite(y) else NONFINITE
-                rec += 1
-            if status[b] != OK or step == n_steps:
-                if status[b] != OK:
-                    fail_t[b] = t
-                break
-            rhs(t, x, k1, p, sysdata, work)
-            for i in range(nstate):
-                xt[i] = x[i] + 0.5 * dt * k1[i]
-            rhs(t + 0.5 * dt, xt, k2, p, sysdata, work)
-            for i in range(nstate):
-                xt[i] = x[i] + 0.5 * dt * k2[i]
-            rhs(t + 0.5 * dt, xt, k3, p, sysdata, work)
-            for i in range(nstate):
-                xt[i] = x[i] + dt * k3[i]
-            rhs(t + dt, xt, k4, p, sysdata, work)
-            finite = True
-            for i in range(nstate):
-                x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-                if not np.isfinite(x[i]):
-                    finite = False
-            if not finite:
-                status[b] = NONFINITE
-                fail_t[b] = t + dt
-                break
-        if status[b] != OK:
-            out[b, :, :] = np.nan
+    work = make_work(sysdata)
+    p = params[b]
+    x = x0[b].copy()
+    k1 = np.empty(nstate)
+    k2 = np.empty(nstate)
+    k3 = np.empty(nstate)
+    k4 = np.empty(nstate)
+    xt = np.empty(nstate)
+    status[b] = OK
+    fail_t[b] = np.nan
+    rec = 0
+    for step in range(n_steps + 1):
+        t = t0 + step * dt
+        if step % record_every == 0:
+            for o in range(nout):
+                y = 0.0
+                for i in range(nstate):
+                    y += out_w[o, i] * x[i]
+                out[b, o, rec] = y
+                if not abs(y) <= bound[o]:  # also catches NaN
+                    status[b] = OUT_OF_BOUND if np.isfinite(y) else NONFINITE
+            rec += 1
+        if status[b] != OK or step == n_steps:
+            if status[b] != OK:
+                fail_t[b] = t
+            break
+        rhs(t, x, k1, p, sysdata, work)
+        for i in range(nstate):
+            xt[i] = x[i] + 0.5 * dt * k1[i]
+        rhs(t + 0.5 * dt, xt, k2, p, sysdata, work)
+        for i in range(nstate):
+            xt[i] = x[i] + 0.5 * dt * k2[i]
+        rhs(t + 0.5 * dt, xt, k3, p, sysdata, work)
+        for i in range(nstate):
+            xt[i] = x[i] + dt * k3[i]
+        rhs(t + dt, xt, k4, p, sysdata, work)
+        finite = True
+        for i in range(nstate):
+            x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            if not np.isfinite(x[i]):
+                finite = False
+        if not finite:
+            status[b] = NONFINITE
+            fail_t[b] = t + dt
+            break
+    if status[b] != OK:
+        out[b, :, :] = np.nan
 
 
 @nb.njit(cache=True, parallel=True)

@@ -68,6 +68,7 @@ from fuzzymbs.mbs.kernels import (
     OUT_OF_BOUND,
     _profile,
     _rotation,
+    integrate_sample,
 )
 
 L = V.LANES
@@ -933,76 +934,160 @@ def rk4_lanes(
     last block's lanes beyond the batch repeat its last sample.
     """
     nsamples = params.shape[0]
+    for blk in nb.prange((nsamples + L - 1) // L):
+        first = blk * L
+        integrate_block(
+            sysdata,
+            params,
+            x0,
+            t0,
+            dt,
+            n_steps,
+            record_every,
+            out_w,
+            bound,
+            out,
+            status,
+            fail_t,
+            first,
+            min(L, nsamples - first),
+        )
+
+
+@nb.njit(cache=True, parallel=True)
+def rk4_auto(
+    sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t, split
+):
+    """RK4 of a batch in one parallel call: samples ``[0, split)`` in blocks of four
+    (the last one padded), samples ``[split, B)`` one by one.
+
+    Arguments and results as :func:`fuzzymbs.mbs.kernels.rk4_batch`. The single
+    samples are the first work items, so that with the usual static split of the
+    items over the threads they share a thread with fewer blocks.
+    """
+    nsamples = params.shape[0]
+    nsingle = nsamples - split
+    nblocks = (split + L - 1) // L
+    for item in nb.prange(nsingle + nblocks):
+        if item < nsingle:
+            integrate_sample(
+                sysdata,
+                params,
+                x0,
+                t0,
+                dt,
+                n_steps,
+                record_every,
+                out_w,
+                bound,
+                out,
+                status,
+                fail_t,
+                split + item,
+            )
+        else:
+            first = (item - nsingle) * L
+            integrate_block(
+                sysdata,
+                params,
+                x0,
+                t0,
+                dt,
+                n_steps,
+                record_every,
+                out_w,
+                bound,
+                out,
+                status,
+                fail_t,
+                first,
+                min(L, split - first),
+            )
+
+
+@nb.njit(cache=True)
+def integrate_block(
+    sysdata,
+    params,
+    x0,
+    t0,
+    dt,
+    n_steps,
+    record_every,
+    out_w,
+    bound,
+    out,
+    status,
+    fail_t,
+    first,
+    count,
+):
+    """RK4 of samples ``first .. first + count - 1`` (count <= 4) in lockstep, on the
+    calling thread; lanes beyond count repeat the last of them."""
     nslots = params.shape[1]
     nstate = x0.shape[1]
     nout = out_w.shape[0]
-    nblocks = (nsamples + L - 1) // L
-    for blk in nb.prange(nblocks):
-        first = blk * L
-        count = min(L, nsamples - first)
-        work = make_lane_work(sysdata)
-        p = np.empty(nslots * L)
-        x = np.empty(nstate * L)
-        for lane in range(L):
-            src = first + min(lane, count - 1)
-            for i in range(nslots):
-                p[L * i + lane] = params[src, i]
-            for i in range(nstate):
-                x[L * i + lane] = x0[src, i]
-        k1 = np.empty(nstate * L)
-        k2 = np.empty(nstate * L)
-        k3 = np.empty(nstate * L)
-        k4 = np.empty(nstate * L)
-        xt = np.empty(nstate * L)
-        alive = np.ones(L, dtype=np.bool_)
-        for lane in range(count):
-            status[first + lane] = OK
-            fail_t[first + lane] = np.nan
-        size = nstate * L
-        rec = 0
-        for step in range(n_steps + 1):
-            t = t0 + step * dt
-            if step % record_every == 0:
-                for o in range(nout):
-                    y = V.splat(0.0)
-                    for i in range(nstate):
-                        w = out_w[o, i]
-                        if w != 0.0:
-                            y = V.fma(V.splat(w), V.load(x, L * i), y)
-                    for lane in range(count):
-                        if alive[lane]:
-                            yl = V.get(y, lane)
-                            out[first + lane, o, rec] = yl
-                            if not abs(yl) <= bound[o]:  # also catches NaN
-                                status[first + lane] = (
-                                    OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
-                                )
-                                fail_t[first + lane] = t
-                rec += 1
-                if _retire_failed(first, count, status, alive, out, x, p):
-                    break
-            if step == n_steps:
-                break
-            rhs_lanes(t, x, k1, p, sysdata, work)
-            for m in range(size):
-                xt[m] = x[m] + 0.5 * dt * k1[m]
-            rhs_lanes(t + 0.5 * dt, xt, k2, p, sysdata, work)
-            for m in range(size):
-                xt[m] = x[m] + 0.5 * dt * k2[m]
-            rhs_lanes(t + 0.5 * dt, xt, k3, p, sysdata, work)
-            for m in range(size):
-                xt[m] = x[m] + dt * k3[m]
-            rhs_lanes(t + dt, xt, k4, p, sysdata, work)
-            bad = V.splat(0.0)
-            for i in range(nstate):
-                m = L * i
-                increment = V.load(k1, m) + 2.0 * V.load(k2, m) + 2.0 * V.load(k3, m)
-                xi = V.load(x, m) + dt / 6.0 * (increment + V.load(k4, m))
-                V.store(x, m, xi)
-                bad = bad + xi * 0.0  # NaN in a lane with a non-finite entry
-            for lane in range(count):
-                if alive[lane] and not V.get(bad, lane) == 0.0:
-                    status[first + lane] = NONFINITE
-                    fail_t[first + lane] = t + dt
+    work = make_lane_work(sysdata)
+    p = np.empty(nslots * L)
+    x = np.empty(nstate * L)
+    for lane in range(L):
+        src = first + min(lane, count - 1)
+        for i in range(nslots):
+            p[L * i + lane] = params[src, i]
+        for i in range(nstate):
+            x[L * i + lane] = x0[src, i]
+    k1 = np.empty(nstate * L)
+    k2 = np.empty(nstate * L)
+    k3 = np.empty(nstate * L)
+    k4 = np.empty(nstate * L)
+    xt = np.empty(nstate * L)
+    alive = np.ones(L, dtype=np.bool_)
+    for lane in range(count):
+        status[first + lane] = OK
+        fail_t[first + lane] = np.nan
+    size = nstate * L
+    rec = 0
+    for step in range(n_steps + 1):
+        t = t0 + step * dt
+        if step % record_every == 0:
+            for o in range(nout):
+                y = V.splat(0.0)
+                for i in range(nstate):
+                    w = out_w[o, i]
+                    if w != 0.0:
+                        y = V.fma(V.splat(w), V.load(x, L * i), y)
+                for lane in range(count):
+                    if alive[lane]:
+                        yl = V.get(y, lane)
+                        out[first + lane, o, rec] = yl
+                        if not abs(yl) <= bound[o]:  # also catches NaN
+                            status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
+                            fail_t[first + lane] = t
+            rec += 1
             if _retire_failed(first, count, status, alive, out, x, p):
                 break
+        if step == n_steps:
+            break
+        rhs_lanes(t, x, k1, p, sysdata, work)
+        for m in range(size):
+            xt[m] = x[m] + 0.5 * dt * k1[m]
+        rhs_lanes(t + 0.5 * dt, xt, k2, p, sysdata, work)
+        for m in range(size):
+            xt[m] = x[m] + 0.5 * dt * k2[m]
+        rhs_lanes(t + 0.5 * dt, xt, k3, p, sysdata, work)
+        for m in range(size):
+            xt[m] = x[m] + dt * k3[m]
+        rhs_lanes(t + dt, xt, k4, p, sysdata, work)
+        bad = V.splat(0.0)
+        for i in range(nstate):
+            m = L * i
+            increment = V.load(k1, m) + 2.0 * V.load(k2, m) + 2.0 * V.load(k3, m)
+            xi = V.load(x, m) + dt / 6.0 * (increment + V.load(k4, m))
+            V.store(x, m, xi)
+            bad = bad + xi * 0.0  # NaN in a lane with a non-finite entry
+        for lane in range(count):
+            if alive[lane] and not V.get(bad, lane) == 0.0:
+                status[first + lane] = NONFINITE
+                fail_t[first + lane] = t + dt
+        if _retire_failed(first, count, status, alive, out, x, p):
+            break
