@@ -151,6 +151,16 @@ def test_digest_changes_with_imported_source_only(tmp_path, monkeypatch):
         handle.write("\n# edit\n")
     assert code_version.source_digest(modules) != before
 
+    # the import graph is cached per file (mtime, size): a new import is followed at once
+    with (copy / "models/closed_form/oscillator.py").open("a") as handle:
+        handle.write("\nfrom fuzzymbs.models.gears import geometry  # noqa\n")
+    files = code_version.source_files(modules)
+    assert copy / "models/gears/geometry.py" in files
+    linked = code_version.source_digest(modules)
+    with (copy / "models/gears/geometry.py").open("a") as handle:
+        handle.write("\n# now imported\n")
+    assert code_version.source_digest(modules) != linked
+
     (copy / "errors.py").write_text(
         "def broken(:\n"
     )  # unparsable: no digest rather than a partial one
