@@ -92,36 +92,9 @@ def _repeat_rhs_lanes(n, x, dx, p, data, work):
 
 @numba.njit
 def _repeat_contact_lanes(n, x, p, data, work):
-    bi, bf, fpool, ipool, ci, cf = data[1], data[2], data[6], data[7], data[11], data[12]
-    node_x, node_v, node_f, rot_a, scratch, cells, charts = (
-        work[1],
-        work[2],
-        work[3],
-        work[5],
-        work[6],
-        work[7],
-        work[9],
-    )
     for _ in range(n):
-        for c in range(ci.shape[0]):
-            KL._contact_pass_lanes(
-                c,
-                x,
-                p,
-                bi,
-                bf,
-                ci,
-                cf,
-                fpool,
-                ipool,
-                rot_a,
-                node_x,
-                node_v,
-                node_f,
-                scratch,
-                cells,
-                charts,
-            )
+        for c in range(data[11].shape[0]):
+            KL._contact_pass_lanes(c, x, p, data, work)
 
 
 @numba.njit

@@ -19,7 +19,8 @@ A lane whose sample fails (non-finite state, output beyond its bound) is
 flagged and then repeats a healthy lane of its block, so that it neither
 spreads NaN nor pushes the block off the shared cells; its outputs are NaN as
 in :func:`fuzzymbs.mbs.kernels.rk4_batch`. Padding lanes of the last block
-repeat its last sample.
+repeat its last sample. :func:`rk4_auto` runs blocks and single samples in one
+parallel call.
 """
 
 from __future__ import annotations
@@ -56,10 +57,6 @@ from fuzzymbs.mbs.kernels import (
     C_SLAVE0,
     C_U0,
     C_V0,
-    CF_USCALE,
-    CF_UUNIFORM,
-    CF_VSCALE,
-    CF_VUNIFORM,
     FAST,
     KIND_ROTATING,
     KIND_TRANSLATING,
@@ -69,6 +66,8 @@ from fuzzymbs.mbs.kernels import (
     _profile,
     _rotation,
     integrate_sample,
+    locate,
+    pass_scales,
 )
 
 L = V.LANES
@@ -130,9 +129,9 @@ def rhs_lanes(t, x, dx, p, sysdata, work):
         lg,
         nfi,
         ci,
-        cf,
+        _,
     ) = sysdata
-    q_gen, node_x, node_v, node_f, rot, rot_a, scratch, cells, rot3, charts = work
+    q_gen, node_x, node_v, node_f, rot, rot_a, scratch, _, rot3, _ = work
     nbody = bi.shape[0]
     for i in range(ndof):
         V.store(dx, L * i, V.load(x, L * (ndof + i)))
@@ -207,24 +206,7 @@ def rhs_lanes(t, x, dx, p, sysdata, work):
         for i in range(node_f.shape[0]):
             node_f[i] = 0.0
         for c in range(ci.shape[0]):
-            _contact_pass_lanes(
-                c,
-                x,
-                p,
-                bi,
-                bf,
-                ci,
-                cf,
-                fpool,
-                ipool,
-                rot_a,
-                node_x,
-                node_v,
-                node_f,
-                scratch,
-                cells,
-                charts,
-            )
+            _contact_pass_lanes(c, x, p, sysdata, work)
         _map_node_forces_lanes(bi, bf, fpool, rot_a, node_f, q_gen)
 
     # equations of motion body by body
@@ -426,64 +408,21 @@ def _atan2_lanes(y, x):
 
 
 @nb.njit(cache=True, inline="always")
-def _cells_per_lane(u_vec, v_vec, ugrid, vgrid, nu, nv, periodic, scales, v_cells, scratch, cells):
-    """Master cell of each lane, scalar per lane (the general path: any grid).
+def _cells_per_lane(u_vec, v_vec, ugrid, vgrid, periodic, scales, scratch, cells):
+    """Master cell of each lane by the scalar :func:`~fuzzymbs.mbs.kernels.locate`
+    (the general path: any grid, lanes in different cells).
 
-    ``scales = (u_scale, u_uniform, v_scale, v_uniform)`` as in ``cf``. Writes xi,
-    eta, on (scratch rows S_XI, S_ETA, S_ON) and cell, i, j (cells rows); a lane off
-    the patch gets on = 0 and cell 0. Returns (all lanes in one cell, any lane on
-    the patch).
+    Writes xi, eta, on (scratch rows S_XI, S_ETA, S_ON) and cell, i, j (cells
+    rows); a lane off the patch gets on = 0 and cell 0. Returns (all lanes in
+    one cell, any lane on the patch).
     """
-    u_first = ugrid[0]
-    v_first = vgrid[0]
-    u_scale, u_uniform, v_scale, v_uniform = scales
-    # cell per lane (scalar: integer arithmetic); off the patch -> on = 0, cell 0
+    nv = vgrid.shape[0]
     shared = True
     any_on = False
     for lane in range(L):
-        u = V.get(u_vec, lane)
-        v = V.get(v_vec, lane)
-        i = 0
-        j = 0
-        xi = 0.0
-        eta = 0.0
-        on = False
-        fu = (u - u_first) * u_scale
-        if 0.0 <= fu <= nu - 1:
-            i = min(int(fu), nu - 2)
-            if u_uniform:
-                xi = fu - i
-            else:
-                while i > 0 and u < ugrid[i]:
-                    i -= 1
-                while i < nu - 2 and u > ugrid[i + 1]:
-                    i += 1
-                xi = (u - ugrid[i]) / (ugrid[i + 1] - ugrid[i])
-            if periodic:
-                if v < v_first:
-                    v += _TWO_PI
-                elif v >= v_first + _TWO_PI:
-                    v -= _TWO_PI
-            fv = (v - v_first) * v_scale
-            if 0.0 <= fv <= v_cells:
-                on = True
-                j = min(int(fv), v_cells - 1)
-                if v_uniform:
-                    eta = fv - j
-                else:
-                    while j > 0 and v < vgrid[j]:
-                        j -= 1
-                    while j < v_cells - 1 and v > (
-                        vgrid[j + 1] if j + 1 < nv else v_first + _TWO_PI
-                    ):
-                        j += 1
-                    upper = vgrid[j + 1] if j + 1 < nv else v_first + _TWO_PI
-                    eta = (v - vgrid[j]) / (upper - vgrid[j])
-        if not on:
-            i = 0
-            j = 0
-            xi = 0.0
-            eta = 0.0
+        on, i, j, xi, eta = locate(
+            V.get(u_vec, lane), V.get(v_vec, lane), ugrid, vgrid, periodic, scales
+        )
         any_on = any_on or on
         scratch[L * S_XI + lane] = xi
         scratch[L * S_ETA + lane] = eta
@@ -498,10 +437,22 @@ def _cells_per_lane(u_vec, v_vec, ugrid, vgrid, nu, nv, periodic, scales, v_cell
 
 
 @nb.njit(cache=True, fastmath=FAST, error_model="numpy")
-def _contact_pass_lanes(
-    c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f, scratch, cells, charts
-):
-    """Penalty normal force and regularised Coulomb friction of one pass, four lanes."""
+def _contact_pass_lanes(c, x, p, sysdata, work):
+    """Penalty normal force and regularised Coulomb friction of pass c, four lanes.
+
+    Reads the lanes' node positions and velocities from ``work`` (filled by the
+    node kinematics) and adds the contact forces to its node forces.
+    """
+    bi, bf, fpool, ipool, ci, cf = (
+        sysdata[1],
+        sysdata[2],
+        sysdata[6],
+        sysdata[7],
+        sysdata[11],
+        sysdata[12],
+    )
+    node_x, node_v, node_f, rot_a = work[1], work[2], work[3], work[5]
+    scratch, cells, charts = work[6], work[7], work[9]
     mb = ci[c, C_MBODY]
     nu = ci[c, C_NU]
     nv = ci[c, C_NV]
@@ -561,13 +512,10 @@ def _contact_pass_lanes(
     cu = o0 * ua0 + o1 * ua1 + o2 * ua2 + chart_o_u
     cv = o0 * va0 + o1 * va1 + o2 * va2 + chart_o_v
     u_first = ugrid[0]
-    u_scale = cf[c, CF_USCALE]
-    u_uniform = cf[c, CF_UUNIFORM] != 0.0
     v_first = vgrid[0]
     v_cells = nv if periodic else nv - 1
-    v_scale = cf[c, CF_VSCALE]
-    v_uniform = cf[c, CF_VUNIFORM] != 0.0
-    scales = (u_scale, u_uniform, v_scale, v_uniform)
+    scales = pass_scales(cf, c)
+    u_scale, u_uniform, v_scale, v_uniform = scales
     one = V.splat(1.0)
     # chart coordinates of all slaves first: independent, long-latency (sqrt, atan2)
     # work that the out-of-order core overlaps across slaves, and fewer live registers
@@ -626,7 +574,7 @@ def _contact_pass_lanes(
             shared = True
         else:
             shared, any_on = _cells_per_lane(
-                u_vec, v_vec, ugrid, vgrid, nu, nv, periodic, scales, v_cells, scratch, cells
+                u_vec, v_vec, ugrid, vgrid, periodic, scales, scratch, cells
             )
             if not any_on:
                 continue
@@ -925,41 +873,12 @@ def _retire_failed(first, count, status, alive, out, x, p):
 
 
 @nb.njit(cache=True, parallel=True)
-def rk4_lanes(
-    sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t
-):
-    """Classic fixed-step RK4, blocks of four samples in lockstep (prange over blocks).
-
-    Same arguments and results as :func:`fuzzymbs.mbs.kernels.rk4_batch`. The
-    last block's lanes beyond the batch repeat its last sample.
-    """
-    nsamples = params.shape[0]
-    for blk in nb.prange((nsamples + L - 1) // L):
-        first = blk * L
-        integrate_block(
-            sysdata,
-            params,
-            x0,
-            t0,
-            dt,
-            n_steps,
-            record_every,
-            out_w,
-            bound,
-            out,
-            status,
-            fail_t,
-            first,
-            min(L, nsamples - first),
-        )
-
-
-@nb.njit(cache=True, parallel=True)
 def rk4_auto(
     sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t, split
 ):
     """RK4 of a batch in one parallel call: samples ``[0, split)`` in blocks of four
-    (the last one padded), samples ``[split, B)`` one by one.
+    (the last one padded), samples ``[split, B)`` one by one (``split = B``: all in
+    blocks; ``split = 0``: all one by one, as :func:`fuzzymbs.mbs.kernels.rk4_batch`).
 
     Arguments and results as :func:`fuzzymbs.mbs.kernels.rk4_batch`. The single
     samples are the first work items, so that with the usual static split of the
