@@ -155,3 +155,12 @@ def test_simd_primitives_against_numpy():
     lane_factor = np.stack([np.ones(4), np.full(4, 2.0), np.full(4, 3.0), b[3::4]], 1).ravel()
     expected = r + a[0] * lane_factor
     np.testing.assert_allclose(out, expected, rtol=1e-14, atol=1e-14)
+
+
+def test_brake_model_option_kernel():
+    # the study-file option [model.options] kernel reaches the integrator
+    from fuzzymbs.models.brake import brake_model
+
+    assert brake_model(kernel="samples", t_end=1e-5).simulation.settings["kernel"] == "samples"
+    with pytest.raises(InvalidParameterError, match="kernel must be one of"):
+        brake_model(kernel="gpu", t_end=1e-5)
