@@ -113,19 +113,20 @@ def test_failed_lane_is_reported_and_leaves_its_block_mates_alone(brake):
 
 
 @pytest.mark.parametrize(
-    ("n", "kernel", "expected"),
+    ("n", "kernel", "threads", "expected"),
     [
-        (33, "auto", 32),  # one left over: per sample
-        (6, "auto", 4),  # two left over: per sample
-        (7, "auto", 7),  # three left over: a padded block
-        (3, "auto", 3),
-        (1, "auto", 0),
-        (5, "lanes", 5),
-        (8, "samples", 0),
+        (33, "auto", 2, 32),  # one left over: per sample
+        (6, "auto", 2, 4),  # two left over: per sample
+        (7, "auto", 2, 7),  # three left over: a padded block
+        (3, "auto", 2, 3),
+        (2, "auto", 2, 0),  # a thread per sample beats a padded block
+        (33, "auto", 64, 0),
+        (5, "lanes", 64, 5),
+        (8, "samples", 1, 0),
     ],
 )
-def test_lane_split(n, kernel, expected):
-    assert _lane_split(n, kernel) == expected
+def test_lane_split(n, kernel, threads, expected):
+    assert _lane_split(n, kernel, threads) == expected
 
 
 def test_unknown_kernel_is_named(brake):
