@@ -39,7 +39,8 @@ def test_isotropic_3d_spring():
     np.testing.assert_allclose(lam.imag[lam.imag > 0], np.sqrt(2e3 / 0.8), rtol=1e-9)
 
 
-def test_modal_damping_free_decay():
+@pytest.mark.parametrize("kernel", ["samples", "lanes"])
+def test_modal_damping_free_decay(kernel):
     # one mode, omega = 100 rad/s, zeta = 0.05: q(t) = q0 e^(-zeta w t) (cos w_d t
     # + zeta / sqrt(1 - zeta^2) sin w_d t), w_d = w sqrt(1 - zeta^2)
     body = lumped_modal_body("osc", [(0, 0, 0)], [1.0], np.diag([1e4, 0, 0]), free_dofs=[0])
@@ -53,6 +54,7 @@ def test_modal_damping_free_decay():
         record_interval=1e-3,
         initial_state=x0,
         outputs={"q": Coordinate("osc")},
+        kernel=kernel,
     )
     w, z = 100.0, 0.05
     wd = w * np.sqrt(1 - z**2)

@@ -57,7 +57,8 @@ def test_gyroscopic_splitting_and_spin_softening(kx, kz):
         )
 
 
-def test_centrifugal_deflection_static_and_dynamic():
+@pytest.mark.parametrize("kernel", ["samples", "lanes"])
+def test_centrifugal_deflection_static_and_dynamic(kernel):
     radius, k, om = 0.2, 5000.0, 40.0
     body = point_mass(k, 0.0, position=(radius, 0.0, 0.0), free=(0,))
     system = System()
@@ -73,6 +74,7 @@ def test_centrifugal_deflection_static_and_dynamic():
         dt=1e-4,
         record_interval=1e-3,
         outputs={"u": NodeDisplacement("pm", 0, "x")},
+        kernel=kernel,
     )
     w_e = np.sqrt(k / MASS - om**2)
     ref = u_static * (1 - np.cos(w_e * res.time))
