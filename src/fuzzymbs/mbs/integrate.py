@@ -109,8 +109,7 @@ def simulate(
         after hundreds of steps), and a sample's last digits may depend on the
         samples it shares a block with.
     """
-    if kernel not in KERNELS:
-        raise InvalidParameterError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+    _check_kernel(kernel)
     compiled = system.compile() if isinstance(system, System) else system
     if not outputs:
         raise InvalidParameterError("simulate needs at least one output")
@@ -164,6 +163,11 @@ def simulate(
         failure_reason=reasons,
         failure_time=fail_t,
     )
+
+
+def _check_kernel(kernel: str) -> None:
+    if kernel not in KERNELS:
+        raise InvalidParameterError(f"kernel must be one of {KERNELS}, got {kernel!r}")
 
 
 def _lane_split(n: int, kernel: str, threads: int) -> int:
@@ -281,8 +285,7 @@ class SimulationModel:
     ) -> None:
         self.compiled = system.compile() if isinstance(system, System) else system
         n_steps, every = _check_timing(t_end, dt, record_interval)
-        if kernel not in KERNELS:
-            raise InvalidParameterError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+        _check_kernel(kernel)
         self.settings = {
             "t_end": t_end,
             "dt": dt,

@@ -816,6 +816,15 @@ def _map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
 
 
 @nb.njit(cache=True)
+def max_slaves(ci):
+    """Largest number of slave nodes of one contact pass (0 without contact)."""
+    largest = 0
+    for c in range(ci.shape[0]):
+        largest = max(largest, ci[c, C_NSLAVE])
+    return largest
+
+
+@nb.njit(cache=True)
 def make_work(sysdata):
     """Per-sample work arrays of the right-hand side.
 
@@ -825,12 +834,8 @@ def make_work(sysdata):
     ndof = sysdata[0]
     nbody = sysdata[1].shape[0]
     ntracked = sysdata[3].shape[0]
-    ci = sysdata[11]
-    max_slaves = 0
-    for c in range(ci.shape[0]):
-        max_slaves = max(max_slaves, ci[c, C_NSLAVE])
     # node_x: the tracked nodes, then scratch rows for two chart coordinates per slave
-    scratch_rows = (2 * max_slaves + 2) // 3
+    scratch_rows = (2 * max_slaves(sysdata[11]) + 2) // 3
     return (
         np.zeros(ndof),
         np.zeros((ntracked + scratch_rows, 3)),

@@ -67,6 +67,7 @@ from fuzzymbs.mbs.kernels import (
     _rotation,
     integrate_sample,
     locate,
+    max_slaves,
     pass_scales,
 )
 
@@ -92,10 +93,6 @@ def make_lane_work(sysdata):
     ndof = sysdata[0]
     nbody = sysdata[1].shape[0]
     ntracked = sysdata[3].shape[0]
-    ci = sysdata[11]
-    max_slaves = 0
-    for c in range(ci.shape[0]):
-        max_slaves = max(max_slaves, ci[c, C_NSLAVE])
     return (
         np.zeros(ndof * L),
         np.zeros(ntracked * 3 * L),
@@ -106,7 +103,7 @@ def make_lane_work(sysdata):
         np.zeros(SCRATCH * L),
         np.zeros(7 * L, dtype=np.int64),
         np.zeros((3, 3)),
-        np.zeros(2 * max_slaves * L),
+        np.zeros(2 * max_slaves(sysdata[11]) * L),
     )
 
 
