@@ -631,8 +631,9 @@ def locate(u, v, ugrid, vgrid, periodic, scales):
     ``(False, 0, 0, 0.0, 0.0)``.
 
     Used by the lockstep kernel's per-lane path. :func:`_contact_pass` spells out
-    the same steps inline: with this helper its pass measured 1.3-1.5 times slower
-    (A/B in one process, 15 alternations), for reasons not found.
+    the same steps inline: with this helper its pass measured about 1.4 times
+    slower (an A/B in one process during session 3, not kept as a benchmark;
+    the reason was not found).
     """
     nu = ugrid.shape[0]
     nv = vgrid.shape[0]
