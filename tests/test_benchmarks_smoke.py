@@ -130,3 +130,26 @@ def test_exudyn_reduced_pad_agrees_with_fuzzymbs():
     scale = np.max(np.abs(ours))
     assert scale > 1e-6
     np.testing.assert_allclose(theirs, ours, rtol=0, atol=1e-4 * scale)
+
+
+def test_lane_sharing_counts_shared_and_split_cells(brake):
+    # the counter behind the 99.97 % of docs/embs.md: identical lanes always share
+    # their cells; lanes whose discs turn at 1 and 400 rad/s drift apart by more than
+    # two polar cells in 0.3 ms, so some look-ups must be split
+    from lane_sharing import _count_shared
+
+    from fuzzymbs.mbs.kernels import C_NSLAVE
+    from fuzzymbs.mbs.lanes import L
+
+    compiled = brake[1].compiled
+    data = compiled.data
+    same = np.ascontiguousarray(np.repeat(compiled.parameters.values({}), L, axis=0))
+    counts = np.zeros((data[11].shape[0], 2), dtype=np.int64)
+    _count_shared(data, same, 300, 1e-6, 10, counts)
+    assert counts[:, 1].sum() == 30 * data[11][:, C_NSLAVE].sum()  # 30 looks x all slaves
+    assert (counts[:, 0] == counts[:, 1]).all()
+    speeds = np.array([1.0, 400.0, 1.0, 400.0])
+    apart = np.ascontiguousarray(compiled.parameters.values({"disc_speed": speeds}))
+    counts[:] = 0
+    _count_shared(data, apart, 300, 1e-6, 10, counts)
+    assert counts[:, 0].sum() < counts[:, 1].sum()
