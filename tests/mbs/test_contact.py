@@ -204,3 +204,60 @@ def test_friction_time_integration_settles_to_mu_normal_force(kernel):
         outputs={"z": Coordinate("block", 0)},
     )
     np.testing.assert_allclose(1e4 * res.outputs["z"][:, -1], [-60.0, -140.0], rtol=3e-6)
+
+
+@pytest.mark.parametrize("kernel", ["samples", "lanes"])
+def test_bilinear_load_sharing_on_a_non_uniform_master_grid(kernel):
+    # master: a 3 x 3 grid with unequal spacings (x: 0, 0.2, 1.0; z: 0, 0.5, 1.5), so the
+    # cell look-up walks the grid instead of dividing by a uniform spacing; each node is
+    # a point mass on its own spring k_m in y. A block pressed with F at (x, z) = (0.4,
+    # 1.25) lies in cell (1, 1) at xi = (0.4 - 0.2) / 0.8 = 0.25, eta = (1.25 - 0.5) / 1.0
+    # = 0.75; at rest node a carries N_a F (bilinear shape functions) and deflects by
+    # N_a F / k_m, the other nodes not at all; the penetration is F / c_p. Damping in the
+    # contact and the plate modes lets the dynamics settle onto that static state.
+    k_m, force, c_p, mass = 1e5, 50.0, 1e6, 0.1
+    xs, zs = (0.0, 0.2, 1.0), (0.0, 0.5, 1.5)
+    nodes = np.array([(x, 0.0, z) for x in xs for z in zs])
+    stiff = np.zeros((27, 27))
+    for i in range(9):
+        stiff[3 * i + 1, 3 * i + 1] = k_m
+    plate = lumped_modal_body(
+        "plate", nodes, np.full(9, mass), stiff, free_dofs=[3 * i + 1 for i in range(9)]
+    )
+    system = System()
+    system.add_body(FixedBody(plate, damping_ratio=0.5))
+    system.add_body(TranslatingBody(rigid_body("block", 1.0, [(0.4, 0.0, 1.25)]), ["y"]))
+    system.add(NodalForce("press", "block", [0], "y", -force))
+    system.add(
+        PenaltyContact(
+            "c",
+            "block",
+            [0],
+            "plate",
+            np.arange(9),
+            CartesianChart("x", "z"),
+            penalty=c_p,
+            normal="y",
+            normal_damping=2 * 0.5 * np.sqrt(c_p * 1.0),
+        )
+    )
+    compiled = system.compile()
+    from fuzzymbs.mbs import kernels as K
+
+    # premise: both chart directions are flagged non-uniform, so the walk runs
+    assert compiled.data[12][0, K.CF_UUNIFORM] == 0 and compiled.data[12][0, K.CF_VUNIFORM] == 0
+    outputs = {f"n{i}": NodeDisplacement("plate", i, "y") for i in range(9)}
+    outputs["block"] = Coordinate("block")
+    res = simulate(
+        compiled, t_end=0.4, dt=1e-5, record_interval=1e-2, outputs=outputs, kernel=kernel
+    )
+    xi, eta = 0.25, 0.75
+    # node index = 3 * (x index) + (z index); the cell's corners are x 1..2, z 1..2
+    weights = {4: (1 - xi) * (1 - eta), 7: xi * (1 - eta), 8: xi * eta, 5: (1 - xi) * eta}
+    for i in range(9):
+        expected = -weights.get(i, 0.0) * force / k_m
+        # settled: the slowest mode (the block on the contact damper, overdamped) decays
+        # at about 90 1/s, e^-36 over 0.4 s; the deflections are about 1e-4 m
+        assert res.outputs[f"n{i}"][0, -1] == pytest.approx(expected, abs=1e-9)
+    surface = sum(w * res.outputs[f"n{i}"][0, -1] for i, w in weights.items())
+    assert res.outputs["block"][0, -1] - surface == pytest.approx(-force / c_p, rel=1e-6)
