@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from fuzzymbs.mbs import kernels as K
 from fuzzymbs.mbs.bodies import FixedBody, RotatingBody, TranslatingBody
 from fuzzymbs.mbs.contact import CartesianChart, PenaltyContact, PolarChart, symmetric_contact
 from fuzzymbs.mbs.forces import NodalForce, Spring
@@ -59,19 +60,21 @@ def test_damped_settling_reaches_static_penetration(kernel):
     np.testing.assert_allclose(res.outputs["y"][0, -1], -1e-4, rtol=1e-6)
 
 
-def test_bilinear_load_sharing_on_elastic_master():
-    # master: 2 x 2 nodes, each a point mass on its own spring k_m in y (modes = nodes);
-    # slave pressed with F at (xi, eta) = (0.25, 0.5): node a carries N_a F (bilinear
-    # shape functions), so its deflection is N_a F / k_m; penetration stays F / c_p.
-    k_m, force, c_p = 1e5, 50.0, 1e6
-    nodes = np.array([(0, 0, 0), (1, 0, 0), (0, 0, 1), (1, 0, 1)], dtype=float)
-    stiff = np.zeros((12, 12))
-    for i in range(4):
+def block_on_spring_plate(
+    nodes, block_at, k_m, force, penalty, mass=0.1, damping_ratio=0.0, normal_damping=0.0
+):
+    """A rigid block at ``block_at`` pressed with ``force`` in -y onto a fixed plate whose
+    nodes are point masses ``mass`` on their own springs ``k_m`` in y (one mode per node)."""
+    n = len(nodes)
+    stiff = np.zeros((3 * n, 3 * n))
+    for i in range(n):
         stiff[3 * i + 1, 3 * i + 1] = k_m
-    plate = lumped_modal_body("plate", nodes, np.full(4, 0.1), stiff, free_dofs=[1, 4, 7, 10])
+    plate = lumped_modal_body(
+        "plate", nodes, np.full(n, mass), stiff, free_dofs=[3 * i + 1 for i in range(n)]
+    )
     system = System()
-    system.add_body(FixedBody(plate))
-    system.add_body(TranslatingBody(rigid_body("block", 1.0, [(0.25, 0.0, 0.5)]), ["y"]))
+    system.add_body(FixedBody(plate, damping_ratio=damping_ratio))
+    system.add_body(TranslatingBody(rigid_body("block", 1.0, [block_at]), ["y"]))
     system.add(NodalForce("press", "block", [0], "y", -force))
     system.add(
         PenaltyContact(
@@ -79,12 +82,23 @@ def test_bilinear_load_sharing_on_elastic_master():
             "block",
             [0],
             "plate",
-            np.arange(4),
+            np.arange(n),
             CartesianChart("x", "z"),
-            penalty=c_p,
+            penalty=penalty,
             normal="y",
+            normal_damping=normal_damping,
         )
     )
+    return system
+
+
+def test_bilinear_load_sharing_on_elastic_master():
+    # master: 2 x 2 nodes, each a point mass on its own spring k_m in y (modes = nodes);
+    # slave pressed with F at (xi, eta) = (0.25, 0.5): node a carries N_a F (bilinear
+    # shape functions), so its deflection is N_a F / k_m; penetration stays F / c_p.
+    k_m, force, c_p = 1e5, 50.0, 1e6
+    nodes = np.array([(0, 0, 0), (1, 0, 0), (0, 0, 1), (1, 0, 1)], dtype=float)
+    system = block_on_spring_plate(nodes, (0.25, 0.0, 0.5), k_m, force, c_p)
     compiled = system.compile()
     st = steady_state(compiled)
     assert st.converged.all()
@@ -218,32 +232,17 @@ def test_bilinear_load_sharing_on_a_non_uniform_master_grid(kernel):
     k_m, force, c_p, mass = 1e5, 50.0, 1e6, 0.1
     xs, zs = (0.0, 0.2, 1.0), (0.0, 0.5, 1.5)
     nodes = np.array([(x, 0.0, z) for x in xs for z in zs])
-    stiff = np.zeros((27, 27))
-    for i in range(9):
-        stiff[3 * i + 1, 3 * i + 1] = k_m
-    plate = lumped_modal_body(
-        "plate", nodes, np.full(9, mass), stiff, free_dofs=[3 * i + 1 for i in range(9)]
-    )
-    system = System()
-    system.add_body(FixedBody(plate, damping_ratio=0.5))
-    system.add_body(TranslatingBody(rigid_body("block", 1.0, [(0.4, 0.0, 1.25)]), ["y"]))
-    system.add(NodalForce("press", "block", [0], "y", -force))
-    system.add(
-        PenaltyContact(
-            "c",
-            "block",
-            [0],
-            "plate",
-            np.arange(9),
-            CartesianChart("x", "z"),
-            penalty=c_p,
-            normal="y",
-            normal_damping=2 * 0.5 * np.sqrt(c_p * 1.0),
-        )
+    system = block_on_spring_plate(
+        nodes,
+        (0.4, 0.0, 1.25),
+        k_m,
+        force,
+        c_p,
+        mass=mass,
+        damping_ratio=0.5,
+        normal_damping=2 * 0.5 * np.sqrt(c_p * 1.0),
     )
     compiled = system.compile()
-    from fuzzymbs.mbs import kernels as K
-
     # premise: both chart directions are flagged non-uniform, so the walk runs
     assert compiled.data[12][0, K.CF_UUNIFORM] == 0 and compiled.data[12][0, K.CF_VUNIFORM] == 0
     outputs = {f"n{i}": NodeDisplacement("plate", i, "y") for i in range(9)}
