@@ -19,7 +19,6 @@ the figure scaled to 33 samples x 10 000 steps; they run a subset of steps):
 
 from __future__ import annotations
 
-import inspect
 import time
 from typing import Any
 
@@ -77,42 +76,19 @@ def parameter_row(model: Any, sample: dict[str, float] | None = None) -> np.ndar
 def engine_rhs(model: Any, params: np.ndarray) -> Any:
     """f(t, x) of one sample: the engine's compiled right-hand side, called serially.
 
-    Uses the single-sample kernel entry (``kernels.rhs`` or ``kernels.rhs_lanes``
-    with one lane, as :func:`fuzzymbs.mbs.integrate.simulate_reference` does):
-    the public batched ``evaluate_rhs`` starts a parallel region per call, whose
-    wake-up cost (~8 ms here under load) would dominate and flatter fuzzymbs.
+    Uses the single-sample kernel entry (:func:`fuzzymbs.mbs.kernels.rhs.rhs_sample`,
+    as :func:`fuzzymbs.mbs.integrate.simulate_reference` does): the public
+    batched ``evaluate_rhs`` starts a parallel region per call, whose wake-up
+    cost (~8 ms here under load) would dominate and flatter fuzzymbs.
     """
-    from fuzzymbs.mbs import kernels as K
-    from fuzzymbs.mbs.integrate import evaluate_rhs
+    from fuzzymbs.mbs.kernels.rhs import make_work, rhs_sample
 
     data = model.compiled.data
-    n = model.compiled.n_state
-    if hasattr(K, "rhs_lanes"):
-        work = K.make_work(data, 1)
-        columns = np.ascontiguousarray(params.T)
-
-        def f(t: float, x: np.ndarray) -> np.ndarray:
-            dx = np.empty((n, 1))
-            K.rhs_lanes(float(t), np.ascontiguousarray(x).reshape(n, 1), dx, columns, data, work)
-            return dx[:, 0]
-
-        return f
-    if "work" in inspect.signature(K.rhs.py_func).parameters:
-        work = K.make_work(data)
-        row = np.ascontiguousarray(params[0])
-
-        def f(t: float, x: np.ndarray) -> np.ndarray:
-            dx = np.empty(n)
-            K.rhs(float(t), np.ascontiguousarray(x), dx, row, data, work)
-            return dx
-
-        return f
-    rows = np.zeros(1, dtype=np.int64)
-    scalar_time = "t" in inspect.signature(evaluate_rhs).parameters
+    work = make_work(data)
+    row = np.ascontiguousarray(params[0])
 
     def f(t: float, x: np.ndarray) -> np.ndarray:
-        when = float(t) if scalar_time else np.array([t])
-        return evaluate_rhs(model.compiled, params, rows, when, x[None, :])[0]
+        return rhs_sample(float(t), np.ascontiguousarray(x), row, data, work)
 
     return f
 

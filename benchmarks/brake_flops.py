@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from fuzzymbs.mbs import kernels as K
+from fuzzymbs.mbs.kernels import layout as K
 
 #: Operations per checked slave node: chart coordinates (12), polar (2), locating
 #: the cell on both grids (10), bilinear weights (8), master point (21), gap (8).

@@ -1,7 +1,7 @@
 """The brake equations in plain NumPy, one sample at a time (baseline of the brake benchmark).
 
 An independent implementation of the right-hand side that
-:func:`fuzzymbs.mbs.kernels.rhs` evaluates, written the way a NumPy user would
+:func:`fuzzymbs.mbs.kernels.rhs.rhs` evaluates, written the way a NumPy user would
 write it: array expressions over nodes and modes (mode-shape products with
 ``@``, contact over all slave nodes at once with masks, ``np.add.at`` to
 scatter forces), one sample per call, a Python RK4 loop around it. It reads the
@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from fuzzymbs.mbs import kernels as K
+from fuzzymbs.mbs.kernels import layout as K
 
 TWO_PI = 2.0 * np.pi
 

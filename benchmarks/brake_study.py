@@ -6,21 +6,21 @@ Measures, on this machine, after compilation (a warm-up study of 20 steps
 compiles or loads the Numba kernels and imports what building a result needs):
 
 * ``study1_warm_s``: wall time of the 33-run study 1 (reduced method, k, k_c
-  +-10 %, F_n +-1 %, 10 ms at dt = 1e-6 s; all 33 samples in one call: 8 blocks
-  of four samples in lockstep, prange over the blocks, then the 33rd sample on
-  its own). ``study1_samples_kernel_warm_s``: the same study with
-  ``kernel="samples"`` (one sample per thread iteration), the formulation
-  before the lockstep kernel, as the baseline of the same run. ``--quick``:
+  +-10 %, F_n +-1 %, 10 ms at dt = 1e-6 s; all 33 samples in one call: 9 blocks
+  of four samples in lockstep, the last one padded, prange over the blocks).
+  ``study1_samples_kernel_warm_s``: the same study with ``kernel="samples"``
+  (a block per sample, its lanes repeating it), as the baseline of the same
+  run. ``--quick``:
   1 ms instead of 10 ms (the time scales linearly with the steps;
   ``study1_warm_s_per_10ms`` extrapolates);
 * ``us_per_sample_step``: wall time per sample and RK4 step of that study
   (4 right-hand-side evaluations); ``cpu_us_per_sample_step`` the same in
   process CPU time (all threads), which other jobs on the machine do not
   inflate, and ``study1_idle_cores_s_per_10ms`` = CPU time / threads, the wall
-  time on idle cores; ``us_per_rhs`` CPU time of one right-hand side (single
-  thread, per-sample kernel), split into contact passes and node kinematics +
-  force map; ``us_per_lane_rhs`` etc. the same for the lockstep kernel, per
-  lane (a block's right-hand side / 4);
+  time on idle cores; ``us_per_lane_rhs`` CPU time of one right-hand side per
+  lane (single thread, a block's right-hand side / 4), split into contact
+  passes and node kinematics + force map; ``us_per_block_rhs`` that of a whole
+  block, the cost of one sample run alone;
 * ``large_*``: a streamed study of 9261 samples (grid method, 10 levels, the
   three study-1 parameters) in chunks of 256 through a chunk store, with a
   short end time (0.1 ms) so that it finishes here; peak resident memory of the
@@ -46,8 +46,9 @@ import time
 import numba
 import numpy as np
 
-from fuzzymbs.mbs import kernels as K
-from fuzzymbs.mbs import lanes as KL
+from fuzzymbs.mbs.kernels import contact, kinematics, rhs
+from fuzzymbs.mbs.kernels import layout as K
+from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.study.study import Study
 
@@ -62,48 +63,23 @@ LEVELS = [0.0, 0.25, 0.5, 0.75, 1.0]
 @numba.njit
 def _repeat_rhs(n, x, dx, p, data, work):
     for _ in range(n):
-        K.rhs(1e-4, x, dx, p, data, work)
+        rhs.rhs(1e-4, x, dx, p, data, work)
 
 
 @numba.njit
 def _repeat_contact(n, x, p, data, work):
-    # data = (ndof, bi, bf, node_xbar, dof_k2, dof_c, fpool, ipool, ptab, lg, nfi, ci, cf)
-    bi, bf, fpool, ipool, ci, cf = data[1], data[2], data[6], data[7], data[11], data[12]
-    node_x, node_v, node_f, rot_a = work[1], work[2], work[3], work[5]
     for _ in range(n):
-        for c in range(ci.shape[0]):
-            K._contact_pass(c, x, p, bi, bf, ci, cf, fpool, ipool, rot_a, node_x, node_v, node_f)
+        for c in range(data[11].shape[0]):
+            contact.contact_pass(c, x, p, data, work)
 
 
 @numba.njit
 def _repeat_kinematics(n, x, data, work):
     ndof, bi, bf, node_xbar, fpool = data[0], data[1], data[2], data[3], data[6]
-    q_gen, node_x, node_v, node_f, rot, rot_a = work
-    for _ in range(n):
-        K._node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
-        K._map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen)
-
-
-@numba.njit
-def _repeat_rhs_lanes(n, x, dx, p, data, work):
-    for _ in range(n):
-        KL.rhs_lanes(1e-4, x, dx, p, data, work)
-
-
-@numba.njit
-def _repeat_contact_lanes(n, x, p, data, work):
-    for _ in range(n):
-        for c in range(data[11].shape[0]):
-            KL._contact_pass_lanes(c, x, p, data, work)
-
-
-@numba.njit
-def _repeat_kinematics_lanes(n, x, data, work):
-    ndof, bi, bf, node_xbar, fpool = data[0], data[1], data[2], data[3], data[6]
     q_gen, node_x, node_v, node_f, rot, rot_a = work[:6]
     for _ in range(n):
-        KL._node_kinematics_lanes(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
-        KL._map_node_forces_lanes(bi, bf, fpool, rot_a, node_f, q_gen)
+        kinematics.node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
+        kinematics.map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen)
 
 
 class FullSizeStandIn:
@@ -132,36 +108,27 @@ def rhs_profile(model: DiscBrake, repeats: int = 20000) -> dict[str, float]:
     x = np.zeros(compiled.n_state)
     x[compiled.body_dofs["lower_pad"].start] = 55e-6
     x[compiled.body_dofs["upper_pad"].start] = -55e-6
-    dx = np.empty_like(x)
-    work = K.make_work(compiled.data)
     out = {}
-    for name, func, args in (  # process CPU time: single thread, robust against load
-        ("us_per_rhs", _repeat_rhs, (x, dx, p, compiled.data, work)),
-        ("us_contact_passes", _repeat_contact, (x, p, compiled.data, work)),
-        ("us_node_kinematics_and_force_map", _repeat_kinematics, (x, compiled.data, work)),
-    ):
-        func(1, *args)
-        start = time.process_time()
-        func(repeats, *args)
-        out[name] = 1e6 * (time.process_time() - start) / repeats
-    lanes = KL.L
-    xl = np.ascontiguousarray(np.repeat(x, lanes))
-    pl = np.ascontiguousarray(np.repeat(p, lanes))
+    # a block of four lanes at the same state: its cost is that of one sample run alone
+    # (kernel="samples"); a quarter of it is the cost per sample in full blocks
+    xl = np.ascontiguousarray(np.repeat(x, LANES))
+    pl = np.ascontiguousarray(np.repeat(p, LANES))
     dxl = np.empty_like(xl)
-    work_l = KL.make_lane_work(compiled.data)
-    for name, func, args in (
-        ("us_per_lane_rhs", _repeat_rhs_lanes, (xl, dxl, pl, compiled.data, work_l)),
-        ("us_per_lane_contact_passes", _repeat_contact_lanes, (xl, pl, compiled.data, work_l)),
+    work = rhs.make_work(compiled.data)
+    for name, func, args in (  # process CPU time: single thread, robust against load
+        ("us_per_lane_rhs", _repeat_rhs, (xl, dxl, pl, compiled.data, work)),
+        ("us_per_lane_contact_passes", _repeat_contact, (xl, pl, compiled.data, work)),
         (
             "us_per_lane_node_kinematics_and_force_map",
-            _repeat_kinematics_lanes,
-            (xl, compiled.data, work_l),
+            _repeat_kinematics,
+            (xl, compiled.data, work),
         ),
     ):
         func(1, *args)
         start = time.process_time()
         func(repeats, *args)
-        out[name] = 1e6 * (time.process_time() - start) / (repeats * lanes)
+        out[name] = 1e6 * (time.process_time() - start) / (repeats * LANES)
+    out["us_per_block_rhs"] = LANES * out["us_per_lane_rhs"]
     out["tracked_nodes"] = int(compiled.data[3].shape[0])
     out["contact_slave_nodes"] = int(compiled.data[11][:, K.C_NSLAVE].sum())
     out["coordinates"] = int(compiled.n_dofs)
@@ -180,7 +147,7 @@ def main() -> None:
         "cpus": os.cpu_count(),
     }
 
-    # warm-up: compiles or loads both kernels (33 = 8 blocks + 1 sample) and imports
+    # warm-up: compiles or loads the kernel (33 = 8 blocks + 1 padded block) and imports
     # what building the result dataset needs (xarray's lazy imports, about 1 s)
     Study(DiscBrake(t_end=2e-5), STUDY1, method="reduced", levels=LEVELS).run(progress=False)
     model = DiscBrake(t_end=t_end)

@@ -2,13 +2,13 @@
 
     python benchmarks/lane_sharing.py [--quick]
 
-The lockstep kernel (:mod:`fuzzymbs.mbs.lanes`) interpolates the master
+The lockstep kernel (:mod:`fuzzymbs.mbs.kernels`) interpolates the master
 surface with vector loads when all four lanes of a block share the slave's
 master cell, and gathers lane by lane otherwise. This script integrates the
 blocks of brake study 1 (the 33 samples of the reduced method; 8 full blocks)
 over 10 ms at dt = 1 us (1 ms with ``--quick``) and, every 10th step, looks up
 the cell of every slave of every contact pass in every lane with the scalar
-:func:`fuzzymbs.mbs.kernels.locate`, from the chart coordinates the kernel
+:func:`fuzzymbs.mbs.kernels.charts.locate`, from the chart coordinates the kernel
 itself computed. It prints one JSON line: the share of look-ups whose four
 lanes agree (on the patch and in the same cell), per pass and overall.
 """
@@ -21,8 +21,9 @@ import json
 import numba as nb
 import numpy as np
 
-from fuzzymbs.mbs import kernels as K
-from fuzzymbs.mbs import lanes as KL
+from fuzzymbs.mbs.kernels import charts, contact, rhs
+from fuzzymbs.mbs.kernels import layout as K
+from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.study.study import Study
 
@@ -36,10 +37,10 @@ STUDY1 = {
 @nb.njit(cache=True)
 def _count_shared(sysdata, rows, n_steps, dt, every, counts):
     """RK4 of one block (rows: 4 parameter rows); counts[c] += (shared, looked up)."""
-    lanes = KL.L
+    lanes = LANES
     nstate = 2 * sysdata[0]
     ci, cf, fpool = sysdata[11], sysdata[12], sysdata[6]
-    work = KL.make_lane_work(sysdata)
+    work = rhs.make_work(sysdata)
     x = np.zeros(nstate * lanes)
     p = np.empty(rows.shape[1] * lanes)
     for lane in range(lanes):
@@ -52,24 +53,24 @@ def _count_shared(sysdata, rows, n_steps, dt, every, counts):
     xt = np.empty_like(x)
     for step in range(n_steps):
         t = step * dt
-        KL.rhs_lanes(t, x, k1, p, sysdata, work)  # also the node kinematics of x
+        rhs.rhs(t, x, k1, p, sysdata, work)  # also the node kinematics of x
         if step % every == 0:
-            charts = work[9]
+            chart_uv = work[9]
             for c in range(ci.shape[0]):
-                KL._contact_pass_lanes(c, x, p, sysdata, work)  # chart coordinates of pass c
+                contact.contact_pass(c, x, p, sysdata, work)  # chart coordinates of pass c
                 nu, nv = ci[c, K.C_NU], ci[c, K.C_NV]
                 ugrid = fpool[ci[c, K.C_U0] : ci[c, K.C_U0] + nu]
                 vgrid = fpool[ci[c, K.C_V0] : ci[c, K.C_V0] + nv]
                 periodic = ci[c, K.C_PERIODIC] == 1
-                scales = K.pass_scales(cf, c)
+                scales = charts.pass_scales(cf, c)
                 nslave = ci[c, K.C_NSLAVE]
                 for k in range(nslave):
                     first = (False, -1, -1)
                     same = True
                     for lane in range(lanes):
-                        u = charts[lanes * k + lane]
-                        v = charts[lanes * (nslave + k) + lane]
-                        on, i, j, _, _ = K.locate(u, v, ugrid, vgrid, periodic, scales)
+                        u = chart_uv[lanes * k + lane]
+                        v = chart_uv[lanes * (nslave + k) + lane]
+                        on, i, j, _, _ = charts.locate(u, v, ugrid, vgrid, periodic, scales)
                         if lane == 0:
                             first = (on, i, j)
                         elif (on, i, j) != first:
@@ -78,13 +79,13 @@ def _count_shared(sysdata, rows, n_steps, dt, every, counts):
                     counts[c, 1] += 1
         for m in range(x.size):
             xt[m] = x[m] + 0.5 * dt * k1[m]
-        KL.rhs_lanes(t + 0.5 * dt, xt, k2, p, sysdata, work)
+        rhs.rhs(t + 0.5 * dt, xt, k2, p, sysdata, work)
         for m in range(x.size):
             xt[m] = x[m] + 0.5 * dt * k2[m]
-        KL.rhs_lanes(t + 0.5 * dt, xt, k3, p, sysdata, work)
+        rhs.rhs(t + 0.5 * dt, xt, k3, p, sysdata, work)
         for m in range(x.size):
             xt[m] = x[m] + dt * k3[m]
-        KL.rhs_lanes(t + dt, xt, k4, p, sysdata, work)
+        rhs.rhs(t + dt, xt, k4, p, sysdata, work)
         for m in range(x.size):
             x[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
 
@@ -99,9 +100,9 @@ def run(quick: bool = False) -> dict:
     data = model.compiled.data
     n_steps = 1000 if quick else 10_000
     counts = np.zeros((data[11].shape[0], 2), dtype=np.int64)
-    blocks = params.shape[0] // KL.L
+    blocks = params.shape[0] // LANES
     for b in range(blocks):
-        rows = np.ascontiguousarray(params[KL.L * b : KL.L * (b + 1)])
+        rows = np.ascontiguousarray(params[LANES * b : LANES * (b + 1)])
         _count_shared(data, rows, n_steps, 1e-6, 10, counts)
     return {
         "blocks": blocks,

@@ -138,8 +138,8 @@ def test_lane_sharing_counts_shared_and_split_cells(brake):
     # two polar cells in 0.3 ms, so some look-ups must be split
     from lane_sharing import _count_shared
 
-    from fuzzymbs.mbs.kernels import C_NSLAVE
-    from fuzzymbs.mbs.lanes import L
+    from fuzzymbs.mbs.kernels.layout import C_NSLAVE
+    from fuzzymbs.mbs.kernels.simd import LANES as L
 
     compiled = brake[1].compiled
     data = compiled.data

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from fuzzymbs.mbs import kernels as K
 from fuzzymbs.mbs.bodies import FixedBody, RotatingBody, TranslatingBody
 from fuzzymbs.mbs.contact import CartesianChart, PenaltyContact, PolarChart, symmetric_contact
 from fuzzymbs.mbs.forces import NodalForce, Spring
 from fuzzymbs.mbs.integrate import simulate
+from fuzzymbs.mbs.kernels import layout as K
 from fuzzymbs.mbs.linearize import steady_state
 from fuzzymbs.mbs.lumped import lumped_modal_body, rigid_body
 from fuzzymbs.mbs.parameters import Parameter

@@ -1,10 +1,17 @@
-"""The lockstep kernel (four samples per SIMD vector) against the per-sample kernel.
+"""Samples in lockstep (four per SIMD vector): a sample's result must not depend on its
+block mates.
 
-The per-sample kernel is the reference here: it is checked against closed forms
-and DOP853 elsewhere (tests/mbs), and the closed-form and DOP853 tests that
-integrate in time also run with ``kernel="lanes"`` (test_contact, test_hoffmann,
-test_reference). Both kernels evaluate the same formulas; they differ in FMA
-contraction and summation order only, so they must agree to rounding growth.
+``kernel="samples"`` gives every sample a block of its own (its lanes repeat
+it); ``kernel="lanes"`` packs four different samples per block, so that lanes
+differ in every parameter, in their master cells (the per-lane gather path of
+the contact pass) and in failing or not. The physics itself is checked against
+closed forms and a NumPy implementation of the right-hand side elsewhere
+(tests/mbs, tests/test_benchmarks_smoke.py). Blocks decide per block which
+contact path and whether friction runs, so results agree to rounding growth.
+
+Until session 4 the per-sample reference here was a second, scalar
+implementation of the right-hand side (kernels.py); it was removed when the
+physics was written once (docs/embs.md, "The kernels").
 """
 
 from __future__ import annotations
@@ -13,9 +20,9 @@ import numpy as np
 import pytest
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs import kernels as K
-from fuzzymbs.mbs import simd
-from fuzzymbs.mbs.integrate import _lane_split, simulate
+from fuzzymbs.mbs.integrate import samples_per_block, simulate
+from fuzzymbs.mbs.kernels import simd
+from fuzzymbs.mbs.kernels.layout import CF_VSCALE
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
 
@@ -54,7 +61,7 @@ def test_brake_lanes_equal_samples_kernel(brake):
     speeds = samples["disc_speed"]
     t_end = 4e-4
     # premise: the polar cells of the disc patch are 1 / v_scale rad wide
-    v_scale = brake.data[12][0, K.CF_VSCALE]
+    v_scale = brake.data[12][0, CF_VSCALE]
     assert (speeds[1] - speeds[0]) * t_end * v_scale > 2
     runs = {
         kernel: simulate(brake, samples, t_end=t_end, dt=1e-6, outputs=OUTPUTS, kernel=kernel)
@@ -112,21 +119,9 @@ def test_failed_lane_is_reported_and_leaves_its_block_mates_alone(brake):
     )
 
 
-@pytest.mark.parametrize(
-    ("n", "kernel", "threads", "expected"),
-    [
-        (33, "auto", 2, 32),  # one left over: per sample
-        (6, "auto", 2, 4),  # two left over: per sample
-        (7, "auto", 2, 7),  # three left over: a padded block
-        (3, "auto", 2, 3),
-        (2, "auto", 2, 0),  # a thread per sample beats a padded block
-        (33, "auto", 64, 0),
-        (5, "lanes", 64, 5),
-        (8, "samples", 1, 0),
-    ],
-)
-def test_lane_split(n, kernel, threads, expected):
-    assert _lane_split(n, kernel, threads) == expected
+@pytest.mark.parametrize(("kernel", "expected"), [("auto", 4), ("lanes", 4), ("samples", 1)])
+def test_samples_per_block(kernel, expected):
+    assert samples_per_block(kernel) == expected
 
 
 def test_unknown_kernel_is_named(brake):

@@ -1,9 +1,8 @@
 """Public time-integration API: batched fixed-step RK4 and a DOP853 reference.
 
-:func:`simulate` integrates a batch of samples with the compiled RK4 kernels
-(chunks of samples, one parallel call per chunk: blocks of four samples in
-lockstep, :mod:`fuzzymbs.mbs.lanes`, and single samples,
-:func:`fuzzymbs.mbs.kernels.integrate_sample`).
+:func:`simulate` integrates a batch of samples with the compiled RK4 kernel
+(chunks of samples, one parallel call per chunk over blocks of four samples in
+lockstep, :func:`fuzzymbs.mbs.kernels.rk4.rk4`).
 :class:`SimulationModel` wraps a compiled system as a fuzzymbs model,
 ``model({name: (B,)}) -> {output: (B, T)}`` with ``model.coords = {"time": t}``.
 :func:`simulate_reference` integrates one sample with SciPy's adaptive DOP853
@@ -15,14 +14,15 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 import scipy.integrate
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs import kernels as K
-from fuzzymbs.mbs import lanes as KL
+from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
+from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
+from fuzzymbs.mbs.kernels.rk4 import rk4
+from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
 
 #: Kernel choices of :func:`simulate`.
@@ -98,16 +98,15 @@ def simulate(
     chunk_size : int
         Samples per compiled call.
     kernel : {"auto", "lanes", "samples"}
-        ``"lanes"``: blocks of four samples in lockstep, one SIMD vector per
-        quantity (:mod:`fuzzymbs.mbs.lanes`; a last, partial block is padded);
-        ``"samples"``: one sample per thread iteration
-        (:func:`fuzzymbs.mbs.kernels.rk4_batch`); ``"auto"``: lanes for the
-        whole blocks of a chunk, the one or two samples left over per sample,
-        three left over as a padded block; per sample when the chunk has no
-        more samples than Numba has threads. Both kernels evaluate the same
-        formulas; results agree to rounding (about 1e-13 of a signal's range
-        after hundreds of steps), and a sample's last digits may depend on the
-        samples it shares a block with.
+        How samples share the lanes of the lockstep kernel (one SIMD vector of
+        four samples per quantity, :mod:`fuzzymbs.mbs.kernels`). ``"auto"`` and
+        ``"lanes"``: blocks of four samples, a last, partial block padded with
+        copies of its last sample. ``"samples"``: a block per sample, its four
+        lanes repeating it, so that no sample's result depends on another's
+        (about 1.4 times the cost per sample, docs/benchmarks.md). Both evaluate
+        the same code; results agree to rounding (about 1e-13 of a signal's
+        range after hundreds of steps): a sample's last digits may depend on the
+        samples it shares a block with (which contact path a block takes).
     """
     _check_kernel(kernel)
     compiled = system.compile() if isinstance(system, System) else system
@@ -135,8 +134,8 @@ def simulate(
         o = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec))
         st = np.zeros(sl.stop - sl.start, dtype=np.int64)
         ft = np.full(sl.stop - sl.start, np.nan)
-        # one parallel call per chunk: blocks of four in lockstep and single samples
-        KL.rk4_auto(
+        # one parallel call per chunk: prange over blocks of samples in lockstep
+        rk4(
             compiled.data,
             np.ascontiguousarray(params[sl]),
             np.ascontiguousarray(x0[sl]),
@@ -149,17 +148,17 @@ def simulate(
             o,
             st,
             ft,
-            _lane_split(sl.stop - sl.start, kernel, numba.get_num_threads()),
+            samples_per_block(kernel),
         )
         out[sl] = o
         status[sl] = st
         fail_t[sl] = ft
     time = np.arange(n_rec) * every * dt
-    reasons = np.array([K.FAILURE_REASONS[int(s)] for s in status], dtype=str)
+    reasons = np.array([FAILURE_REASONS[int(s)] for s in status], dtype=str)
     return SimulationResult(
         time=time,
         outputs={name: out[:, i, :] for i, name in enumerate(outputs)},
-        failed=status != K.OK,
+        failed=status != OK,
         failure_reason=reasons,
         failure_time=fail_t,
     )
@@ -170,20 +169,10 @@ def _check_kernel(kernel: str) -> None:
         raise InvalidParameterError(f"kernel must be one of {KERNELS}, got {kernel!r}")
 
 
-def _lane_split(n: int, kernel: str, threads: int) -> int:
-    """How many of a chunk's n samples go to the lockstep kernel (the first ones).
-
-    A block of four costs about 1.5 times one sample (measured on the brake: 22
-    against 15 us per right-hand side), so with at least as many threads as
-    samples every sample is faster on a thread of its own.
-    """
-    if kernel == "samples" or (kernel == "auto" and n <= threads):
-        return 0
-    if kernel == "lanes":
-        return n
-    whole = n - n % KL.L
-    # a padded block costs about 1.5 single samples' time: worth it for three left over
-    return n if n % KL.L == KL.L - 1 else whole
+def samples_per_block(kernel: str) -> int:
+    """Samples that share one block of lanes for the ``kernel`` option of :func:`simulate`."""
+    _check_kernel(kernel)
+    return 1 if kernel == "samples" else LANES
 
 
 def _initial(compiled: CompiledSystem, initial_state, batch: int) -> NDArray[np.float64]:
@@ -207,10 +196,14 @@ def evaluate_rhs(
     times: NDArray[np.float64],
     states: NDArray[np.float64],
 ) -> NDArray[np.float64]:
-    """Time derivatives of many states at once (row i uses parameter row ``rows[i]``)."""
+    """Time derivatives of many states at once (row i uses parameter row ``rows[i]``).
+
+    Four states with equal times share a block of lanes
+    (:func:`fuzzymbs.mbs.kernels.rhs.rhs_batch`).
+    """
     states = np.ascontiguousarray(states, dtype=float)
     out = np.empty_like(states)
-    K.rhs_batch(
+    rhs_batch(
         compiled.data,
         np.ascontiguousarray(params),
         np.asarray(rows, dtype=np.int64),
@@ -243,13 +236,11 @@ def simulate_reference(
     if params.shape[0] != 1:
         raise InvalidParameterError("simulate_reference integrates exactly one sample")
     x0 = _initial(compiled, initial_state, 1)[0]
-    work = K.make_work(compiled.data)
+    work = make_work(compiled.data)
     p = params[0]
 
     def f(t: float, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        dx = np.empty_like(x)
-        K.rhs(t, np.ascontiguousarray(x), dx, p, compiled.data, work)
-        return dx
+        return rhs_sample(t, np.ascontiguousarray(x), p, compiled.data, work)
 
     sol = scipy.integrate.solve_ivp(
         f, (0.0, t_end), x0, method="DOP853", t_eval=times, rtol=rtol, atol=atol, max_step=max_step

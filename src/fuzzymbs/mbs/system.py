@@ -27,9 +27,10 @@ Layout of ``CompiledSystem.data`` (the tuple passed to every kernel):
   stiffness and unit damping matrices (n x n each), stiffness slot, damping slot.
 * ``nfi`` (nodal forces, 5): body, offset of the generalised force vector(s), profile
   index (-1: constant), magnitude slot, rotating flag (then 3 vectors, see kernels).
-* ``ci`` (contact passes, 14) / ``cf`` (contact passes, 15): see kernels.C_* and the
-  chart frame (origin, two in-plane axes), eps, normal damping, then the cell
-  look-up constants (kernels.CF_*: u scale, u uniform, v scale, v uniform).
+* ``ci`` (contact passes, 14) / ``cf`` (contact passes, 15): see
+  :mod:`fuzzymbs.mbs.kernels.layout` (``C_*``) and the chart frame (origin, two
+  in-plane axes), eps, normal damping, then the cell look-up constants
+  (``CF_*``: u scale, u uniform, v scale, v uniform).
 """
 
 from __future__ import annotations
@@ -40,10 +41,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs import kernels as K
 from fuzzymbs.mbs.bodies import Body, FixedBody, RotatingBody, TranslatingBody, unit_vector
 from fuzzymbs.mbs.contact import Patch, PenaltyContact, build_patch
 from fuzzymbs.mbs.forces import NodalForce, Spring, resolve_nodes
+from fuzzymbs.mbs.kernels import layout as K
 from fuzzymbs.mbs.parameters import ParameterTable
 from fuzzymbs.mbs.profiles import TimeProfile
 
@@ -205,8 +206,14 @@ def _add_profile(pools: _Pools, profiles: list, profile: TimeProfile) -> int:
     return len(profiles) - 1
 
 
+def is_uniform_grid(grid: NDArray[np.float64], cells: int) -> bool:
+    """True if the first ``cells`` intervals of ``grid`` are equal to 1e-12 relative."""
+    h = (grid[cells] - grid[0]) / cells
+    return bool(np.all(np.abs(np.diff(grid[: cells + 1]) - h) <= 1e-12 * abs(h)))
+
+
 def _lookup_constants(patch: Patch) -> list[float]:
-    """Scales and uniformity flags of the O(1) cell look-up (kernels.CF_USCALE...CF_VUNIFORM).
+    """Scales and uniformity flags of the O(1) cell look-up (layout.CF_USCALE...CF_VUNIFORM).
 
     Index scale = cells / span of each grid direction; a periodic angle grid spans 2 pi
     and is uniform only if its wrap-around cell has the width of the others.
@@ -214,14 +221,14 @@ def _lookup_constants(patch: Patch) -> list[float]:
     u = patch.u
     v = patch.v
     u_scale = (u.size - 1) / (u[-1] - u[0])
-    u_uniform = K._is_uniform(u, u.size - 1)
+    u_uniform = is_uniform_grid(u, u.size - 1)
     if patch.periodic:
         v_scale = v.size / (2.0 * np.pi)
         wrap = v[0] + 2.0 * np.pi - v[-1]
-        v_uniform = K._is_uniform(v, v.size - 1) and abs(wrap - (v[1] - v[0])) < 1e-9
+        v_uniform = is_uniform_grid(v, v.size - 1) and abs(wrap - (v[1] - v[0])) < 1e-9
     else:
         v_scale = (v.size - 1) / (v[-1] - v[0])
-        v_uniform = K._is_uniform(v, v.size - 1)
+        v_uniform = is_uniform_grid(v, v.size - 1)
     return [u_scale, float(u_uniform), v_scale, float(v_uniform)]
 
 

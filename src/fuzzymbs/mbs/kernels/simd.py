@@ -1,7 +1,7 @@
 """Four-lane float64 vectors for Numba kernels: one LLVM ``<4 x double>`` per value.
 
 Numba gives no SIMD type, and LLVM's loop vectoriser leaves the lockstep
-kernels (:mod:`fuzzymbs.mbs.lanes`) scalar: their arrays may alias and Numba
+kernels (:mod:`fuzzymbs.mbs.kernels`) scalar: their arrays may alias and Numba
 cannot say otherwise (docs/embs.md, "Samples in lockstep"). This module
 declares the vector type directly, so that every operation on it *is* one
 AVX2 instruction, whatever the aliasing:
@@ -30,6 +30,9 @@ from numba.core import cgutils
 from numba.extending import intrinsic, models, overload, register_model
 
 LANES = 4
+# Fast-math flags of the kernels: reassociation and FMA contraction; NaN/inf semantics
+# are kept (no 'nnan'/'ninf') so that blown-up samples are still detected.
+FAST = {"reassoc", "contract", "arcp"}
 
 
 class Vec4Type(types.Type):

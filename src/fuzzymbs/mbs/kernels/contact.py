@@ -1,0 +1,362 @@
+"""Master-slave penalty contact with regularised Coulomb friction, four lanes per vector.
+
+One contact pass: every slave node of one body against the master surface of
+another, given as a structured grid of master nodes over a chart (plane or
+polar). Per slave: chart coordinates, master cell, gap ``g = n . (x_s - x_m)``,
+normal force ``f_N = -c_p g - d v_n`` where ``g < 0`` and ``f_N > 0``,
+friction ``f_T = -mu f_N v_t / sqrt(|v_t|^2 + eps^2)``; the force acts on the
+slave node and, with the opposite sign and the bilinear shape functions'
+weights, on the four master nodes (docs/theory.md). A two-pass (symmetric)
+contact is two passes with the roles swapped.
+
+A slave almost always finds the same master cell in all lanes (the samples
+differ by per cent, the cells are millimetres): then the master nodes'
+positions, velocities and reactions are vector loads and stores. Lanes in
+different cells gather per lane, with the same arithmetic. "On the patch",
+"gap < 0" and "compressive" are selects, not branches.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+
+from fuzzymbs.mbs.kernels import simd as V
+from fuzzymbs.mbs.kernels.charts import TWO_PI, atan2, locate, pass_scales
+from fuzzymbs.mbs.kernels.kinematics import frame_matrix
+from fuzzymbs.mbs.kernels.layout import (
+    B_DOF0,
+    B_KIND,
+    B_NTR,
+    C_GRID0,
+    C_KIND,
+    C_MBODY,
+    C_MU,
+    C_NORMAL0,
+    C_NSLAVE,
+    C_NU,
+    C_NV,
+    C_PEN,
+    C_PERIODIC,
+    C_SLAVE0,
+    C_U0,
+    C_V0,
+    CF_DAMPING,
+    CF_EPS,
+    I_CELL,
+    I_NODES,
+    I_U,
+    I_V,
+    KIND_ROTATING,
+    KIND_TRANSLATING,
+    S_ETA,
+    S_NRM,
+    S_ON,
+    S_XI,
+    S_XM,
+)
+
+L = V.LANES
+
+
+@nb.njit(cache=True)
+def max_slaves(ci):
+    """Largest number of slave nodes of one contact pass (0 without contact)."""
+    largest = 0
+    for c in range(ci.shape[0]):
+        largest = max(largest, ci[c, C_NSLAVE])
+    return largest
+
+
+@nb.njit(cache=True, inline="always")
+def cells_per_lane(u_vec, v_vec, ugrid, vgrid, periodic, scales, scratch, cells):
+    """Master cell of each lane by the scalar :func:`~fuzzymbs.mbs.kernels.charts.locate`
+    (the general path: any grid, lanes in different cells).
+
+    Writes xi, eta, on (scratch rows S_XI, S_ETA, S_ON) and cell, i, j (cells
+    rows); a lane off the patch gets on = 0 and cell 0. Returns (all lanes in
+    one cell, any lane on the patch).
+    """
+    nv = vgrid.shape[0]
+    shared = True
+    any_on = False
+    for lane in range(L):
+        on, i, j, xi, eta = locate(
+            V.get(u_vec, lane), V.get(v_vec, lane), ugrid, vgrid, periodic, scales
+        )
+        any_on = any_on or on
+        scratch[L * S_XI + lane] = xi
+        scratch[L * S_ETA + lane] = eta
+        scratch[L * S_ON + lane] = 1.0 if on else 0.0
+        cell = i * nv + j
+        cells[L * I_CELL + lane] = cell
+        cells[L * I_U + lane] = i
+        cells[L * I_V + lane] = j
+        if lane > 0 and cell != cells[L * I_CELL]:
+            shared = False
+    return shared, any_on
+
+
+@nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
+def contact_pass(c, x, p, sysdata, work):
+    """Penalty normal force and regularised Coulomb friction of pass c, four lanes.
+
+    Reads the lanes' node positions and velocities from ``work`` (filled by the
+    node kinematics) and adds the contact forces to its node forces.
+    """
+    bi, bf, fpool, ipool, ci, cf = (
+        sysdata[1],
+        sysdata[2],
+        sysdata[6],
+        sysdata[7],
+        sysdata[11],
+        sysdata[12],
+    )
+    node_x, node_v, node_f, rot_a = work[1], work[2], work[3], work[5]
+    scratch, cells, charts = work[6], work[7], work[9]
+    mb = ci[c, C_MBODY]
+    nu = ci[c, C_NU]
+    nv = ci[c, C_NV]
+    periodic = ci[c, C_PERIODIC] == 1
+    ugrid = fpool[ci[c, C_U0] : ci[c, C_U0] + nu]
+    vgrid = fpool[ci[c, C_V0] : ci[c, C_V0] + nv]
+    grid = ipool[ci[c, C_GRID0] : ci[c, C_GRID0] + nu * nv]
+    ncv = nv if periodic else nv - 1
+    normals = fpool[ci[c, C_NORMAL0] : ci[c, C_NORMAL0] + 3 * (nu - 1) * ncv]
+    slaves = ipool[ci[c, C_SLAVE0] : ci[c, C_SLAVE0] + ci[c, C_NSLAVE]]
+    polar = ci[c, C_KIND] == 1
+    penalty = V.load(p, L * ci[c, C_PEN])
+    mu = V.load(p, L * ci[c, C_MU])
+    eps2 = V.splat(cf[c, CF_EPS] * cf[c, CF_EPS])
+    damping = cf[c, CF_DAMPING]
+    kinetic = damping != 0.0
+    for lane in range(L):
+        kinetic = kinetic or V.get(mu, lane) != 0.0
+    zero = V.splat(0.0)
+    # master chart frame per lane: inertial axes ua, va and offsets cu, cv
+    kind = bi[mb, B_KIND]
+    rotating = kind == KIND_ROTATING
+    o0 = V.splat(bf[mb, 0])
+    o1 = V.splat(bf[mb, 1])
+    o2 = V.splat(bf[mb, 2])
+    if kind == KIND_TRANSLATING:
+        dof0 = bi[mb, B_DOF0]
+        for a in range(bi[mb, B_NTR]):
+            sa = V.load(x, L * (dof0 + a))
+            o0 = o0 + bf[mb, 3 + 3 * a] * sa
+            o1 = o1 + bf[mb, 4 + 3 * a] * sa
+            o2 = o2 + bf[mb, 5 + 3 * a] * sa
+    if rotating:
+        a00, a01, a02, a10, a11, a12, a20, a21, a22 = frame_matrix(rot_a, mb)
+    else:
+        one = V.splat(1.0)
+        a00, a01, a02 = one, zero, zero
+        a10, a11, a12 = zero, one, zero
+        a20, a21, a22 = zero, zero, one
+    ua0 = a00 * cf[c, 3] + a01 * cf[c, 4] + a02 * cf[c, 5]
+    ua1 = a10 * cf[c, 3] + a11 * cf[c, 4] + a12 * cf[c, 5]
+    ua2 = a20 * cf[c, 3] + a21 * cf[c, 4] + a22 * cf[c, 5]
+    va0 = a00 * cf[c, 6] + a01 * cf[c, 7] + a02 * cf[c, 8]
+    va1 = a10 * cf[c, 6] + a11 * cf[c, 7] + a12 * cf[c, 8]
+    va2 = a20 * cf[c, 6] + a21 * cf[c, 7] + a22 * cf[c, 8]
+    chart_o_u = cf[c, 0] * cf[c, 3] + cf[c, 1] * cf[c, 4] + cf[c, 2] * cf[c, 5]
+    chart_o_v = cf[c, 0] * cf[c, 6] + cf[c, 1] * cf[c, 7] + cf[c, 2] * cf[c, 8]
+    cu = o0 * ua0 + o1 * ua1 + o2 * ua2 + chart_o_u
+    cv = o0 * va0 + o1 * va1 + o2 * va2 + chart_o_v
+    u_first = ugrid[0]
+    v_first = vgrid[0]
+    v_cells = nv if periodic else nv - 1
+    scales = pass_scales(cf, c)
+    u_scale, u_uniform, v_scale, v_uniform = scales
+    one = V.splat(1.0)
+    # chart coordinates of all slaves first: independent, long-latency (sqrt, atan2)
+    # work that the out-of-order core overlaps across slaves, and fewer live registers
+    # in the main loop below
+    nslave = slaves.shape[0]
+    for k in range(nslave):
+        ms = L * 3 * slaves[k]
+        xs0 = V.load(node_x, ms)
+        xs1 = V.load(node_x, ms + L)
+        xs2 = V.load(node_x, ms + 2 * L)
+        a1 = xs0 * ua0 + xs1 * ua1 + xs2 * ua2 - cu
+        a2 = xs0 * va0 + xs1 * va1 + xs2 * va2 - cv
+        if polar:
+            V.store(charts, L * k, V.sqrt(a1 * a1 + a2 * a2))
+            V.store(charts, L * (nslave + k), atan2(a2, a1))
+        else:
+            V.store(charts, L * k, a1)
+            V.store(charts, L * (nslave + k), a2)
+    for k in range(nslave):
+        s = slaves[k]
+        ms = L * 3 * s
+        xs0 = V.load(node_x, ms)
+        xs1 = V.load(node_x, ms + L)
+        xs2 = V.load(node_x, ms + 2 * L)
+        u_vec = V.load(charts, L * k)
+        v_vec = V.load(charts, L * (nslave + k))
+        # master cell of every lane: vectorised on uniform grids when all lanes share
+        # it (the usual case), else per lane
+        fast = False
+        if u_uniform and v_uniform:
+            fu = (u_vec - u_first) * u_scale
+            if periodic:
+                v_vec = V.where_lt(v_vec, V.splat(v_first), v_vec + TWO_PI, v_vec)
+                v_vec = V.where_le(V.splat(v_first + TWO_PI), v_vec, v_vec - TWO_PI, v_vec)
+            fv = (v_vec - v_first) * v_scale
+            on = V.where_le(fu, V.splat(nu - 1.0), one, zero)
+            on = V.where_le(zero, fu, on, zero)
+            on = V.where_le(fv, V.splat(float(v_cells)), on, zero)
+            on = V.where_le(zero, fv, on, zero)
+            i_f = V.floor(fu)
+            i_f = V.where_lt(V.splat(nu - 2.0), i_f, V.splat(nu - 2.0), i_f)
+            i_f = V.where_lt(i_f, zero, zero, i_f)
+            j_f = V.floor(fv)
+            j_f = V.where_lt(V.splat(v_cells - 1.0), j_f, V.splat(v_cells - 1.0), j_f)
+            j_f = V.where_lt(j_f, zero, zero, j_f)
+            cell_f = i_f * float(nv) + j_f
+            c0 = V.get(cell_f, 0)
+            fast = c0 == V.get(cell_f, 1) and c0 == V.get(cell_f, 2) and c0 == V.get(cell_f, 3)
+        if fast:
+            if V.get(on, 0) + V.get(on, 1) + V.get(on, 2) + V.get(on, 3) == 0.0:
+                continue
+            xi = fu - i_f
+            eta = fv - j_f
+            i = int(V.get(i_f, 0))
+            j = int(V.get(j_f, 0))
+            shared = True
+        else:
+            shared, any_on = cells_per_lane(
+                u_vec, v_vec, ugrid, vgrid, periodic, scales, scratch, cells
+            )
+            if not any_on:
+                continue
+            xi = V.load(scratch, L * S_XI)
+            eta = V.load(scratch, L * S_ETA)
+            on = V.load(scratch, L * S_ON)
+            i = cells[L * I_U]
+            j = cells[L * I_V]
+        wa = (1.0 - xi) * (1.0 - eta)
+        wb = xi * (1.0 - eta)
+        wc = xi * eta
+        wd = (1.0 - xi) * eta
+        if shared:
+            j1 = j + 1 if j + 1 < nv else 0
+            na = L * 3 * grid[i * nv + j]
+            nb_ = L * 3 * grid[(i + 1) * nv + j]
+            nc = L * 3 * grid[(i + 1) * nv + j1]
+            nd = L * 3 * grid[i * nv + j1]
+            k3 = 3 * (i * ncv + j)
+            m0 = V.splat(normals[k3])
+            m1 = V.splat(normals[k3 + 1])
+            m2 = V.splat(normals[k3 + 2])
+            xm0 = wa * V.load(node_x, na) + wb * V.load(node_x, nb_)
+            xm0 = xm0 + wc * V.load(node_x, nc) + wd * V.load(node_x, nd)
+            xm1 = wa * V.load(node_x, na + L) + wb * V.load(node_x, nb_ + L)
+            xm1 = xm1 + wc * V.load(node_x, nc + L) + wd * V.load(node_x, nd + L)
+            xm2 = wa * V.load(node_x, na + 2 * L) + wb * V.load(node_x, nb_ + 2 * L)
+            xm2 = xm2 + wc * V.load(node_x, nc + 2 * L) + wd * V.load(node_x, nd + 2 * L)
+            vm0 = wa * V.load(node_v, na) + wb * V.load(node_v, nb_)
+            vm0 = vm0 + wc * V.load(node_v, nc) + wd * V.load(node_v, nd)
+            vm1 = wa * V.load(node_v, na + L) + wb * V.load(node_v, nb_ + L)
+            vm1 = vm1 + wc * V.load(node_v, nc + L) + wd * V.load(node_v, nd + L)
+            vm2 = wa * V.load(node_v, na + 2 * L) + wb * V.load(node_v, nb_ + 2 * L)
+            vm2 = vm2 + wc * V.load(node_v, nc + 2 * L) + wd * V.load(node_v, nd + 2 * L)
+        else:
+            xm = scratch[L * S_XM : L * (S_XM + 6)]
+            nrm = scratch[L * S_NRM : L * (S_NRM + 3)]
+            for lane in range(L):
+                i = cells[L * I_U + lane]
+                j = cells[L * I_V + lane]
+                j1 = j + 1 if j + 1 < nv else 0
+                ga = L * 3 * grid[i * nv + j] + lane
+                gb = L * 3 * grid[(i + 1) * nv + j] + lane
+                gc = L * 3 * grid[(i + 1) * nv + j1] + lane
+                gd = L * 3 * grid[i * nv + j1] + lane
+                cells[L * I_NODES + lane] = ga
+                cells[L * (I_NODES + 1) + lane] = gb
+                cells[L * (I_NODES + 2) + lane] = gc
+                cells[L * (I_NODES + 3) + lane] = gd
+                wal = V.get(wa, lane)
+                wbl = V.get(wb, lane)
+                wcl = V.get(wc, lane)
+                wdl = V.get(wd, lane)
+                for d in range(3):
+                    o = d * L
+                    xm[o + lane] = (
+                        wal * node_x[ga + o]
+                        + wbl * node_x[gb + o]
+                        + wcl * node_x[gc + o]
+                        + wdl * node_x[gd + o]
+                    )
+                    xm[3 * L + o + lane] = (
+                        wal * node_v[ga + o]
+                        + wbl * node_v[gb + o]
+                        + wcl * node_v[gc + o]
+                        + wdl * node_v[gd + o]
+                    )
+                    nrm[o + lane] = normals[3 * (i * ncv + j) + d]
+            m0 = V.load(nrm, 0)
+            m1 = V.load(nrm, L)
+            m2 = V.load(nrm, 2 * L)
+            xm0 = V.load(xm, 0)
+            xm1 = V.load(xm, L)
+            xm2 = V.load(xm, 2 * L)
+            vm0 = V.load(xm, 3 * L)
+            vm1 = V.load(xm, 4 * L)
+            vm2 = V.load(xm, 5 * L)
+            na = nb_ = nc = nd = 0
+        if rotating:
+            n0 = a00 * m0 + a01 * m1 + a02 * m2
+            n1 = a10 * m0 + a11 * m1 + a12 * m2
+            n2 = a20 * m0 + a21 * m1 + a22 * m2
+        else:
+            n0 = m0
+            n1 = m1
+            n2 = m2
+        gap = n0 * (xs0 - xm0) + n1 * (xs1 - xm1) + n2 * (xs2 - xm2)
+        if kinetic:
+            vr0 = V.load(node_v, ms) - vm0
+            vr1 = V.load(node_v, ms + L) - vm1
+            vr2 = V.load(node_v, ms + 2 * L) - vm2
+            vn = n0 * vr0 + n1 * vr1 + n2 * vr2
+            fn = -(penalty * gap) - damping * vn
+            vt0 = vr0 - vn * n0
+            vt1 = vr1 - vn * n1
+            vt2 = vr2 - vn * n2
+            scale = -(mu * fn) / V.sqrt(vt0 * vt0 + vt1 * vt1 + vt2 * vt2 + eps2)
+            scale = V.where_eq(mu, zero, zero, scale)  # a frictionless lane: no 0 / 0
+            f0 = fn * n0 + scale * vt0
+            f1 = fn * n1 + scale * vt1
+            f2 = fn * n2 + scale * vt2
+            # in contact: on the patch, gap < 0 and compressive normal force
+            f0 = V.where_lt(zero, fn, f0, zero)
+            f1 = V.where_lt(zero, fn, f1, zero)
+            f2 = V.where_lt(zero, fn, f2, zero)
+        else:
+            fn = -(penalty * gap)
+            f0 = fn * n0
+            f1 = fn * n1
+            f2 = fn * n2
+        f0 = V.where_lt(gap, zero, V.where_lt(zero, on, f0, zero), zero)
+        f1 = V.where_lt(gap, zero, V.where_lt(zero, on, f1, zero), zero)
+        f2 = V.where_lt(gap, zero, V.where_lt(zero, on, f2, zero), zero)
+        V.store(node_f, ms, V.load(node_f, ms) + f0)
+        V.store(node_f, ms + L, V.load(node_f, ms + L) + f1)
+        V.store(node_f, ms + 2 * L, V.load(node_f, ms + 2 * L) + f2)
+        if shared:
+            for node, w in ((na, wa), (nb_, wb), (nc, wc), (nd, wd)):
+                V.store(node_f, node, V.load(node_f, node) - w * f0)
+                V.store(node_f, node + L, V.load(node_f, node + L) - w * f1)
+                V.store(node_f, node + 2 * L, V.load(node_f, node + 2 * L) - w * f2)
+        else:
+            for lane in range(L):
+                g0 = V.get(f0, lane)
+                g1 = V.get(f1, lane)
+                g2 = V.get(f2, lane)
+                if g0 == 0.0 and g1 == 0.0 and g2 == 0.0:
+                    continue
+                for q in range(4):
+                    node = cells[L * (I_NODES + q) + lane]
+                    w = V.get((wa, wb, wc, wd)[q], lane)
+                    node_f[node] -= w * g0
+                    node_f[node + L] -= w * g1
+                    node_f[node + 2 * L] -= w * g2

@@ -1,0 +1,284 @@
+"""The right-hand side of the equations of motion, four samples (lanes) per vector.
+
+Every sample of a study integrates the same equations with other parameter
+values, so four of them share each instruction: every per-sample quantity is a
+:mod:`~fuzzymbs.mbs.kernels.simd` vector, stored lane-minor (element ``i`` of
+lane ``l`` at ``4 i + l``). A single sample runs as a block whose four lanes
+repeat it (docs/benchmarks.md measures what that costs).
+
+All system data arrive as one tuple of flat arrays (built by
+:meth:`fuzzymbs.mbs.system.System.compile`, layout documented there); the
+per-sample scalars (stiffnesses, forces, penalty, friction, speeds) are a
+parameter row per lane. No allocation happens inside a time step: each block
+allocates its work arrays once (:func:`make_work`). BLAS is not used.
+
+State of one sample: ``x = [coordinates (n), velocities (n)]``, coordinates
+body by body (translations s, then modal coordinates q).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from fuzzymbs.mbs.kernels import simd as V
+from fuzzymbs.mbs.kernels.contact import contact_pass, max_slaves
+from fuzzymbs.mbs.kernels.kinematics import (
+    frame_rotations,
+    map_node_forces,
+    node_kinematics,
+    profile_value,
+)
+from fuzzymbs.mbs.kernels.layout import (
+    B_DOF0,
+    B_KIND,
+    B_MAT0,
+    B_NM,
+    B_NTR,
+    KIND_ROTATING,
+    KIND_TRANSLATING,
+    S_COS,
+    S_SCHUR,
+    S_SIN,
+    SCRATCH,
+)
+
+L = V.LANES
+
+
+@nb.njit(cache=True)
+def make_work(sysdata):
+    """Work arrays of one block (all flat, lane-minor).
+
+    ``(q_gen (n L), node_x, node_v, node_f (tracked 3 L), rot (bodies 3 L): angle,
+    speed, acceleration, rot_a (bodies 9 L), scratch (SCRATCH L), cells (7 L) int,
+    rot3 (3, 3), charts (2 slaves L): chart coordinates u, v of a pass's slaves)``.
+    Scratch rows: see the ``S_*`` constants.
+    """
+    ndof = sysdata[0]
+    nbody = sysdata[1].shape[0]
+    ntracked = sysdata[3].shape[0]
+    return (
+        np.zeros(ndof * L),
+        np.zeros(ntracked * 3 * L),
+        np.zeros(ntracked * 3 * L),
+        np.zeros(ntracked * 3 * L),
+        np.zeros(nbody * 3 * L),
+        np.zeros(nbody * 9 * L),
+        np.zeros(SCRATCH * L),
+        np.zeros(7 * L, dtype=np.int64),
+        np.zeros((3, 3)),
+        np.zeros(2 * max_slaves(sysdata[11]) * L),
+    )
+
+
+@nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
+def rhs(t, x, dx, p, sysdata, work):
+    """Time derivatives ``dx (2n L)`` of the lane states ``x (2n L)`` at time t.
+
+    ``p (slots L)``: the lanes' parameter rows, lane-minor; ``work``: from
+    :func:`make_work`. Generalised forces of springs, nodal forces and contact
+    (through the nodes' kinematics), then the equations of motion body by body
+    (mass-normalised modes: diagonal elastic part; rotating bodies' gyroscopic,
+    centrifugal and Euler terms; translating bodies by the Schur complement of
+    their mass matrix).
+    """
+    (
+        ndof,
+        bi,
+        bf,
+        node_xbar,
+        dof_k2,
+        dof_c,
+        fpool,
+        ipool,
+        ptab,
+        lg,
+        nfi,
+        ci,
+        _,
+    ) = sysdata
+    q_gen, node_x, node_v, node_f, rot, rot_a, scratch, _, rot3, _ = work
+    nbody = bi.shape[0]
+    for i in range(ndof):
+        V.store(dx, L * i, V.load(x, L * (ndof + i)))
+        V.store(q_gen, L * i, V.splat(0.0))
+
+    # prescribed rotations per lane (the speed is a parameter, so A differs by lane)
+    frame_rotations(t, p, bi, bf, fpool, ptab, rot, rot_a, rot3)
+
+    # linear spring/damper groups
+    for g in range(lg.shape[0]):
+        d0 = lg[g, 0]
+        n = lg[g, 1]
+        m0 = lg[g, 2]
+        k = V.load(p, L * lg[g, 3])
+        c = V.load(p, L * lg[g, 4])
+        damped = False
+        for lane in range(L):
+            damped = damped or V.get(c, lane) != 0.0
+        idx = ipool[d0 : d0 + n]
+        for a in range(n):
+            s = V.splat(0.0)
+            row = fpool[m0 + a * n : m0 + (a + 1) * n]
+            for bb in range(n):
+                s = V.fma(V.splat(row[bb]), V.load(x, L * idx[bb]), s)
+            s = s * k
+            if damped:
+                sd = V.splat(0.0)
+                row_d = fpool[m0 + n * n + a * n : m0 + n * n + (a + 1) * n]
+                for bb in range(n):
+                    sd = V.fma(V.splat(row_d[bb]), V.load(x, L * (ndof + idx[bb])), sd)
+                s = s + c * sd
+            V.store(q_gen, L * idx[a], V.load(q_gen, L * idx[a]) - s)
+
+    # nodal forces
+    for f in range(nfi.shape[0]):
+        b = nfi[f, 0]
+        v0 = nfi[f, 1]
+        magnitude = V.load(p, L * nfi[f, 3])
+        if nfi[f, 2] >= 0:
+            value, _, _ = profile_value(fpool, ptab, nfi[f, 2], t)
+            magnitude = magnitude * value
+        dof0 = bi[b, B_DOF0]
+        if nfi[f, 4] == 0:
+            for i in range(bi[b, B_NTR] + bi[b, B_NM]):
+                d = L * (dof0 + i)
+                V.store(q_gen, d, V.fma(magnitude, V.broadcast(fpool, v0 + i), V.load(q_gen, d)))
+        else:
+            nm = bi[b, B_NM]
+            for lane in range(L):
+                scratch[L * S_COS + lane] = np.cos(rot[L * 3 * b + lane])
+                scratch[L * S_SIN + lane] = np.sin(rot[L * 3 * b + lane])
+            c = V.load(scratch, L * S_COS)
+            s = V.load(scratch, L * S_SIN)
+            for j in range(nm):
+                g = c * fpool[v0 + j] + (1.0 - c) * fpool[v0 + nm + j] - s * fpool[v0 + 2 * nm + j]
+                d = L * (dof0 + j)
+                V.store(q_gen, d, V.load(q_gen, d) + magnitude * g)
+
+    if ci.shape[0] > 0:
+        node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
+        for i in range(node_f.shape[0]):
+            node_f[i] = 0.0
+        for c in range(ci.shape[0]):
+            contact_pass(c, x, p, sysdata, work)
+        map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen)
+
+    # equations of motion body by body
+    for b in range(nbody):
+        kind = bi[b, B_KIND]
+        dof0 = bi[b, B_DOF0]
+        ntr = bi[b, B_NTR]
+        nm = bi[b, B_NM]
+        m0 = bi[b, B_MAT0]
+        qd0 = dof0 + ntr
+        for j in range(nm):
+            d = qd0 + j
+            damp = V.splat(dof_c[d]) * V.load(x, L * (ndof + d))
+            V.store(q_gen, L * d, V.load(q_gen, L * d) - (damp + dof_k2[d] * V.load(x, L * d)))
+        if kind == KIND_ROTATING and nm > 0:
+            omega = V.load(rot, L * (3 * b + 1))
+            alpha = V.load(rot, L * (3 * b + 2))
+            g0 = m0
+            c0 = m0 + nm * nm
+            l0 = m0 + 2 * nm * nm
+            e0 = l0 + nm
+            w2 = omega * omega
+            for j in range(nm):
+                sg = V.splat(0.0)
+                sgq = V.splat(0.0)
+                sc = V.splat(0.0)
+                for k in range(nm):
+                    gk = V.broadcast(fpool, g0 + j * nm + k)
+                    qk = V.load(x, L * (qd0 + k))
+                    sg = V.fma(gk, V.load(x, L * (ndof + qd0 + k)), sg)
+                    sgq = V.fma(gk, qk, sgq)
+                    sc = V.fma(V.broadcast(fpool, c0 + j * nm + k), qk, sc)
+                s = w2 * (sc + fpool[l0 + j]) + alpha * (sgq + fpool[e0 + j]) + 2.0 * omega * sg
+                d = L * (qd0 + j)
+                V.store(q_gen, d, V.load(q_gen, d) - s)
+        if kind == KIND_TRANSLATING:
+            # Schur complement of [[m P P^T, B], [B^T, I]]: s'' = S^-1 (f_s - B f_q)
+            s0 = m0
+            b0 = m0 + ntr * ntr
+            for a in range(ntr):
+                r = V.load(q_gen, L * (dof0 + a))
+                for j in range(nm):
+                    r = r - fpool[b0 + a * nm + j] * V.load(q_gen, L * (qd0 + j))
+                V.store(scratch, L * (S_SCHUR + a), r)  # ntr <= 3
+            for a in range(ntr):
+                s = V.splat(0.0)
+                for a2 in range(ntr):
+                    rhs_a2 = V.load(scratch, L * (S_SCHUR + a2))
+                    s = V.fma(V.broadcast(fpool, s0 + a * ntr + a2), rhs_a2, s)
+                V.store(dx, L * (ndof + dof0 + a), s)
+            for j in range(nm):
+                r = V.load(q_gen, L * (qd0 + j))
+                for a in range(ntr):
+                    r = r - fpool[b0 + a * nm + j] * V.load(dx, L * (ndof + dof0 + a))
+                V.store(dx, L * (ndof + qd0 + j), r)
+        else:
+            for j in range(nm):
+                V.store(dx, L * (ndof + qd0 + j), V.load(q_gen, L * (qd0 + j)))
+
+
+@nb.njit(cache=True)
+def rhs_sample(t, x, p, sysdata, work):
+    """Time derivative ``(2n,)`` of one sample's state ``x (2n,)`` with parameter row
+    ``p (slots,)``, on the calling thread: all four lanes repeat the sample.
+
+    For callers that evaluate one state at a time (SciPy's integrators); a
+    batch of states goes through :func:`rhs_batch`.
+    """
+    nstate = x.shape[0]
+    xl = np.empty(nstate * L)
+    dxl = np.empty(nstate * L)
+    pl = np.empty(p.shape[0] * L)
+    for lane in range(L):
+        for i in range(nstate):
+            xl[L * i + lane] = x[i]
+        for i in range(p.shape[0]):
+            pl[L * i + lane] = p[i]
+    rhs(t, xl, dxl, pl, sysdata, work)
+    dx = np.empty(nstate)
+    for i in range(nstate):
+        dx[i] = dxl[L * i]
+    return dx
+
+
+@nb.njit(cache=True, parallel=True)
+def rhs_batch(sysdata, params, rows, times, states, out):
+    """``out[i] = f(times[i], states[i])`` with parameter row ``params[rows[i]]``.
+
+    ``states``, ``out``: (m, 2n). Four consecutive states with equal times share a
+    block (prange over blocks); a block whose times differ evaluates each state in
+    lanes of its own.
+    """
+    m = states.shape[0]
+    nstate = states.shape[1]
+    nslots = params.shape[1]
+    for block in nb.prange((m + L - 1) // L):
+        first = block * L
+        count = min(L, m - first)
+        same_time = True
+        for lane in range(1, count):
+            same_time = same_time and times[first + lane] == times[first]
+        work = make_work(sysdata)
+        x = np.empty(nstate * L)
+        dx = np.empty(nstate * L)
+        p = np.empty(nslots * L)
+        groups = 1 if same_time else count
+        for g in range(groups):
+            for lane in range(L):
+                # lanes beyond the group's states repeat its last one
+                src = first + (min(lane, count - 1) if same_time else g)
+                for i in range(nstate):
+                    x[L * i + lane] = states[src, i]
+                for i in range(nslots):
+                    p[L * i + lane] = params[rows[src], i]
+            rhs(times[first + (0 if same_time else g)], x, dx, p, sysdata, work)
+            for lane in range(count if same_time else 1):
+                dst = first + (lane if same_time else g)
+                for i in range(nstate):
+                    out[dst, i] = dx[L * i + lane]

@@ -1,0 +1,175 @@
+"""Classic fixed-step RK4 for a batch of samples, four per block in lockstep.
+
+The paper's integrator (dt = 1 us for the brake; stable only for
+``|lambda dt| < 2.785`` on the real axis, docs/theory.md). :func:`rk4` runs
+``prange`` over blocks; each block integrates up to four samples in the lanes
+of one vector (:func:`integrate_block`), padding lanes repeating the block's
+last sample.
+
+A lane whose sample fails (non-finite state, output beyond its bound) is
+flagged and then repeats a healthy lane of its block, so that it neither
+spreads NaN nor pushes the block off the shared master cells; its outputs are
+NaN.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from fuzzymbs.mbs.kernels import simd as V
+from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, OUT_OF_BOUND
+from fuzzymbs.mbs.kernels.rhs import make_work, rhs
+
+L = V.LANES
+
+
+@nb.njit(cache=True)
+def retire_failed(first, count, status, alive, out, x, p):
+    """Flag newly failed lanes (NaN outputs) and let them repeat a healthy lane.
+
+    Returns True when no lane of the block is healthy any more.
+    """
+    healthy = -1
+    for lane in range(count):
+        if alive[lane] and status[first + lane] == OK:
+            healthy = lane
+            break
+    for lane in range(count):
+        if alive[lane] and status[first + lane] != OK:
+            alive[lane] = False
+            out[first + lane, :, :] = np.nan
+    if healthy < 0:
+        return True
+    for lane in range(L):
+        source = lane if lane < count else count - 1  # padding lanes repeat the last sample
+        if not alive[source]:
+            for i in range(x.shape[0] // L):
+                x[L * i + lane] = x[L * i + healthy]
+            for i in range(p.shape[0] // L):
+                p[L * i + lane] = p[L * i + healthy]
+    return False
+
+
+@nb.njit(cache=True, parallel=True)
+def rk4(
+    sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t, per_block
+):
+    """RK4 of a batch of samples in blocks of ``per_block`` (1 to 4) samples, prange over blocks.
+
+    Parameters
+    ----------
+    params : (B, n_slots) parameter rows; x0 : (B, 2n) initial states.
+    out_w : (n_out, 2n) linear output functionals; out : (B, n_out, n_rec) filled in place.
+    bound : (n_out,) an output with |y| > bound stops the sample (status OUT_OF_BOUND).
+    status, fail_t : (B,) per-sample status code and failure time [s] (NaN if ok).
+    per_block : samples per block; 4 fills every lane, 1 gives each sample a block of its
+        own (its lanes repeat it), so that no result depends on another sample.
+    """
+    nsamples = params.shape[0]
+    for block in nb.prange((nsamples + per_block - 1) // per_block):
+        first = block * per_block
+        integrate_block(
+            sysdata,
+            params,
+            x0,
+            t0,
+            dt,
+            n_steps,
+            record_every,
+            out_w,
+            bound,
+            out,
+            status,
+            fail_t,
+            first,
+            min(per_block, nsamples - first),
+        )
+
+
+@nb.njit(cache=True)
+def integrate_block(
+    sysdata,
+    params,
+    x0,
+    t0,
+    dt,
+    n_steps,
+    record_every,
+    out_w,
+    bound,
+    out,
+    status,
+    fail_t,
+    first,
+    count,
+):
+    """RK4 of samples ``first .. first + count - 1`` (count <= 4) in lockstep, on the
+    calling thread; lanes beyond count repeat the last of them."""
+    nslots = params.shape[1]
+    nstate = x0.shape[1]
+    nout = out_w.shape[0]
+    work = make_work(sysdata)
+    p = np.empty(nslots * L)
+    x = np.empty(nstate * L)
+    for lane in range(L):
+        src = first + min(lane, count - 1)
+        for i in range(nslots):
+            p[L * i + lane] = params[src, i]
+        for i in range(nstate):
+            x[L * i + lane] = x0[src, i]
+    k1 = np.empty(nstate * L)
+    k2 = np.empty(nstate * L)
+    k3 = np.empty(nstate * L)
+    k4 = np.empty(nstate * L)
+    xt = np.empty(nstate * L)
+    alive = np.ones(L, dtype=np.bool_)
+    for lane in range(count):
+        status[first + lane] = OK
+        fail_t[first + lane] = np.nan
+    size = nstate * L
+    rec = 0
+    for step in range(n_steps + 1):
+        t = t0 + step * dt
+        if step % record_every == 0:
+            for o in range(nout):
+                y = V.splat(0.0)
+                for i in range(nstate):
+                    w = out_w[o, i]
+                    if w != 0.0:
+                        y = V.fma(V.splat(w), V.load(x, L * i), y)
+                for lane in range(count):
+                    if alive[lane]:
+                        yl = V.get(y, lane)
+                        out[first + lane, o, rec] = yl
+                        if not abs(yl) <= bound[o]:  # also catches NaN
+                            status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
+                            fail_t[first + lane] = t
+            rec += 1
+            if retire_failed(first, count, status, alive, out, x, p):
+                break
+        if step == n_steps:
+            break
+        rhs(t, x, k1, p, sysdata, work)
+        for m in range(size):
+            xt[m] = x[m] + 0.5 * dt * k1[m]
+        rhs(t + 0.5 * dt, xt, k2, p, sysdata, work)
+        for m in range(size):
+            xt[m] = x[m] + 0.5 * dt * k2[m]
+        rhs(t + 0.5 * dt, xt, k3, p, sysdata, work)
+        for m in range(size):
+            xt[m] = x[m] + dt * k3[m]
+        rhs(t + dt, xt, k4, p, sysdata, work)
+        bad = V.splat(0.0)
+        for i in range(nstate):
+            m = L * i
+            increment = V.load(k1, m) + 2.0 * V.load(k2, m) + 2.0 * V.load(k3, m)
+            xi = V.load(x, m) + dt / 6.0 * (increment + V.load(k4, m))
+            V.store(x, m, xi)
+            bad = bad + xi * 0.0  # NaN in a lane with a non-finite entry
+        for lane in range(count):
+            if alive[lane] and not V.get(bad, lane) == 0.0:
+                status[first + lane] = NONFINITE
+                fail_t[first + lane] = t + dt
+        if retire_failed(first, count, status, alive, out, x, p):
+            break
