@@ -13,8 +13,8 @@ from fuzzymbs.errors import (
     UnsupportedOperationError,
 )
 from fuzzymbs.fuzzy import Plan, Trapezoidal, Triangular, plan
+from fuzzymbs.fuzzy.grids import cartesian
 from fuzzymbs.fuzzy.retransform import points_per_parameter
-from fuzzymbs.fuzzy.transform import _cartesian
 from fuzzymbs.study.study import Study
 from fuzzymbs.study.studyfile import load_study_file
 
@@ -64,7 +64,7 @@ def reference_bounds(p):
     lower, upper = [], []
     for j in range(len(p.levels)):
         low, high = p.cut_lower[j], p.cut_upper[j]
-        points = _cartesian([np.linspace(low[i], high[i], 13) for i in range(5)])
+        points = cartesian([np.linspace(low[i], high[i], 13) for i in range(5)])
         values = smooth_nonmonotonic(points)
         found = []
         for sign in (1.0, -1.0):

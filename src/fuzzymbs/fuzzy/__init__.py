@@ -6,7 +6,7 @@ The engine never imports a model: a model is any callable
 
 from fuzzymbs.fuzzy.influence import Influence
 from fuzzymbs.fuzzy.numbers import FuzzyNumber, Gaussian, PiecewiseLinear, Trapezoidal, Triangular
-from fuzzymbs.fuzzy.retransform import FuzzyResult
+from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning
 from fuzzymbs.fuzzy.screening import (
     Screening,
     ScreeningWarning,
@@ -14,7 +14,7 @@ from fuzzymbs.fuzzy.screening import (
     screening_samples,
 )
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid, sparse_grid
-from fuzzymbs.fuzzy.transform import METHODS, NonMonotonicWarning, Plan, plan
+from fuzzymbs.fuzzy.transform import METHODS, Plan, plan
 
 __all__ = [
     "METHODS",

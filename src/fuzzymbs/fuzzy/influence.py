@@ -24,18 +24,15 @@ gets a time-resolved influence.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError, UnsupportedOperationError
-
-if TYPE_CHECKING:  # pragma: no cover
-    import xarray
-
-    from fuzzymbs.fuzzy.transform import Plan
+from fuzzymbs.fuzzy.bookkeeping import PlanBookkeeping
+from fuzzymbs.fuzzy.labels import DatasetExport, DatasetParts
+from fuzzymbs.fuzzy.numbers import real_array
 
 __all__ = ["Influence", "compute_influence", "level_weights"]
 
@@ -57,13 +54,11 @@ def level_weights(weights: str | ArrayLike, levels: NDArray[np.float64]) -> NDAr
             f"weights must be 'membership', 'uniform' or an array of {len(levels)} values, "
             f"got {weights!r}"
         )
-    try:
-        values = np.array(weights, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(
-            f"weights must be 'membership', 'uniform' or an array of {len(levels)} numbers, "
-            f"got {weights!r}"
-        ) from None
+    values = real_array(
+        weights,
+        f"weights must be 'membership', 'uniform' or an array of {len(levels)} numbers",
+        InvalidParameterError,
+    )
     if values.shape != (len(levels),):
         raise InvalidParameterError(
             f"weights must have one value per level ({len(levels)}), got shape {values.shape}"
@@ -75,7 +70,7 @@ def level_weights(weights: str | ArrayLike, levels: NDArray[np.float64]) -> NDAr
     return values
 
 
-class Influence:
+class Influence(DatasetExport):
     """Gain factors and influence measures of every parameter on one output.
 
     Attributes
@@ -95,6 +90,13 @@ class Influence:
         kappa_i [output unit].
     relative : ndarray (n, ...)
         rho_i [-], sums to 1 over the parameters (all 0 where every kappa is 0).
+
+    Notes
+    -----
+    :meth:`to_xarray` gives ``{name}_gain`` over ("parameter", "level", *dims),
+    ``{name}_mean_gain``, ``{name}_absolute_influence`` and
+    ``{name}_relative_influence`` over ("parameter", *dims) and
+    ``{name}_level_weight`` over ("level",).
     """
 
     def __init__(
@@ -120,41 +122,28 @@ class Influence:
             array.setflags(write=False)
 
     def __repr__(self) -> str:
-        return f"Influence(names={list(self.names)}, shape={self.mean_gain.shape[1:]})"
+        return f"Influence(names={list(self.names)}, shape={self.shape})"
 
-    def to_xarray(
-        self,
-        name: str = "output",
-        dims: Sequence[str] | None = None,
-        coords: Mapping[str, ArrayLike] | None = None,
-    ) -> xarray.Dataset:
-        """Dataset of the measures over ("parameter", ["level",] *dims).
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Shape of the output's own axes (without the parameter axis)."""
+        return self.mean_gain.shape[1:]
 
-        Variables ``{name}_gain`` (with "level"), ``{name}_mean_gain``,
-        ``{name}_absolute_influence`` and ``{name}_relative_influence``.
-        """
-        import xarray
-
-        from fuzzymbs.fuzzy.retransform import _checked_coords, _trailing_dims
-
-        shape = self.mean_gain.shape[1:]
-        dims = _trailing_dims(name, shape, dims)
-        coordinates: dict[str, Any] = {"parameter": list(self.names), "level": self.levels}
-        coordinates.update(_checked_coords(coords, dims, shape))
-        return xarray.Dataset(
-            {
-                f"{name}_gain": (("parameter", "level", *dims), self.gain),
-                f"{name}_mean_gain": (("parameter", *dims), self.mean_gain),
-                f"{name}_absolute_influence": (("parameter", *dims), self.absolute),
-                f"{name}_relative_influence": (("parameter", *dims), self.relative),
-                f"{name}_level_weight": (("level",), self.weights),
-            },
-            coords=coordinates,
-        )
+    def dataset_parts(self, name: str, dims: list[str]) -> DatasetParts:
+        """The measures and level weights as Dataset variables (see the Notes)."""
+        variables = {
+            f"{name}_gain": (("parameter", "level", *dims), self.gain),
+            f"{name}_mean_gain": (("parameter", *dims), self.mean_gain),
+            f"{name}_absolute_influence": (("parameter", *dims), self.absolute),
+            f"{name}_relative_influence": (("parameter", *dims), self.relative),
+            f"{name}_level_weight": (("level",), self.weights),
+        }
+        coordinates = {"parameter": list(self.names), "level": self.levels}
+        return DatasetParts(variables, coordinates, {})
 
 
 def compute_influence(
-    plan: Plan,
+    plan: PlanBookkeeping,
     outputs: NDArray[np.float64],
     failed: NDArray[np.bool_] | None,
     weights: str | ArrayLike = "membership",

@@ -13,13 +13,16 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
+from functools import partial
+from numbers import Real
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fuzzymbs.errors import InvalidFuzzyNumberError
+from fuzzymbs.errors import InvalidFuzzyNumberError, UnsupportedOperationError
+from fuzzymbs.fuzzy import intervals
 
 __all__ = [
     "FuzzyNumber",
@@ -28,6 +31,8 @@ __all__ = [
     "Trapezoidal",
     "Triangular",
     "check_level",
+    "levelwise",
+    "real_array",
 ]
 
 
@@ -48,6 +53,25 @@ def check_level(mu: Any, what: str = "membership level mu") -> float:
     if not (0.0 <= value <= 1.0):  # also rejects NaN
         raise InvalidFuzzyNumberError(f"{what} must lie in [0, 1], got {mu!r}")
     return value
+
+
+def real_array(values: Any, requirement: str, error: type[Exception]) -> NDArray[np.float64]:
+    """``values`` as a new float array.
+
+    Parameters
+    ----------
+    values : array_like
+        What the caller was given.
+    requirement : str
+        What ``values`` must be, phrased for the error message (e.g. "levels must be
+        a list of numbers"); the message appends ``", got <values>"``.
+    error : type of Exception
+        Raised (from None) if ``values`` does not convert to floats.
+    """
+    try:
+        return np.array(values, dtype=float)
+    except (TypeError, ValueError):
+        raise error(f"{requirement}, got {values!r}") from None
 
 
 def _finite(name: str, value: Any, owner: str) -> float:
@@ -189,56 +213,36 @@ class FuzzyNumber(ABC):
         values = ", ".join(f"{k}={v!r}" for k, v in self.to_dict().items() if k != "type")
         return f"{type(self).__name__}({values})"
 
-    # standard (level-wise interval) fuzzy arithmetic, see fuzzymbs.fuzzy.arithmetic
+    # standard fuzzy arithmetic: interval arithmetic on the cuts (fuzzymbs.fuzzy.intervals)
     def __add__(self, other: Any) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.add(self, other)
+        return levelwise(intervals.add, self, other)
 
     def __radd__(self, other: Any) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.add(other, self)
+        return levelwise(intervals.add, other, self)
 
     def __sub__(self, other: Any) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.subtract(self, other)
+        return levelwise(intervals.subtract, self, other)
 
     def __rsub__(self, other: Any) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.subtract(other, self)
+        return levelwise(intervals.subtract, other, self)
 
     def __mul__(self, other: Any) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.multiply(self, other)
+        return levelwise(intervals.multiply, self, other)
 
     def __rmul__(self, other: Any) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.multiply(other, self)
+        return levelwise(intervals.multiply, other, self)
 
     def __truediv__(self, other: Any) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.divide(self, other)
+        return levelwise(intervals.divide, self, other, roles=DIVISION_ROLES)
 
     def __rtruediv__(self, other: Any) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.divide(other, self)
+        return levelwise(intervals.divide, other, self, roles=DIVISION_ROLES)
 
     def __pow__(self, exponent: Any) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.power(self, exponent)
+        return levelwise(partial(intervals.power, exponent=exponent), self, roles=("base",))
 
     def __neg__(self) -> FuzzyNumber:
-        from fuzzymbs.fuzzy import arithmetic
-
-        return arithmetic.negate(self)
+        return levelwise(intervals.negate, self)
 
 
 class Triangular(FuzzyNumber):
@@ -445,12 +449,11 @@ class PiecewiseLinear(FuzzyNumber):
         owner = "PiecewiseLinear"
         arrays = {}
         for name, values in (("levels", levels), ("lower", lower), ("upper", upper)):
-            try:
-                array = np.array(values, dtype=float)
-            except (TypeError, ValueError):
-                raise InvalidFuzzyNumberError(
-                    f"{owner}: {name} must be a sequence of real numbers, got {values!r}"
-                ) from None
+            array = real_array(
+                values,
+                f"{owner}: {name} must be a sequence of real numbers",
+                InvalidFuzzyNumberError,
+            )
             if array.ndim != 1 or array.size < 2:
                 raise InvalidFuzzyNumberError(
                     f"{owner}: {name} must be one-dimensional with at least 2 entries "
@@ -513,3 +516,68 @@ class PiecewiseLinear(FuzzyNumber):
             "lower": self.lower.tolist(),
             "upper": self.upper.tolist(),
         }
+
+
+# ------------------------------------------------------------ standard arithmetic
+
+#: roles of the operands of a division, as error messages name them
+DIVISION_ROLES = ("left operand", "divisor")
+
+
+def _result_levels(operands: Sequence[Any]) -> NDArray[np.float64]:
+    levels = [intervals.ARITHMETIC_LEVELS]
+    levels += [x.levels for x in operands if isinstance(x, PiecewiseLinear)]
+    return np.unique(np.concatenate(levels))
+
+
+def _operand_bounds(operand: Any, levels: NDArray[np.float64], role: str) -> intervals.Bounds:
+    """(lower, upper) arrays of an operand at ``levels``; a real scalar is a crisp number."""
+    if isinstance(operand, FuzzyNumber):
+        cuts = operand.cuts(levels)
+        return cuts[:, 0], cuts[:, 1]
+    if isinstance(operand, Real) and not isinstance(operand, bool):
+        value = float(operand)
+        if not math.isfinite(value):
+            raise InvalidFuzzyNumberError(f"{role} must be finite, got {operand!r}")
+        return np.full(len(levels), value), np.full(len(levels), value)
+    raise UnsupportedOperationError(
+        f"{role} must be a FuzzyNumber or a real number, got {type(operand).__name__}"
+    )
+
+
+def levelwise(
+    operation: Callable[..., intervals.Bounds],
+    *operands: Any,
+    roles: Sequence[str] | None = None,
+) -> PiecewiseLinear:
+    """Standard fuzzy arithmetic: an interval operation applied to the cuts, level by level.
+
+    Parameters
+    ----------
+    operation : callable
+        ``operation(bounds, ...) -> (lower, upper)`` taking one ``(lower, upper)``
+        pair of arrays per operand (see :mod:`fuzzymbs.fuzzy.intervals`).
+    *operands : FuzzyNumber or real
+        The operands, treated as independent; a finite real number is crisp.
+    roles : sequence of str, optional
+        What error messages call each operand; default ``("operand",)`` for one
+        operand and ``("left operand", "right operand")`` for two.
+
+    Returns
+    -------
+    PiecewiseLinear
+        The result at :data:`~fuzzymbs.fuzzy.intervals.ARITHMETIC_LEVELS` plus the
+        levels of every piecewise-linear operand: exact there, linear in mu between.
+
+    Raises
+    ------
+    UnsupportedOperationError
+        For an operand that is neither a fuzzy number nor a real number.
+    InvalidFuzzyNumberError
+        For a non-finite real operand or a non-finite result.
+    """
+    if roles is None:
+        roles = ("operand",) if len(operands) == 1 else ("left operand", "right operand")
+    levels = _result_levels(operands)
+    bounds = [_operand_bounds(x, levels, role) for x, role in zip(operands, roles, strict=True)]
+    return PiecewiseLinear(levels, *intervals.nested(*operation(*bounds)))

@@ -19,8 +19,7 @@ extrema between grid points are found up to the grid spacing.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,19 +30,25 @@ from fuzzymbs.errors import (
     ModelOutputError,
     UnsupportedOperationError,
 )
+from fuzzymbs.fuzzy.bookkeeping import PlanBookkeeping
+from fuzzymbs.fuzzy.grids import cartesian, unique_rows
+from fuzzymbs.fuzzy.influence import Influence, compute_influence
+from fuzzymbs.fuzzy.labels import DatasetExport, DatasetParts
 from fuzzymbs.fuzzy.numbers import check_level
-from fuzzymbs.fuzzy.transform import NonMonotonicWarning, _cartesian, _unique_rows
-
-if TYPE_CHECKING:  # pragma: no cover
-    import xarray
-
-    from fuzzymbs.fuzzy.influence import Influence
-    from fuzzymbs.fuzzy.transform import Plan
+from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
 __all__ = ["FuzzyResult", "NonMonotonicWarning", "cut_index", "retransform"]
 
 #: relative tolerance of the monotonicity guard (round-off must not warn)
 MONOTONIC_RTOL = 1e-9
+
+
+class NonMonotonicWarning(UserWarning):
+    """A reduced/extended plan saw an output outside the range of a level's own points.
+
+    The model is then not monotonic in the parameters treated as monotonic, and
+    the bounds of that level are (probably) too narrow.
+    """
 
 
 def cut_index(levels: NDArray[np.float64], mu: float) -> int:
@@ -64,7 +69,7 @@ def cut_index(levels: NDArray[np.float64], mu: float) -> int:
     return min(index, len(levels) - 1)
 
 
-class FuzzyResult:
+class FuzzyResult(DatasetExport):
     """Fuzzy output: nested alpha-cut bounds at the plan's membership levels.
 
     Parameters
@@ -85,6 +90,13 @@ class FuzzyResult:
     ----------
     levels, lower, upper, complete, nominal, method
         As above; arrays are read-only.
+
+    Notes
+    -----
+    :meth:`to_xarray` gives ``{name}_lower`` and ``{name}_upper`` over
+    ("level", *dims), ``{name}_complete`` over ("level",) and, if known,
+    ``{name}_nominal`` over dims; the coordinate "level" holds mu and the
+    attribute ``{name}_method`` the scheme.
     """
 
     def __init__(
@@ -96,7 +108,7 @@ class FuzzyResult:
         nominal: ArrayLike | None = None,
         method: str | None = None,
         *,
-        _plan: Plan | None = None,
+        _plan: PlanBookkeeping | None = None,
         _outputs: NDArray | None = None,
         _failed: NDArray[np.bool_] | None = None,
     ) -> None:
@@ -163,8 +175,6 @@ class FuzzyResult:
         UnsupportedOperationError
             For general and grid plans, or a result not built from a plan.
         """
-        from fuzzymbs.fuzzy.influence import compute_influence
-
         if self._plan is None or self._outputs is None:
             raise UnsupportedOperationError(
                 "influence needs the plan and the sample outputs; this FuzzyResult was built "
@@ -172,31 +182,8 @@ class FuzzyResult:
             )
         return compute_influence(self._plan, self._outputs, self._failed, weights)
 
-    def to_xarray(
-        self,
-        name: str = "output",
-        dims: Sequence[str] | None = None,
-        coords: Mapping[str, ArrayLike] | None = None,
-    ) -> xarray.Dataset:
-        """Dataset with ``{name}_lower``, ``{name}_upper`` over ("level", *dims).
-
-        Also holds ``{name}_complete`` (level,) and, if known, ``{name}_nominal``
-        over ``dims``. The coordinate "level" holds mu.
-
-        Parameters
-        ----------
-        name : str
-            Prefix of the variable names.
-        dims : sequence of str, optional
-            Names of the output's trailing axes (default ``{name}_dim0``, ...).
-        coords : mapping, optional
-            Coordinate values for those dims (e.g. ``{"time": t}``).
-        """
-        import xarray
-
-        dims = _trailing_dims(name, self.shape, dims)
-        coordinates: dict[str, Any] = {"level": self.levels}
-        coordinates.update(_checked_coords(coords, dims, self.shape))
+    def dataset_parts(self, name: str, dims: list[str]) -> DatasetParts:
+        """Bounds, completeness and nominal output as Dataset variables (see the Notes)."""
         variables: dict[str, Any] = {
             f"{name}_lower": (("level", *dims), self.lower),
             f"{name}_upper": (("level", *dims), self.upper),
@@ -204,42 +191,12 @@ class FuzzyResult:
         }
         if self.nominal is not None:
             variables[f"{name}_nominal"] = (tuple(dims), self.nominal)
-        dataset = xarray.Dataset(variables, coords=coordinates)
-        if self.method is not None:
-            dataset.attrs[f"{name}_method"] = self.method
-        return dataset
-
-
-def _trailing_dims(name: str, shape: tuple[int, ...], dims: Sequence[str] | None) -> list[str]:
-    if dims is None:
-        return [f"{name}_dim{k}" for k in range(len(shape))]
-    dims = list(dims)
-    if len(dims) != len(shape):
-        raise UnsupportedOperationError(
-            f"dims {dims} must name each of the {len(shape)} trailing axes of shape {shape}"
-        )
-    return dims
-
-
-def _checked_coords(
-    coords: Mapping[str, ArrayLike] | None, dims: Sequence[str], shape: tuple[int, ...]
-) -> dict[str, NDArray]:
-    result: dict[str, NDArray] = {}
-    for key, values in (coords or {}).items():
-        if key not in dims:
-            raise UnsupportedOperationError(f"coordinate {key!r} is not one of the dims {dims}")
-        array = np.asarray(values)
-        size = shape[list(dims).index(key)]
-        if array.shape != (size,):
-            raise UnsupportedOperationError(
-                f"coordinate {key!r} must have shape ({size},), got {array.shape}"
-            )
-        result[key] = array
-    return result
+        attrs = {} if self.method is None else {f"{name}_method": self.method}
+        return DatasetParts(variables, {"level": self.levels}, attrs)
 
 
 def _checked_outputs(
-    plan: Plan, outputs: ArrayLike, failed: NDArray[np.bool_], name: str
+    plan: PlanBookkeeping, outputs: ArrayLike, failed: NDArray[np.bool_], name: str
 ) -> NDArray:
     values = np.asarray(outputs)
     if values.ndim == 0 or values.shape[0] != len(plan):
@@ -262,7 +219,7 @@ def _checked_outputs(
 
 
 def retransform(
-    plan: Plan,
+    plan: PlanBookkeeping,
     outputs: ArrayLike,
     failed: ArrayLike | None = None,
     *,
@@ -352,7 +309,7 @@ def points_per_parameter(search_points: int, count_parameters: int) -> int:
     return max(3, k)
 
 
-def _sparse_own_bounds(plan: Plan, values: NDArray) -> tuple[NDArray, NDArray]:
+def _sparse_own_bounds(plan: PlanBookkeeping, values: NDArray) -> tuple[NDArray, NDArray]:
     """Per-level min/max (L, E) of a sparse plan's candidates (see the module docstring)."""
     count_levels, count_parameters = plan.cut_lower.shape
     flat = values.reshape(len(plan), -1)
@@ -372,9 +329,9 @@ def _sparse_own_bounds(plan: Plan, values: NDArray) -> tuple[NDArray, NDArray]:
         axes = [
             np.unique(np.linspace(low[i], high[i], per_parameter)) for i in range(count_parameters)
         ]
-        points = _cartesian(axes)
+        points = cartesian(axes)
         # grid points that are samples keep their model output (already counted)
-        _, inverse = _unique_rows(np.concatenate((plan.samples, points), axis=0))
+        _, inverse = unique_rows(np.concatenate((plan.samples, points), axis=0))
         points = points[inverse[len(plan) :] >= len(plan)]
         unit = plan.to_unit_cube(points)
         pieces = []
@@ -401,7 +358,7 @@ _REFINE_STARTS = 3
 
 
 def _local_search(
-    grid: Any,
+    grid: SparseGrid,
     node_values: NDArray[np.float64],
     starts: NDArray[np.float64],
     box: list[tuple[float, float]],
@@ -436,7 +393,9 @@ def _expand(mask: NDArray[np.bool_], values: NDArray) -> NDArray[np.bool_]:
     return mask.reshape((-1,) + (1,) * (values.ndim - 1))
 
 
-def _monotonicity_guard(plan: Plan, values: NDArray, touched: NDArray[np.bool_], name: str) -> None:
+def _monotonicity_guard(
+    plan: PlanBookkeeping, values: NDArray, touched: NDArray[np.bool_], name: str
+) -> None:
     """Warn if a point inside a level's box gave an output beyond what monotonicity allows.
 
     Reduced scheme: the points of the levels above j (and the nominal point)
@@ -451,7 +410,7 @@ def _monotonicity_guard(plan: Plan, values: NDArray, touched: NDArray[np.bool_],
     flat = values.reshape(count, -1)
     columns = [plan.names.index(parameter) for parameter in plan.nonmonotonic]
     if columns:
-        _, group = _unique_rows(plan.samples[:, columns])
+        _, group = unique_rows(plan.samples[:, columns])
     else:
         group = np.zeros(count, dtype=np.intp)
     group_count = int(group.max()) + 1

@@ -46,6 +46,7 @@ __all__ = [
     "DEFAULT_RTOL",
     "Screening",
     "ScreeningWarning",
+    "check_tolerance",
     "nonmonotonic_parameters",
     "screening_samples",
 ]
@@ -159,12 +160,30 @@ def _checked_outputs(
     return checked
 
 
-def _check_tolerance(name: str, value: Any) -> float:
+def check_tolerance(name: str, value: Any) -> float:
+    """``value`` as a float after checking it is a finite number >= 0.
+
+    Parameters
+    ----------
+    name : str
+        What the value is (e.g. ``"rtol"``), for the error message.
+    value : int or float
+        A relative tolerance [-].
+
+    Raises
+    ------
+    InvalidPlanError
+        For a bool, a non-number, NaN, inf or a negative value.
+    """
     if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
         raise InvalidPlanError(f"{name} must be a number >= 0, got {value!r}")
     if not math.isfinite(float(value)) or value < 0:
         raise InvalidPlanError(f"{name} must be a finite number >= 0, got {value!r}")
     return float(value)
+
+
+# old private name, kept until fuzzymbs.study.study imports check_tolerance
+_check_tolerance = check_tolerance
 
 
 def nonmonotonic_parameters(
@@ -223,8 +242,8 @@ def nonmonotonic_parameters(
     InvalidPlanError
         A bad tolerance or ``failed`` mask.
     """
-    rtol = _check_tolerance("rtol", rtol)
-    roundoff = _check_tolerance("roundoff", roundoff)
+    rtol = check_tolerance("rtol", rtol)
+    roundoff = check_tolerance("roundoff", roundoff)
     values = _checked_outputs(screening, outputs)
     count = len(screening.samples)
     if failed is None:

@@ -41,14 +41,17 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidPlanError, ModelOutputError, UnsupportedOperationError
-from fuzzymbs.fuzzy.numbers import FuzzyNumber
+from fuzzymbs.fuzzy.grids import cartesian, unique_rows
+from fuzzymbs.fuzzy.numbers import FuzzyNumber, real_array
+from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning, retransform
+from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
 __all__ = ["METHODS", "NonMonotonicWarning", "Plan", "make_levels", "plan"]
 
@@ -59,14 +62,6 @@ METHODS: tuple[str, ...] = ("general", "reduced", "extended", "grid", "sparse")
 DEFAULT_SPARSE_LEVEL = 3
 #: default number of search points per cut box of a sparse plan (at least 3^n are used)
 DEFAULT_SEARCH_POINTS = 20_000
-
-
-class NonMonotonicWarning(UserWarning):
-    """A reduced/extended plan saw an output outside the range of a level's own points.
-
-    The model is then not monotonic in the parameters treated as monotonic, and
-    the bounds of that level are (probably) too narrow.
-    """
 
 
 def make_levels(levels: int | ArrayLike) -> NDArray[np.float64]:
@@ -89,12 +84,9 @@ def make_levels(levels: int | ArrayLike) -> NDArray[np.float64]:
         if levels < 1:
             raise InvalidPlanError(f"levels must be an int >= 1 (number of steps), got {levels!r}")
         return np.arange(int(levels) + 1, dtype=float) / int(levels)
-    try:
-        mus = np.array(levels, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidPlanError(
-            f"levels must be an int >= 1 or a list of numbers from 0 to 1, got {levels!r}"
-        ) from None
+    mus = real_array(
+        levels, "levels must be an int >= 1 or a list of numbers from 0 to 1", InvalidPlanError
+    )
     if mus.ndim == 0:
         raise InvalidPlanError(
             f"levels must be an int >= 1 (number of steps) or a list from 0 to 1, got "
@@ -112,37 +104,6 @@ def make_levels(levels: int | ArrayLike) -> NDArray[np.float64]:
             f"levels must increase strictly from 0 to 1 (e.g. [0, 0.5, 1]), got {levels!r}"
         )
     return mus
-
-
-def _cartesian(values: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
-    """All combinations of per-parameter values, shape (prod len, n), last parameter fastest."""
-    grids = np.meshgrid(*values, indexing="ij")
-    return np.stack([grid.reshape(-1) for grid in grids], axis=1)
-
-
-def _unique_rows(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
-    """Unique rows by exact float equality, kept in order of first appearance.
-
-    Returns ``(unique, inverse)`` with ``unique[inverse] == points``. Unlike
-    ``np.unique(axis=0)`` this compares values, not bytes, so -0.0 == 0.0.
-    """
-    count = len(points)
-    order = np.lexsort(points.T[::-1])
-    sorted_points = points[order]
-    new_group = np.ones(count, dtype=bool)
-    new_group[1:] = np.any(sorted_points[1:] != sorted_points[:-1], axis=1)
-    group_of_sorted = np.cumsum(new_group) - 1
-    group = np.empty(count, dtype=np.intp)
-    group[order] = group_of_sorted
-    # renumber groups by first appearance in the original order
-    first_position = np.full(group_of_sorted[-1] + 1, count, dtype=np.intp)
-    np.minimum.at(first_position, group, np.arange(count))
-    rank = np.empty_like(first_position)
-    rank[np.argsort(first_position, kind="stable")] = np.arange(len(first_position))
-    inverse = rank[group]
-    unique = np.empty((len(first_position), points.shape[1]))
-    unique[inverse] = points
-    return unique, inverse
 
 
 def _general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]:
@@ -188,7 +149,26 @@ def checked_parameters(parameters: Mapping[str, FuzzyNumber]) -> dict[str, Fuzzy
 class Plan:
     """Sample points of a transformation-method scheme and their level bookkeeping.
 
-    Build with :func:`plan`. Attributes are read-only by convention.
+    ``plan(...)`` is the same as ``Plan(...)``. Attributes are read-only by convention.
+
+    Parameters
+    ----------
+    parameters : mapping of str to FuzzyNumber
+        Fuzzy parameters by name (their order fixes the sample columns).
+    method : {"general", "reduced", "extended", "grid", "sparse"}
+        Sampling scheme (see the module docstring and docs/theory.md).
+    levels : int or array_like
+        ``m`` for mu_j = j/m, or an increasing list from 0 to 1.
+    nonmonotonic : iterable of str, optional
+        Parameters that get interior points (``"extended"`` only).
+    sparse_level : int, optional
+        ``"sparse"`` only: Smolyak level ``q - n >= 1`` of the sparse grid
+        (default 3; the interpolant reproduces polynomials of total degree <=
+        sparse_level).
+    search_points : int, optional
+        ``"sparse"`` only: points of the tensor search grid per cut box,
+        ``k = floor(search_points^(1/n))`` per parameter (default
+        ``max(20000, 3^n)``; at least ``3^n``).
 
     Attributes
     ----------
@@ -209,6 +189,20 @@ class Plan:
         Unique sample points; row 0 is the all-modal (nominal) point.
     cut_lower, cut_upper : ndarray, shape (L, n)
         Alpha-cut bounds of every parameter at every level.
+
+    Raises
+    ------
+    InvalidPlanError
+        Unknown method, bad levels, unknown or misplaced nonmonotonic names,
+        sparse options that are invalid or given with another method,
+        parameters that are not fuzzy numbers.
+
+    Examples
+    --------
+    >>> from fuzzymbs.fuzzy.numbers import Triangular
+    >>> p = plan({"k": Triangular(1, 2, 3), "c": Triangular(4, 5, 6), "m": Triangular(7, 8, 9)})
+    >>> len(p)
+    33
     """
 
     def __init__(
@@ -287,12 +281,12 @@ class Plan:
             return
         count_levels = len(self.levels)
         modal_point = np.array([[number.modal for number in self.parameters.values()]])
-        level_points = [_cartesian(values) for values in self._level_values()]
+        level_points = [cartesian(values) for values in self._level_values()]
         # nominal point first, then levels from the core down, so that samples
         # are ordered by first use from the top level
         blocks = [modal_point, *level_points[::-1]]
         sizes = [len(block) for block in blocks]
-        unique, inverse = _unique_rows(np.concatenate(blocks, axis=0))
+        unique, inverse = unique_rows(np.concatenate(blocks, axis=0))
         self.samples: NDArray[np.float64] = unique
         self.samples.setflags(write=False)
         offsets = np.cumsum([0, *sizes])
@@ -303,7 +297,7 @@ class Plan:
         self._level_index[-1] = np.concatenate((self._level_index[-1], [nominal]))
         self._nominal_index = nominal
         # runs if every level were evaluated on its own (repeats inside a level merged)
-        self._points_without_reuse = sum(len(_unique_rows(points)[0]) for points in level_points)
+        self._points_without_reuse = sum(len(unique_rows(points)[0]) for points in level_points)
         usage = np.zeros((count_levels, len(unique)), dtype=bool)
         for j, index in enumerate(self._level_index):
             usage[j, index] = True
@@ -314,14 +308,12 @@ class Plan:
 
     def _build_sparse(self) -> None:
         """Modal point first, then the sparse-grid nodes mapped to the support box."""
-        from fuzzymbs.fuzzy.sparse_grid import SparseGrid
-
         assert self.sparse_level is not None  # set by _sparse_options for "sparse"
         count_levels, count_parameters = self.cut_lower.shape
         self._sparse_grid = SparseGrid(count_parameters, self.sparse_level)
         modal_point = np.array([[number.modal for number in self.parameters.values()]])
         nodes = self.to_parameter_space(self._sparse_grid.nodes)
-        unique, inverse = _unique_rows(np.concatenate((modal_point, nodes), axis=0))
+        unique, inverse = unique_rows(np.concatenate((modal_point, nodes), axis=0))
         self.samples = unique
         self.samples.setflags(write=False)
         self._nominal_index = int(inverse[0])
@@ -357,7 +349,7 @@ class Plan:
         return np.clip(unit, 0.0, 1.0)
 
     @property
-    def sparse_grid(self) -> Any:
+    def sparse_grid(self) -> SparseGrid:
         """The :class:`~fuzzymbs.fuzzy.sparse_grid.SparseGrid` of a sparse plan (unit cube)."""
         self._require_sparse("sparse_grid")
         return self._sparse_grid
@@ -430,7 +422,7 @@ class Plan:
     def _locate(self, points: NDArray[np.float64]) -> NDArray[np.intp]:
         """Sample index of each row of ``points`` (which must be samples, exactly)."""
         combined = np.concatenate((self.samples, points), axis=0)
-        unique, inverse = _unique_rows(combined)
+        unique, inverse = unique_rows(combined)
         if len(unique) != len(self.samples):  # pragma: no cover - internal consistency
             raise RuntimeError("corner point missing from the sample table")
         return inverse[len(self.samples) :]
@@ -549,7 +541,7 @@ class Plan:
         *,
         name: str = "output",
         check_monotonic: bool = True,
-    ) -> Any:
+    ) -> FuzzyResult | dict[str, FuzzyResult]:
         """Fuzzy outputs from model outputs at the samples.
 
         Parameters
@@ -569,8 +561,6 @@ class Plan:
         -------
         FuzzyResult or dict of str to FuzzyResult
         """
-        from fuzzymbs.fuzzy.retransform import retransform
-
         if isinstance(outputs, Mapping):
             return {
                 key: retransform(self, value, failed, name=key, check_monotonic=check_monotonic)
@@ -704,59 +694,5 @@ def _sparse_options(
     return int(sparse_level), int(search_points)
 
 
-def plan(
-    parameters: Mapping[str, FuzzyNumber],
-    method: str = "reduced",
-    levels: int | ArrayLike = 4,
-    nonmonotonic: Iterable[str] | None = None,
-    *,
-    sparse_level: int | None = None,
-    search_points: int | None = None,
-) -> Plan:
-    """Build a transformation-method sampling plan.
-
-    Parameters
-    ----------
-    parameters : mapping of str to FuzzyNumber
-        Fuzzy parameters by name (their order fixes the sample columns).
-    method : {"general", "reduced", "extended", "grid", "sparse"}
-        Sampling scheme (see the module docstring and docs/theory.md).
-    levels : int or array_like
-        ``m`` for mu_j = j/m, or an increasing list from 0 to 1.
-    nonmonotonic : iterable of str, optional
-        Parameters that get interior points (``"extended"`` only).
-    sparse_level : int, optional
-        ``"sparse"`` only: Smolyak level ``q - n >= 1`` of the sparse grid
-        (default 3; the interpolant reproduces polynomials of total degree <=
-        sparse_level).
-    search_points : int, optional
-        ``"sparse"`` only: points of the tensor search grid per cut box,
-        ``k = floor(search_points^(1/n))`` per parameter (default
-        ``max(20000, 3^n)``; at least ``3^n``).
-
-    Returns
-    -------
-    Plan
-
-    Raises
-    ------
-    InvalidPlanError
-        Unknown method, bad levels, unknown or misplaced nonmonotonic names,
-        sparse options that are invalid or given with another method,
-        parameters that are not fuzzy numbers.
-
-    Examples
-    --------
-    >>> from fuzzymbs.fuzzy.numbers import Triangular
-    >>> p = plan({"k": Triangular(1, 2, 3), "c": Triangular(4, 5, 6), "m": Triangular(7, 8, 9)})
-    >>> len(p)
-    33
-    """
-    return Plan(
-        parameters,
-        method=method,
-        levels=levels,
-        nonmonotonic=nonmonotonic,
-        sparse_level=sparse_level,
-        search_points=search_points,
-    )
+#: build a sampling plan: ``plan(...)`` is ``Plan(...)``, one signature documented on :class:`Plan`
+plan = Plan

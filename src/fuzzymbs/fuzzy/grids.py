@@ -1,0 +1,68 @@
+"""Sets of sample points: full factorial grids and exact de-duplication.
+
+Plans build their sample tables with these, and retransformation uses the same
+functions for its search grids, so a point reached twice is recognised as one
+(exact floating-point equality).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["cartesian", "unique_rows"]
+
+
+def cartesian(values: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """All combinations of per-parameter values.
+
+    Parameters
+    ----------
+    values : sequence of ndarray
+        ``values[i]``: the values of parameter i, shape ``(k_i,)``.
+
+    Returns
+    -------
+    ndarray, shape (prod k_i, n)
+        One row per combination, the last parameter varying fastest.
+    """
+    grids = np.meshgrid(*values, indexing="ij")
+    return np.stack([grid.reshape(-1) for grid in grids], axis=1)
+
+
+def unique_rows(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Unique rows by exact float equality, kept in order of first appearance.
+
+    Unlike ``np.unique(axis=0)`` this compares values, not bytes, so -0.0 == 0.0.
+
+    Parameters
+    ----------
+    points : ndarray, shape (P, n)
+        Points, one per row.
+
+    Returns
+    -------
+    unique : ndarray, shape (U, n)
+        The distinct rows, in the order in which they first occur in ``points``.
+    inverse : ndarray of intp, shape (P,)
+        Row of ``unique`` for every row of ``points``: ``unique[inverse] == points``.
+    """
+    count = len(points)
+    order = np.lexsort(points.T[::-1])
+    sorted_points = points[order]
+    new_group = np.ones(count, dtype=bool)
+    new_group[1:] = np.any(sorted_points[1:] != sorted_points[:-1], axis=1)
+    group_of_sorted = np.cumsum(new_group) - 1
+    group = np.empty(count, dtype=np.intp)
+    group[order] = group_of_sorted
+    # renumber groups by first appearance in the original order
+    first_position = np.full(group_of_sorted[-1] + 1, count, dtype=np.intp)
+    np.minimum.at(first_position, group, np.arange(count))
+    rank = np.empty_like(first_position)
+    rank[np.argsort(first_position, kind="stable")] = np.arange(len(first_position))
+    inverse = rank[group]
+    unique = np.empty((len(first_position), points.shape[1]))
+    unique[inverse] = points
+    return unique, inverse
