@@ -21,14 +21,12 @@ import tempfile
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
+from fuzzymbs.fe.reducible import ReducibleBody
 from fuzzymbs.mbs.modal_body import ModalBody
-
-if TYPE_CHECKING:
-    from fuzzymbs.fe.elastic_body import ElasticBody
 
 __all__ = ["cache_dir", "clear", "load", "reduction_key", "store"]
 
@@ -76,7 +74,7 @@ def _update(digest: Any, value: Any) -> None:
         digest.update(json.dumps(value).encode())
 
 
-def reduction_key(body: ElasticBody, options: Mapping[str, Any]) -> str:
+def reduction_key(body: ReducibleBody, options: Mapping[str, Any]) -> str:
     """SHA-256 key of a reduction: mesh, material, clamping and options."""
     digest = hashlib.sha256()
     _update(

@@ -30,7 +30,8 @@ from skfem import (
 from skfem.models.elasticity import lame_parameters
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.fe.meshes import _span, mesh_nodes
+from fuzzymbs.fe.meshes import mesh_nodes, span_text
+from fuzzymbs.fe.reduction import modal_truncation, reduce_body, rigid_body_basis
 from fuzzymbs.fe.surfaces import boundary_nodes
 from fuzzymbs.mbs.modal_body import ModalBody
 
@@ -175,7 +176,7 @@ class ElasticBody:
                 name = getattr(spec, "__qualname__", None) or repr(spec)
                 raise InvalidParameterError(
                     f"node predicate {name} selects no node of the mesh (it spans "
-                    f"{_span(self.nodes.T)}); check its coordinates, units [m] and tolerances"
+                    f"{span_text(self.nodes.T)}); check its coordinates, units [m] and tolerances"
                 )
             return np.flatnonzero(mask).astype(np.int64)
         nodes = np.asarray(spec).reshape(-1)
@@ -253,21 +254,22 @@ class ElasticBody:
         self._stiffness = ((stiffness + stiffness.T) * 0.5).tocsr()
         self._mass = ((mass + mass.T) * 0.5).tocsr()
 
+    def _assembled(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """(K, M), assembled on first use."""
+        if self._stiffness is None or self._mass is None:
+            self._assemble()
+        assert self._stiffness is not None and self._mass is not None
+        return self._stiffness, self._mass
+
     @property
     def stiffness(self) -> sp.csr_matrix:
         """Stiffness matrix K (3n x 3n) [N/m], without boundary conditions."""
-        if self._stiffness is None:
-            self._assemble()
-        assert self._stiffness is not None
-        return self._stiffness
+        return self._assembled()[0]
 
     @property
     def mass_matrix(self) -> sp.csr_matrix:
         """Consistent mass matrix M (3n x 3n) [kg], without boundary conditions."""
-        if self._mass is None:
-            self._assemble()
-        assert self._mass is not None
-        return self._mass
+        return self._assembled()[1]
 
     @property
     def is_assembled(self) -> bool:
@@ -282,8 +284,6 @@ class ElasticBody:
         Rotations are about the axes through the centre of mass, and the six
         columns are mass-orthonormalised (``R^T M R = I``).
         """
-        from fuzzymbs.fe.reduction import rigid_body_basis
-
         return rigid_body_basis(self.nodes, self.mass_matrix)
 
     def natural_frequencies(self, n: int, include_rigid: bool = False) -> NDArray[np.float64]:
@@ -297,8 +297,6 @@ class ElasticBody:
             For a free-free body, whether to return the six (near-)zero
             rigid-body frequencies too (default: elastic frequencies only).
         """
-        from fuzzymbs.fe.reduction import modal_truncation
-
         result = modal_truncation(
             self, n, rigid_body_modes="include" if include_rigid else "exclude"
         )
@@ -336,8 +334,6 @@ class ElasticBody:
     def reduce(self, n_modes: int, **options: Any) -> ModalBody:
         """Modally reduce this body; see :func:`fuzzymbs.fe.reduction.reduce_body`."""
         import inspect
-
-        from fuzzymbs.fe.reduction import reduce_body
 
         allowed = list(inspect.signature(reduce_body).parameters)[2:]
         unknown = sorted(set(options) - set(allowed))

@@ -34,6 +34,7 @@ __all__ = [
     "bridge_mesh",
     "mesh_nodes",
     "read_mesh",
+    "span_text",
     "transform_mesh",
     "with_named_boundaries",
 ]
@@ -76,8 +77,19 @@ def _order(order: int) -> int:
 # --------------------------------------------------------------------------- boundaries
 
 
-def _span(x: NDArray[np.float64]) -> str:
-    """Bounding box of coordinates x (3, k) as text, e.g. "x [0, 0.06], y [...], z [...] m"."""
+def span_text(x: NDArray[np.float64]) -> str:
+    """Bounding box of points as text for error messages.
+
+    Parameters
+    ----------
+    x : ndarray, shape (3, k)
+        Coordinates [m] of k points.
+
+    Returns
+    -------
+    str
+        E.g. ``"x [0, 0.06], y [0, 0.02], z [0, 0.01] m"``.
+    """
     bounds = zip("xyz", x.min(axis=1), x.max(axis=1), strict=True)
     return ", ".join(f"{axis} [{low:.6g}, {high:.6g}]" for axis, low, high in bounds) + " m"
 
@@ -108,14 +120,14 @@ def _facets_where(mesh: Mesh, name: str, test: CoordinateTest) -> NDArray[np.int
         passing = np.unique(vertices.ravel()[inside])
         found = (
             f"{passing.size} of the {candidates.size} boundary vertices pass (spanning "
-            f"{_span(mesh.p[:, passing])}), but no boundary facet has all its vertices "
+            f"{span_text(mesh.p[:, passing])}), but no boundary facet has all its vertices "
             "passing; a facet belongs to the boundary only when every vertex passes"
             if passing.size
             else f"it rejects all {candidates.size} boundary vertices"
         )
         raise InvalidParameterError(
             f"boundary {name!r} (test {label}) selects no boundary facet: {found}. The "
-            f"boundary vertices span {_span(mesh.p[:, candidates])}; check the test's "
+            f"boundary vertices span {span_text(mesh.p[:, candidates])}; check the test's "
             "coordinates, units [m] and tolerance (relative, e.g. r <= a (1 + 1e-9) on "
             "curved surfaces)."
         )

@@ -31,7 +31,7 @@ import contextlib
 import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any, Literal, ParamSpec, TypeVar
+from typing import Any, Literal, ParamSpec, TypeVar
 
 import numpy as np
 import scipy.linalg as la
@@ -40,12 +40,11 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.sparse.linalg import LinearOperator, eigsh, splu
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.fe import cache as fe_cache
 from fuzzymbs.fe.inertia import cross_axis, inertia_integrals
+from fuzzymbs.fe.reducible import ReducibleBody
 from fuzzymbs.fe.surfaces import boundary_faces
 from fuzzymbs.mbs.modal_body import ModalBody
-
-if TYPE_CHECKING:
-    from fuzzymbs.fe.elastic_body import ElasticBody
 
 __all__ = [
     "DEFAULT_SHIFT",
@@ -262,14 +261,14 @@ def _split_rigid(
     return is_rigid, _angular(values[is_rigid])
 
 
-def _expand(body: ElasticBody, free_vectors: NDArray[np.float64]) -> NDArray[np.float64]:
+def _expand(body: ReducibleBody, free_vectors: NDArray[np.float64]) -> NDArray[np.float64]:
     full = np.zeros((body.n_dofs, free_vectors.shape[1]))
     full[body.free_dofs] = free_vectors
     return full
 
 
 def _interface_dofs(
-    body: ElasticBody, interface_nodes: NDArray[np.int64], components: Sequence[int]
+    body: ReducibleBody, interface_nodes: NDArray[np.int64], components: Sequence[int]
 ) -> NDArray[np.int64]:
     components = sorted({int(c) for c in components})
     if not components or not set(components) <= {0, 1, 2}:
@@ -288,7 +287,7 @@ def _interface_dofs(
 
 
 def _finish(
-    body: ElasticBody,
+    body: ReducibleBody,
     basis: NDArray[np.float64],
     method: str,
     rigid_body_modes: RigidOption,
@@ -354,7 +353,7 @@ def _check_options(n_modes: int, rigid_body_modes: str, max_frequency: float | N
 
 @_blas_pinned
 def modal_truncation(
-    body: ElasticBody,
+    body: ReducibleBody,
     n_modes: int,
     rigid_body_modes: RigidOption = "exclude",
     max_frequency: float | None = None,
@@ -410,7 +409,7 @@ def modal_truncation(
 
 @_blas_pinned
 def static_correction(
-    body: ElasticBody,
+    body: ReducibleBody,
     n_modes: int,
     interface_nodes: NDArray[np.int64],
     interface_components: Sequence[int] = (0, 1, 2),
@@ -451,7 +450,7 @@ def static_correction(
 
 @_blas_pinned
 def craig_bampton(
-    body: ElasticBody,
+    body: ReducibleBody,
     n_modes: int,
     interface_nodes: NDArray[np.int64],
     interface_components: Sequence[int] = (0, 1, 2),
@@ -528,7 +527,7 @@ NodeSpec = str | Callable[[NDArray[np.float64]], NDArray[np.bool_]] | ArrayLike
 
 @_blas_pinned
 def reduce_body(
-    body: ElasticBody,
+    body: ReducibleBody,
     n_modes: int,
     method: str = "modal",
     interface: NodeSpec | None = None,
@@ -579,8 +578,6 @@ def reduce_body(
     ModalBody
         Node sets and face sets index into the kept nodes.
     """
-    from fuzzymbs.fe import cache as fe_cache
-
     if method not in METHODS:
         raise InvalidParameterError(f"method must be one of {METHODS}, got {method!r}")
     _check_options(n_modes, rigid_body_modes, max_frequency)
@@ -643,7 +640,7 @@ def reduce_body(
 
 
 def assemble_modal_body(
-    body: ElasticBody,
+    body: ReducibleBody,
     basis: ReducedBasis,
     node_sets: Mapping[str, NDArray[np.int64]],
     face_sets: Mapping[str, NDArray[np.int64]],

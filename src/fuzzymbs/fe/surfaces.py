@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from skfem import Mesh
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.fe.meshes import _span
+from fuzzymbs.fe.meshes import span_text
 
 __all__ = [
     "boundary_faces",
@@ -55,11 +55,11 @@ def _no_match(
     """
     nodes = np.unique(candidates)
     passing = np.unique(candidates[keep])
-    where = f"boundary {boundary!r} (nodes span {_span(mesh.doflocs[:, nodes])})"
+    where = f"boundary {boundary!r} (nodes span {span_text(mesh.doflocs[:, nodes])})"
     if passing.size:  # faces only: some nodes pass, but no face has all of them
         reason = (
             f"{passing.size} of its {nodes.size} nodes pass (spanning "
-            f"{_span(mesh.doflocs[:, passing])}), but no face has all its nodes passing; "
+            f"{span_text(mesh.doflocs[:, passing])}), but no face has all its nodes passing; "
             "a face is selected only when every one of its nodes passes"
         )
     else:
@@ -72,13 +72,13 @@ def _no_match(
             elsewhere = np.flatnonzero(everywhere)
             reason += (
                 f"; it accepts {elsewhere.size} nodes elsewhere in the mesh "
-                f"({_span(mesh.doflocs[:, elsewhere])}), so check the boundary name"
+                f"({span_text(mesh.doflocs[:, elsewhere])}), so check the boundary name"
                 if elsewhere.size
                 else "; it accepts no node of the mesh at all"
             )
     return InvalidParameterError(
         f"predicate {_predicate_label(predicate)} selects no {selecting} on {where}: {reason}. "
-        f"The mesh spans {_span(mesh.doflocs)}; check the predicate's coordinates, units [m] "
+        f"The mesh spans {span_text(mesh.doflocs)}; check the predicate's coordinates, units [m] "
         "and tolerances."
     )
 
@@ -93,7 +93,7 @@ def _boundary_facets(mesh: Mesh, boundary: str) -> NDArray[np.int64]:
     if facets.size == 0:
         raise InvalidParameterError(
             f"boundary {boundary!r} of this mesh holds no facet (the mesh spans "
-            f"{_span(mesh.doflocs)}); define it with with_named_boundaries or use another "
+            f"{span_text(mesh.doflocs)}); define it with with_named_boundaries or use another "
             f"of {sorted(name for name, f in boundaries.items() if np.size(f))}"
         )
     return facets
