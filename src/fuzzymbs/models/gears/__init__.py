@@ -13,7 +13,7 @@ from typing import Any
 from fuzzymbs.models.gears.geometry import GearPair, SpurGear
 from fuzzymbs.models.gears.identification import identify
 from fuzzymbs.models.gears.iso6336 import iso_mean_ste, iso_pair_stiffness, iso_tooth_stiffness
-from fuzzymbs.models.gears.muboco import MubocoPR
+from fuzzymbs.models.gears.model import MubocoPR
 from fuzzymbs.study.registry import ParameterInfo, register_model
 
 __all__ = [

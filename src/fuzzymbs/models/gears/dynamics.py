@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numba
 import numpy as np
@@ -43,12 +43,12 @@ from fuzzymbs.models.gears.flank_contact import (
     RB2,
     THETA_REF1,
     contact_force,
+    pack_geometry,
     pair_contact,
 )
 from fuzzymbs.models.gears.geometry import GearPair
-
-if TYPE_CHECKING:
-    from fuzzymbs.models.gears.muboco import MubocoPR
+from fuzzymbs.models.gears.identification import hinge_lever_arm
+from fuzzymbs.models.gears.muboco import solve_static_batch
 
 STATUS_DIVERGED = 3
 
@@ -146,10 +146,53 @@ class DynamicPlan:
     speed: float  # pinion rad/s
 
 
-def make_plan(model: MubocoPR) -> DynamicPlan:
-    """Time step, inertias and torque history for a dynamic model."""
-    from fuzzymbs.models.gears.identification import hinge_lever_arm
+class DynamicModel(Protocol):
+    """What the dynamic mode reads from its gear-pair model.
 
+    :class:`~fuzzymbs.models.gears.model.MubocoPR` meets it; stating it here lets
+    the model call :func:`make_plan` and :func:`simulate` without this module
+    importing the model's.
+
+    Attributes
+    ----------
+    pair : GearPair
+        The gears.
+    torque : float
+        Design pinion torque T1 [N m].
+    contact_exponent : float
+        m1 of the penalty law.
+    damping : float
+        Contact damping c [N s^m2 / m^(m2+m3)].
+    damping_exponents : (float, float)
+        (m2, m3) of the damping term.
+    defaults : dict of str to float
+        Stiffness values used when a sample does not carry them (``tooth_stiffness``
+        [N m/rad], ``contact_stiffness`` [N/m^m1], optionally per gear).
+    pairs : ndarray of int
+        Tooth-pair indices of one mesh period.
+    dynamic : DynamicSettings
+        Settings of the dynamic mode.
+    dynamic_plan : DynamicPlan
+        The result of :func:`make_plan` (read by :func:`simulate`).
+    """
+
+    pair: GearPair
+    torque: float
+    contact_exponent: float
+    damping: float
+    damping_exponents: tuple[float, float]
+    defaults: dict[str, float]
+    pairs: np.ndarray
+    dynamic: DynamicSettings
+    dynamic_plan: DynamicPlan
+
+    def stiffness_columns(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """Per-sample torque, contact stiffness and both tooth stiffnesses, defaults filled."""
+        ...
+
+
+def make_plan(model: DynamicModel) -> DynamicPlan:
+    """Time step, inertias and torque history for a dynamic model."""
     settings: DynamicSettings = model.dynamic
     pair = model.pair
     _, jh1 = pair.pinion.tooth_mass_properties
@@ -222,8 +265,6 @@ def _derivatives(state, torque_in, torque_load, g, pairs, z1, z2, p, out):
     b2 = 4 + z1
     r1 = 4 + z1 + z2
     r2 = 4 + 2 * z1 + z2
-    rigid1 = not math.isfinite(kt1)
-    rigid2 = not math.isfinite(kt2)
     hinge1 = np.zeros(z1)
     hinge2 = np.zeros(z2)
     moment1 = torque_in
@@ -257,34 +298,38 @@ def _derivatives(state, torque_in, torque_load, g, pairs, z1, z2, p, out):
         moment2 += (qx - g[CENTER]) * fy - qy * fx
         hinge1[i1] -= (qx - h1x) * fy - (qy - h1y) * fx
         hinge2[i2] += (qx - h2x) * fy - (qy - h2y) * fx
-    # reduced foundation equation: (J - z J_h) theta'' = T + sum m_c - sum R_i
-    sum1 = 0.0
-    sum2 = 0.0
-    if not rigid1:
-        for i in range(z1):
-            hinge1[i] += -kt1 * state[b1 + i] - ct1 * state[r1 + i]
-            sum1 += hinge1[i]
-        acc1 = (moment1 - sum1) / (inertia1 - z1 * jh1)
-    else:
-        acc1 = moment1 / inertia1
-    if not rigid2:
-        for i in range(z2):
-            hinge2[i] += -kt2 * state[b2 + i] - ct2 * state[r2 + i]
-            sum2 += hinge2[i]
-        acc2 = (moment2 - sum2) / (inertia2 - z2 * jh2)
-    else:
-        acc2 = moment2 / inertia2
+    acc1 = _gear_rates(state, hinge1, moment1, b1, r1, z1, kt1, ct1, inertia1, jh1, out)
+    acc2 = _gear_rates(state, hinge2, moment2, b2, r2, z2, kt2, ct2, inertia2, jh2, out)
     out[0] = omega1
     out[1] = omega2
     out[2] = acc1
     out[3] = acc2
-    for i in range(z1):
-        out[b1 + i] = 0.0 if rigid1 else state[r1 + i]
-        out[r1 + i] = 0.0 if rigid1 else hinge1[i] / jh1 - acc1
-    for i in range(z2):
-        out[b2 + i] = 0.0 if rigid2 else state[r2 + i]
-        out[r2 + i] = 0.0 if rigid2 else hinge2[i] / jh2 - acc2
     return math.isfinite(acc1) and math.isfinite(acc2)
+
+
+@numba.njit(cache=True)
+def _gear_rates(state, hinge, moment, angles, rates, teeth, kt, ct, inertia, jh, out):
+    """Foundation acceleration theta'' [rad/s^2] of one gear; writes its hinge rows of ``out``.
+
+    ``hinge[i]``: contact moment about tooth i's hinge [N m] (the spring and damper
+    are added here); ``moment``: torque plus contact moments about the centre [N m];
+    ``angles``, ``rates``: first state index of the gear's hinge angles and rates.
+    Reduced foundation equation: (J - z J_h) theta'' = T + sum m_c - sum R_i; a rigid
+    tooth (kt = inf) does not move relative to its gear.
+    """
+    rigid = not math.isfinite(kt)
+    if not rigid:
+        total = 0.0
+        for i in range(teeth):
+            hinge[i] += -kt * state[angles + i] - ct * state[rates + i]
+            total += hinge[i]
+        acceleration = (moment - total) / (inertia - teeth * jh)
+    else:
+        acceleration = moment / inertia
+    for i in range(teeth):
+        out[angles + i] = 0.0 if rigid else state[rates + i]
+        out[rates + i] = 0.0 if rigid else hinge[i] / jh - acceleration
+    return acceleration
 
 
 @numba.njit(cache=True, parallel=True)
@@ -356,11 +401,8 @@ def harmonic_amplitudes(signal: np.ndarray, periods: int, harmonics: int) -> np.
     return 2.0 * np.abs(spectrum[..., bins]) / signal.shape[-1]
 
 
-def simulate(model: MubocoPR, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
+def simulate(model: DynamicModel, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
     """Dynamic transmission error of a batch of samples (the model's dynamic mode)."""
-    from fuzzymbs.models.gears.flank_contact import pack_geometry
-    from fuzzymbs.models.gears.muboco import solve_static_batch
-
     plan: DynamicPlan = model.dynamic_plan
     settings: DynamicSettings = model.dynamic
     pair = model.pair

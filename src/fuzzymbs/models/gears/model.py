@@ -1,0 +1,336 @@
+"""The batched MUBOCO-PR gear-pair model: samples of stiffness and torque in, STE or DTE out.
+
+``MubocoPR(pair, ...)`` meets the study-model interface (``model(samples)`` on a
+whole batch). Its static mode solves the quasi-static transmission error with
+the compiled solver of :mod:`fuzzymbs.models.gears.muboco`; its dynamic mode
+integrates the gear pair in time (:mod:`fuzzymbs.models.gears.dynamics`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.models.gears.dynamics import DynamicSettings, make_plan, simulate
+from fuzzymbs.models.gears.flank_contact import pack_geometry
+from fuzzymbs.models.gears.geometry import GearPair
+from fuzzymbs.models.gears.identification import identify
+from fuzzymbs.models.gears.muboco import STATUS_OK, STATUS_TEXT, pair_indices, solve_static_batch
+from fuzzymbs.models.gears.potential_energy import reference_ste
+
+__all__ = ["SAMPLE_PARAMETERS", "MubocoPR"]
+
+#: Model parameters a sample may carry (anything else is rejected).
+SAMPLE_PARAMETERS = (
+    "tooth_stiffness",
+    "pinion_tooth_stiffness",
+    "wheel_tooth_stiffness",
+    "contact_stiffness",
+    "torque",
+)
+
+
+#: Columns whose registered default is NaN, "not set": an all-NaN column means "use the fallback".
+UNSET_BY_NAN = ("pinion_tooth_stiffness", "wheel_tooth_stiffness", "torque")
+#: Columns that may be +inf (a rigid tooth).
+MAY_BE_INFINITE = ("tooth_stiffness", "pinion_tooth_stiffness", "wheel_tooth_stiffness")
+
+
+def _column(samples: Mapping[str, Any], name: str, size: int | None) -> np.ndarray | None:
+    if name not in samples or samples[name] is None:
+        return None
+    values = np.asarray(samples[name], dtype=float)
+    if values.ndim == 0:
+        values = np.full(1 if size is None else size, float(values))
+    if values.ndim != 1:
+        raise InvalidParameterError(f"sample column {name!r} must be 1-D (B,), got {values.shape}")
+    if name in UNSET_BY_NAN and np.isnan(values).all():
+        return None
+    allowed = np.isfinite(values) | (np.isposinf(values) if name in MAY_BE_INFINITE else False)
+    if not np.all(allowed & (values > 0.0)):
+        bad = values[~(allowed & (values > 0.0))]
+        valid = (
+            "positive (inf allowed: a rigid tooth)"
+            if name in MAY_BE_INFINITE
+            else ("positive and finite")
+        )
+        if name in UNSET_BY_NAN:
+            valid += "; all NaN means not set"
+        raise InvalidParameterError(f"{name} must be {valid}, got {bad[:3]!r}")
+    return values
+
+
+def _positions(positions: int | Sequence[float] | np.ndarray) -> np.ndarray:
+    if np.ndim(positions) == 0:
+        count = int(positions)
+        if count < 2 or count != positions:
+            raise InvalidParameterError(f"positions must be an integer >= 2, got {positions!r}")
+        return np.arange(count) / count
+    values = np.asarray(positions, dtype=float)
+    if values.ndim != 1 or values.size < 1:
+        raise InvalidParameterError("positions must be a count or a 1-D array of fractions")
+    if not np.all(np.isfinite(values)) or np.any(values < 0) or np.any(values >= 1):
+        raise InvalidParameterError("positions must lie in [0, 1) (fractions of the mesh period)")
+    if np.any(np.diff(values) <= 0):
+        raise InvalidParameterError("positions must be strictly increasing")
+    return values
+
+
+class MubocoPR:
+    """Batched MUBOCO-PR gear-pair model.
+
+    Parameters
+    ----------
+    pair : GearPair
+        The gears.
+    torque : float
+        Pinion (drive) torque T1 [N m] used when a sample carries no ``torque``.
+    positions : int or array
+        Number of equally spaced mesh positions over one mesh period, or the
+        positions themselves as fractions of the mesh period in [0, 1).
+    mode : {"static", "dynamic"}
+        Quasi-static STE, or time integration (see
+        :class:`fuzzymbs.models.gears.dynamics.DynamicSettings`).
+    contact_exponent : float
+        m1 of the penalty law (1 = linear; 10/9, 1.5 common).
+    damping : float
+        Contact damping c [N s^m2 / m^(m2+m3)] (dynamic mode only).
+    damping_exponents : (float, float)
+        (m2, m3) of the damping term; default (1, 0): viscous while in contact,
+        c in N s/m. (1, m1) is the Hunt-Crossley form (c then in N s/m^(1+m1)).
+    tooth_stiffness, contact_stiffness : float, optional
+        Values used when a sample does not carry them; default the identified
+        modal values (:func:`fuzzymbs.models.gears.identification.identify`).
+    dynamic : DynamicSettings or mapping, optional
+        Settings of the dynamic mode.
+    reference : bool
+        Compute the potential-energy reference STE (``model.reference``).
+
+    Notes
+    -----
+    ``model(samples)`` takes ``{"tooth_stiffness": (B,), "contact_stiffness": (B,),
+    "torque": (B,)}``; ``pinion_tooth_stiffness`` / ``wheel_tooth_stiffness``
+    override ``tooth_stiffness`` for one gear. Returns ``{"ste": (B, P)}`` [m]
+    (dynamic mode: ``{"dte": (B, N), "dte_spectrum": (B, H)}``) plus ``failed``
+    and ``failure_reason`` (B,).
+    """
+
+    def __init__(
+        self,
+        pair: GearPair,
+        torque: float = 100.0,
+        positions: int | Sequence[float] | np.ndarray = 60,
+        mode: str = "static",
+        contact_exponent: float = 1.0,
+        damping: float = 0.0,
+        damping_exponents: tuple[float, float] | None = None,
+        tooth_stiffness: float | None = None,
+        contact_stiffness: float | None = None,
+        pinion_tooth_stiffness: float | None = None,
+        wheel_tooth_stiffness: float | None = None,
+        dynamic: Any = None,
+        reference: bool = True,
+    ) -> None:
+        if not isinstance(pair, GearPair):
+            raise InvalidParameterError("pair must be a GearPair")
+        if mode not in ("static", "dynamic"):
+            raise InvalidParameterError(f"mode must be 'static' or 'dynamic', got {mode!r}")
+        try:
+            torque = float(torque)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(f"torque must be a number [N m], got {torque!r}") from None
+        if not math.isfinite(torque) or torque <= 0.0:
+            raise InvalidParameterError(f"torque must be a positive pinion torque, got {torque!r}")
+        m1 = float(contact_exponent)
+        if not 1.0 <= m1 <= 3.0:
+            raise InvalidParameterError(f"contact_exponent must be in [1, 3], got {m1!r}")
+        if not math.isfinite(damping) or damping < 0.0:
+            raise InvalidParameterError(f"damping must be >= 0, got {damping!r}")
+        m2, m3 = (1.0, 0.0) if damping_exponents is None else map(float, damping_exponents)
+        if m2 < 0 or m3 < 0:
+            raise InvalidParameterError(f"damping_exponents must be >= 0, got {(m2, m3)!r}")
+        self.pair = pair
+        self.mode = mode
+        self.torque = torque
+        self.contact_exponent = m1
+        self.damping = float(damping)
+        self.damping_exponents = (m2, m3)
+        self.geometry = pack_geometry(pair)
+        self.pairs = pair_indices(pair)
+        self.identified = identify(pair, torque, contact_exponent=m1)
+        self.defaults = {
+            "tooth_stiffness": self.identified.tooth_stiffness,
+            "contact_stiffness": self.identified.contact_stiffness,
+            "torque": torque,
+        }
+        for name, value in (
+            ("tooth_stiffness", tooth_stiffness),
+            ("contact_stiffness", contact_stiffness),
+            ("pinion_tooth_stiffness", pinion_tooth_stiffness),
+            ("wheel_tooth_stiffness", wheel_tooth_stiffness),
+        ):
+            if value is not None:
+                value = float(value)
+                if not value > 0.0:
+                    raise InvalidParameterError(f"{name} must be positive, got {value!r}")
+                self.defaults[name] = value
+        if mode == "static":
+            self.positions = _positions(positions)
+            self.coords = {"position": self.positions}
+            self.output_dims = {"ste": ("position",)}
+            self.reference = {}
+            if reference:
+                # the PE reference is linear: its contact term is the linear secant
+                # (k_con of a nonlinear law is in N/m^m1 and cannot be used there)
+                linear_contact = (
+                    self.defaults["contact_stiffness"]
+                    if m1 == 1.0
+                    else identify(pair, torque, contact_exponent=1.0).contact_stiffness
+                )
+                self.reference = {
+                    "ste": reference_ste(
+                        pair, torque, self.positions, contact_stiffness=linear_contact
+                    )
+                }
+        else:
+            if dynamic is None:
+                dynamic = DynamicSettings()
+            elif isinstance(dynamic, Mapping):
+                allowed = [f.name for f in dataclasses.fields(DynamicSettings)]
+                unknown = sorted(set(dynamic) - set(allowed))
+                if unknown:
+                    raise InvalidParameterError(
+                        f"unknown dynamic setting(s) {unknown}; settings: {', '.join(allowed)}"
+                    )
+                dynamic = DynamicSettings(**dynamic)
+            self.dynamic = dynamic
+            # the plan holds the torque history as an array: the model stays picklable
+            # even when torque_variation is a lambda (it is dropped after sampling)
+            self.dynamic_plan = make_plan(self)
+            self.dynamic = dataclasses.replace(dynamic, torque_variation=None)
+            self.coords = {"time": dynamic.time_grid(pair)}
+            self.output_dims = {"dte": ("time",), "dte_spectrum": ("harmonic",)}
+            self.coords["harmonic"] = np.arange(1, dynamic.harmonics + 1, dtype=float)
+            self.reference = {}
+
+    def identity(self) -> str:
+        """SHA-256 digest of every setting that changes the outputs (for result stores).
+
+        Two models with equal digests give equal outputs for equal samples, so a
+        study store made with one is valid for the other.
+        """
+        digest = hashlib.sha256()
+        settings = (
+            repr(self.pair),
+            self.mode,
+            self.torque,
+            self.contact_exponent,
+            self.damping,
+            self.damping_exponents,
+            sorted(self.defaults.items()),
+        )
+        digest.update(repr(settings).encode())
+        if self.mode == "static":
+            digest.update(np.ascontiguousarray(self.positions, dtype="<f8").tobytes())
+        else:
+            digest.update(repr(self.dynamic).encode())
+            torque_factor = self.dynamic_plan.torque_factor
+            if torque_factor is not None:
+                digest.update(np.ascontiguousarray(torque_factor, dtype="<f8").tobytes())
+        return digest.hexdigest()
+
+    # ---- sample handling ---------------------------------------------------------------
+    def stiffness_columns(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """Per-sample torque, contact stiffness and both tooth stiffnesses, defaults filled."""
+        unknown = set(samples) - set(SAMPLE_PARAMETERS)
+        if unknown:
+            raise InvalidParameterError(
+                f"unknown gear-pair parameter(s) {sorted(unknown)}; "
+                f"valid: {list(SAMPLE_PARAMETERS)}"
+            )
+        size = None
+        for name in SAMPLE_PARAMETERS:
+            if name in samples and samples[name] is not None and np.ndim(samples[name]) == 1:
+                size = len(samples[name]) if size is None else size
+                if len(samples[name]) != size:
+                    raise InvalidParameterError("all sample columns must have the same length")
+        size = 1 if size is None else size
+
+        def pick(name: str, fallback: np.ndarray | None) -> np.ndarray | None:
+            column = _column(samples, name, size)
+            if column is not None:
+                return column
+            if name in self.defaults:
+                return np.full(size, self.defaults[name])
+            return fallback
+
+        common = pick("tooth_stiffness", None)
+        return {
+            "torque": pick("torque", None),
+            "contact_stiffness": pick("contact_stiffness", None),
+            "pinion_tooth_stiffness": pick("pinion_tooth_stiffness", common),
+            "wheel_tooth_stiffness": pick("wheel_tooth_stiffness", common),
+        }
+
+    # ---- evaluation ----------------------------------------------------------------------
+    def solve(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """Quasi-static solution with the details tests and plots need.
+
+        Returns
+        -------
+        dict
+            ``ste`` (B, P) [m]; ``wheel_torque`` (B, P) [N m], the torque that holds
+            the wheel (T2 > 0); ``pair_force`` (B, P, K) [N]; ``pair_kind`` (B, P, K)
+            (0 none, 1 conjugate, 2 pinion tip corner, 3 wheel tip corner);
+            ``status`` (B,).
+        """
+        cols = self.stiffness_columns(samples)
+        ste, wheel_moment, pair_force, pair_kind, status, _, _ = solve_static_batch(
+            self.geometry,
+            self.positions,
+            self.pairs,
+            cols["torque"],
+            cols["contact_stiffness"],
+            self.contact_exponent,
+            cols["pinion_tooth_stiffness"],
+            cols["wheel_tooth_stiffness"],
+        )
+        return {
+            "ste": ste,
+            "wheel_torque": -wheel_moment,
+            "pair_force": pair_force,
+            "pair_kind": pair_kind,
+            "status": status,
+        }
+
+    def __call__(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """Evaluate a batch of samples (the study-model interface).
+
+        Parameters
+        ----------
+        samples : mapping of str to (B,) array
+            Any of ``tooth_stiffness`` [N m/rad], ``pinion_tooth_stiffness``,
+            ``wheel_tooth_stiffness`` [N m/rad] (inf: rigid teeth),
+            ``contact_stiffness`` [N/m^m1] and ``torque`` [N m]; missing ones take
+            the model's defaults.
+
+        Returns
+        -------
+        dict
+            Static mode: ``ste`` (B, P) [m] over ``coords["position"]``; dynamic mode:
+            ``dte`` (B, N) [m] and ``dte_spectrum`` (B, H) [m]. Both: ``failed`` (B,)
+            bool and ``failure_reason`` (B,) str (non-converged or no contact).
+        """
+        if self.mode == "dynamic":
+            return simulate(self, samples)
+        result = self.solve(samples)
+        status = result["status"]
+        failed = status != STATUS_OK
+        reasons = np.array([STATUS_TEXT.get(int(s), "") for s in status], dtype=str)
+        return {"ste": result["ste"], "failed": failed, "failure_reason": reasons}
