@@ -134,20 +134,13 @@ def simulate(
         o = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec))
         st = np.zeros(sl.stop - sl.start, dtype=np.int64)
         ft = np.full(sl.stop - sl.start, np.nan)
-        # one parallel call per chunk: prange over blocks of samples in lockstep
+        # blocks of samples in lockstep, over threads
         rk4(
             compiled.data,
             np.ascontiguousarray(params[sl]),
             np.ascontiguousarray(x0[sl]),
-            0.0,
-            float(dt),
-            n_steps,
-            every,
-            out_w,
-            bounds,
-            o,
-            st,
-            ft,
+            (0.0, float(dt), int(n_steps), int(every)),
+            (out_w, bounds, o, st, ft),
             samples_per_block(kernel),
         )
         out[sl] = o

@@ -42,6 +42,7 @@ from fuzzymbs.mbs.kernels.layout import (
     S_SIN,
     SCRATCH,
 )
+from fuzzymbs.mbs.kernels.threads import for_each_range
 
 L = V.LANES
 
@@ -247,27 +248,37 @@ def rhs_sample(t, x, p, sysdata, work):
     return dx
 
 
-@nb.njit(cache=True, parallel=True)
-def rhs_batch(sysdata, params, rows, times, states, out):
+def rhs_batch(sysdata, params, rows, times, states, out) -> None:
     """``out[i] = f(times[i], states[i])`` with parameter row ``params[rows[i]]``.
 
     ``states``, ``out``: (m, 2n). Four consecutive states with equal times share a
-    block (prange over blocks); a block whose times differ evaluates each state in
-    lanes of its own.
+    block; a block whose times differ evaluates each state in lanes of its own.
+    The blocks are split into one contiguous range per thread.
     """
+    m = states.shape[0]
+
+    def run(start: int, stop: int) -> None:
+        rhs_blocks(sysdata, params, rows, times, states, out, start, stop)
+
+    for_each_range(-(-m // L), run, tasks=nb.get_num_threads())
+
+
+@nb.njit(cache=True, nogil=True)
+def rhs_blocks(sysdata, params, rows, times, states, out, start, stop):
+    """Blocks ``start .. stop - 1`` of :func:`rhs_batch` on the calling thread."""
     m = states.shape[0]
     nstate = states.shape[1]
     nslots = params.shape[1]
-    for block in nb.prange((m + L - 1) // L):
+    work = make_work(sysdata)
+    x = np.empty(nstate * L)
+    dx = np.empty(nstate * L)
+    p = np.empty(nslots * L)
+    for block in range(start, stop):
         first = block * L
         count = min(L, m - first)
         same_time = True
         for lane in range(1, count):
             same_time = same_time and times[first + lane] == times[first]
-        work = make_work(sysdata)
-        x = np.empty(nstate * L)
-        dx = np.empty(nstate * L)
-        p = np.empty(nslots * L)
         groups = 1 if same_time else count
         for g in range(groups):
             for lane in range(L):

@@ -1,8 +1,8 @@
 """Classic fixed-step RK4 for a batch of samples, four per block in lockstep.
 
 The paper's integrator (dt = 1 us for the brake; stable only for
-``|lambda dt| < 2.785`` on the real axis, docs/theory.md). :func:`rk4` runs
-``prange`` over blocks; each block integrates up to four samples in the lanes
+``|lambda dt| < 2.785`` on the real axis, docs/theory.md). :func:`rk4` hands
+the blocks to threads; each block integrates up to four samples in the lanes
 of one vector (:func:`integrate_block`), padding lanes repeating the block's
 last sample.
 
@@ -20,6 +20,7 @@ import numpy as np
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, OUT_OF_BOUND
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs
+from fuzzymbs.mbs.kernels.threads import for_each_range
 
 L = V.LANES
 
@@ -51,61 +52,39 @@ def retire_failed(first, count, status, alive, out, x, p):
     return False
 
 
-@nb.njit(cache=True, parallel=True)
-def rk4(
-    sysdata, params, x0, t0, dt, n_steps, record_every, out_w, bound, out, status, fail_t, per_block
-):
-    """RK4 of a batch of samples in blocks of ``per_block`` (1 to 4) samples, prange over blocks.
+def rk4(sysdata, params, x0, timing, recording, per_block):
+    """RK4 of a batch of samples in blocks of ``per_block`` (1 to 4), the blocks over threads.
 
     Parameters
     ----------
+    sysdata : the compiled system's data tuple.
     params : (B, n_slots) parameter rows; x0 : (B, 2n) initial states.
-    out_w : (n_out, 2n) linear output functionals; out : (B, n_out, n_rec) filled in place.
-    bound : (n_out,) an output with |y| > bound stops the sample (status OUT_OF_BOUND).
-    status, fail_t : (B,) per-sample status code and failure time [s] (NaN if ok).
+    timing : ``(t0, dt, n_steps, record_every)``: start time and step [s], steps, and
+        every how many steps the outputs are recorded.
+    recording : ``(out_w, bound, out, status, fail_t)``: out_w (n_out, 2n) linear
+        output functionals; bound (n_out,) an output with |y| > bound stops the sample
+        (status OUT_OF_BOUND); out (B, n_out, n_rec), status, fail_t (B,) (per-sample
+        status code, failure time [s] or NaN) are filled in place.
     per_block : samples per block; 4 fills every lane, 1 gives each sample a block of its
         own (its lanes repeat it), so that no result depends on another sample.
     """
     nsamples = params.shape[0]
-    for block in nb.prange((nsamples + per_block - 1) // per_block):
-        first = block * per_block
-        integrate_block(
-            sysdata,
-            params,
-            x0,
-            t0,
-            dt,
-            n_steps,
-            record_every,
-            out_w,
-            bound,
-            out,
-            status,
-            fail_t,
-            first,
-            min(per_block, nsamples - first),
-        )
+
+    def run(start: int, stop: int) -> None:
+        for block in range(start, stop):
+            first = block * per_block
+            count = min(per_block, nsamples - first)
+            integrate_block(sysdata, params, x0, timing, recording, first, count)
+
+    for_each_range(-(-nsamples // per_block), run)
 
 
-@nb.njit(cache=True)
-def integrate_block(
-    sysdata,
-    params,
-    x0,
-    t0,
-    dt,
-    n_steps,
-    record_every,
-    out_w,
-    bound,
-    out,
-    status,
-    fail_t,
-    first,
-    count,
-):
+@nb.njit(cache=True, nogil=True)
+def integrate_block(sysdata, params, x0, timing, recording, first, count):
     """RK4 of samples ``first .. first + count - 1`` (count <= 4) in lockstep, on the
-    calling thread; lanes beyond count repeat the last of them."""
+    calling thread (arguments as :func:`rk4`); lanes beyond count repeat the last of them."""
+    t0, dt, n_steps, record_every = timing
+    out_w, bound, out, status, fail_t = recording
     nslots = params.shape[1]
     nstate = x0.shape[1]
     nout = out_w.shape[0]
