@@ -116,19 +116,20 @@ def frame_matrix(rot_a, b):
     )
 
 
+@nb.njit(cache=True)
+def body_row(bi, b):
+    """Kind, first coordinate, translations, modes, first and end tracked node of body b."""
+    return bi[b, B_KIND], bi[b, B_DOF0], bi[b, B_NTR], bi[b, B_NM], bi[b, B_NODE0], bi[b, B_NODE1]
+
+
 @nb.njit(cache=True, fastmath=V.FAST)
 def node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v):
     """Inertial positions and velocities of the tracked nodes into ``node_x``, ``node_v``
     (tracked 3 L)."""
     for b in range(bi.shape[0]):
-        n0 = bi[b, B_NODE0]
-        n1 = bi[b, B_NODE1]
+        kind, dof0, ntr, nm, n0, n1 = body_row(bi, b)
         if n1 <= n0:
-            continue
-        kind = bi[b, B_KIND]
-        dof0 = bi[b, B_DOF0]
-        ntr = bi[b, B_NTR]
-        nm = bi[b, B_NM]
+            continue  # no tracked nodes
         psit = bi[b, B_PSIT0]
         qd0 = dof0 + ntr
         width = 3 * (n1 - n0)
@@ -247,14 +248,9 @@ def map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
     """
     zero = V.splat(0.0)
     for b in range(bi.shape[0]):
-        n0 = bi[b, B_NODE0]
-        n1 = bi[b, B_NODE1]
+        kind, dof0, ntr, nm, n0, n1 = body_row(bi, b)
         if n1 <= n0:
-            continue
-        kind = bi[b, B_KIND]
-        dof0 = bi[b, B_DOF0]
-        ntr = bi[b, B_NTR]
-        nm = bi[b, B_NM]
+            continue  # no tracked nodes
         qd0 = dof0 + ntr
         loaded = 0
         sum0 = zero

@@ -24,6 +24,7 @@ import numpy as np
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.contact import contact_pass, max_slaves
 from fuzzymbs.mbs.kernels.kinematics import (
+    body_row,
     frame_rotations,
     map_node_forces,
     node_kinematics,
@@ -31,7 +32,6 @@ from fuzzymbs.mbs.kernels.kinematics import (
 )
 from fuzzymbs.mbs.kernels.layout import (
     B_DOF0,
-    B_KIND,
     B_MAT0,
     B_NM,
     B_NTR,
@@ -168,10 +168,7 @@ def rhs(t, x, dx, p, sysdata, work):
 
     # equations of motion body by body
     for b in range(nbody):
-        kind = bi[b, B_KIND]
-        dof0 = bi[b, B_DOF0]
-        ntr = bi[b, B_NTR]
-        nm = bi[b, B_NM]
+        kind, dof0, ntr, nm, _, _ = body_row(bi, b)
         m0 = bi[b, B_MAT0]
         qd0 = dof0 + ntr
         for j in range(nm):
