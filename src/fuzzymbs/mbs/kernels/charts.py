@@ -62,7 +62,7 @@ def atan2(y, x):
     return V.where_eq(den, zero, zero, angle)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def pass_scales(cf, c):
     """``(u_scale, u_uniform, v_scale, v_uniform)`` of contact pass c, for :func:`locate`."""
     return (

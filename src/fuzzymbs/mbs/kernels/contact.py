@@ -67,7 +67,7 @@ def max_slaves(ci):
     return largest
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def cells_per_lane(u_vec, v_vec, ugrid, vgrid, periodic, scales, scratch, cells):
     """Master cell of each lane by the scalar :func:`~fuzzymbs.mbs.kernels.charts.locate`
     (the general path: any grid, lanes in different cells).

@@ -33,7 +33,7 @@ from fuzzymbs.mbs.kernels.layout import (
 L = V.LANES
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def profile_value(fpool, ptab, k, t):
     """Value, integral from t = 0, and slope (right-continuous) of profile k at time t."""
     s = ptab[k, 0]
@@ -46,7 +46,7 @@ def profile_value(fpool, ptab, k, t):
     return value, integral - integral0, slope
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def segment(ts, vs, cs, t):
     m = ts.shape[0]
     if t < ts[0]:
@@ -99,7 +99,7 @@ def frame_rotations(t, p, bi, bf, fpool, ptab, rot, rot_a, rot3):
                         rot_a[L * (9 * b + 3 * r + c) + lane] = rot3[r, c]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def frame_matrix(rot_a, b):
     """The nine entries of body b's rotation matrix A, row by row, as lane vectors."""
     r9 = L * 9 * b
