@@ -182,10 +182,6 @@ def check_tolerance(name: str, value: Any) -> float:
     return float(value)
 
 
-# old private name, kept until fuzzymbs.study.study imports check_tolerance
-_check_tolerance = check_tolerance
-
-
 def nonmonotonic_parameters(
     screening: Screening,
     outputs: Mapping[str, ArrayLike],

@@ -28,7 +28,7 @@ from collections.abc import Mapping
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -43,9 +43,38 @@ from fuzzymbs.study.store import json_safe
 if TYPE_CHECKING:  # pragma: no cover
     import xarray
 
-    from fuzzymbs.study.study import Study
+    from fuzzymbs.fuzzy.transform import Plan
+    from fuzzymbs.study.registry import ParameterInfo
 
 logger = logging.getLogger(__name__)
+
+
+class StudyDescription(Protocol):
+    """What the result dataset records of a study (:class:`~fuzzymbs.study.study.Study` meets it).
+
+    Written out here so that the dataset is built from the study's description
+    without importing the study's module: imports point one way, study -> result.
+    """
+
+    name: str
+    description: str
+    model: Any
+    model_name: str
+    model_options: dict[str, Any]
+    constants: dict[str, float]
+    parameter_info: dict[str, ParameterInfo] | None
+    screening: dict[str, Any] | None
+
+    @property
+    def plan(self) -> Plan: ...
+
+    @property
+    def coords(self) -> dict[str, np.ndarray]: ...
+
+    def output_dims(self, output: str) -> tuple[str, ...]: ...
+
+    def units(self) -> dict[str, str]: ...
+
 
 _VERSIONED = (
     "fuzzymbs",
@@ -88,7 +117,7 @@ def package_versions() -> dict[str, str]:
 
 
 def _output_layout(
-    study: Study, name: str, shape: tuple[int, ...]
+    study: StudyDescription, name: str, shape: tuple[int, ...]
 ) -> tuple[tuple[str, ...], dict[str, np.ndarray]]:
     """Dims and coordinate values of an output's trailing axes."""
     dims = study.output_dims(name)
@@ -151,7 +180,7 @@ def check_output_names(outputs: Mapping[str, Any]) -> None:
 
 
 def build_dataset(
-    study: Study,
+    study: StudyDescription,
     outputs: Mapping[str, np.ndarray],
     failed: np.ndarray,
     reasons: np.ndarray,

@@ -283,3 +283,40 @@ class ChunkStore:
             except ValueError:
                 continue
         return sorted(indices)
+
+
+def open_chunks(
+    store: str | Path | None,
+    identity: dict[str, Any],
+    count: int,
+    size: int,
+    resume: bool,
+    code: dict[str, Any] | None,
+) -> tuple[ChunkStore | None, int, int, dict[int, ChunkResult], list[int], int]:
+    """Open (or skip, without ``store``) the chunk store of a table of ``count`` samples.
+
+    Returns the store (or None), the chunk size in force (a resumed store keeps
+    its own), the chunk count, the chunks already stored, the missing chunk
+    indices and the number of samples reused.
+    """
+    chunk_store = None
+    if store is not None:
+        chunk_store = ChunkStore.open(store, identity, count, size, resume=resume, code=code)
+        size = chunk_store.chunk_size
+    chunk_count = math.ceil(count / size)
+    results = stored_chunks(chunk_store, chunk_count)
+    missing = [i for i in range(chunk_count) if i not in results]
+    reused = sum(results[i].size for i in results)
+    return chunk_store, size, chunk_count, results, missing, reused
+
+
+def stored_chunks(chunk_store: ChunkStore | None, chunk_count: int) -> dict[int, ChunkResult]:
+    """The readable chunks ``0 .. chunk_count - 1`` of a store (none without one)."""
+    results: dict[int, ChunkResult] = {}
+    if chunk_store is not None:
+        for index in chunk_store.finished():
+            if index < chunk_count:
+                stored = chunk_store.read(index)
+                if stored is not None:
+                    results[index] = stored
+    return results

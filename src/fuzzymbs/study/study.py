@@ -10,6 +10,13 @@ With ``method="extended", nonmonotonic="auto"`` the study first evaluates the
 screening of :mod:`fuzzymbs.fuzzy.screening` (every parameter's axis through
 the modal point) with the same model, executor and store, and builds the
 extended plan with the parameters found non-monotonic.
+
+:class:`Study` holds a study's state and runs its steps; each step has a
+module of its own: :mod:`~fuzzymbs.study.planning` (model, parameters,
+outputs, plan), :mod:`~fuzzymbs.study.execution` and
+:mod:`~fuzzymbs.study.evaluation` (chunks on an executor; one chunk on a
+worker), :mod:`~fuzzymbs.study.result` (retransformation into the result
+dataset) and :mod:`~fuzzymbs.study.store` (the chunk store for resume).
 """
 
 from __future__ import annotations
@@ -17,55 +24,49 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import math
 import time
 import warnings
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, wait
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from fuzzymbs.errors import (
     IncompleteResultError,
     InvalidParameterError,
-    InvalidPlanError,
     UnsupportedOperationError,
 )
-from fuzzymbs.study.evaluation import ChunkResult, evaluate_chunk
-from fuzzymbs.study.registry import ModelSpec, ParameterInfo, get_model, load_callable
+from fuzzymbs.fuzzy.screening import nonmonotonic_parameters
+from fuzzymbs.fuzzy.transform import Plan, make_levels
+from fuzzymbs.study.code_version import code_version
+from fuzzymbs.study.evaluation import ChunkResult
+from fuzzymbs.study.execution import (
+    DEFAULT_CHUNK_SIZE,
+    ON_FAILURE,
+    LazyExecutor,
+    assemble_chunks,
+    check_run_settings,
+    evaluate_chunks,
+)
+from fuzzymbs.study.planning import (
+    AUTO,
+    build_plan,
+    checked_outputs,
+    declared_parameters,
+    resolve_model,
+    split_parameters,
+)
+from fuzzymbs.study.registry import ParameterInfo
 from fuzzymbs.study.result import StudyResult, build_dataset, check_output_names
-
-if TYPE_CHECKING:  # pragma: no cover
-    from fuzzymbs.fuzzy.transform import Plan
+from fuzzymbs.study.store import open_chunks
 
 __all__ = ["DEFAULT_CHUNK_SIZE", "ON_FAILURE", "Study", "StudyResult"]
 
 logger = logging.getLogger(__name__)
 
-#: Samples per task unless the study says otherwise (hundreds per task, one model call each).
-DEFAULT_CHUNK_SIZE = 256
-ON_FAILURE = ("raise", "fail-fast", "partial")
-#: ``nonmonotonic`` value asking the study to find the non-monotonic parameters itself
-AUTO = "auto"
 #: sub-folder of a store holding the screening chunks of a ``nonmonotonic="auto"`` study
 SCREENING_FOLDER = "screening"
-
-
-def _model_label(model: Any) -> str:
-    kind = model if hasattr(model, "__qualname__") else type(model)
-    return f"{kind.__module__}.{kind.__qualname__}"
-
-
-def _json_options(options: Mapping[str, Any]) -> dict[str, Any]:
-    try:
-        return json.loads(json.dumps(dict(options), sort_keys=True))
-    except TypeError as exc:
-        raise InvalidParameterError(
-            f"model options must be plain data (numbers, strings, lists, tables): {exc}"
-        ) from None
 
 
 class Study:
@@ -129,134 +130,27 @@ class Study:
         name: str | None = None,
         description: str = "",
     ) -> None:
-        from fuzzymbs.fuzzy.numbers import FuzzyNumber
-        from fuzzymbs.fuzzy.screening import DEFAULT_RTOL, screening_samples
-        from fuzzymbs.fuzzy.transform import plan as make_plan
-        from fuzzymbs.study.parameters import fuzzy_number_from_definition
-
-        self.model_options = _json_options(model_options or {})
-        self.spec: ModelSpec | None = None
-        self._factory: Callable[..., Any] | None = None  # named models: for the source digest
-        if isinstance(model, str):
-            self.model_name = model
-            if ":" in model:
-                factory = load_callable(model)
-            else:
-                self.spec = get_model(model)
-                factory = self.spec.factory
-                unknown = sorted(set(self.model_options) - set(self.spec.options))
-                if unknown:
-                    allowed = ", ".join(self.spec.options) or "(none)"
-                    raise InvalidParameterError(
-                        f"model {model!r} has no option(s) {unknown}; its options: {allowed}"
-                    )
-            self._factory = factory
-            try:
-                self.model = factory(**self.model_options)
-            except TypeError as exc:
-                raise InvalidParameterError(
-                    f"model {model!r} rejected the options {self.model_options}: {exc}"
-                ) from exc
-        elif callable(model):
-            if self.model_options:
-                raise InvalidParameterError(
-                    "model_options only apply to a model given by name or 'package.module:callable'"
-                )
-            self.model = model
-            self.model_name = _model_label(model)
-        else:
-            raise InvalidParameterError(
-                f"model must be a registered name, 'package.module:callable' or a batched "
-                f"callable, got {model!r}"
-            )
-
+        resolved = resolve_model(model, model_options or {})
+        self.model = resolved.model
+        self.model_name = resolved.name
+        self.model_options = resolved.options
+        self.spec = resolved.spec
+        self._factory = resolved.factory  # registered or referenced models: the source digest
         self.parameter_info: dict[str, ParameterInfo] | None = (
-            dict(self.spec.parameters) if self.spec else self._declared_parameters(self.model)
+            dict(self.spec.parameters) if self.spec else declared_parameters(self.model)
         )
-        fuzzy: dict[str, FuzzyNumber] = {}
-        crisp: dict[str, float] = {}
-        for key, value in parameters.items():
-            if isinstance(value, FuzzyNumber):
-                fuzzy[key] = value
-            elif isinstance(value, Mapping):
-                fuzzy[key] = fuzzy_number_from_definition(value, key)
-            elif isinstance(value, int | float | np.number) and not isinstance(value, bool):
-                if not math.isfinite(float(value)):
-                    raise InvalidParameterError(f"crisp parameter {key!r} must be finite")
-                crisp[key] = float(value)
-            else:
-                raise InvalidParameterError(
-                    f"parameter {key!r}: expected a FuzzyNumber, a definition such as "
-                    f'{{"type": "triangular", "modal": 1.0, "spread": 0.1}} or a number, '
-                    f"got {value!r}"
-                )
-        if self.parameter_info is not None:
-            unknown = [key for key in parameters if key not in self.parameter_info]
-            if unknown:
-                valid = ", ".join(f"{n} [{info.unit}]" for n, info in self.parameter_info.items())
-                raise InvalidParameterError(
-                    f"unknown parameter(s) {unknown} for model {self.model_name!r}; "
-                    f"valid parameters: {valid}"
-                )
-            for key, info in self.parameter_info.items():
-                if key in parameters:
-                    continue
-                if info.default is None:
-                    raise InvalidParameterError(
-                        f"parameter {key!r} of model {self.model_name!r} has no default; "
-                        "give it as a fuzzy number or a crisp value"
-                    )
-                crisp[key] = float(info.default)
-        if not fuzzy:
-            raise InvalidParameterError("a study needs at least one fuzzy parameter")
+        fuzzy, crisp = split_parameters(parameters, self.parameter_info, self.model_name)
         self.constants = crisp
         self._fuzzy = fuzzy
         self._levels = levels
         #: the screening report of a ``nonmonotonic="auto"`` study once screened, else None
         self.screening: dict[str, Any] | None = None
         self.auto_nonmonotonic = isinstance(nonmonotonic, str) and nonmonotonic == AUTO
-        self._plan: Plan | None = None
-        if self.auto_nonmonotonic:
-            if method != "extended":
-                raise InvalidPlanError(
-                    f"nonmonotonic={AUTO!r} is only used by method='extended', not {method!r}"
-                )
-            if sparse_level is not None or search_points is not None:
-                raise InvalidPlanError(
-                    "sparse_level and search_points only apply to method='sparse', not 'extended'"
-                )
-            self._screening_samples = screening_samples(fuzzy, levels)
-            self.screening_rtol = DEFAULT_RTOL if screening_rtol is None else screening_rtol
-            _check_rtol(self.screening_rtol)
-        else:
-            self.screening_rtol = None
-            if screening_rtol is not None:
-                raise InvalidPlanError(
-                    f"screening_rtol={screening_rtol!r} is only used with "
-                    f"nonmonotonic={AUTO!r}, not {nonmonotonic!r}"
-                )
-            self._plan = make_plan(
-                fuzzy,
-                method=method,
-                levels=levels,
-                nonmonotonic=nonmonotonic,
-                sparse_level=sparse_level,
-                search_points=search_points,
-            )
-
+        self._plan, self._screening_samples, self.screening_rtol = build_plan(
+            fuzzy, method, levels, nonmonotonic, screening_rtol, sparse_level, search_points
+        )
         known_outputs = self._declared_outputs()
-        if outputs is not None:
-            outputs = [str(o) for o in outputs]
-            if not outputs:
-                raise InvalidParameterError("outputs, when given, must name at least one output")
-            if known_outputs is not None:
-                unknown = [o for o in outputs if o not in known_outputs]
-                if unknown:
-                    raise InvalidParameterError(
-                        f"unknown output(s) {unknown} of model {self.model_name!r}; "
-                        f"outputs: {', '.join(known_outputs)}"
-                    )
-        self.outputs: tuple[str, ...] | None = tuple(outputs) if outputs else None
+        self.outputs = checked_outputs(outputs, known_outputs, self.model_name)
         self.output_names: tuple[str, ...] = self.outputs or tuple(known_outputs or ())
         check_output_names(dict.fromkeys(self.output_names))  # before any evaluation
         self.name = name or (self.model_name.split(":")[-1].split(".")[-1])
@@ -279,15 +173,6 @@ class Study:
         return self._plan
 
     # ----------------------------------------------------------------- helpers
-    @staticmethod
-    def _declared_parameters(model: Any) -> dict[str, ParameterInfo] | None:
-        declared = getattr(model, "parameters", None)
-        if isinstance(declared, Mapping) and all(
-            isinstance(v, ParameterInfo) for v in declared.values()
-        ):
-            return dict(declared)
-        return None
-
     def _declared_outputs(self) -> list[str] | None:
         if self.spec is not None:
             return list(self.spec.outputs)
@@ -354,8 +239,6 @@ class Study:
         return {"screening_fingerprint": digest.hexdigest(), **self._model_identity()}
 
     def _plan_levels(self) -> np.ndarray:
-        from fuzzymbs.fuzzy.transform import make_levels
-
         return make_levels(self._levels)
 
     def code_version(self) -> dict[str, Any]:
@@ -365,8 +248,6 @@ class Study:
         chunks computed by other code (see :mod:`fuzzymbs.study.code_version`;
         the digest is None for models defined outside fuzzymbs).
         """
-        from fuzzymbs.study.code_version import code_version
-
         return code_version(self.model, self._factory)
 
     def columns(self, start: int, stop: int) -> dict[str, np.ndarray]:
@@ -443,17 +324,17 @@ class Study:
             chunks computed by another fuzzymbs version or model source.
         """
 
-        _check_run_settings(on_failure, chunk_size)
+        check_run_settings(on_failure, chunk_size)
         started = time.perf_counter()
         requested_size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
         code = self.code_version()  # recorded by the store and in the provenance
         # one executor for the screening and the plan, started only if something is evaluated
-        work = _LazyExecutor(executor, self._check_picklable)
+        work = LazyExecutor(executor, self._check_picklable)
         try:
             if self._plan is None:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
             count = len(self.plan)
-            chunk_store, size, chunk_count, results, missing, reused = _open_chunks(
+            chunk_store, size, chunk_count, results, missing, reused = open_chunks(
                 store, self.identity(), count, requested_size, resume, code
             )
             logger.info(
@@ -467,8 +348,11 @@ class Study:
             )
             if on_failure == "fail-fast":
                 self._raise_if_failed(results, during=True)
-            evaluated = self._evaluate_chunks(
-                self.plan.samples,
+            evaluated = evaluate_chunks(
+                self.model,
+                self.outputs,
+                self.columns,
+                count,
                 missing,
                 size,
                 results,
@@ -486,7 +370,7 @@ class Study:
         executor_label = work.label or "none (every chunk from the store)"
 
         ordered = [results[i] for i in range(chunk_count)]
-        outputs, failed, reasons = _assemble(ordered, count)
+        outputs, failed, reasons = assemble_chunks(ordered, count)
         if failed.all():
             raise IncompleteResultError(
                 f"all {count} samples of study {self.name!r} failed; first reason: {reasons[0]}"
@@ -555,10 +439,10 @@ class Study:
                 f"{self.plan.method!r}); only a study with nonmonotonic={AUTO!r} is screened"
             )
         if self.screening is None:
-            _check_run_settings(on_failure, chunk_size)
+            check_run_settings(on_failure, chunk_size)
             size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
             code = self.code_version() if store is not None else None
-            work = _LazyExecutor(executor, self._check_picklable)
+            work = LazyExecutor(executor, self._check_picklable)
             try:
                 self._screen(work, size, store, resume, progress, on_failure, code)
             finally:
@@ -568,7 +452,7 @@ class Study:
 
     def _screen(
         self,
-        work: _LazyExecutor,
+        work: LazyExecutor,
         size: int,
         store: str | Path | None,
         resume: bool,
@@ -577,12 +461,9 @@ class Study:
         code: dict[str, Any] | None,
     ) -> None:
         """Evaluate the screening samples, decide, and build the extended plan."""
-        from fuzzymbs.fuzzy.screening import nonmonotonic_parameters
-        from fuzzymbs.fuzzy.transform import plan as make_plan
-
         screening = self._screening_samples
         count = len(screening.samples)
-        chunk_store, size, chunk_count, results, missing, reused = _open_chunks(
+        chunk_store, size, chunk_count, results, missing, reused = open_chunks(
             None if store is None else Path(store) / SCREENING_FOLDER,
             self._screening_identity(),
             count,
@@ -598,7 +479,7 @@ class Study:
         )
 
         def stop_at_failure() -> None:
-            failed, reasons = _assemble([results[i] for i in sorted(results)], count)[1:]
+            failed, reasons = assemble_chunks([results[i] for i in sorted(results)], count)[1:]
             if failed.any():
                 raise IncompleteResultError(
                     f"stopped early (fail-fast): screening of study {self.name!r}: "
@@ -608,8 +489,11 @@ class Study:
         fail_fast = stop_at_failure if on_failure == "fail-fast" else None
         if fail_fast is not None and results:
             fail_fast()
-        evaluated = self._evaluate_chunks(
-            screening.samples,
+        evaluated = evaluate_chunks(
+            self.model,
+            self.outputs,
+            lambda start, stop: self._columns(screening.samples, start, stop),
+            count,
             missing,
             size,
             results,
@@ -618,7 +502,7 @@ class Study:
             progress=(progress, reused, f"{self.name} (screening)"),
             fail_fast=fail_fast,
         )
-        outputs, failed, reasons = _assemble([results[i] for i in range(chunk_count)], count)
+        outputs, failed, reasons = assemble_chunks([results[i] for i in range(chunk_count)], count)
         if failed.all():
             raise IncompleteResultError(
                 f"all {count} screening samples of study {self.name!r} failed; "
@@ -643,7 +527,7 @@ class Study:
         }
         report["evaluated"] = int(evaluated)
         report["reused_from_store"] = int(reused)
-        self._plan = make_plan(
+        self._plan = Plan(
             self._fuzzy, method="extended", levels=self._levels, nonmonotonic=report["nonmonotonic"]
         )
         self.screening = report
@@ -668,66 +552,6 @@ class Study:
         )
         more = f" (and {len(rows) - 5} more)" if len(rows) > 5 else ""
         return f"failed screening samples: {listed}{more}"
-
-    def _evaluate_chunks(
-        self,
-        samples: np.ndarray,
-        missing: Sequence[int],
-        size: int,
-        results: dict[int, ChunkResult],
-        chunk_store: Any,
-        work: _LazyExecutor,
-        *,
-        progress: tuple[bool, int, str],
-        fail_fast: Callable[[], None] | None,
-    ) -> int:
-        """Evaluate chunks ``missing`` of ``samples`` into ``results`` (and the store).
-
-        Returns the number of samples evaluated. ``fail_fast`` is called (and
-        pending chunks cancelled) after a chunk with a failed sample.
-        """
-        count = len(samples)
-        enabled, already, label = progress
-        evaluated = 0
-        with _progress_bar(enabled, count, already, label) as advance:
-            pending: dict[Future, int] = {}
-            queue = list(missing)
-            resolved = work.get() if queue else None
-            while queue or pending:
-                assert resolved is not None
-                while queue and len(pending) < resolved.in_flight:
-                    index = queue.pop(0)
-                    start, stop = index * size, min((index + 1) * size, count)
-                    future = resolved.executor.submit(
-                        evaluate_chunk,
-                        self.model,
-                        self._columns(samples, start, stop),
-                        start,
-                        self.outputs,
-                    )
-                    pending[future] = index
-                done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
-                for future in done:
-                    index = pending.pop(future)
-                    chunk = future.result()
-                    if chunk_store is not None:
-                        chunk_store.write(index, chunk)
-                    results[index] = chunk
-                    evaluated += chunk.size
-                    advance(chunk.size)
-                    if chunk.failed.any():
-                        logger.warning(
-                            "chunk %d: %d of %d samples failed (first: %s)",
-                            index,
-                            int(chunk.failed.sum()),
-                            chunk.size,
-                            chunk.reasons[np.flatnonzero(chunk.failed)[0]],
-                        )
-                        if fail_fast is not None:
-                            for other in pending:
-                                other.cancel()
-                            fail_fast()
-        return evaluated
 
     def _check_picklable(self, resolved: Any) -> None:
         """Fail early and clearly when the model cannot travel to worker processes."""
@@ -768,136 +592,3 @@ class Study:
         if failed.any():
             message = self._failure_message(failed, reasons, self.plan.levels_touched(failed))
             raise IncompleteResultError(("stopped early (fail-fast): " if during else "") + message)
-
-
-def _check_run_settings(on_failure: str, chunk_size: Any) -> None:
-    if on_failure not in ON_FAILURE:
-        raise InvalidParameterError(f"on_failure={on_failure!r}; allowed: {', '.join(ON_FAILURE)}")
-    if chunk_size is not None and (
-        isinstance(chunk_size, bool)
-        or not isinstance(chunk_size, int | np.integer)
-        or chunk_size < 1
-    ):
-        raise InvalidParameterError(f"chunk_size must be a positive int, got {chunk_size!r}")
-
-
-def _check_rtol(value: Any) -> None:
-    from fuzzymbs.fuzzy.screening import _check_tolerance
-
-    _check_tolerance("screening_rtol", value)
-
-
-class _LazyExecutor:
-    """The run's executor, started on first use (a run served by the store starts none)."""
-
-    def __init__(self, spec: Any, check: Callable[[Any], None]) -> None:
-        self.spec = spec
-        self._check = check  # closes the executor and raises if the model cannot travel
-        self._resolved: Any = None
-        self.label: str | None = None
-
-    def get(self) -> Any:
-        if self._resolved is None:
-            from fuzzymbs.study.executors import resolve_executor
-
-            resolved = resolve_executor(self.spec)
-            if resolved.label.startswith("processes"):
-                self._check(resolved)
-            self._resolved = resolved
-            self.label = resolved.label
-        return self._resolved
-
-    def close(self) -> None:
-        if self._resolved is not None:
-            self._resolved.close()
-
-
-def _open_chunks(
-    store: str | Path | None,
-    identity: dict[str, Any],
-    count: int,
-    size: int,
-    resume: bool,
-    code: dict[str, Any] | None,
-) -> tuple[Any, int, int, dict[int, ChunkResult], list[int], int]:
-    """Open (or skip, without ``store``) the chunk store of ``count`` samples.
-
-    Returns the store (or None), the chunk size in force (a resumed store keeps
-    its own), the chunk count, the chunks already stored, the missing chunk
-    indices and the number of samples reused.
-    """
-    from fuzzymbs.study.store import ChunkStore
-
-    chunk_store = None
-    if store is not None:
-        chunk_store = ChunkStore.open(store, identity, count, size, resume=resume, code=code)
-        size = chunk_store.chunk_size
-    chunk_count = math.ceil(count / size)
-    results = _stored_chunks(chunk_store, chunk_count)
-    missing = [i for i in range(chunk_count) if i not in results]
-    reused = sum(results[i].size for i in results)
-    return chunk_store, size, chunk_count, results, missing, reused
-
-
-def _stored_chunks(chunk_store: Any, chunk_count: int) -> dict[int, ChunkResult]:
-    """The readable chunks of a store (none without one)."""
-    results: dict[int, ChunkResult] = {}
-    if chunk_store is not None:
-        for index in chunk_store.finished():
-            if index < chunk_count:
-                stored = chunk_store.read(index)
-                if stored is not None:
-                    results[index] = stored
-    return results
-
-
-def _assemble(
-    chunks: Sequence[ChunkResult], count: int
-) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
-    """Concatenate chunk results in sample order; NaN rows where a chunk had no data."""
-    failed = np.concatenate([c.failed for c in chunks]).astype(bool)
-    reasons = np.concatenate([np.asarray(c.reasons, dtype=object) for c in chunks]).astype(str)
-    shapes: dict[str, tuple[int, ...]] = {}
-    for chunk in chunks:
-        for name, values in chunk.outputs.items():
-            shapes.setdefault(name, values.shape[1:])
-    outputs = {}
-    for name, shape in shapes.items():
-        merged = np.full((count, *shape), np.nan)
-        for chunk in chunks:
-            if name in chunk.outputs:
-                merged[chunk.start : chunk.stop] = chunk.outputs[name]
-        outputs[name] = merged
-    return outputs, failed, reasons
-
-
-@contextmanager
-def _progress_bar(
-    enabled: bool, total: int, already: int, label: str
-) -> Iterator[Callable[[int], None]]:
-    """A Rich progress bar with ETA (or a no-op when disabled)."""
-    if not enabled:
-        yield lambda _n: None
-        return
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    columns = (
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("samples"),
-        TimeElapsedColumn(),
-        TextColumn("ETA"),
-        TimeRemainingColumn(),
-    )
-    with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
-        task = bar.add_task(label, total=total, completed=already)
-        yield lambda n: bar.advance(task, n)

@@ -1,0 +1,213 @@
+"""Evaluate a study's sample table chunk by chunk on an executor, with progress and a store.
+
+The client side of the evaluation step: chunks go to the executor as tasks of
+:func:`fuzzymbs.study.evaluation.evaluate_chunk` (which runs on the workers),
+each finished chunk is written to the chunk store before the runner waits for
+the next, and :func:`assemble_chunks` puts the chunks back in sample order.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, wait
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.study.evaluation import ChunkResult, evaluate_chunk
+from fuzzymbs.study.executors import resolve_executor
+
+__all__ = [
+    "DEFAULT_CHUNK_SIZE",
+    "ON_FAILURE",
+    "LazyExecutor",
+    "assemble_chunks",
+    "check_run_settings",
+    "evaluate_chunks",
+    "progress_bar",
+]
+
+logger = logging.getLogger(__name__)
+
+#: Samples per task unless the study says otherwise (hundreds per task, one model call each).
+DEFAULT_CHUNK_SIZE = 256
+#: What a study does when samples fail: raise after evaluating everything, raise at the
+#: first failed chunk, or keep the complete levels only.
+ON_FAILURE = ("raise", "fail-fast", "partial")
+
+
+def check_run_settings(on_failure: str, chunk_size: Any) -> None:
+    """Raise :class:`InvalidParameterError` for an unknown ``on_failure`` or a bad chunk size."""
+    if on_failure not in ON_FAILURE:
+        raise InvalidParameterError(f"on_failure={on_failure!r}; allowed: {', '.join(ON_FAILURE)}")
+    if chunk_size is not None and (
+        isinstance(chunk_size, bool)
+        or not isinstance(chunk_size, int | np.integer)
+        or chunk_size < 1
+    ):
+        raise InvalidParameterError(f"chunk_size must be a positive int, got {chunk_size!r}")
+
+
+class LazyExecutor:
+    """The run's executor, started on first use (a run served by the store starts none).
+
+    Parameters
+    ----------
+    spec : None, str, Executor or distributed.Client
+        As the ``executor`` argument of :meth:`fuzzymbs.study.study.Study.run`.
+    check : callable
+        Called with a freshly started process pool (closes it and raises if the
+        model cannot travel to worker processes).
+    """
+
+    def __init__(self, spec: Any, check: Callable[[Any], None]) -> None:
+        self.spec = spec
+        self._check = check
+        self._resolved: Any = None
+        self.label: str | None = None
+
+    def get(self) -> Any:
+        """The resolved executor (see :func:`fuzzymbs.study.executors.resolve_executor`)."""
+        if self._resolved is None:
+            resolved = resolve_executor(self.spec)
+            if resolved.label.startswith("processes"):
+                self._check(resolved)
+            self._resolved = resolved
+            self.label = resolved.label
+        return self._resolved
+
+    def close(self) -> None:
+        """Shut the executor down if it was started."""
+        if self._resolved is not None:
+            self._resolved.close()
+
+
+def evaluate_chunks(
+    model: Any,
+    outputs: Sequence[str] | None,
+    columns: Callable[[int, int], Mapping[str, np.ndarray]],
+    count: int,
+    missing: Sequence[int],
+    size: int,
+    results: dict[int, ChunkResult],
+    chunk_store: Any,
+    work: LazyExecutor,
+    *,
+    progress: tuple[bool, int, str],
+    fail_fast: Callable[[], None] | None,
+) -> int:
+    """Evaluate chunks ``missing`` of a table of ``count`` samples into ``results``.
+
+    Parameters
+    ----------
+    model : the batched model; outputs : the outputs to keep (None: all).
+    columns : ``columns(start, stop)`` gives every parameter column of samples
+        ``start:stop``.
+    size : samples per chunk; chunk ``i`` holds samples ``i size`` to ``(i + 1) size``.
+    results : filled in place, chunk index -> :class:`ChunkResult`.
+    chunk_store : a :class:`~fuzzymbs.study.store.ChunkStore` that receives every
+        finished chunk before the next is awaited, or None.
+    progress : ``(enabled, samples already done, label)`` of the progress bar.
+    fail_fast : called (after cancelling the pending chunks) when a chunk holds a
+        failed sample; it raises. None: evaluate everything.
+
+    Returns
+    -------
+    int
+        The number of samples evaluated.
+    """
+    enabled, already, label = progress
+    evaluated = 0
+    with progress_bar(enabled, count, already, label) as advance:
+        pending: dict[Future, int] = {}
+        queue = list(missing)
+        resolved = work.get() if queue else None
+        while queue or pending:
+            assert resolved is not None
+            while queue and len(pending) < resolved.in_flight:
+                index = queue.pop(0)
+                start, stop = index * size, min((index + 1) * size, count)
+                future = resolved.executor.submit(
+                    evaluate_chunk, model, columns(start, stop), start, outputs
+                )
+                pending[future] = index
+            done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
+            for future in done:
+                index = pending.pop(future)
+                chunk = future.result()
+                if chunk_store is not None:
+                    chunk_store.write(index, chunk)
+                results[index] = chunk
+                evaluated += chunk.size
+                advance(chunk.size)
+                if chunk.failed.any():
+                    logger.warning(
+                        "chunk %d: %d of %d samples failed (first: %s)",
+                        index,
+                        int(chunk.failed.sum()),
+                        chunk.size,
+                        chunk.reasons[np.flatnonzero(chunk.failed)[0]],
+                    )
+                    if fail_fast is not None:
+                        for other in pending:
+                            other.cancel()
+                        fail_fast()
+    return evaluated
+
+
+def assemble_chunks(
+    chunks: Sequence[ChunkResult], count: int
+) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    """Concatenate chunk results in sample order; NaN rows where a chunk had no data.
+
+    Returns ``(outputs {name: (count, ...)}, failed (count,) bool, reasons (count,) str)``.
+    """
+    failed = np.concatenate([c.failed for c in chunks]).astype(bool)
+    reasons = np.concatenate([np.asarray(c.reasons, dtype=object) for c in chunks]).astype(str)
+    shapes: dict[str, tuple[int, ...]] = {}
+    for chunk in chunks:
+        for name, values in chunk.outputs.items():
+            shapes.setdefault(name, values.shape[1:])
+    outputs = {}
+    for name, shape in shapes.items():
+        merged = np.full((count, *shape), np.nan)
+        for chunk in chunks:
+            if name in chunk.outputs:
+                merged[chunk.start : chunk.stop] = chunk.outputs[name]
+        outputs[name] = merged
+    return outputs, failed, reasons
+
+
+@contextmanager
+def progress_bar(
+    enabled: bool, total: int, already: int, label: str
+) -> Iterator[Callable[[int], None]]:
+    """A Rich progress bar with ETA on stderr (or a no-op when disabled)."""
+    if not enabled:
+        yield lambda _n: None
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    columns = (
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("samples"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+    )
+    with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
+        task = bar.add_task(label, total=total, completed=already)
+        yield lambda n: bar.advance(task, n)
