@@ -3,8 +3,8 @@
 The paper's integrator (dt = 1 us for the brake; stable only for
 ``|lambda dt| < 2.785`` on the real axis, docs/theory.md). :func:`rk4` hands
 the blocks to threads; each block integrates up to four samples in the lanes
-of one vector (:func:`integrate_block`), padding lanes repeating the block's
-last sample.
+of one vector (:func:`start_block`, :func:`advance_block`), padding lanes
+repeating the block's last sample.
 
 A lane whose sample fails (non-finite state, output beyond its bound) is
 flagged and then repeats a healthy lane of its block, so that it neither
@@ -20,7 +20,7 @@ import numpy as np
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, OUT_OF_BOUND
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs
-from fuzzymbs.mbs.kernels.threads import for_each_range
+from fuzzymbs.mbs.kernels.threads import round_robin
 
 L = V.LANES
 
@@ -52,7 +52,12 @@ def retire_failed(first, count, status, alive, out, x, p):
     return False
 
 
-def rk4(sysdata, params, x0, timing, recording, per_block):
+#: Slices a block's steps are cut into when blocks share threads (at least MIN_SLICE steps)
+SLICES = 16
+MIN_SLICE = 32
+
+
+def rk4(sysdata, params, x0, timing, recording, per_block) -> None:
     """RK4 of a batch of samples in blocks of ``per_block`` (1 to 4), the blocks over threads.
 
     Parameters
@@ -67,28 +72,41 @@ def rk4(sysdata, params, x0, timing, recording, per_block):
         status code, failure time [s] or NaN) are filled in place.
     per_block : samples per block; 4 fills every lane, 1 gives each sample a block of its
         own (its lanes repeat it), so that no result depends on another sample.
+
+    With more than one block and thread, each block advances ``SLICES`` slices of
+    steps at a time and goes back to the end of the queue (:func:`round_robin`): the
+    threads share the last blocks instead of one thread running the last whole block
+    alone. Slicing does not change a block's arithmetic: results are the same bits.
     """
     nsamples = params.shape[0]
+    n_steps = timing[2]
+    n_blocks = -(-nsamples // per_block)
 
-    def run(start: int, stop: int) -> None:
-        for block in range(start, stop):
-            first = block * per_block
-            count = min(per_block, nsamples - first)
-            integrate_block(sysdata, params, x0, timing, recording, first, count)
+    def start(block: int):
+        first = block * per_block
+        return start_block(sysdata, params, x0, recording, first, min(per_block, nsamples - first))
 
-    for_each_range(-(-nsamples // per_block), run)
+    def advance(block: int, state, begin: int, end: int) -> bool:
+        first = block * per_block
+        count = min(per_block, nsamples - first)
+        return advance_block(sysdata, timing, recording, first, count, state, begin, end)
+
+    slice_steps = max(MIN_SLICE, -(-(n_steps + 1) // SLICES))
+    round_robin(n_blocks, n_steps + 1, slice_steps, start, advance)
 
 
 @nb.njit(cache=True, nogil=True)
-def integrate_block(sysdata, params, x0, timing, recording, first, count):
-    """RK4 of samples ``first .. first + count - 1`` (count <= 4) in lockstep, on the
-    calling thread (arguments as :func:`rk4`); lanes beyond count repeat the last of them."""
-    t0, dt, n_steps, record_every = timing
-    out_w, bound, out, status, fail_t = recording
+def start_block(sysdata, params, x0, recording, first, count):
+    """Lane state of samples ``first .. first + count - 1`` (count <= 4) at the start.
+
+    Returns ``(x, p, alive, stages, work)``: lane states and parameter rows
+    (lanes beyond count repeat the last sample), which lanes are still healthy,
+    the RK4 stage vectors (k1..k4, intermediate state) and the right-hand side's
+    work arrays. Sets the samples' status to OK.
+    """
+    status, fail_t = recording[3], recording[4]
     nslots = params.shape[1]
     nstate = x0.shape[1]
-    nout = out_w.shape[0]
-    work = make_work(sysdata)
     p = np.empty(nslots * L)
     x = np.empty(nstate * L)
     for lane in range(L):
@@ -97,20 +115,33 @@ def integrate_block(sysdata, params, x0, timing, recording, first, count):
             p[L * i + lane] = params[src, i]
         for i in range(nstate):
             x[L * i + lane] = x0[src, i]
-    k1 = np.empty(nstate * L)
-    k2 = np.empty(nstate * L)
-    k3 = np.empty(nstate * L)
-    k4 = np.empty(nstate * L)
-    xt = np.empty(nstate * L)
     alive = np.ones(L, dtype=np.bool_)
     for lane in range(count):
         status[first + lane] = OK
         fail_t[first + lane] = np.nan
+    return x, p, alive, np.empty((5, nstate * L)), make_work(sysdata)
+
+
+@nb.njit(cache=True, nogil=True)
+def advance_block(sysdata, timing, recording, first, count, state, step_begin, step_end):
+    """Steps ``step_begin .. step_end - 1`` of a block (from :func:`start_block`), on the
+    calling thread (arguments as :func:`rk4`).
+
+    Step s records the outputs at ``t0 + s dt`` (every ``record_every`` steps) and
+    then advances to the next time, except the last step ``n_steps``. Returns False
+    when the block is done: its last step taken, or no healthy lane left.
+    """
+    t0, dt, n_steps, record_every = timing
+    out_w, bound, out, status, fail_t = recording
+    x, p, alive, stages, work = state
+    k1, k2, k3, k4, xt = stages[0], stages[1], stages[2], stages[3], stages[4]
+    nstate = x.shape[0] // L
+    nout = out_w.shape[0]
     size = nstate * L
-    rec = 0
-    for step in range(n_steps + 1):
+    for step in range(step_begin, step_end):
         t = t0 + step * dt
         if step % record_every == 0:
+            rec = step // record_every
             for o in range(nout):
                 y = V.splat(0.0)
                 for i in range(nstate):
@@ -124,11 +155,10 @@ def integrate_block(sysdata, params, x0, timing, recording, first, count):
                         if not abs(yl) <= bound[o]:  # also catches NaN
                             status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
                             fail_t[first + lane] = t
-            rec += 1
             if retire_failed(first, count, status, alive, out, x, p):
-                break
+                return False
         if step == n_steps:
-            break
+            return False
         rhs(t, x, k1, p, sysdata, work)
         for m in range(size):
             xt[m] = x[m] + 0.5 * dt * k1[m]
@@ -151,4 +181,5 @@ def integrate_block(sysdata, params, x0, timing, recording, first, count):
                 status[first + lane] = NONFINITE
                 fail_t[first + lane] = t + dt
         if retire_failed(first, count, status, alive, out, x, p):
-            break
+            return False
+    return True
