@@ -73,6 +73,20 @@ def make_work(sysdata):
     )
 
 
+@nb.njit(cache=True)
+def set_lane(lanes, lane, values):
+    """Lane ``lane`` of the lane-minor array ``lanes`` <- ``values`` (1-d, one sample's)."""
+    for i in range(values.shape[0]):
+        lanes[L * i + lane] = values[i]
+
+
+@nb.njit(cache=True)
+def get_lane(lanes, lane, values):
+    """``values`` (1-d, one sample's) <- lane ``lane`` of the lane-minor array ``lanes``."""
+    for i in range(values.shape[0]):
+        values[i] = lanes[L * i + lane]
+
+
 @nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
 def rhs(t, x, dx, p, sysdata, work):
     """Time derivatives ``dx (2n L)`` of the lane states ``x (2n L)`` at time t.
@@ -234,14 +248,11 @@ def rhs_sample(t, x, p, sysdata, work):
     dxl = np.empty(nstate * L)
     pl = np.empty(p.shape[0] * L)
     for lane in range(L):
-        for i in range(nstate):
-            xl[L * i + lane] = x[i]
-        for i in range(p.shape[0]):
-            pl[L * i + lane] = p[i]
+        set_lane(xl, lane, x)
+        set_lane(pl, lane, p)
     rhs(t, xl, dxl, pl, sysdata, work)
     dx = np.empty(nstate)
-    for i in range(nstate):
-        dx[i] = dxl[L * i]
+    get_lane(dxl, 0, dx)
     return dx
 
 
@@ -281,12 +292,8 @@ def rhs_blocks(sysdata, params, rows, times, states, out, start, stop):
             for lane in range(L):
                 # lanes beyond the group's states repeat its last one
                 src = first + (min(lane, count - 1) if same_time else g)
-                for i in range(nstate):
-                    x[L * i + lane] = states[src, i]
-                for i in range(nslots):
-                    p[L * i + lane] = params[rows[src], i]
+                set_lane(x, lane, states[src])
+                set_lane(p, lane, params[rows[src]])
             rhs(times[first + (0 if same_time else g)], x, dx, p, sysdata, work)
             for lane in range(count if same_time else 1):
-                dst = first + (lane if same_time else g)
-                for i in range(nstate):
-                    out[dst, i] = dx[L * i + lane]
+                get_lane(dx, lane, out[first + (lane if same_time else g)])

@@ -19,7 +19,7 @@ import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, OUT_OF_BOUND
-from fuzzymbs.mbs.kernels.rhs import make_work, rhs
+from fuzzymbs.mbs.kernels.rhs import make_work, rhs, set_lane
 from fuzzymbs.mbs.kernels.threads import round_robin
 
 L = V.LANES
@@ -111,10 +111,8 @@ def start_block(sysdata, params, x0, recording, first, count):
     x = np.empty(nstate * L)
     for lane in range(L):
         src = first + min(lane, count - 1)
-        for i in range(nslots):
-            p[L * i + lane] = params[src, i]
-        for i in range(nstate):
-            x[L * i + lane] = x0[src, i]
+        set_lane(p, lane, params[src])
+        set_lane(x, lane, x0[src])
     alive = np.ones(L, dtype=np.bool_)
     for lane in range(count):
         status[first + lane] = OK
