@@ -53,7 +53,8 @@ OPTIONS = {
     "velocities": "also output v_lpad, v_upad, v_cali [m/s] (default false)",
     "displacement_bound": "|y| above this [m] flags a sample failed (default 1e-3)",
     "chunk_size": "samples per compiled call (default 64)",
-    "kernel": 'RK4 kernel: "auto" (default), "lanes" (4 samples per SIMD vector) or "samples"',
+    "kernel": 'RK4 lanes: "auto" = "lanes" (4 samples per SIMD vector, default) or "samples"'
+    " (a block per sample)",
     "design": "table of BrakeDesign fields (sizes, mode counts, max_frequency)",
 }
 

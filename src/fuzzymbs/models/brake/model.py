@@ -242,10 +242,11 @@ class DiscBrake:
     displacement_bound : float
         A sample whose |y| output exceeds this [m] is stopped and flagged failed.
     chunk_size : int
-        Samples per compiled call (all integrated in one parallel kernel call).
+        Samples per call of the RK4 kernel (its blocks run over Numba's threads).
     kernel : {"auto", "lanes", "samples"}
-        RK4 kernel (see :func:`fuzzymbs.mbs.integrate.simulate`): by default
-        four samples in lockstep per SIMD vector, leftovers one by one.
+        How samples share the kernel's lanes (see :func:`fuzzymbs.mbs.integrate.simulate`):
+        by default four samples in lockstep per SIMD vector; "samples": a block per
+        sample, so that no sample's result depends on another's.
     """
 
     parameters = PARAMETERS
