@@ -14,7 +14,9 @@ lanes repeat it. The modules follow the right-hand side's data flow:
   Coulomb friction, one pass;
 * :mod:`~fuzzymbs.mbs.kernels.rhs`: the right-hand side (springs, nodal
   forces, contact, equations of motion) and batched evaluation;
-* :mod:`~fuzzymbs.mbs.kernels.rk4`: fixed-step RK4 over a batch of blocks.
+* :mod:`~fuzzymbs.mbs.kernels.rk4`: fixed-step RK4 over a batch of blocks;
+* :mod:`~fuzzymbs.mbs.kernels.jacobian`: the right-hand side's Jacobian, for
+  linearly implicit integrators.
 
 Nothing here is imported by ``import fuzzymbs``: the modules load (and Numba
 compiles or loads its cache) on first use.

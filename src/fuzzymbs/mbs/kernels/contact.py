@@ -96,6 +96,36 @@ def cells_per_lane(u_vec, v_vec, ugrid, vgrid, periodic, scales, scratch, cells)
     return shared, any_on
 
 
+#: vectors per slave in the Jacobian record: d f / d x_rel (3 x 3, row-major),
+#: d f / d v_rel (3 x 3), the four master weights
+JREC = 22
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def record_force_law(jrec, at, normal, slide, direction, friction, stiffness, damping, on, weights):
+    """Derivatives of one contact point's force law into the Jacobian record at ``at``.
+
+    With the force ``f = f_N n + s_f v_t`` (``s_f = -mu f_N / sqrt(|v_t|^2 + eps^2)``,
+    ``f_N = -c_p g - d v_n``), the normal n and the master weights held fixed:
+
+    * ``d f / d x_rel = -c_p a n^T`` with ``a = d f / d f_N = n - mu v_t / sqrt(...)``,
+    * ``d f / d v_rel = -d a n^T + s_f (I - n n^T - u u^T)``, ``u = v_t / sqrt(...)``,
+
+    ``x_rel = x_slave - x_master``, ``v_rel`` likewise (docs/theory.md). ``stiffness``
+    and ``damping`` are c_p and d times the in-contact mask, ``on`` the mask itself.
+    """
+    for r in range(3):
+        for q in range(3):
+            ident = 1.0 if r == q else 0.0
+            k_rq = -(stiffness * direction[r] * normal[q])
+            c_rq = friction * (ident - normal[r] * normal[q] - slide[r] * slide[q])
+            c_rq = on * c_rq - damping * direction[r] * normal[q]
+            V.store(jrec, at + L * (3 * r + q), k_rq)
+            V.store(jrec, at + L * (9 + 3 * r + q), c_rq)
+    for q in range(4):
+        V.store(jrec, at + L * (18 + q), weights[q])
+
+
 @nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
 def contact_pass(c, x, p, sysdata, work):
     """Penalty normal force and regularised Coulomb friction of pass c, four lanes.
@@ -113,6 +143,8 @@ def contact_pass(c, x, p, sysdata, work):
     )
     node_x, node_v, node_f, rot_a = work[1], work[2], work[3], work[5]
     scratch, cells, charts = work[6], work[7], work[9]
+    jrec, jnodes = work[10], work[11]
+    record = work[12][0] != 0  # also the force law's derivatives, for the Jacobian
     mb = ci[c, C_MBODY]
     nu = ci[c, C_NU]
     nv = ci[c, C_NV]
@@ -172,6 +204,11 @@ def contact_pass(c, x, p, sysdata, work):
     # work that the out-of-order core overlaps across slaves, and fewer live registers
     # in the main loop below
     nslave = slaves.shape[0]
+    row0 = 0  # this pass's first slave among all passes' (the Jacobian record's rows)
+    for other in range(c):
+        row0 += ci[other, C_NSLAVE]
+    if record:
+        jrec[L * JREC * row0 : L * JREC * (row0 + nslave)] = 0.0
     for k in range(nslave):
         ms = L * 3 * slaves[k]
         xs0 = V.load(node_x, ms)
@@ -272,6 +309,12 @@ def contact_pass(c, x, p, sysdata, work):
                 gc = L * 3 * grid[(i + 1) * nv + j1] + lane
                 gd = L * 3 * grid[i * nv + j1] + lane
                 cells[L * I_NODES + lane] = ga
+                if record:
+                    jn = L * 4 * (row0 + k) + lane
+                    jnodes[jn] = grid[i * nv + j]
+                    jnodes[jn + L] = grid[(i + 1) * nv + j]
+                    jnodes[jn + 2 * L] = grid[(i + 1) * nv + j1]
+                    jnodes[jn + 3 * L] = grid[i * nv + j1]
                 cells[L * (I_NODES + 1) + lane] = gb
                 cells[L * (I_NODES + 2) + lane] = gc
                 cells[L * (I_NODES + 3) + lane] = gd
@@ -339,6 +382,38 @@ def contact_pass(c, x, p, sysdata, work):
         f0 = V.where_lt(gap, zero, V.where_lt(zero, on, f0, zero), zero)
         f1 = V.where_lt(gap, zero, V.where_lt(zero, on, f1, zero), zero)
         f2 = V.where_lt(gap, zero, V.where_lt(zero, on, f2, zero), zero)
+        if record:
+            in_contact = V.where_lt(gap, zero, V.where_lt(zero, on, one, zero), zero)
+            if kinetic:
+                in_contact = V.where_lt(zero, fn, in_contact, zero)
+                inv_s = 1.0 / V.sqrt(vt0 * vt0 + vt1 * vt1 + vt2 * vt2 + eps2)
+                slide = (vt0 * inv_s, vt1 * inv_s, vt2 * inv_s)
+                mu_s = V.where_eq(mu, zero, zero, mu * inv_s)
+                direction = (n0 - mu_s * vt0, n1 - mu_s * vt1, n2 - mu_s * vt2)
+                friction = scale
+            else:
+                slide = (zero, zero, zero)
+                direction = (n0, n1, n2)
+                friction = zero
+            record_force_law(
+                jrec,
+                L * JREC * (row0 + k),
+                (n0, n1, n2),
+                slide,
+                direction,
+                friction,
+                penalty * in_contact,
+                damping * in_contact,
+                in_contact,
+                (wa, wb, wc, wd),
+            )
+            if shared:
+                jn = L * 4 * (row0 + k)
+                for lane in range(L):
+                    jnodes[jn + lane] = na // (3 * L)
+                    jnodes[jn + L + lane] = nb_ // (3 * L)
+                    jnodes[jn + 2 * L + lane] = nc // (3 * L)
+                    jnodes[jn + 3 * L + lane] = nd // (3 * L)
         V.store(node_f, ms, V.load(node_f, ms) + f0)
         V.store(node_f, ms + L, V.load(node_f, ms + L) + f1)
         V.store(node_f, ms + 2 * L, V.load(node_f, ms + 2 * L) + f2)

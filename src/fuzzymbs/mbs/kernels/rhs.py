@@ -22,7 +22,7 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
-from fuzzymbs.mbs.kernels.contact import contact_pass, max_slaves
+from fuzzymbs.mbs.kernels.contact import JREC, contact_pass, max_slaves
 from fuzzymbs.mbs.kernels.kinematics import (
     body_row,
     frame_rotations,
@@ -35,6 +35,7 @@ from fuzzymbs.mbs.kernels.layout import (
     B_MAT0,
     B_NM,
     B_NTR,
+    C_NSLAVE,
     KIND_ROTATING,
     KIND_TRANSLATING,
     S_COS,
@@ -53,12 +54,18 @@ def make_work(sysdata):
 
     ``(q_gen (n L), node_x, node_v, node_f (tracked 3 L), rot (bodies 3 L): angle,
     speed, acceleration, rot_a (bodies 9 L), scratch (SCRATCH L), cells (7 L) int,
-    rot3 (3, 3), charts (2 slaves L): chart coordinates u, v of a pass's slaves)``.
+    rot3 (3, 3), charts (2 slaves L): chart coordinates u, v of a pass's slaves,
+    jrec (JREC slaves L), jnodes (4 slaves L) int: the contact record of the
+    Jacobian (all passes' slaves), jflag (1,) int: 1 while the Jacobian records)``.
     Scratch rows: see the ``S_*`` constants.
     """
     ndof = sysdata[0]
     nbody = sysdata[1].shape[0]
     ntracked = sysdata[3].shape[0]
+    ci = sysdata[11]
+    all_slaves = 0
+    for c in range(ci.shape[0]):
+        all_slaves += ci[c, C_NSLAVE]
     return (
         np.zeros(ndof * L),
         np.zeros(ntracked * 3 * L),
@@ -69,7 +76,10 @@ def make_work(sysdata):
         np.zeros(SCRATCH * L),
         np.zeros(7 * L, dtype=np.int64),
         np.zeros((3, 3)),
-        np.zeros(2 * max_slaves(sysdata[11]) * L),
+        np.zeros(2 * max_slaves(ci) * L),
+        np.zeros(JREC * all_slaves * L),
+        np.zeros(4 * all_slaves * L, dtype=np.int64),
+        np.zeros(1, dtype=np.int64),
     )
 
 
@@ -113,7 +123,7 @@ def rhs(t, x, dx, p, sysdata, work):
         ci,
         _,
     ) = sysdata
-    q_gen, node_x, node_v, node_f, rot, rot_a, scratch, _, rot3, _ = work
+    q_gen, node_x, node_v, node_f, rot, rot_a, scratch, _, rot3 = work[:9]
     nbody = bi.shape[0]
     for i in range(ndof):
         V.store(dx, L * i, V.load(x, L * (ndof + i)))

@@ -1,0 +1,270 @@
+"""Jacobian of the right-hand side, four samples (lanes) per call: the linearly implicit
+integrators' matrix, assembled from the physics' own derivatives.
+
+For the state ``x = [q, v]`` the right-hand side is ``[v, a(t, q, v)]``, so its
+Jacobian is ``[[0, I], [A, B]]`` with ``A = da/dq`` and ``B = da/dv``
+(n x n each). :func:`jacobian` evaluates the right-hand side once with the
+contact passes recording the derivatives of their force law
+(:func:`fuzzymbs.mbs.kernels.contact.record_force_law`) and assembles:
+
+* the modal stiffness and damping (``-omega^2``, ``-2 zeta omega``), the rotating
+  bodies' gyroscopic, centrifugal and Euler terms and the springs, exactly;
+* each contact point's ``W^T (K W + C W_q)`` and ``W^T C W``, with ``W`` the
+  3 x n map from the coordinates to the relative position of slave and master
+  point (``sum_j sigma_j dx_j/dq``, sigma = 1 for the slave node and ``-w`` for
+  the master nodes), ``W_q`` the same for the relative velocity's dependence on
+  the rotating bodies' modal coordinates (``A Omega [e x] Psi``), ``K`` and
+  ``C`` the force law's derivatives. The master weights and normal are held
+  fixed: their change with the slave's tangential position is left out
+  (docs/theory.md says what that costs);
+* the translating bodies' mass inverse applied to the rows, as in
+  :func:`fuzzymbs.mbs.kernels.rhs.rhs`.
+
+Layout: ``jq[L * (n * i + j) + lane] = d a_i / d q_j`` (likewise ``jv``).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from fuzzymbs.mbs.kernels import simd as V
+from fuzzymbs.mbs.kernels.contact import JREC
+from fuzzymbs.mbs.kernels.kinematics import body_row
+from fuzzymbs.mbs.kernels.layout import (
+    B_MAT0,
+    B_PSI0,
+    C_MBODY,
+    C_NSLAVE,
+    C_SBODY,
+    C_SLAVE0,
+    KIND_ROTATING,
+    KIND_TRANSLATING,
+)
+from fuzzymbs.mbs.kernels.rhs import rhs
+
+L = V.LANES
+
+
+@nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
+def jacobian(t, x, p, sysdata, work, dx, jq, jv):
+    """``dx`` <- the right-hand side at (t, x); ``jq``, ``jv`` <- ``da/dq``, ``da/dv``.
+
+    Arguments as :func:`fuzzymbs.mbs.kernels.rhs.rhs`; ``jq`` and ``jv`` are
+    ``n n L`` arrays (module docstring).
+    """
+    ndof, bi, bf = sysdata[0], sysdata[1], sysdata[2]
+    dof_k2, dof_c, fpool, ipool, lg = sysdata[4], sysdata[5], sysdata[6], sysdata[7], sysdata[9]
+    n = ndof
+    work[12][0] = 1
+    rhs(t, x, dx, p, sysdata, work)  # the frames, node kinematics and the contact record
+    work[12][0] = 0
+    rot, rot_a = work[4], work[5]
+    jq[:] = 0.0
+    jv[:] = 0.0
+    zero = V.splat(0.0)
+
+    # modal stiffness and damping; rotating bodies' gyroscopic, centrifugal, Euler terms
+    for b in range(bi.shape[0]):
+        kind, dof0, ntr, nm, _, _ = body_row(bi, b)
+        qd0 = dof0 + ntr
+        for j in range(nm):
+            d = qd0 + j
+            _add(jq, n, d, d, zero - dof_k2[d])
+            _add(jv, n, d, d, zero - dof_c[d])
+        if kind == KIND_ROTATING and nm > 0:
+            omega = V.load(rot, L * (3 * b + 1))
+            alpha = V.load(rot, L * (3 * b + 2))
+            w2 = omega * omega
+            g0 = bi[b, B_MAT0]
+            c0 = g0 + nm * nm
+            for j in range(nm):
+                for k in range(nm):
+                    gk = fpool[g0 + j * nm + k]
+                    ck = fpool[c0 + j * nm + k]
+                    _add(jq, n, qd0 + j, qd0 + k, zero - (w2 * ck + alpha * gk))
+                    _add(jv, n, qd0 + j, qd0 + k, zero - 2.0 * omega * gk)
+
+    # linear spring/damper groups: Q[idx] -= k K x[idx] + c D v[idx]
+    for g in range(lg.shape[0]):
+        d0, size, m0 = lg[g, 0], lg[g, 1], lg[g, 2]
+        k = V.load(p, L * lg[g, 3])
+        c = V.load(p, L * lg[g, 4])
+        idx = ipool[d0 : d0 + size]
+        for a in range(size):
+            for bb in range(size):
+                _add(jq, n, idx[a], idx[bb], zero - k * fpool[m0 + a * size + bb])
+                _add(jv, n, idx[a], idx[bb], zero - c * fpool[m0 + size * size + a * size + bb])
+
+    _contact_jacobian(n, bi, bf, fpool, ipool, sysdata[11], rot, rot_a, work, jq, jv)
+    _mass_inverse_rows(n, bi, fpool, jq)
+    _mass_inverse_rows(n, bi, fpool, jv)
+
+
+@nb.njit(cache=True, inline="always")
+def _add(jac, n, i, j, value):
+    at = L * (n * i + j)
+    V.store(jac, at, V.load(jac, at) + value)
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
+    """Add every recorded contact point's ``W^T (K W + C W_q)`` to jq and ``W^T C W`` to jv."""
+    jrec, jnodes = work[10], work[11]
+    w = np.zeros((3, n))  # relative position per coordinate (only two bodies' columns used)
+    wq = np.zeros((3, n))  # relative velocity per modal coordinate of a rotating body
+    kw = np.zeros((3, n))
+    nodes = np.empty(5, dtype=np.int64)
+    sigma = np.empty(5)
+    row0 = 0
+    for c in range(ci.shape[0]):
+        nslave = ci[c, C_NSLAVE]
+        sb = ci[c, C_SBODY]
+        mb = ci[c, C_MBODY]
+        slaves = ipool[ci[c, C_SLAVE0] : ci[c, C_SLAVE0] + nslave]
+        for k in range(nslave):
+            base = L * JREC * (row0 + k)
+            for lane in range(L):
+                active = False
+                for e in range(18):
+                    active = active or jrec[base + L * e + lane] != 0.0
+                if not active:
+                    continue
+                nodes[0] = slaves[k]
+                sigma[0] = 1.0
+                for q in range(4):
+                    nodes[1 + q] = jnodes[L * 4 * (row0 + k) + L * q + lane]
+                    sigma[1 + q] = -jrec[base + L * (18 + q) + lane]
+                cols0, cols1 = _body_columns(bi, sb)
+                cols2, cols3 = _body_columns(bi, mb)
+                if mb == sb:
+                    cols2, cols3 = cols1, cols1
+                for r in range(3):
+                    for col in range(cols0, cols1):
+                        w[r, col] = 0.0
+                        wq[r, col] = 0.0
+                    for col in range(cols2, cols3):
+                        w[r, col] = 0.0
+                        wq[r, col] = 0.0
+                for a in range(5):
+                    body = sb if a == 0 else mb
+                    _node_map(bi, bf, fpool, rot, rot_a, body, nodes[a], sigma[a], lane, w, wq)
+                # kw = K w + C wq (3 x cols), then jq += w^T kw and jv += w^T (C w)
+                for half in range(2):
+                    lo = cols0 if half == 0 else cols2
+                    hi = cols1 if half == 0 else cols3
+                    for col in range(lo, hi):
+                        for r in range(3):
+                            acc = 0.0
+                            for q in range(3):
+                                kk = jrec[base + L * (3 * r + q) + lane]
+                                cc = jrec[base + L * (9 + 3 * r + q) + lane]
+                                acc += kk * w[q, col] + cc * wq[q, col]
+                            kw[r, col] = acc
+                _accumulate(jq, n, w, kw, cols0, cols1, cols2, cols3, lane)
+                for half in range(2):
+                    lo = cols0 if half == 0 else cols2
+                    hi = cols1 if half == 0 else cols3
+                    for col in range(lo, hi):
+                        for r in range(3):
+                            acc = 0.0
+                            for q in range(3):
+                                acc += jrec[base + L * (9 + 3 * r + q) + lane] * w[q, col]
+                            kw[r, col] = acc
+                _accumulate(jv, n, w, kw, cols0, cols1, cols2, cols3, lane)
+        row0 += nslave
+
+
+@nb.njit(cache=True)
+def _body_columns(bi, b):
+    """First and end coordinate of body b."""
+    _, dof0, ntr, nm, _, _ = body_row(bi, b)
+    return dof0, dof0 + ntr + nm
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _accumulate(jac, n, w, kw, c0, c1, c2, c3, lane):
+    """``jac[rows, cols] += w^T kw`` over the two bodies' column ranges (disjoint; the
+    second is empty when slave and master are one body)."""
+    for half_i in range(2):
+        lo_i = c0 if half_i == 0 else c2
+        hi_i = c1 if half_i == 0 else c3
+        for i in range(lo_i, hi_i):
+            for half_j in range(2):
+                lo_j = c0 if half_j == 0 else c2
+                hi_j = c1 if half_j == 0 else c3
+                for j in range(lo_j, hi_j):
+                    acc = w[0, i] * kw[0, j] + w[1, i] * kw[1, j] + w[2, i] * kw[2, j]
+                    jac[L * (n * i + j) + lane] += acc
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _node_map(bi, bf, fpool, rot, rot_a, b, node, sigma, lane, w, wq):
+    """Add ``sigma dx_node/d(coordinates of body b)`` to w and, for a rotating body,
+    ``sigma dv_node/dq`` (``A Omega [e x] Psi``) to wq (one lane)."""
+    kind, dof0, ntr, nm, n0, _ = body_row(bi, b)
+    for a in range(ntr):  # frame translations along the body's axes
+        for r in range(3):
+            w[r, dof0 + a] += sigma * bf[b, 3 + 3 * a + r]
+    if nm == 0:
+        return
+    qd0 = dof0 + ntr
+    row = bi[b, B_PSI0] + (node - n0) * 3 * nm  # (xyz, mode) block of this node
+    if kind == KIND_ROTATING:
+        r9 = L * 9 * b
+        om = rot[L * (3 * b + 1) + lane]
+        e0, e1, e2 = bf[b, 12], bf[b, 13], bf[b, 14]
+        for j in range(nm):
+            u0 = fpool[row + j]
+            u1 = fpool[row + nm + j]
+            u2 = fpool[row + 2 * nm + j]
+            z0 = om * (e1 * u2 - e2 * u1)  # Omega e x u
+            z1 = om * (e2 * u0 - e0 * u2)
+            z2 = om * (e0 * u1 - e1 * u0)
+            for r in range(3):
+                a0 = rot_a[r9 + L * (3 * r) + lane]
+                a1 = rot_a[r9 + L * (3 * r + 1) + lane]
+                a2 = rot_a[r9 + L * (3 * r + 2) + lane]
+                w[r, qd0 + j] += sigma * (a0 * u0 + a1 * u1 + a2 * u2)
+                wq[r, qd0 + j] += sigma * (a0 * z0 + a1 * z1 + a2 * z2)
+    else:
+        for j in range(nm):
+            for r in range(3):
+                w[r, qd0 + j] += sigma * fpool[row + r * nm + j]
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _mass_inverse_rows(n, bi, fpool, jac):
+    """Generalised forces -> accelerations on the rows of every translating body
+    (Schur complement of ``[[m P P^T, B], [B^T, I]]``, as in the right-hand side)."""
+    for b in range(bi.shape[0]):
+        kind, dof0, ntr, nm, _, _ = body_row(bi, b)
+        if kind != KIND_TRANSLATING:
+            continue
+        s0 = bi[b, B_MAT0]
+        b0 = s0 + ntr * ntr
+        qd0 = dof0 + ntr
+        r = np.empty((ntr, L))
+        acc_s = np.empty((ntr, L))
+        for j in range(n):  # column by column: each column is a generalised force
+            for a in range(ntr):
+                for lane in range(L):
+                    value = jac[L * (n * (dof0 + a) + j) + lane]
+                    for m in range(nm):
+                        value -= fpool[b0 + a * nm + m] * jac[L * (n * (qd0 + m) + j) + lane]
+                    r[a, lane] = value
+            for a in range(ntr):
+                for lane in range(L):
+                    value = 0.0
+                    for a2 in range(ntr):
+                        value += fpool[s0 + a * ntr + a2] * r[a2, lane]
+                    acc_s[a, lane] = value
+            for a in range(ntr):
+                for lane in range(L):
+                    jac[L * (n * (dof0 + a) + j) + lane] = acc_s[a, lane]
+            for m in range(nm):
+                for lane in range(L):
+                    value = jac[L * (n * (qd0 + m) + j) + lane]
+                    for a in range(ntr):
+                        value -= fpool[b0 + a * nm + m] * acc_s[a, lane]
+                    jac[L * (n * (qd0 + m) + j) + lane] = value
