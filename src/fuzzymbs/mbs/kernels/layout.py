@@ -32,11 +32,12 @@ KIND_FIXED, KIND_TRANSLATING, KIND_ROTATING = 0, 1, 2
 # by System.compile
 CF_EPS, CF_DAMPING, CF_USCALE, CF_UUNIFORM, CF_VSCALE, CF_VUNIFORM = range(9, 15)
 # per-sample status codes of the integrators
-OK, NONFINITE, OUT_OF_BOUND = 0, 1, 2
+OK, NONFINITE, OUT_OF_BOUND, STEP_TOO_SMALL = 0, 1, 2, 3
 FAILURE_REASONS = {
     OK: "",
     NONFINITE: "non-finite state (NaN or inf)",
     OUT_OF_BOUND: "output beyond the displacement bound",
+    STEP_TOO_SMALL: "error control needed a step below the smallest allowed",
 }
 # rows of the float scratch array of the work tuple (each LANES wide): Schur right-hand
 # sides / cos, sin of the rotation angle; per-lane cell coordinates and on-patch flags;

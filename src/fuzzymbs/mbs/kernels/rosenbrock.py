@@ -1,0 +1,337 @@
+"""A linearly implicit integrator with error control for a block of four samples: ROS34PW2.
+
+ROS34PW2 (Rang & Angermann, BIT 45 (2005) 761) is a Rosenbrock-W method: 4 stages,
+order 3 with an embedded order-2 solution, stiffly accurate and L-stable, and it
+keeps its order with an approximate Jacobian (W-method). With the Jacobian ``J``
+and ``Gamma = (gamma_ij)`` (diagonal gamma) a step is
+
+    (I - gamma h J) k_i = h f(t + alpha_i h, y + sum_j a_ij k_j)
+                          + gamma_i h^2 f_t + h J sum_{j<i} gamma_ij k_j,
+    y_new = y + sum_i b_i k_i,   y_hat = y + sum_i bhat_i k_i.
+
+It runs in the transformed variables ``u = Gamma k`` (no products with J per
+stage): ``(I / (gamma h) - J) u_i = f(Y_i) + sum_{j<i} (c_ij / h) u_j + gamma_i h f_t``
+with ``Y_i = y + sum_j at_ij u_j``, ``at = A Gamma^-1``, ``c = -Gamma^-1`` below the
+diagonal, weights ``m = b Gamma^-1`` and ``mhat = bhat Gamma^-1`` (computed here from
+the paper's tableau). For the state ``[q, v]`` with ``J = [[0, I], [A_q, B_v]]`` the
+stage system reduces to the velocities: ``(I / (gamma h) - B_v - gamma h A_q) u_v =
+r_v + gamma h A_q r_q``, ``u_q = gamma h (r_q + u_v)``: one n x n LU per lane and step
+(docs/theory.md). ``f_t`` is a forward difference in time (the prescribed rotations
+and force profiles).
+
+The four lanes share the step: the error norm ``max over lanes of
+RMS(e_i / (atol + rtol max(|y_i|, |y_new,i|)))`` decides acceptance, and
+``h_new = h min(5, max(0.2, 0.9 err^(-1/3)))``. Steps end exactly at the
+recording times.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from fuzzymbs.mbs.kernels import simd as V
+from fuzzymbs.mbs.kernels.jacobian import jacobian
+from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, OUT_OF_BOUND, STEP_TOO_SMALL
+from fuzzymbs.mbs.kernels.rhs import make_work, rhs, set_lane
+from fuzzymbs.mbs.kernels.rk4 import retire_failed
+from fuzzymbs.mbs.kernels.threads import for_each_range
+
+L = V.LANES
+
+# ROS34PW2, Rang & Angermann (2005), Table "ROS34PW2" (W-method form: a_ij, gamma_ij, b, bhat)
+GAMMA = 4.3586652150845900e-1
+TABLEAU_A = np.array(
+    [
+        [0.0, 0.0, 0.0, 0.0],
+        [8.7173304301691801e-1, 0.0, 0.0, 0.0],
+        [8.4457060015369423e-1, -1.1299064236484185e-1, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+    ]
+)
+TABLEAU_GAMMA = np.array(
+    [
+        [GAMMA, 0.0, 0.0, 0.0],
+        [-8.7173304301691801e-1, GAMMA, 0.0, 0.0],
+        [-9.0338057013044082e-1, 5.4180672388095326e-2, GAMMA, 0.0],
+        [2.4212380706095346e-1, -1.2232505839045147, 5.4526025533510214e-1, GAMMA],
+    ]
+)
+TABLEAU_B = np.array([2.4212380706095346e-1, -1.2232505839045147, 1.5452602553351020, GAMMA])
+TABLEAU_BHAT = np.array([3.7810903145819369e-1, -9.6042292212423178e-2, 0.5, 2.1793326075422950e-1])
+#: the transformed coefficients: at (4, 4), c (4, 4), m (4,), m - mhat (4,), alpha (4,),
+#: gamma_i (4,) (row sums of Gamma)
+_GINV = np.linalg.inv(TABLEAU_GAMMA)
+COEFFICIENTS = (
+    TABLEAU_A @ _GINV,
+    -np.tril(_GINV, -1),
+    TABLEAU_B @ _GINV,
+    (TABLEAU_B - TABLEAU_BHAT) @ _GINV,
+    TABLEAU_A.sum(axis=1),
+    TABLEAU_GAMMA.sum(axis=1),
+)
+#: accepted steps a Jacobian (and f_t) is used for before it is evaluated again
+JACOBIAN_AGE = 1
+#: largest growth of the step from one step to the next
+MAX_GROWTH = 5.0
+#: exponent of the step-size update: 1 / (embedded order + 1)
+_EXPONENT = 1.0 / 3.0
+
+
+@nb.njit(cache=True)
+def lu_factor(a, piv):
+    """LU with partial pivoting of the square matrix a, in place; row swaps into piv."""
+    n = a.shape[0]
+    for k in range(n):
+        best = k
+        for i in range(k + 1, n):
+            if abs(a[i, k]) > abs(a[best, k]):
+                best = i
+        piv[k] = best
+        if best != k:
+            for j in range(n):
+                a[k, j], a[best, j] = a[best, j], a[k, j]
+        pivot = a[k, k]
+        for i in range(k + 1, n):
+            a[i, k] /= pivot
+            factor = a[i, k]
+            for j in range(k + 1, n):
+                a[i, j] -= factor * a[k, j]
+
+
+@nb.njit(cache=True)
+def lu_solve(lu, piv, b):
+    """Solve in place: b <- A^-1 b for the factors of :func:`lu_factor`."""
+    n = lu.shape[0]
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            b[k], b[p] = b[p], b[k]
+    for i in range(n):
+        s = b[i]
+        for j in range(i):
+            s -= lu[i, j] * b[j]
+        b[i] = s
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= lu[i, j] * b[j]
+        b[i] = s / lu[i, i]
+
+
+@nb.njit(cache=True, nogil=True)
+def integrate_block_ros(
+    sysdata, params, x0, timing, recording, tolerances, coefficients, first, count, counts
+):
+    """ROS34PW2 of samples ``first .. first + count - 1`` (count <= 4) in lockstep.
+
+    ``timing = (t0, record_interval, n_records, h0)``; ``recording`` as for
+    :func:`fuzzymbs.mbs.kernels.rk4.rk4`; ``tolerances = (rtol, atol, h_min)``;
+    ``coefficients``: :data:`COEFFICIENTS`. ``counts (B, 2)`` receives the accepted
+    and rejected steps of each sample (shared by its block).
+    """
+    t0, interval, n_records, h = timing
+    out_w, bound, out, status, fail_t = recording
+    rtol, atol, h_min = tolerances
+    at, cc, m, me, alpha, gsum = coefficients
+    nslots = params.shape[1]
+    nstate = x0.shape[1]
+    n = nstate // 2
+    size = nstate * L
+    nout = out_w.shape[0]
+    work = make_work(sysdata)
+    p = np.empty(nslots * L)
+    x = np.empty(size)
+    for lane in range(L):
+        src = first + min(lane, count - 1)
+        set_lane(p, lane, params[src])
+        set_lane(x, lane, x0[src])
+    alive = np.ones(L, dtype=np.bool_)
+    for lane in range(count):
+        status[first + lane] = OK
+        fail_t[first + lane] = np.nan
+    f0 = np.empty(size)
+    ft = np.empty(size)
+    fy = np.empty(size)
+    y = np.empty(size)
+    r = np.empty(size)
+    u = np.empty((4, size))
+    x_new = np.empty(size)
+    jq = np.empty(n * n * L)
+    jv = np.empty(n * n * L)
+    mat = np.empty((L, n, n))
+    piv = np.empty((L, n), dtype=np.int64)
+    rhs_v = np.empty(n)
+    accepted = 0
+    rejected = 0
+    t = t0
+    rec = 0
+    done = False
+    need_jac = True  # J and f_t are re-evaluated every JACOBIAN_AGE steps (W-method)
+    jac_age = 0
+    f_known = False  # f(t, x) evaluated for the current (t, x)
+    lu_step = -1.0  # the step the LU factors were made for
+    while not done:
+        # record at t0 + rec * interval (reached exactly), then stop or go on
+        for o in range(nout):
+            yo = V.splat(0.0)
+            for i in range(nstate):
+                w = out_w[o, i]
+                if w != 0.0:
+                    yo = V.fma(V.splat(w), V.load(x, L * i), yo)
+            for lane in range(count):
+                if alive[lane]:
+                    yl = V.get(yo, lane)
+                    out[first + lane, o, rec] = yl
+                    if not abs(yl) <= bound[o]:
+                        status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
+                        fail_t[first + lane] = t
+        if retire_failed(first, count, status, alive, out, x, p) or rec == n_records - 1:
+            break
+        target = t0 + (rec + 1) * interval
+        while True:  # steps until the next recording time
+            step = min(h, target - t)
+            last = step >= target - t - 1e-12 * interval
+            if last:
+                step = target - t
+            if need_jac:
+                jacobian(t, x, p, sysdata, work, f0, jq, jv)
+                # explicit time dependence (prescribed rotations, force profiles)
+                delta = max(1e-9, 1e-7 * abs(t))
+                rhs(t + delta, x, ft, p, sysdata, work)
+                for k in range(size):
+                    ft[k] = (ft[k] - f0[k]) / delta
+                need_jac = False
+                jac_age = 0
+                f_known = True
+                lu_step = -1.0
+            elif not f_known:
+                rhs(t, x, f0, p, sysdata, work)
+                f_known = True
+            gh = GAMMA * step
+            if step != lu_step:
+                for lane in range(L):
+                    for i in range(n):
+                        for j in range(n):
+                            e = L * (n * i + j) + lane
+                            mat[lane, i, j] = -jv[e] - gh * jq[e]
+                        mat[lane, i, i] += 1.0 / gh
+                    lu_factor(mat[lane], piv[lane])
+                lu_step = step
+            for s in range(4):
+                if s == 0:
+                    for k in range(size):
+                        fy[k] = f0[k]
+                else:
+                    for k in range(size):
+                        acc = x[k]
+                        for j in range(s):
+                            acc += at[s, j] * u[j, k]
+                        y[k] = acc
+                    rhs(t + alpha[s] * step, y, fy, p, sysdata, work)
+                for k in range(size):
+                    acc = fy[k] + gsum[s] * step * ft[k]
+                    for j in range(s):
+                        acc += cc[s, j] / step * u[j, k]
+                    r[k] = acc
+                # velocity-reduced solve per lane: (I/(g h) - B - g h A) u_v = r_v + g h A r_q
+                for lane in range(L):
+                    for i in range(n):
+                        acc = r[L * (n + i) + lane]
+                        for j in range(n):
+                            acc += gh * jq[L * (n * i + j) + lane] * r[L * j + lane]
+                        rhs_v[i] = acc
+                    lu_solve(mat[lane], piv[lane], rhs_v)
+                    for i in range(n):
+                        u[s, L * (n + i) + lane] = rhs_v[i]
+                        u[s, L * i + lane] = gh * (r[L * i + lane] + rhs_v[i])
+            # new state and the error norm (largest over the healthy lanes); a lane whose
+            # error is not finite fails alone
+            err = 0.0
+            newly_failed = False
+            for lane in range(L):
+                source = lane if lane < count else count - 1
+                if not alive[source]:
+                    continue
+                total = 0.0
+                for i in range(nstate):
+                    k = L * i + lane
+                    xn = x[k]
+                    e = 0.0
+                    for j in range(4):
+                        xn += m[j] * u[j, k]
+                        e += me[j] * u[j, k]
+                    x_new[k] = xn
+                    scale = atol + rtol * max(abs(x[k]), abs(xn))
+                    total += (e / scale) ** 2
+                norm = np.sqrt(total / nstate)
+                if not np.isfinite(norm):
+                    if lane < count and status[first + lane] == OK:
+                        status[first + lane] = NONFINITE
+                        fail_t[first + lane] = t
+                        newly_failed = True
+                elif norm > err:
+                    err = norm
+            if err <= 1.0:
+                for k in range(size):
+                    x[k] = x_new[k]
+                t = target if last else t + step
+                accepted += 1
+                f_known = False
+                jac_age += 1
+                need_jac = jac_age >= JACOBIAN_AGE
+                factor = MAX_GROWTH
+                if err > 0.0:
+                    factor = min(MAX_GROWTH, max(0.2, 0.9 * err**-_EXPONENT))
+                # a step shortened to reach a recording time does not shrink h
+                h = max(h, step * factor) if last else step * factor
+            else:
+                rejected += 1
+                h = step * max(0.2, 0.9 * err**-_EXPONENT)
+                need_jac = jac_age > 0  # an aged Jacobian may be the cause: renew it first
+            if newly_failed and retire_failed(first, count, status, alive, out, x, p):
+                done = True
+                break
+            if err <= 1.0 and last:
+                rec += 1
+                break
+            if err > 1.0 and h < h_min:
+                for lane in range(count):
+                    if alive[lane]:
+                        status[first + lane] = STEP_TOO_SMALL
+                        fail_t[first + lane] = t
+                done = True
+                break
+        if done:
+            retire_failed(first, count, status, alive, out, x, p)
+    for lane in range(count):
+        counts[first + lane, 0] = accepted
+        counts[first + lane, 1] = rejected
+
+
+def ros34pw2(sysdata, params, x0, timing, recording, tolerances, per_block, counts) -> None:
+    """ROS34PW2 of a batch in blocks of ``per_block`` (1 to 4) samples over the threads.
+
+    Arguments as :func:`integrate_block_ros`; ``counts (B, 2)``: accepted and
+    rejected steps per sample.
+    """
+    nsamples = params.shape[0]
+
+    def run(start: int, stop: int) -> None:
+        for block in range(start, stop):
+            first = block * per_block
+            count = min(per_block, nsamples - first)
+            integrate_block_ros(
+                sysdata,
+                params,
+                x0,
+                timing,
+                recording,
+                tolerances,
+                COEFFICIENTS,
+                first,
+                count,
+                counts,
+            )
+
+    for_each_range(-(-nsamples // per_block), run)

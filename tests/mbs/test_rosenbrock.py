@@ -1,0 +1,143 @@
+"""ROS34PW2 (the linearly implicit block integrator) against closed forms and fine RK4."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fuzzymbs.mbs.bodies import FixedBody
+from fuzzymbs.mbs.integrate import simulate
+from fuzzymbs.mbs.kernels.layout import OK
+from fuzzymbs.mbs.kernels.rosenbrock import (
+    COEFFICIENTS,
+    GAMMA,
+    TABLEAU_A,
+    TABLEAU_B,
+    TABLEAU_BHAT,
+    TABLEAU_GAMMA,
+    lu_factor,
+    lu_solve,
+    ros34pw2,
+)
+from fuzzymbs.mbs.lumped import lumped_modal_body
+from fuzzymbs.mbs.system import Coordinate, System
+from fuzzymbs.models.brake import DiscBrake
+
+
+def run(compiled, outputs, t_end, interval, rtol, x0=None, samples=None, bound=1.0):
+    """Outputs (B, n_out, T) and accepted / rejected steps (B, 2) of ros34pw2."""
+    params = compiled.parameters.values(samples or {})
+    batch = params.shape[0]
+    x0 = compiled.zero_state(batch) if x0 is None else np.tile(x0, (batch, 1))
+    out_w = np.array([compiled.output_functional(spec) for spec in outputs.values()])
+    n_rec = round(t_end / interval) + 1
+    out = np.empty((batch, out_w.shape[0], n_rec))
+    status = np.zeros(batch, dtype=np.int64)
+    fail_t = np.zeros(batch)
+    counts = np.zeros((batch, 2), dtype=np.int64)
+    ros34pw2(
+        compiled.data,
+        params,
+        np.ascontiguousarray(x0),
+        (0.0, interval, n_rec, 1e-7),
+        (out_w, np.full(out_w.shape[0], bound), out, status, fail_t),
+        (rtol, 1e-4 * rtol, 1e-14),
+        4,
+        counts,
+    )
+    assert (status == OK).all()
+    return out, counts
+
+
+def test_tableau_meets_the_order_conditions():
+    # Rosenbrock order conditions (Hairer & Wanner, Solving ODEs II, Sec. IV.7, Table 7.1)
+    # with beta = A + Gamma below the diagonal, beta'_i = sum_j beta_ij: order 1
+    # sum b = 1; order 2 sum b beta' = 1/2 - gamma; order 3 sum b alpha^2 = 1/3 and
+    # sum b beta beta' = 1/6 - gamma + gamma^2 (b: order 3, bhat: order 2); stiffly
+    # accurate: b is the last row of A + Gamma (Rang & Angermann 2005)
+    a, g, b, bhat = TABLEAU_A, TABLEAU_GAMMA, TABLEAU_B, TABLEAU_BHAT
+    beta = np.tril(a + g, -1)
+    beta1 = beta.sum(axis=1)
+    alpha = a.sum(axis=1)
+    for weights in (b, bhat):
+        np.testing.assert_allclose(weights.sum(), 1.0, atol=1e-14)
+        np.testing.assert_allclose(weights @ beta1, 0.5 - GAMMA, atol=1e-14)
+    np.testing.assert_allclose(b @ alpha**2, 1.0 / 3.0, atol=1e-14)
+    np.testing.assert_allclose(b @ (beta @ beta1), 1.0 / 6.0 - GAMMA + GAMMA**2, atol=1e-14)
+    np.testing.assert_allclose(b, (a + g)[3], atol=1e-15)
+    assert np.allclose(np.diag(g), GAMMA) and np.allclose(COEFFICIENTS[5], g.sum(axis=1))
+
+
+def test_lu_solve_against_numpy():
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(12, 12))
+    b = rng.normal(size=12)
+    lu = a.copy()
+    piv = np.empty(12, dtype=np.int64)
+    lu_factor(lu, piv)
+    x = b.copy()
+    lu_solve(lu, piv, x)
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-11)
+
+
+def oscillator(zeta: float) -> System:
+    """One mode, omega = 100 rad/s, damping ratio zeta (tests/mbs/test_elements.py)."""
+    body = lumped_modal_body("osc", [(0, 0, 0)], [1.0], np.diag([1e4, 0, 0]), free_dofs=[0])
+    system = System()
+    system.add_body(FixedBody(body, damping_ratio=zeta))
+    return system
+
+
+def test_free_decay_converges_with_the_tolerance():
+    # reference: the closed form q0 e^(-zeta w t) (cos w_d t + zeta / sqrt(1 - zeta^2)
+    # sin w_d t); the error falls with rtol and stays near it: measured 1.6e-4 / 2.3e-6 /
+    # 2.4e-8 of q0 at rtol 1e-4 / 1e-6 / 1e-8 with 265 / 1045 / 4556 steps (4-4.4x the
+    # steps per 100x rtol: order 3)
+    compiled = oscillator(0.05).compile()
+    w, z = 100.0, 0.05
+    wd = w * np.sqrt(1 - z**2)
+    t = np.arange(201) * 1e-3
+    ref = 1e-3 * np.exp(-z * w * t) * (np.cos(wd * t) + z / np.sqrt(1 - z**2) * np.sin(wd * t))
+    errors = []
+    for rtol in (1e-4, 1e-6, 1e-8):
+        out, _ = run(compiled, {"q": Coordinate("osc")}, 0.2, 1e-3, rtol, np.array([1e-3, 0]))
+        errors.append(np.abs(out[0, 0] - ref).max() / 1e-3)
+        assert errors[-1] < 20 * rtol
+    assert errors[0] > errors[1] > errors[2]
+
+
+def test_stiff_overdamped_mode_takes_large_steps():
+    # zeta = 1e5: eigenvalues -2e7 and -5e-3 1/s; explicit RK4 would need dt < 1.4e-7 s,
+    # i.e. 1.4 million steps for 0.2 s. The L-stable method follows the slow mode with a
+    # few hundred steps (measured 223, error 1.7e-13 m).
+    # Reference: q0 (l2 e^(l1 t) - l1 e^(l2 t)) / (l2 - l1), v0 = 0.
+    zeta, w = 1e5, 100.0
+    compiled = oscillator(zeta).compile()
+    root = w * np.sqrt(zeta**2 - 1)
+    l1, l2 = -zeta * w + root, -zeta * w - root
+    t = np.arange(201) * 1e-3
+    ref = 1e-3 * (l2 * np.exp(l1 * t) - l1 * np.exp(l2 * t)) / (l2 - l1)
+    out, counts = run(compiled, {"q": Coordinate("osc")}, 0.2, 1e-3, 1e-6, np.array([1e-3, 0]))
+    assert counts[0, 0] < 1000
+    np.testing.assert_allclose(out[0, 0], ref, rtol=0, atol=1e-6 * 1e-3)
+
+
+@pytest.fixture(scope="module")
+def brake():
+    return DiscBrake(t_end=1e-4).compiled
+
+
+def test_brake_against_fine_rk4(brake):
+    # reference: RK4 at dt = 1 us / 64 (15.6 ns, the converged reference of
+    # docs/brake.md) over the first 0.1 ms (the pads close on the disc: contact and
+    # friction events); rtol 1e-4: measured 6.7e-5 of the peak (884 steps and 386
+    # rejected over the 0.1 ms), bound 1e-3
+    outputs = {"y_lpad": Coordinate("lower_pad", 0), "y_upad": Coordinate("upper_pad", 0)}
+    samples = {"nodal_force": np.array([16e3, 16.16e3])}
+    ref = simulate(brake, samples, t_end=1e-4, dt=1e-6 / 64, record_interval=1e-5, outputs=outputs)
+    out, counts = run(brake, outputs, 1e-4, 1e-5, 1e-4, samples=samples, bound=1e-3)
+    for i, name in enumerate(outputs):
+        r = ref.outputs[name]
+        error = np.abs(out[:, i] - r).max() / np.abs(r).max()
+        assert error < 1e-3, (name, error)
+    assert (counts[:, 0] > 0).all()
