@@ -149,30 +149,26 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
                 for a in range(5):
                     body = sb if a == 0 else mb
                     _node_map(bi, bf, fpool, rot, rot_a, body, nodes[a], sigma[a], lane, w, wq)
-                # kw = K w + C wq (3 x cols), then jq += w^T kw and jv += w^T (C w)
-                for half in range(2):
-                    lo = cols0 if half == 0 else cols2
-                    hi = cols1 if half == 0 else cols3
-                    for col in range(lo, hi):
-                        for r in range(3):
-                            acc = 0.0
-                            for q in range(3):
-                                kk = jrec[base + L * (3 * r + q) + lane]
-                                cc = jrec[base + L * (9 + 3 * r + q) + lane]
-                                acc += kk * w[q, col] + cc * wq[q, col]
-                            kw[r, col] = acc
+                # jq += w^T (K w + C wq), jv += w^T C w (3 x cols products per body range)
+                ranges = (cols0, cols1, cols2, cols3)
+                _local_product(jrec, base, lane, w, kw, ranges, False)
+                _local_product(jrec, base + 9 * L, lane, wq, kw, ranges, True)
                 _accumulate(jq, n, w, kw, cols0, cols1, cols2, cols3, lane)
-                for half in range(2):
-                    lo = cols0 if half == 0 else cols2
-                    hi = cols1 if half == 0 else cols3
-                    for col in range(lo, hi):
-                        for r in range(3):
-                            acc = 0.0
-                            for q in range(3):
-                                acc += jrec[base + L * (9 + 3 * r + q) + lane] * w[q, col]
-                            kw[r, col] = acc
+                _local_product(jrec, base + 9 * L, lane, w, kw, ranges, False)
                 _accumulate(jv, n, w, kw, cols0, cols1, cols2, cols3, lane)
         row0 += nslave
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _local_product(jrec, at, lane, w, kw, ranges, add):
+    """``kw (+)= M w`` over the two column ranges, M the 3 x 3 block of the record at ``at``."""
+    for half in range(2):
+        for col in range(ranges[2 * half], ranges[2 * half + 1]):
+            for r in range(3):
+                acc = 0.0
+                for q in range(3):
+                    acc += jrec[at + L * (3 * r + q) + lane] * w[q, col]
+                kw[r, col] = kw[r, col] + acc if add else acc
 
 
 @nb.njit(cache=True)

@@ -120,6 +120,27 @@ def start_block(sysdata, params, x0, recording, first, count):
     return x, p, alive, np.empty((5, nstate * L)), make_work(sysdata)
 
 
+@nb.njit(cache=True)
+def record(x, recording, first, count, alive, rec, t):
+    """Outputs of the block's healthy lanes at time t into record ``rec``; a lane whose
+    output leaves its bound (or is not finite) is flagged (arguments as :func:`rk4`)."""
+    out_w, bound, out, status, fail_t = recording
+    nstate = x.shape[0] // L
+    for o in range(out_w.shape[0]):
+        y = V.splat(0.0)
+        for i in range(nstate):
+            w = out_w[o, i]
+            if w != 0.0:
+                y = V.fma(V.splat(w), V.load(x, L * i), y)
+        for lane in range(count):
+            if alive[lane]:
+                yl = V.get(y, lane)
+                out[first + lane, o, rec] = yl
+                if not abs(yl) <= bound[o]:  # also catches NaN
+                    status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
+                    fail_t[first + lane] = t
+
+
 @nb.njit(cache=True, nogil=True)
 def advance_block(sysdata, timing, recording, first, count, state, step_begin, step_end):
     """Steps ``step_begin .. step_end - 1`` of a block (from :func:`start_block`), on the
@@ -130,29 +151,15 @@ def advance_block(sysdata, timing, recording, first, count, state, step_begin, s
     when the block is done: its last step taken, or no healthy lane left.
     """
     t0, dt, n_steps, record_every = timing
-    out_w, bound, out, status, fail_t = recording
+    out, status, fail_t = recording[2], recording[3], recording[4]
     x, p, alive, stages, work = state
     k1, k2, k3, k4, xt = stages[0], stages[1], stages[2], stages[3], stages[4]
     nstate = x.shape[0] // L
-    nout = out_w.shape[0]
     size = nstate * L
     for step in range(step_begin, step_end):
         t = t0 + step * dt
         if step % record_every == 0:
-            rec = step // record_every
-            for o in range(nout):
-                y = V.splat(0.0)
-                for i in range(nstate):
-                    w = out_w[o, i]
-                    if w != 0.0:
-                        y = V.fma(V.splat(w), V.load(x, L * i), y)
-                for lane in range(count):
-                    if alive[lane]:
-                        yl = V.get(y, lane)
-                        out[first + lane, o, rec] = yl
-                        if not abs(yl) <= bound[o]:  # also catches NaN
-                            status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
-                            fail_t[first + lane] = t
+            record(x, recording, first, count, alive, step // record_every, t)
             if retire_failed(first, count, status, alive, out, x, p):
                 return False
         if step == n_steps:

@@ -32,9 +32,9 @@ import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.jacobian import jacobian
-from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, OUT_OF_BOUND, STEP_TOO_SMALL
-from fuzzymbs.mbs.kernels.rhs import make_work, rhs, set_lane
-from fuzzymbs.mbs.kernels.rk4 import retire_failed
+from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, STEP_TOO_SMALL
+from fuzzymbs.mbs.kernels.rhs import rhs
+from fuzzymbs.mbs.kernels.rk4 import record, retire_failed, start_block
 from fuzzymbs.mbs.kernels.threads import for_each_range
 
 L = V.LANES
@@ -131,25 +131,13 @@ def integrate_block_ros(
     and rejected steps of each sample (shared by its block).
     """
     t0, interval, n_records, h = timing
-    out_w, bound, out, status, fail_t = recording
+    out, status, fail_t = recording[2], recording[3], recording[4]
     rtol, atol, h_min = tolerances
     at, cc, m, me, alpha, gsum = coefficients
-    nslots = params.shape[1]
     nstate = x0.shape[1]
     n = nstate // 2
     size = nstate * L
-    nout = out_w.shape[0]
-    work = make_work(sysdata)
-    p = np.empty(nslots * L)
-    x = np.empty(size)
-    for lane in range(L):
-        src = first + min(lane, count - 1)
-        set_lane(p, lane, params[src])
-        set_lane(x, lane, x0[src])
-    alive = np.ones(L, dtype=np.bool_)
-    for lane in range(count):
-        status[first + lane] = OK
-        fail_t[first + lane] = np.nan
+    x, p, alive, _, work = start_block(sysdata, params, x0, recording, first, count)
     f0 = np.empty(size)
     ft = np.empty(size)
     fy = np.empty(size)
@@ -173,19 +161,7 @@ def integrate_block_ros(
     lu_step = -1.0  # the step the LU factors were made for
     while not done:
         # record at t0 + rec * interval (reached exactly), then stop or go on
-        for o in range(nout):
-            yo = V.splat(0.0)
-            for i in range(nstate):
-                w = out_w[o, i]
-                if w != 0.0:
-                    yo = V.fma(V.splat(w), V.load(x, L * i), yo)
-            for lane in range(count):
-                if alive[lane]:
-                    yl = V.get(yo, lane)
-                    out[first + lane, o, rec] = yl
-                    if not abs(yl) <= bound[o]:
-                        status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
-                        fail_t[first + lane] = t
+        record(x, recording, first, count, alive, rec, t)
         if retire_failed(first, count, status, alive, out, x, p) or rec == n_records - 1:
             break
         target = t0 + (rec + 1) * interval
