@@ -153,3 +153,14 @@ def test_lane_sharing_counts_shared_and_split_cells(brake):
     counts[:] = 0
     _count_shared(data, apart, 300, 1e-6, 10, counts)
     assert counts[:, 0].sum() < counts[:, 1].sum()
+
+
+def test_ros_accuracy_table_runs():
+    # the script behind the ROS34PW2 figures of the issue note and docs/theory.md, on a
+    # 50 us window: every integrator close to the fine RK4 reference there
+    import ros_accuracy
+
+    figures = ros_accuracy.table(5e-5)
+    assert figures["ros34pw2_rtol_0.0001"]["error"] < 1e-3
+    assert figures["ros34pw2_rtol_0.001"]["steps_accepted_rejected"][0] > 0
+    assert figures["rk4_1us"]["steps"] == 50
