@@ -65,16 +65,21 @@ def brake():
     return DiscBrake(t_end=1e-4).compiled
 
 
-def test_brake_jacobian_against_finite_differences(brake):
+@pytest.mark.parametrize("speeds", [(1.0, 1.0), (1.0, 400.0)])
+def test_brake_jacobian_against_finite_differences(brake, speeds):
     # reference: central differences of the same right-hand side (linearize.jacobian),
     # at two sliding states with every slave in contact (pads pressed 55 um into the
-    # disc, random small deformations and velocities), two parameter rows. da/dv (the
+    # disc, random small deformations and velocities), two parameter rows; with the discs
+    # at 1 and 400 rad/s the lanes are 0.8 rad apart at t = 2 ms, so their master cells
+    # differ and the per-lane assembly runs, else the vector one. da/dv (the
     # friction and penalty damping): measured 1.2e-10 relative (Frobenius), bound 1e-8.
     # da/dq: measured 2.8e-4, bound 1e-3: the analytic form holds the master weights and
     # normal fixed, so the change of the master point with the slave's tangential
     # position (deformed master faces) is left out (docs/theory.md)
     rng = np.random.default_rng(5)
-    params = brake.parameters.values({"nodal_force": np.array([16e3, 17e3])})
+    params = brake.parameters.values(
+        {"nodal_force": np.array([16e3, 17e3]), "disc_speed": np.array(speeds)}
+    )
     n = brake.n_dofs
     states = np.zeros((2, 2 * n))
     for row in range(2):

@@ -30,7 +30,7 @@ import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.contact import JREC
-from fuzzymbs.mbs.kernels.kinematics import body_row
+from fuzzymbs.mbs.kernels.kinematics import body_row, frame_matrix
 from fuzzymbs.mbs.kernels.layout import (
     B_MAT0,
     B_PSI0,
@@ -114,6 +114,9 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
     w = np.zeros((3, n))  # relative position per coordinate (only two bodies' columns used)
     wq = np.zeros((3, n))  # relative velocity per modal coordinate of a rotating body
     kw = np.zeros((3, n))
+    wl = np.zeros(3 * n * L)  # the same, four lanes per vector: [L (n r + col) + lane]
+    wql = np.zeros(3 * n * L)
+    kwl = np.zeros(3 * n * L)
     nodes = np.empty(5, dtype=np.int64)
     sigma = np.empty(5)
     row0 = 0
@@ -124,6 +127,35 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
         slaves = ipool[ci[c, C_SLAVE0] : ci[c, C_SLAVE0] + nslave]
         for k in range(nslave):
             base = L * JREC * (row0 + k)
+            cols0, cols1 = _body_columns(bi, sb)
+            cols2, cols3 = _body_columns(bi, mb)
+            if mb == sb:
+                cols2, cols3 = cols1, cols1
+            ranges = (cols0, cols1, cols2, cols3)
+            if _shared_nodes(jnodes, row0 + k):
+                # the usual case: one set of master nodes for all lanes, vector arithmetic
+                if _any_active(jrec, base):
+                    _contact_point_lanes(
+                        n,
+                        bi,
+                        bf,
+                        fpool,
+                        rot,
+                        rot_a,
+                        jrec,
+                        base,
+                        slaves[k],
+                        jnodes[L * 4 * (row0 + k) : L * 4 * (row0 + k + 1) : L],
+                        sb,
+                        mb,
+                        ranges,
+                        wl,
+                        wql,
+                        kwl,
+                        jq,
+                        jv,
+                    )
+                continue
             for lane in range(L):
                 active = False
                 for e in range(18):
@@ -135,10 +167,6 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
                 for q in range(4):
                     nodes[1 + q] = jnodes[L * 4 * (row0 + k) + L * q + lane]
                     sigma[1 + q] = -jrec[base + L * (18 + q) + lane]
-                cols0, cols1 = _body_columns(bi, sb)
-                cols2, cols3 = _body_columns(bi, mb)
-                if mb == sb:
-                    cols2, cols3 = cols1, cols1
                 for r in range(3):
                     for col in range(cols0, cols1):
                         w[r, col] = 0.0
@@ -150,13 +178,127 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
                     body = sb if a == 0 else mb
                     _node_map(bi, bf, fpool, rot, rot_a, body, nodes[a], sigma[a], lane, w, wq)
                 # jq += w^T (K w + C wq), jv += w^T C w (3 x cols products per body range)
-                ranges = (cols0, cols1, cols2, cols3)
                 _local_product(jrec, base, lane, w, kw, ranges, False)
                 _local_product(jrec, base + 9 * L, lane, wq, kw, ranges, True)
                 _accumulate(jq, n, w, kw, cols0, cols1, cols2, cols3, lane)
                 _local_product(jrec, base + 9 * L, lane, w, kw, ranges, False)
                 _accumulate(jv, n, w, kw, cols0, cols1, cols2, cols3, lane)
         row0 += nslave
+
+
+@nb.njit(cache=True)
+def _shared_nodes(jnodes, row):
+    """True if the four lanes of contact point ``row`` have the same master nodes."""
+    at = L * 4 * row
+    for q in range(4):
+        node = jnodes[at + L * q]
+        for lane in range(1, L):
+            if jnodes[at + L * q + lane] != node:
+                return False
+    return True
+
+
+@nb.njit(cache=True)
+def _any_active(jrec, base):
+    """True if contact point ``base`` is in contact in some lane (K or C not zero)."""
+    for e in range(18 * L):
+        if jrec[base + e] != 0.0:
+            return True
+    return False
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _contact_point_lanes(
+    n, bi, bf, fpool, rot, rot_a, jrec, base, slave, masters, sb, mb, ranges, wl, wql, kwl, jq, jv
+):
+    """One contact point's ``W^T (K W + C W_q)`` and ``W^T C W`` for four lanes at once
+    (the lanes share the slave and master nodes; weights, frames and K, C differ)."""
+    zero = V.splat(0.0)
+    for half in range(2):
+        for col in range(ranges[2 * half], ranges[2 * half + 1]):
+            for r in range(3):
+                V.store(wl, L * (n * r + col), zero)
+                V.store(wql, L * (n * r + col), zero)
+    _node_map_lanes(bi, bf, fpool, rot, rot_a, sb, slave, V.splat(1.0), n, wl, wql)
+    for q in range(4):
+        sigma = zero - V.load(jrec, base + L * (18 + q))
+        _node_map_lanes(bi, bf, fpool, rot, rot_a, mb, masters[q], sigma, n, wl, wql)
+    _local_product_lanes(jrec, base, n, wl, kwl, ranges, False)
+    _local_product_lanes(jrec, base + 9 * L, n, wql, kwl, ranges, True)
+    _accumulate_lanes(jq, n, wl, kwl, ranges)
+    _local_product_lanes(jrec, base + 9 * L, n, wl, kwl, ranges, False)
+    _accumulate_lanes(jv, n, wl, kwl, ranges)
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _node_map_lanes(bi, bf, fpool, rot, rot_a, b, node, sigma, n, wl, wql):
+    """:func:`_node_map` for four lanes: ``sigma`` (a vector) times the node's maps."""
+    kind, dof0, ntr, nm, n0, _ = body_row(bi, b)
+    for a in range(ntr):
+        for r in range(3):
+            at = L * (n * r + dof0 + a)
+            V.store(wl, at, V.load(wl, at) + sigma * bf[b, 3 + 3 * a + r])
+    if nm == 0:
+        return
+    qd0 = dof0 + ntr
+    row = bi[b, B_PSI0] + (node - n0) * 3 * nm
+    if kind == KIND_ROTATING:
+        a00, a01, a02, a10, a11, a12, a20, a21, a22 = frame_matrix(rot_a, b)
+        om = V.load(rot, L * (3 * b + 1)) * sigma
+        e0, e1, e2 = bf[b, 12], bf[b, 13], bf[b, 14]
+        for j in range(nm):
+            u0 = fpool[row + j]
+            u1 = fpool[row + nm + j]
+            u2 = fpool[row + 2 * nm + j]
+            z0 = om * (e1 * u2 - e2 * u1)  # sigma Omega e x u
+            z1 = om * (e2 * u0 - e0 * u2)
+            z2 = om * (e0 * u1 - e1 * u0)
+            col = qd0 + j
+            _add_row(wl, wql, L * col, sigma, a00, a01, a02, u0, u1, u2, z0, z1, z2)
+            _add_row(wl, wql, L * (n + col), sigma, a10, a11, a12, u0, u1, u2, z0, z1, z2)
+            _add_row(wl, wql, L * (2 * n + col), sigma, a20, a21, a22, u0, u1, u2, z0, z1, z2)
+    else:
+        for j in range(nm):
+            for r in range(3):
+                at = L * (n * r + qd0 + j)
+                V.store(wl, at, V.load(wl, at) + sigma * fpool[row + r * nm + j])
+
+
+@nb.njit(cache=True, fastmath=V.FAST, inline="always")
+def _add_row(wl, wql, at, sigma, c0, c1, c2, u0, u1, u2, z0, z1, z2):
+    """One row r of a rotating body's maps: ``A[r] . u`` (times sigma) and ``A[r] . z``."""
+    V.store(wl, at, V.load(wl, at) + sigma * (c0 * u0 + c1 * u1 + c2 * u2))
+    V.store(wql, at, V.load(wql, at) + (c0 * z0 + c1 * z1 + c2 * z2))
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _local_product_lanes(jrec, at, n, wl, kwl, ranges, add):
+    """:func:`_local_product` for four lanes."""
+    for half in range(2):
+        for col in range(ranges[2 * half], ranges[2 * half + 1]):
+            for r in range(3):
+                acc = V.splat(0.0)
+                for q in range(3):
+                    m_rq = V.load(jrec, at + L * (3 * r + q))
+                    acc = V.fma(m_rq, V.load(wl, L * (n * q + col)), acc)
+                dst = L * (n * r + col)
+                V.store(kwl, dst, V.load(kwl, dst) + acc if add else acc)
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _accumulate_lanes(jac, n, wl, kwl, ranges):
+    """:func:`_accumulate` for four lanes."""
+    for half_i in range(2):
+        for i in range(ranges[2 * half_i], ranges[2 * half_i + 1]):
+            w0 = V.load(wl, L * i)
+            w1 = V.load(wl, L * (n + i))
+            w2 = V.load(wl, L * (2 * n + i))
+            for half_j in range(2):
+                for j in range(ranges[2 * half_j], ranges[2 * half_j + 1]):
+                    at = L * (n * i + j)
+                    acc = w0 * V.load(kwl, L * j) + w1 * V.load(kwl, L * (n + j))
+                    acc = acc + w2 * V.load(kwl, L * (2 * n + j))
+                    V.store(jac, at, V.load(jac, at) + acc)
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
