@@ -90,9 +90,8 @@ def oscillator(zeta: float) -> System:
 
 def test_free_decay_converges_with_the_tolerance():
     # reference: the closed form q0 e^(-zeta w t) (cos w_d t + zeta / sqrt(1 - zeta^2)
-    # sin w_d t); the error falls with rtol and stays near it: measured 1.6e-4 / 2.3e-6 /
-    # 2.4e-8 of q0 at rtol 1e-4 / 1e-6 / 1e-8 with 265 / 1045 / 4556 steps (4-4.4x the
-    # steps per 100x rtol: order 3)
+    # sin w_d t); the error falls with rtol and stays below it: measured 1.8e-5 / 7.2e-7 /
+    # 1.0e-8 of q0 at rtol 1e-4 / 1e-6 / 1e-8 with 611 / 1518 / 6025 steps
     compiled = oscillator(0.05).compile()
     w, z = 100.0, 0.05
     wd = w * np.sqrt(1 - z**2)
@@ -109,7 +108,7 @@ def test_free_decay_converges_with_the_tolerance():
 def test_stiff_overdamped_mode_takes_large_steps():
     # zeta = 1e5: eigenvalues -2e7 and -5e-3 1/s; explicit RK4 would need dt < 1.4e-7 s,
     # i.e. 1.4 million steps for 0.2 s. The L-stable method follows the slow mode with a
-    # few hundred steps (measured 223, error 1.7e-13 m).
+    # few hundred steps (measured 232, error 1.7e-13 m).
     # Reference: q0 (l2 e^(l1 t) - l1 e^(l2 t)) / (l2 - l1), v0 = 0.
     zeta, w = 1e5, 100.0
     compiled = oscillator(zeta).compile()
@@ -130,7 +129,7 @@ def brake():
 def test_brake_against_fine_rk4(brake):
     # reference: RK4 at dt = 1 us / 64 (15.6 ns, the converged reference of
     # docs/brake.md) over the first 0.1 ms (the pads close on the disc: contact and
-    # friction events); rtol 1e-4: measured 6.7e-5 of the peak (884 steps and 386
+    # friction events); rtol 1e-4: measured 5.3e-5 of the peak (1115 steps and 129
     # rejected over the 0.1 ms), bound 1e-3
     outputs = {"y_lpad": Coordinate("lower_pad", 0), "y_upad": Coordinate("upper_pad", 0)}
     samples = {"nodal_force": np.array([16e3, 16.16e3])}

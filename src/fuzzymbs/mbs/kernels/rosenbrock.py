@@ -20,8 +20,13 @@ r_v + gamma h A_q r_q``, ``u_q = gamma h (r_q + u_v)``: one n x n LU per lane an
 and force profiles).
 
 The four lanes share the step: the error norm ``max over lanes of
-RMS(e_i / (atol + rtol max(|y_i|, |y_new,i|)))`` decides acceptance, and
-``h_new = h min(5, max(0.2, 0.9 err^(-1/3)))``. Steps end exactly at the
+RMS(e_i / (atol + rtol max(|y_i|, |y_new,i|)))`` decides acceptance. The next
+step follows Gustafsson's PI controller (Hairer & Wanner, Solving ODEs II,
+Sec. IV.8), ``h_new = h min(5, max(0.2, 0.9 err^(-0.7/3) err_prev^(0.4/3)))``
+after an accepted step (no growth right after a rejection) and
+``h max(0.2, 0.9 err^(-1/3))`` after a rejected one: on the brake's impact
+transient it rejects a third as many steps as the plain controller and lands
+nearer the tolerance (benchmarks/ros_accuracy.py). Steps end exactly at the
 recording times.
 """
 
@@ -159,6 +164,8 @@ def integrate_block_ros(
     jac_age = 0
     f_known = False  # f(t, x) evaluated for the current (t, x)
     lu_step = -1.0  # the step the LU factors were made for
+    after_reject = False  # no growth right after a rejected step
+    err_prev = 1.0  # the last accepted step's error (PI control)
     while not done:
         # record at t0 + rec * interval (reached exactly), then stop or go on
         record(x, recording, first, count, alive, rec, t)
@@ -258,11 +265,17 @@ def integrate_block_ros(
                 need_jac = jac_age >= JACOBIAN_AGE
                 factor = MAX_GROWTH
                 if err > 0.0:
-                    factor = min(MAX_GROWTH, max(0.2, 0.9 * err**-_EXPONENT))
+                    pi = 0.9 * err ** (-0.7 * _EXPONENT) * err_prev ** (0.4 * _EXPONENT)
+                    factor = min(MAX_GROWTH, max(0.2, pi))
+                err_prev = max(err, 1e-4)
+                if after_reject:
+                    factor = min(factor, 1.0)
+                after_reject = False
                 # a step shortened to reach a recording time does not shrink h
                 h = max(h, step * factor) if last else step * factor
             else:
                 rejected += 1
+                after_reject = True
                 h = step * max(0.2, 0.9 * err**-_EXPONENT)
                 need_jac = jac_age > 0  # an aged Jacobian may be the cause: renew it first
             if newly_failed and retire_failed(first, count, status, alive, out, x, p):
