@@ -129,7 +129,7 @@ def brake():
 def test_brake_against_fine_rk4(brake):
     # reference: RK4 at dt = 1 us / 64 (15.6 ns, the converged reference of
     # docs/brake.md) over the first 0.1 ms (the pads close on the disc: contact and
-    # friction events); rtol 1e-4: measured 5.3e-5 of the peak (1115 steps and 129
+    # friction events); rtol 1e-4: measured 6.4e-5 of the peak (1700 steps and 112
     # rejected over the 0.1 ms), bound 1e-3
     outputs = {"y_lpad": Coordinate("lower_pad", 0), "y_upad": Coordinate("upper_pad", 0)}
     samples = {"nodal_force": np.array([16e3, 16.16e3])}
