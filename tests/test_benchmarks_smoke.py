@@ -164,3 +164,15 @@ def test_ros_accuracy_table_runs():
     assert figures["ros34pw2_rtol_0.0001"]["error"] < 1e-3
     assert figures["ros34pw2_rtol_0.001"]["steps_accepted_rejected"][0] > 0
     assert figures["rk4_1us"]["steps"] == 50
+
+
+def test_compare_checkouts_runs_both_sides():
+    # the script behind the before/after tables of docs/benchmarks.md, this checkout
+    # against itself on a 0.1 ms study: both sides report two timed studies per round
+    import compare_checkouts
+
+    figures = compare_checkouts.compare(compare_checkouts.REPO, 1, False, t_end=1e-4)
+    for side in ("this", "other"):
+        assert len(figures[side]["study1"]) == 2
+        assert figures[side]["study1_wall_min"] > 0
+    assert figures["study1_wall_this_over_other"] > 0

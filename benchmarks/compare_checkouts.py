@@ -1,0 +1,90 @@
+"""This checkout against another one (e.g. the commit before a change), in the same minutes.
+
+    git worktree add ../before <commit>
+    python benchmarks/compare_checkouts.py ../before [--rounds 3] [--cold]
+
+Each measurement runs in a fresh interpreter with the checkout's ``src`` first on
+the path; the two checkouts alternate, ``--rounds`` times. Prints one JSON line:
+
+* ``study1``: wall and CPU time [s] of study 1 of the brake (33 runs, reduced
+  method, 10 ms, RK4 at 1 us, ``chunk_size=33``), two warm studies per process;
+* ``cold`` (with ``--cold``): the first call of a 20 us brake with an empty Numba
+  cache directory (``benchmarks/startup.py``'s child), i.e. the cold compile.
+
+docs/benchmarks.md's before/after tables of session 4 were measured this way.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+from pathlib import Path
+
+from bench_common import REPO, run_json_subprocess
+
+_STUDY = """
+import json, time, warnings
+from fuzzymbs.models.brake import DiscBrake
+from fuzzymbs.study.study import Study
+parameters = {{
+    "pad_spring_stiffness": {{"type": "triangular", "modal": 200e3, "spread": 0.1}},
+    "caliper_spring_stiffness": {{"type": "triangular", "modal": 1e3, "spread": 0.1}},
+    "nodal_force": {{"type": "triangular", "modal": 16e3, "spread": 0.01}},
+}}
+levels = [0.0, 0.25, 0.5, 0.75, 1.0]
+warnings.simplefilter("ignore")
+Study(DiscBrake(t_end=2e-5), parameters, method="reduced", levels=levels).run(progress=False)
+study = Study(DiscBrake(t_end={t_end}), parameters, method="reduced", levels=levels)
+runs = []
+for _ in range(2):
+    wall, cpu = time.perf_counter(), time.process_time()
+    study.run(chunk_size=33, progress=False)
+    runs.append([time.perf_counter() - wall, time.process_time() - cpu])
+print(json.dumps(runs))
+"""
+
+_COLD = """
+import json, time
+import numpy as np
+from fuzzymbs.models.brake import DiscBrake
+brake = DiscBrake(t_end=2e-5)
+start = time.perf_counter()
+brake({"nodal_force": np.array([16e3])})
+print(json.dumps(time.perf_counter() - start))
+"""
+
+
+def _run(code: str, checkout: Path, env: dict[str, str] | None = None):
+    paths = {"PYTHONPATH": str(checkout / "src"), **(env or {})}
+    return run_json_subprocess(code, env=paths, timeout=3600)
+
+
+def compare(other: Path, rounds: int, cold: bool, t_end: float = 1e-2) -> dict:
+    sides = {"this": REPO, "other": other.resolve()}
+    figures: dict = {name: {"checkout": str(path), "study1": []} for name, path in sides.items()}
+    for _ in range(rounds):
+        for name, path in sides.items():
+            figures[name]["study1"].extend(_run(_STUDY.format(t_end=t_end), path))
+            if cold:
+                with tempfile.TemporaryDirectory(prefix="fuzzymbs-numba-") as cache:
+                    seconds = _run(_COLD, path, {"NUMBA_CACHE_DIR": cache})
+                figures[name].setdefault("cold", []).append(seconds)
+    for name in sides:
+        walls = [wall for wall, _ in figures[name]["study1"]]
+        cpus = [cpu for _, cpu in figures[name]["study1"]]
+        figures[name]["study1_wall_min"] = min(walls)
+        figures[name]["study1_cpu_min"] = min(cpus)
+    figures["study1_wall_this_over_other"] = (
+        figures["this"]["study1_wall_min"] / figures["other"]["study1_wall_min"]
+    )
+    return figures
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("other", type=Path, help="path of the other checkout")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--cold", action="store_true", help="also the cold compile")
+    args = parser.parse_args()
+    print(json.dumps(compare(args.other, args.rounds, args.cold)))
