@@ -140,3 +140,42 @@ def test_brake_against_fine_rk4(brake):
         error = np.abs(out[:, i] - r).max() / np.abs(r).max()
         assert error < 1e-3, (name, error)
     assert (counts[:, 0] > 0).all()
+
+
+def test_simulate_with_ros34pw2_matches_fine_rk4(brake):
+    # the public path: simulate(integrator="ros34pw2") and the DiscBrake option; reference
+    # RK4 at 15.6 ns as above (measured 5e-5 .. 7e-5 of the peak at rtol 1e-4), bound 1e-3
+    outputs = {"y_lpad": Coordinate("lower_pad", 0)}
+    samples = {"nodal_force": np.array([16e3, 15.84e3, 16.16e3])}
+    ref = simulate(brake, samples, t_end=1e-4, dt=1e-6 / 64, record_interval=1e-5, outputs=outputs)
+    got = simulate(
+        brake,
+        samples,
+        t_end=1e-4,
+        dt=1e-7,
+        record_interval=1e-5,
+        outputs=outputs,
+        integrator="ros34pw2",
+        rtol=1e-4,
+    )
+    assert not got.failed.any()
+    assert got.step_counts.shape == (3, 2) and (got.step_counts[:, 0] > 0).all()
+    assert ref.step_counts is None
+    np.testing.assert_array_equal(got.time, ref.time)
+    scale = np.abs(ref.outputs["y_lpad"]).max()
+    assert np.abs(got.outputs["y_lpad"] - ref.outputs["y_lpad"]).max() < 1e-3 * scale
+
+
+def test_integrator_options_are_checked_and_reach_the_brake():
+    from fuzzymbs.errors import InvalidParameterError
+    from fuzzymbs.models.brake import brake_model
+
+    model = brake_model(integrator="ros34pw2", rtol=1e-3, t_end=1e-5, dt=1e-7)
+    assert model.simulation.settings["integrator"] == "ros34pw2"
+    assert model.simulation.settings["rtol"] == 1e-3
+    with pytest.raises(InvalidParameterError, match="integrator must be one of"):
+        brake_model(integrator="euler", t_end=1e-5)
+    with pytest.raises(InvalidParameterError, match="rtol must be in"):
+        brake_model(integrator="ros34pw2", rtol=0.0, t_end=1e-5)
+    with pytest.raises(InvalidParameterError, match="atol must be"):
+        brake_model(integrator="ros34pw2", atol=-1.0, t_end=1e-5)

@@ -22,11 +22,15 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
+from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
 from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
 
 #: Kernel choices of :func:`simulate`.
 KERNELS = ("auto", "lanes", "samples")
+#: Integrators of :func:`simulate`: the paper's fixed-step RK4, and ROS34PW2 with
+#: error control (:mod:`fuzzymbs.mbs.kernels.rosenbrock`; opt-in while issue #14 is open)
+INTEGRATORS = ("rk4", "ros34pw2")
 
 
 @dataclass
@@ -38,6 +42,8 @@ class SimulationResult:
     time : (T,) recording times [s].
     outputs : {name: (B, T)} recorded outputs (NaN rows for failed samples).
     failed : (B,) bool; failure_reason : (B,) str; failure_time : (B,) [s] (NaN if ok).
+    step_counts : (B, 2) accepted and rejected steps per sample (ROS34PW2; shared by a
+        block's samples), None for RK4 (``t_end / dt`` steps).
     """
 
     time: NDArray[np.float64]
@@ -45,6 +51,7 @@ class SimulationResult:
     failed: NDArray[np.bool_]
     failure_reason: NDArray[np.str_]
     failure_time: NDArray[np.float64]
+    step_counts: NDArray[np.int64] | None = None
 
 
 def _check_timing(t_end: float, dt: float, record_interval: float | None) -> tuple[int, int]:
@@ -76,8 +83,11 @@ def simulate(
     displacement_bound: float = 1.0,
     chunk_size: int = 64,
     kernel: str = "auto",
+    integrator: str = "rk4",
+    rtol: float = 1e-2,
+    atol: float | None = None,
 ) -> SimulationResult:
-    """Integrate a batch of samples with classic RK4 (fixed step).
+    """Integrate a batch of samples with classic RK4 (fixed step) or ROS34PW2.
 
     Parameters
     ----------
@@ -85,7 +95,8 @@ def simulate(
     samples : {name: (B,)}, optional
         Values of the bound parameters (missing names take their defaults).
     t_end, dt : float
-        End time and step [s]; ``t_end`` must be a multiple of ``dt``.
+        End time and step [s]; ``t_end`` must be a multiple of ``dt``. With
+        ``integrator="ros34pw2"``, dt is the first step tried.
         Explicit RK4 is stable for ``omega_max dt < 2.8`` (omega_max: highest
         angular frequency of the system, including contact stiffness).
     outputs : {name: NodeDisplacement | Coordinate}
@@ -107,8 +118,19 @@ def simulate(
         the same code; results agree to rounding (about 1e-13 of a signal's
         range after hundreds of steps): a sample's last digits may depend on the
         samples it shares a block with (which contact path a block takes).
+    integrator : {"rk4", "ros34pw2"}
+        ``"rk4"``: classic RK4 at the fixed step dt (the brake paper's method;
+        stable only for ``|lambda dt| < 2.785`` on the real axis). ``"ros34pw2"``:
+        the linearly implicit ROS34PW2 with error control, steps ending at the
+        recording times (docs/theory.md, "ROS34PW2"); opt-in: its cost is
+        still being brought down (issue #14).
+    rtol, atol : float
+        ROS34PW2's tolerances: a step is accepted when the RMS over the state of
+        ``error / (atol + rtol |x|)`` is at most 1 in every sample of its block;
+        atol defaults to ``1e-4 rtol`` (positions in m, velocities in m/s).
     """
     _check_kernel(kernel)
+    tolerances = _check_integrator(integrator, rtol, atol)
     compiled = system.compile() if isinstance(system, System) else system
     if not outputs:
         raise InvalidParameterError("simulate needs at least one output")
@@ -129,20 +151,32 @@ def simulate(
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
     fail_t = np.full(batch, np.nan)
+    counts = np.zeros((batch, 2), dtype=np.int64)
     for start in range(0, batch, max(int(chunk_size), 1)):
         sl = slice(start, min(start + chunk_size, batch))
         o = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec))
         st = np.zeros(sl.stop - sl.start, dtype=np.int64)
         ft = np.full(sl.stop - sl.start, np.nan)
-        # blocks of samples in lockstep, over threads
-        rk4(
-            compiled.data,
-            np.ascontiguousarray(params[sl]),
-            np.ascontiguousarray(x0[sl]),
-            (0.0, float(dt), int(n_steps), int(every)),
-            (out_w, bounds, o, st, ft),
-            samples_per_block(kernel),
-        )
+        if integrator == "rk4":  # blocks of samples in lockstep, over threads
+            rk4(
+                compiled.data,
+                np.ascontiguousarray(params[sl]),
+                np.ascontiguousarray(x0[sl]),
+                (0.0, float(dt), int(n_steps), int(every)),
+                (out_w, bounds, o, st, ft),
+                samples_per_block(kernel),
+            )
+        else:
+            ros34pw2(
+                compiled.data,
+                np.ascontiguousarray(params[sl]),
+                np.ascontiguousarray(x0[sl]),
+                (0.0, float(every * dt), int(n_rec), float(dt)),
+                (out_w, bounds, o, st, ft),
+                tolerances,
+                samples_per_block(kernel),
+                counts[sl],
+            )
         out[sl] = o
         status[sl] = st
         fail_t[sl] = ft
@@ -154,7 +188,22 @@ def simulate(
         failed=status != OK,
         failure_reason=reasons,
         failure_time=fail_t,
+        step_counts=None if integrator == "rk4" else counts,
     )
+
+
+def _check_integrator(
+    integrator: str, rtol: float, atol: float | None
+) -> tuple[float, float, float]:
+    """``(rtol, atol, smallest step)`` for ROS34PW2, after checking the settings."""
+    if integrator not in INTEGRATORS:
+        raise InvalidParameterError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
+    if not (np.isfinite(rtol) and 0 < rtol < 1):
+        raise InvalidParameterError(f"rtol must be in (0, 1), got {rtol!r}")
+    atol = 1e-4 * rtol if atol is None else atol
+    if not (np.isfinite(atol) and atol > 0):
+        raise InvalidParameterError(f"atol must be > 0, got {atol!r}")
+    return float(rtol), float(atol), 1e-14
 
 
 def _check_kernel(kernel: str) -> None:
@@ -266,10 +315,14 @@ class SimulationModel:
         displacement_bound: float = 1.0,
         chunk_size: int = 64,
         kernel: str = "auto",
+        integrator: str = "rk4",
+        rtol: float = 1e-2,
+        atol: float | None = None,
     ) -> None:
         self.compiled = system.compile() if isinstance(system, System) else system
         n_steps, every = _check_timing(t_end, dt, record_interval)
         _check_kernel(kernel)
+        _check_integrator(integrator, rtol, atol)
         self.settings = {
             "t_end": t_end,
             "dt": dt,
@@ -277,6 +330,9 @@ class SimulationModel:
             "displacement_bound": displacement_bound,
             "chunk_size": chunk_size,
             "kernel": kernel,
+            "integrator": integrator,
+            "rtol": rtol,
+            "atol": atol,
         }
         self.outputs = dict(outputs)
         for spec in self.outputs.values():

@@ -55,6 +55,9 @@ OPTIONS = {
     "chunk_size": "samples per compiled call (default 64)",
     "kernel": 'RK4 lanes: "auto" = "lanes" (4 samples per SIMD vector, default) or "samples"'
     " (a block per sample)",
+    "integrator": '"rk4" (default: fixed step dt) or "ros34pw2" (error control; dt: first step)',
+    "rtol": "ROS34PW2 relative tolerance (default 1e-2)",
+    "atol": "ROS34PW2 absolute tolerance [m, m/s] (default 1e-4 rtol)",
     "design": "table of BrakeDesign fields (sizes, mode counts, max_frequency)",
 }
 
