@@ -8,6 +8,7 @@ import pytest
 from fuzzymbs.mbs.bodies import FixedBody
 from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.mbs.kernels.layout import OK
+from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
 from fuzzymbs.mbs.kernels.rosenbrock import (
     COEFFICIENTS,
     GAMMA,
@@ -15,8 +16,6 @@ from fuzzymbs.mbs.kernels.rosenbrock import (
     TABLEAU_B,
     TABLEAU_BHAT,
     TABLEAU_GAMMA,
-    lu_factor,
-    lu_solve,
     ros34pw2,
 )
 from fuzzymbs.mbs.lumped import lumped_modal_body
@@ -68,16 +67,25 @@ def test_tableau_meets_the_order_conditions():
     assert np.allclose(np.diag(g), GAMMA) and np.allclose(COEFFICIENTS[5], g.sum(axis=1))
 
 
-def test_lu_solve_against_numpy():
+def test_lane_lu_solves_four_systems_against_numpy():
+    # four different 12 x 12 systems in the lanes, one needing row swaps (zero leading
+    # entry) and one ill-conditioned: each lane pivots on its own; numpy.linalg.solve is
+    # the reference (rtol 1e-10, cond < 1e4)
     rng = np.random.default_rng(3)
-    a = rng.normal(size=(12, 12))
-    b = rng.normal(size=12)
-    lu = a.copy()
-    piv = np.empty(12, dtype=np.int64)
-    lu_factor(lu, piv)
-    x = b.copy()
-    lu_solve(lu, piv, x)
-    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-11)
+    n = 12
+    mats = rng.normal(size=(4, n, n))
+    mats[1, 0, 0] = 0.0
+    mats[2] += np.diag(np.logspace(0, 3, n))
+    rhs = rng.normal(size=(4, n))
+    lanes = np.ascontiguousarray(np.moveaxis(mats, 0, -1)).ravel()
+    b = np.ascontiguousarray(rhs.T).ravel()
+    piv = np.empty(n * 4, dtype=np.int64)
+    lu_factor_lanes(lanes, n, piv)
+    lu_solve_lanes(lanes, n, piv, b)
+    for lane in range(4):
+        expected = np.linalg.solve(mats[lane], rhs[lane])
+        np.testing.assert_allclose(b[lane::4], expected, rtol=1e-10, atol=1e-12)
+    assert (piv.reshape(n, 4)[0] != 0).any()  # some lane swapped rows
 
 
 def oscillator(zeta: float) -> System:

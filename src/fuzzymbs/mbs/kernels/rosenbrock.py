@@ -38,6 +38,7 @@ import numpy as np
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.jacobian import jacobian
 from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, STEP_TOO_SMALL
+from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
 from fuzzymbs.mbs.kernels.rhs import rhs
 from fuzzymbs.mbs.kernels.rk4 import record, retire_failed, start_block
 from fuzzymbs.mbs.kernels.threads import for_each_range
@@ -86,48 +87,7 @@ MAX_GROWTH = 5.0
 _EXPONENT = 1.0 / 3.0
 
 
-@nb.njit(cache=True)
-def lu_factor(a, piv):
-    """LU with partial pivoting of the square matrix a, in place; row swaps into piv."""
-    n = a.shape[0]
-    for k in range(n):
-        best = k
-        for i in range(k + 1, n):
-            if abs(a[i, k]) > abs(a[best, k]):
-                best = i
-        piv[k] = best
-        if best != k:
-            for j in range(n):
-                a[k, j], a[best, j] = a[best, j], a[k, j]
-        pivot = a[k, k]
-        for i in range(k + 1, n):
-            a[i, k] /= pivot
-            factor = a[i, k]
-            for j in range(k + 1, n):
-                a[i, j] -= factor * a[k, j]
-
-
-@nb.njit(cache=True)
-def lu_solve(lu, piv, b):
-    """Solve in place: b <- A^-1 b for the factors of :func:`lu_factor`."""
-    n = lu.shape[0]
-    for k in range(n):
-        p = piv[k]
-        if p != k:
-            b[k], b[p] = b[p], b[k]
-    for i in range(n):
-        s = b[i]
-        for j in range(i):
-            s -= lu[i, j] * b[j]
-        b[i] = s
-    for i in range(n - 1, -1, -1):
-        s = b[i]
-        for j in range(i + 1, n):
-            s -= lu[i, j] * b[j]
-        b[i] = s / lu[i, i]
-
-
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, fastmath=V.FAST)
 def integrate_block_ros(
     sysdata, params, x0, timing, recording, tolerances, coefficients, first, count, counts
 ):
@@ -155,9 +115,9 @@ def integrate_block_ros(
     x_new = np.empty(size)
     jq = np.empty(n * n * L)
     jv = np.empty(n * n * L)
-    mat = np.empty((L, n, n))
-    piv = np.empty((L, n), dtype=np.int64)
-    rhs_v = np.empty(n)
+    mat = np.empty(n * n * L)  # I / (gamma h) - B_v - gamma h A_q per lane, then its LU
+    piv = np.empty(n * L, dtype=np.int64)
+    rhs_v = np.empty(n * L)
     accepted = 0
     rejected = 0
     t = t0
@@ -196,61 +156,64 @@ def integrate_block_ros(
                 f_known = True
             gh = GAMMA * step
             if step != lu_step:
-                for lane in range(L):
-                    for i in range(n):
-                        for j in range(n):
-                            e = L * (n * i + j) + lane
-                            mat[lane, i, j] = -jv[e] - gh * jq[e]
-                        mat[lane, i, i] += 1.0 / gh
-                    lu_factor(mat[lane], piv[lane])
+                for e in range(n * n):
+                    V.store(mat, L * e, -(V.load(jv, L * e) + gh * V.load(jq, L * e)))
+                for i in range(n):
+                    at_ii = L * (n * i + i)
+                    V.store(mat, at_ii, V.load(mat, at_ii) + 1.0 / gh)
+                lu_factor_lanes(mat, n, piv)
                 lu_step = step
             for s in range(4):
                 if s == 0:
-                    for k in range(size):
-                        fy[k] = f0[k]
+                    stage_f = f0
                 else:
-                    for k in range(size):
-                        acc = x[k]
+                    for i in range(nstate):
+                        acc = V.load(x, L * i)
                         for j in range(s):
-                            acc += at[s, j] * u[j, k]
-                        y[k] = acc
+                            acc = acc + at[s, j] * V.load(u[j], L * i)
+                        V.store(y, L * i, acc)
                     rhs(t + alpha[s] * step, y, fy, p, sysdata, work)
-                for k in range(size):
-                    acc = fy[k] + gsum[s] * step * ft[k]
+                    stage_f = fy
+                for i in range(nstate):
+                    acc = V.load(stage_f, L * i) + (gsum[s] * step) * V.load(ft, L * i)
                     for j in range(s):
-                        acc += cc[s, j] / step * u[j, k]
-                    r[k] = acc
-                # velocity-reduced solve per lane: (I/(g h) - B - g h A) u_v = r_v + g h A r_q
-                for lane in range(L):
-                    for i in range(n):
-                        acc = r[L * (n + i) + lane]
-                        for j in range(n):
-                            acc += gh * jq[L * (n * i + j) + lane] * r[L * j + lane]
-                        rhs_v[i] = acc
-                    lu_solve(mat[lane], piv[lane], rhs_v)
-                    for i in range(n):
-                        u[s, L * (n + i) + lane] = rhs_v[i]
-                        u[s, L * i + lane] = gh * (r[L * i + lane] + rhs_v[i])
+                        acc = acc + (cc[s, j] / step) * V.load(u[j], L * i)
+                    V.store(r, L * i, acc)
+                # velocity-reduced solve: (I/(g h) - B - g h A) u_v = r_v + g h A r_q
+                for i in range(n):
+                    acc = V.splat(0.0)
+                    for j in range(n):
+                        acc = acc + V.load(jq, L * (n * i + j)) * V.load(r, L * j)
+                    V.store(rhs_v, L * i, V.load(r, L * (n + i)) + gh * acc)
+                lu_solve_lanes(mat, n, piv, rhs_v)
+                us = u[s]
+                for i in range(n):
+                    solved = V.load(rhs_v, L * i)
+                    V.store(us, L * (n + i), solved)
+                    V.store(us, L * i, gh * (V.load(r, L * i) + solved))
             # new state and the error norm (largest over the healthy lanes); a lane whose
             # error is not finite fails alone
+            squares = V.splat(0.0)
+            for i in range(nstate):
+                xi = V.load(x, L * i)
+                xn = xi
+                e = V.splat(0.0)
+                for j in range(4):
+                    uj = V.load(u[j], L * i)
+                    xn = xn + m[j] * uj
+                    e = e + me[j] * uj
+                V.store(x_new, L * i, xn)
+                ax = V.vabs(xi)
+                an = V.vabs(xn)
+                scaled = e / (atol + rtol * V.where_lt(ax, an, an, ax))
+                squares = squares + scaled * scaled
             err = 0.0
             newly_failed = False
             for lane in range(L):
                 source = lane if lane < count else count - 1
                 if not alive[source]:
                     continue
-                total = 0.0
-                for i in range(nstate):
-                    k = L * i + lane
-                    xn = x[k]
-                    e = 0.0
-                    for j in range(4):
-                        xn += m[j] * u[j, k]
-                        e += me[j] * u[j, k]
-                    x_new[k] = xn
-                    scale = atol + rtol * max(abs(x[k]), abs(xn))
-                    total += (e / scale) ** 2
-                norm = np.sqrt(total / nstate)
+                norm = np.sqrt(V.get(squares, lane) / nstate)
                 if not np.isfinite(norm):
                     if lane < count and status[first + lane] == OK:
                         status[first + lane] = NONFINITE
