@@ -41,7 +41,7 @@ from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, STEP_TOO_SMALL
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
 from fuzzymbs.mbs.kernels.rhs import rhs
 from fuzzymbs.mbs.kernels.rk4 import record, retire_failed, start_block
-from fuzzymbs.mbs.kernels.threads import for_each_range
+from fuzzymbs.mbs.kernels.threads import round_robin
 
 L = V.LANES
 
@@ -87,53 +87,74 @@ MAX_GROWTH = 5.0
 _EXPONENT = 1.0 / 3.0
 
 
+#: control scalars of a block between slices (:func:`start_block_ros`)
+(_H, _ERR_PREV, _LU_STEP, _JAC_AGE, _NEED_JAC) = range(5)
+(_F_KNOWN, _AFTER_REJECT, _ACCEPTED, _REJECTED) = range(5, 9)
+
+
+@nb.njit(cache=True, nogil=True)
+def start_block_ros(sysdata, params, x0, recording, first, count, h0):
+    """State of a block of samples ``first .. first + count - 1`` (count <= 4) at the start:
+    ``(x, p, alive, work, vectors, matrices, piv, control)``, advanced by
+    :func:`advance_block_ros`."""
+    x, p, alive, _, work = start_block(sysdata, params, x0, recording, first, count)
+    size = x.shape[0]
+    n = size // (2 * L)
+    # f0, f_t, stage f, stage state, stage right-hand side, u_1..u_4, new state, solve
+    vectors = np.empty((11, size))
+    # da/dq, da/dv, the stage matrix I / (gamma h) - B_v - gamma h A_q per lane, then its LU
+    matrices = np.empty((3, n * n * L))
+    piv = np.empty(n * L, dtype=np.int64)
+    control = np.zeros(9)
+    control[_H] = h0
+    control[_ERR_PREV] = 1.0  # the last accepted step's error (PI control)
+    control[_LU_STEP] = -1.0  # the step the LU factors were made for
+    control[_NEED_JAC] = 1.0  # J and f_t are re-evaluated every JACOBIAN_AGE steps
+    return x, p, alive, work, vectors, matrices, piv, control
+
+
 @nb.njit(cache=True, nogil=True, fastmath=V.FAST)
-def integrate_block_ros(
-    sysdata, params, x0, timing, recording, tolerances, coefficients, first, count, counts
+def advance_block_ros(
+    sysdata, timing, recording, tolerances, coefficients, first, count, state, rec_begin, rec_end
 ):
-    """ROS34PW2 of samples ``first .. first + count - 1`` (count <= 4) in lockstep.
+    """Records ``rec_begin .. rec_end - 1`` of a block: at each, record the outputs and
+    integrate to the next recording time. Returns False when the block is done (its
+    last record written, or no healthy lane left).
 
     ``timing = (t0, record_interval, n_records, h0)``; ``recording`` as for
     :func:`fuzzymbs.mbs.kernels.rk4.rk4`; ``tolerances = (rtol, atol, h_min)``;
-    ``coefficients``: :data:`COEFFICIENTS`. ``counts (B, 2)`` receives the accepted
-    and rejected steps of each sample (shared by its block).
+    ``coefficients``: :data:`COEFFICIENTS`; ``state`` from :func:`start_block_ros`.
     """
-    t0, interval, n_records, h = timing
+    t0, interval, n_records = timing[0], timing[1], timing[2]
     out, status, fail_t = recording[2], recording[3], recording[4]
     rtol, atol, h_min = tolerances
     at, cc, m, me, alpha, gsum = coefficients
-    nstate = x0.shape[1]
+    x, p, alive, work, vectors, matrices, piv, control = state
+    f0, ft, fy, y, r = vectors[0], vectors[1], vectors[2], vectors[3], vectors[4]
+    u = vectors[5:9]
+    x_new, rhs_v = vectors[9], vectors[10]
+    jq, jv, mat = matrices[0], matrices[1], matrices[2]
+    size = x.shape[0]
+    nstate = size // L
     n = nstate // 2
-    size = nstate * L
-    x, p, alive, _, work = start_block(sysdata, params, x0, recording, first, count)
-    f0 = np.empty(size)
-    ft = np.empty(size)
-    fy = np.empty(size)
-    y = np.empty(size)
-    r = np.empty(size)
-    u = np.empty((4, size))
-    x_new = np.empty(size)
-    jq = np.empty(n * n * L)
-    jv = np.empty(n * n * L)
-    mat = np.empty(n * n * L)  # I / (gamma h) - B_v - gamma h A_q per lane, then its LU
-    piv = np.empty(n * L, dtype=np.int64)
-    rhs_v = np.empty(n * L)
-    accepted = 0
-    rejected = 0
-    t = t0
-    rec = 0
-    done = False
-    need_jac = True  # J and f_t are re-evaluated every JACOBIAN_AGE steps (W-method)
-    jac_age = 0
-    f_known = False  # f(t, x) evaluated for the current (t, x)
-    lu_step = -1.0  # the step the LU factors were made for
-    after_reject = False  # no growth right after a rejected step
-    err_prev = 1.0  # the last accepted step's error (PI control)
-    while not done:
+    h = control[_H]
+    err_prev = control[_ERR_PREV]
+    lu_step = control[_LU_STEP]
+    jac_age = int(control[_JAC_AGE])
+    need_jac = control[_NEED_JAC] != 0.0
+    f_known = control[_F_KNOWN] != 0.0  # f(t, x) evaluated for the current (t, x)
+    after_reject = control[_AFTER_REJECT] != 0.0  # no growth right after a rejected step
+    accepted = int(control[_ACCEPTED])
+    rejected = int(control[_REJECTED])
+    going = True
+    for rec in range(rec_begin, rec_end):
         # record at t0 + rec * interval (reached exactly), then stop or go on
+        t = t0 + rec * interval
         record(x, recording, first, count, alive, rec, t)
         if retire_failed(first, count, status, alive, out, x, p) or rec == n_records - 1:
+            going = False
             break
+        done = False
         target = t0 + (rec + 1) * interval
         while True:  # steps until the next recording time
             step = min(h, target - t)
@@ -248,7 +269,6 @@ def integrate_block_ros(
                 done = True
                 break
             if err <= 1.0 and last:
-                rec += 1
                 break
             if err > 1.0 and h < h_min:
                 for lane in range(count):
@@ -259,34 +279,53 @@ def integrate_block_ros(
                 break
         if done:
             retire_failed(first, count, status, alive, out, x, p)
-    for lane in range(count):
-        counts[first + lane, 0] = accepted
-        counts[first + lane, 1] = rejected
+            going = False
+            break
+    control[_H] = h
+    control[_ERR_PREV] = err_prev
+    control[_LU_STEP] = lu_step
+    control[_JAC_AGE] = jac_age
+    control[_NEED_JAC] = 1.0 if need_jac else 0.0
+    control[_F_KNOWN] = 1.0 if f_known else 0.0
+    control[_AFTER_REJECT] = 1.0 if after_reject else 0.0
+    control[_ACCEPTED] = accepted
+    control[_REJECTED] = rejected
+    return going
+
+
+#: slices (in recording intervals) a block's run is cut into when blocks share threads
+SLICES = 16
 
 
 def ros34pw2(sysdata, params, x0, timing, recording, tolerances, per_block, counts) -> None:
     """ROS34PW2 of a batch in blocks of ``per_block`` (1 to 4) samples over the threads.
 
-    Arguments as :func:`integrate_block_ros`; ``counts (B, 2)``: accepted and
-    rejected steps per sample.
+    Arguments as :func:`advance_block_ros`; ``counts (B, 2)`` receives the accepted
+    and rejected steps of each sample (shared by its block). Blocks advance
+    ``SLICES`` slices of recording intervals at a time, round robin over the
+    threads (:func:`fuzzymbs.mbs.kernels.threads.round_robin`): with 9 blocks on 2
+    threads each thread carries 4.5 blocks instead of 5 and 4. Slicing does not
+    change a block's arithmetic.
     """
     nsamples = params.shape[0]
+    n_records = timing[2]
+    n_blocks = -(-nsamples // per_block)
 
-    def run(start: int, stop: int) -> None:
-        for block in range(start, stop):
-            first = block * per_block
-            count = min(per_block, nsamples - first)
-            integrate_block_ros(
-                sysdata,
-                params,
-                x0,
-                timing,
-                recording,
-                tolerances,
-                COEFFICIENTS,
-                first,
-                count,
-                counts,
-            )
+    def start(block: int):
+        first = block * per_block
+        count = min(per_block, nsamples - first)
+        return start_block_ros(sysdata, params, x0, recording, first, count, timing[3])
 
-    for_each_range(-(-nsamples // per_block), run)
+    def advance(block: int, state, begin: int, end: int) -> bool:
+        first = block * per_block
+        count = min(per_block, nsamples - first)
+        going = advance_block_ros(
+            sysdata, timing, recording, tolerances, COEFFICIENTS, first, count, state, begin, end
+        )
+        if not going or end >= n_records:
+            control = state[-1]
+            counts[first : first + count, 0] = int(control[_ACCEPTED])
+            counts[first : first + count, 1] = int(control[_REJECTED])
+        return going
+
+    round_robin(n_blocks, n_records, max(1, -(-n_records // SLICES)), start, advance)
