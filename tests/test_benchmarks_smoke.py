@@ -160,10 +160,11 @@ def test_ros_accuracy_table_runs():
     # 50 us window: every integrator close to the fine RK4 reference there
     import ros_accuracy
 
-    figures = ros_accuracy.table(5e-5)
-    assert figures["ros34pw2_rtol_0.0001"]["error"] < 1e-3
-    assert figures["ros34pw2_rtol_0.001"]["steps_accepted_rejected"][0] > 0
-    assert figures["rk4_1us"]["steps"] == 50
+    figures = ros_accuracy.table(5e-5, (1e-3, 1e-4))
+    for sample in ("nominal", "corner"):
+        assert figures[sample]["ros34pw2_rtol_0.0001"]["error"] < 1e-3
+        assert figures[sample]["ros34pw2_rtol_0.001"]["steps_accepted_rejected"][0] > 0
+        assert figures[sample]["rk4_1us"]["steps"] == 50
 
 
 def test_compare_checkouts_runs_both_sides():

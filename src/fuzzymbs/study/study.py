@@ -49,6 +49,12 @@ from fuzzymbs.study.execution import (
     check_run_settings,
     evaluate_chunks,
 )
+from fuzzymbs.study.integration_check import (
+    DEFAULT_TOLERANCE,
+    IntegrationCheck,
+    TimeIntegrationWarning,
+    check_time_integration,
+)
 from fuzzymbs.study.planning import (
     AUTO,
     build_plan,
@@ -102,6 +108,13 @@ class Study:
     sparse_level, search_points : int, optional
         Method "sparse" only: sparse-grid level and search points per cut box
         (see :func:`fuzzymbs.fuzzy.transform.plan`).
+    integration_tolerance : float
+        Largest time-integration error (relative to each output's peak) the study
+        accepts without a :class:`~fuzzymbs.study.integration_check.TimeIntegrationWarning`:
+        after its runs, a time-integrated model's modal sample is re-run with a
+        tenfold tighter tolerance (RK4: half the step) and the difference stored
+        as ``time_integration_error`` (:mod:`fuzzymbs.study.integration_check`).
+        Default 0.5 %.
     name, description : str, optional
         Labels used in results, summaries and output folders.
 
@@ -127,9 +140,15 @@ class Study:
         screening_rtol: float | None = None,
         sparse_level: int | None = None,
         search_points: int | None = None,
+        integration_tolerance: float = DEFAULT_TOLERANCE,
         name: str | None = None,
         description: str = "",
     ) -> None:
+        if not (np.isfinite(integration_tolerance) and integration_tolerance > 0):
+            raise InvalidParameterError(
+                f"integration_tolerance must be a positive number, got {integration_tolerance!r}"
+            )
+        self.integration_tolerance = float(integration_tolerance)
         resolved = resolve_model(model, model_options or {})
         self.model = resolved.model
         self.model_name = resolved.name
@@ -378,6 +397,7 @@ class Study:
         touched = self.plan.levels_touched(failed)
         if failed.any() and (on_failure != "partial" or touched.all()):
             raise IncompleteResultError(self._failure_message(failed, reasons, touched))
+        integration = self._check_time_integration(outputs, failed)
         wall_time = time.perf_counter() - started
         dataset = build_dataset(
             self,
@@ -392,8 +412,30 @@ class Study:
             on_failure=on_failure,
             code=code,
             keep_raw=keep_raw,
+            integration=integration,
         )
         return StudyResult(dataset)
+
+    def _check_time_integration(
+        self, outputs: Mapping[str, np.ndarray], failed: np.ndarray
+    ) -> IntegrationCheck | None:
+        """The modal sample re-run by a time-integrated model at a tighter tolerance."""
+        if not callable(getattr(self.model, "tightened", None)):
+            return None
+        index = self.plan.nominal_index
+        method = str(getattr(self.model, "time_integration", ""))
+        if failed[index]:
+            note = "the modal sample failed, so it could not be re-run"
+            warnings.warn(f"time integration not checked: {note}", TimeIntegrationWarning, 2)
+            return IntegrationCheck(float("nan"), self.integration_tolerance, method, note)
+        own = {name: outputs[name][index] for name in self.output_names}
+        return check_time_integration(
+            self.model,
+            self.columns(index, index + 1),
+            own,
+            self.output_names,
+            self.integration_tolerance,
+        )
 
     def screen(
         self,

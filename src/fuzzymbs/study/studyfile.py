@@ -3,7 +3,8 @@
 Layout (see docs/studies.md)::
 
     [study]      name, description, method, levels, outputs, nonmonotonic (list or "auto"),
-                 screening_rtol, sparse_level, search_points (method "sparse")
+                 screening_rtol, sparse_level, search_points (method "sparse"),
+                 integration_tolerance (time-integrated models; default 0.005)
     [model]      name ("registry-name" or "package.module:callable"), [model.options]
     [parameters] one table (fuzzy) or number (crisp) per model parameter
     [run]        executor, chunk_size, on_failure
@@ -31,6 +32,7 @@ from fuzzymbs.errors import (
     InvalidPlanError,
     StudyFileError,
 )
+from fuzzymbs.study.integration_check import DEFAULT_TOLERANCE
 from fuzzymbs.study.parameters import FUZZY_TYPES
 
 
@@ -50,6 +52,7 @@ class StudySection(_Section):
     screening_rtol: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
     sparse_level: int | None = Field(default=None, ge=1)
     search_points: int | None = Field(default=None, ge=1)
+    integration_tolerance: float = Field(default=DEFAULT_TOLERANCE, gt=0.0, allow_inf_nan=False)
 
     @field_validator("nonmonotonic", mode="before")
     @classmethod
@@ -278,6 +281,7 @@ def load_study_file(path: str | Path) -> StudyDefinition:
             screening_rtol=parsed.study.screening_rtol,
             sparse_level=parsed.study.sparse_level,
             search_points=parsed.study.search_points,
+            integration_tolerance=parsed.study.integration_tolerance,
             name=name,
             description=parsed.study.description,
         )

@@ -58,6 +58,21 @@ def summarize(dataset: xarray.Dataset) -> str:
             f"Screening: {screening['runs']} runs along each parameter's axis; "
             f"non-monotonic: {found}"
         )
+    if "time_integration_error" in attrs:
+        error = float(attrs["time_integration_error"])
+        tolerance = float(attrs["time_integration_tolerance"])
+        if np.isfinite(error):
+            verdict = "within" if error <= tolerance else "EXCEEDS"
+            lines.append(
+                f"Time integration: {attrs['time_integration']}; error {100 * error:.3g} % of "
+                f"the peak (modal sample re-run with a tenfold tighter tolerance), {verdict} "
+                f"the study's tolerance {100 * tolerance:.3g} %"
+            )
+        else:
+            lines.append(
+                f"Time integration: {attrs['time_integration']}; NOT CHECKED: "
+                f"{attrs['time_integration_note']}"
+            )
     if attrs["status"] == "complete":
         lines.append("Status: complete")
     else:

@@ -45,7 +45,7 @@ __all__ = [
 
 OPTIONS = {
     "t_end": "end time [s] (default 0.01)",
-    "dt": "RK4 step [s] (default 1e-6)",
+    "dt": "RK4's step with integrator = 'rk4', ROS34PW2's first step [s] (default 1e-6)",
     "record_interval": "output interval [s] (default 5e-6)",
     "contact": "'two-pass' (default) or 'single-pass'",
     "regularization_velocity": "eps of the regularised friction law [m/s] (default 1e-3)",
@@ -53,11 +53,12 @@ OPTIONS = {
     "velocities": "also output v_lpad, v_upad, v_cali [m/s] (default false)",
     "displacement_bound": "|y| above this [m] flags a sample failed (default 1e-3)",
     "chunk_size": "samples per compiled call (default 64)",
-    "kernel": 'RK4 lanes: "auto" = "lanes" (4 samples per SIMD vector, default) or "samples"'
+    "kernel": 'lanes: "auto" = "lanes" (4 samples per SIMD vector, default) or "samples"'
     " (a block per sample)",
-    "integrator": '"rk4" (default: fixed step dt) or "ros34pw2" (error control; dt: first step)',
+    "integrator": '"ros34pw2" (default: error control at rtol; dt: first step) or "rk4" '
+    "(the paper's fixed step dt, not converged at 1 us)",
     "rtol": "ROS34PW2 relative tolerance (default 1e-2)",
-    "atol": "ROS34PW2 absolute tolerance [m, m/s] (default 1e-4 rtol)",
+    "atol": "ROS34PW2 absolute tolerance [m, m/s] (default 1e-5 rtol)",
     "design": "table of BrakeDesign fields (sizes, mode counts, max_frequency)",
 }
 

@@ -24,6 +24,7 @@ of mass, because the elastic modes carry no net translation), over
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import Any
 
@@ -227,7 +228,8 @@ class DiscBrake:
     t_end : float
         End time [s] (paper: 10 ms).
     dt : float
-        RK4 step [s] (paper: 1e-6 s).
+        RK4's step [s] with ``integrator="rk4"`` (paper: 1e-6 s); ROS34PW2's first
+        step.
     record_interval : float
         Output sampling interval [s] (a multiple of dt; 5 us resolves the
         32 kHz pad-on-disc ringing with about 6 points per period).
@@ -248,11 +250,12 @@ class DiscBrake:
         by default four samples in lockstep per SIMD vector; "samples": a block per
         sample, so that no sample's result depends on another's.
     integrator, rtol, atol
-        ``"rk4"`` (default, the paper's fixed step dt) or ``"ros34pw2"`` (error
-        control at rtol, atol; dt is its first step): see
-        :func:`fuzzymbs.mbs.integrate.simulate`. On the nominal brake over 10 ms,
-        ROS34PW2 at rtol 1e-2 is 0.27 % of the peak off a converged reference, RK4 at
-        1 us 13.1 % (docs/theory.md, "ROS34PW2").
+        ``"ros34pw2"`` (default): the linearly implicit ROS34PW2 with error control
+        at rtol (default 1e-2), atol (default 1e-5 rtol); ``"rk4"``: the paper's
+        fixed-step RK4 at dt, for reproducing the publication (see
+        :func:`fuzzymbs.mbs.integrate.simulate`). Over 10 ms, ROS34PW2 at rtol 1e-2
+        is 0.27 % of the peak off a converged reference, RK4 at 1 us 13.1 %
+        (docs/brake.md, "Accuracy of the time integration").
     """
 
     parameters = PARAMETERS
@@ -271,7 +274,7 @@ class DiscBrake:
         displacement_bound: float = 1e-3,
         chunk_size: int = 64,
         kernel: str = "auto",
-        integrator: str = "rk4",
+        integrator: str = "ros34pw2",
         rtol: float = 1e-2,
         atol: float | None = None,
     ) -> None:
@@ -318,6 +321,18 @@ class DiscBrake:
     def compiled(self) -> CompiledSystem:
         """The compiled multibody system (kernel arrays)."""
         return self.simulation.compiled
+
+    @property
+    def time_integration(self) -> str:
+        """The time integration in words (for study summaries)."""
+        return self.simulation.time_integration
+
+    def tightened(self) -> DiscBrake:
+        """The same brake with a tenfold tighter tolerance (RK4: half the step), for the
+        study runner's check of the time integration."""
+        tight = copy.copy(self)
+        tight.simulation = self.simulation.tightened()
+        return tight
 
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
         """Integrate a batch of samples; failed samples are NaN rows flagged in ``failed``."""
