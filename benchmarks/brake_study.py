@@ -5,15 +5,18 @@
 Measures, on this machine, after compilation (a warm-up study of 20 steps
 compiles or loads the Numba kernels and imports what building a result needs):
 
-* ``study1_warm_s``: wall time of the 33-run study 1 (reduced method, k, k_c
-  +-10 %, F_n +-1 %, 10 ms at dt = 1e-6 s; all 33 samples in one call: 9 blocks
-  of four samples in lockstep, the last one padded, prange over the blocks).
-  ``study1_samples_kernel_warm_s``: the same study with ``kernel="samples"``
-  (a block per sample, its lanes repeating it), as the baseline of the same
-  run. ``--quick``:
-  1 ms instead of 10 ms (the time scales linearly with the steps;
-  ``study1_warm_s_per_10ms`` extrapolates);
-* ``us_per_sample_step``: wall time per sample and RK4 step of that study
+* ``study1_default_warm_s``: wall time of the 33-run study 1 (reduced method, k,
+  k_c +-10 %, F_n +-1 %, 10 ms) with the brake's defaults (ROS34PW2 at rtol 1e-2,
+  all 33 samples in one call: 9 blocks of four samples, the last one padded,
+  round robin over the threads), including the study's own check of its time
+  integration (the modal sample re-run at rtol 1e-3), whose result is
+  ``study1_default_time_integration_error``; ``study1_rk4_1us_warm_s``: the same
+  study with the paper's RK4 at dt = 1 us (its check: dt = 0.5 us), and
+  ``study1_default_over_rk4_1us`` the ratio (issue #14: at most 4);
+  ``study1_rk4_samples_kernel_warm_s``: the RK4 study with ``kernel="samples"``
+  (a block per sample, its lanes repeating it). ``--quick``: 1 ms instead of
+  10 ms (``study1_rk4_1us_warm_s_per_10ms`` extrapolates);
+* ``us_per_sample_step``: wall time per sample and RK4 step of the RK4 study
   (4 right-hand-side evaluations); ``cpu_us_per_sample_step`` the same in
   process CPU time (all threads), which other jobs on the machine do not
   inflate, and ``study1_idle_cores_s_per_10ms`` = CPU time / threads, the wall
@@ -147,36 +150,48 @@ def main() -> None:
         "cpus": os.cpu_count(),
     }
 
-    # warm-up: compiles or loads the kernel (33 = 8 blocks + 1 padded block) and imports
+    # warm-up: compiles or loads the kernels (33 = 8 blocks + 1 padded block) and imports
     # what building the result dataset needs (xarray's lazy imports, about 1 s)
-    Study(DiscBrake(t_end=2e-5), STUDY1, method="reduced", levels=LEVELS).run(progress=False)
+    for integrator in ("ros34pw2", "rk4"):
+        warm = DiscBrake(t_end=2e-5, integrator=integrator)
+        Study(warm, STUDY1, method="reduced", levels=LEVELS).run(progress=False)
+
+    def timed(model: DiscBrake) -> tuple[float, float, object]:
+        study = Study(model, STUDY1, method="reduced", levels=LEVELS)
+        start, cpu_start = time.perf_counter(), time.process_time()
+        result = study.run(chunk_size=len(study.plan), progress=False)
+        return time.perf_counter() - start, time.process_time() - cpu_start, result
+
+    # the default study (ROS34PW2, rtol 1e-2) and the paper's RK4 at 1 us, same minutes
     model = DiscBrake(t_end=t_end)
-    study = Study(model, STUDY1, method="reduced", levels=LEVELS)
-    start, cpu_start = time.perf_counter(), time.process_time()
-    result = study.run(chunk_size=len(study.plan), progress=False)
-    elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu_start
-    baseline = Study(
-        DiscBrake(t_end=t_end, kernel="samples"), STUDY1, method="reduced", levels=LEVELS
-    )
-    start = time.perf_counter()
-    baseline.run(chunk_size=len(study.plan), progress=False)
-    baseline_elapsed = time.perf_counter() - start
+    default_elapsed, _, default_result = timed(model)
+    elapsed, cpu, result = timed(DiscBrake(t_end=t_end, integrator="rk4"))
+    baseline_elapsed, _, _ = timed(DiscBrake(t_end=t_end, integrator="rk4", kernel="samples"))
+    samples = int(result.dataset.sizes["sample"])
     n_steps = round(t_end / 1e-6)
-    failed = int(np.asarray(result.dataset["sample_failed"]).sum())
+    failed = int(np.asarray(default_result.dataset["sample_failed"]).sum())
     report.update(
         {
-            "study1_samples": len(study.plan),
+            "study1_samples": samples,
             "study1_t_end_s": t_end,
-            "study1_warm_s": round(elapsed, 3),
-            "study1_warm_s_per_10ms": round(elapsed * 1e-2 / t_end, 3),
-            "study1_samples_kernel_warm_s": round(baseline_elapsed, 3),
-            "study1_lanes_speedup": round(baseline_elapsed / elapsed, 2),
+            "study1_default_warm_s": round(default_elapsed, 3),
+            "study1_default_time_integration_error": round(
+                float(default_result.dataset.attrs["time_integration_error"]), 5
+            ),
+            "study1_default_over_rk4_1us": round(default_elapsed / elapsed, 2),
             "study1_failed": failed,
-            "us_per_sample_step": round(1e6 * elapsed / (len(study.plan) * n_steps), 2),
+            "study1_rk4_1us_warm_s": round(elapsed, 3),
+            "study1_rk4_1us_time_integration_error": round(
+                float(result.dataset.attrs["time_integration_error"]), 5
+            ),
+            "study1_rk4_1us_warm_s_per_10ms": round(elapsed * 1e-2 / t_end, 3),
+            "study1_rk4_samples_kernel_warm_s": round(baseline_elapsed, 3),
+            "study1_rk4_lanes_speedup": round(baseline_elapsed / elapsed, 2),
+            "us_per_sample_step": round(1e6 * elapsed / (samples * n_steps), 2),
             # CPU time of all threads: robust against other jobs sharing the machine;
             # CPU time / threads is the wall time on otherwise idle cores
-            "study1_cpu_s": round(cpu, 3),
-            "cpu_us_per_sample_step": round(1e6 * cpu / (len(study.plan) * n_steps), 2),
+            "study1_rk4_cpu_s": round(cpu, 3),
+            "cpu_us_per_sample_step": round(1e6 * cpu / (samples * n_steps), 2),
             "study1_idle_cores_s_per_10ms": round(cpu / numba.get_num_threads() * 1e-2 / t_end, 2),
             "load_average_1min": round(os.getloadavg()[0], 2),
         }
@@ -186,7 +201,7 @@ def main() -> None:
     )
 
     levels = 4 if args.quick else 10  # grid: (2 m + 1)^3 samples: 729 or 9261
-    short = DiscBrake(t_end=1e-4)
+    short = DiscBrake(t_end=1e-4, integrator="rk4")
     big = Study(short, STUDY1, method="grid", levels=levels)
     with tempfile.TemporaryDirectory() as store:
         start = time.perf_counter()

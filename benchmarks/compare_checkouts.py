@@ -23,9 +23,17 @@ from pathlib import Path
 
 from bench_common import REPO, run_json_subprocess
 
-_STUDY = """
-import json, time, warnings
+# the paper's RK4 on both sides (checkouts before #14 have no integrator option)
+_RK4 = """
+import inspect
 from fuzzymbs.models.brake import DiscBrake
+rk4 = dict(integrator="rk4") if "integrator" in inspect.signature(DiscBrake).parameters else dict()
+"""
+
+_STUDY = (
+    _RK4
+    + """
+import json, time, warnings
 from fuzzymbs.study.study import Study
 parameters = {{
     "pad_spring_stiffness": {{"type": "triangular", "modal": 200e3, "spread": 0.1}},
@@ -34,8 +42,8 @@ parameters = {{
 }}
 levels = [0.0, 0.25, 0.5, 0.75, 1.0]
 warnings.simplefilter("ignore")
-Study(DiscBrake(t_end=2e-5), parameters, method="reduced", levels=levels).run(progress=False)
-study = Study(DiscBrake(t_end={t_end}), parameters, method="reduced", levels=levels)
+Study(DiscBrake(t_end=2e-5, **rk4), parameters, method="reduced", levels=levels).run(progress=False)
+study = Study(DiscBrake(t_end={t_end}, **rk4), parameters, method="reduced", levels=levels)
 runs = []
 for _ in range(2):
     wall, cpu = time.perf_counter(), time.process_time()
@@ -43,16 +51,19 @@ for _ in range(2):
     runs.append([time.perf_counter() - wall, time.process_time() - cpu])
 print(json.dumps(runs))
 """
+)
 
-_COLD = """
+_COLD = (
+    _RK4
+    + """
 import json, time
 import numpy as np
-from fuzzymbs.models.brake import DiscBrake
-brake = DiscBrake(t_end=2e-5)
+brake = DiscBrake(t_end=2e-5, **rk4)
 start = time.perf_counter()
 brake({"nodal_force": np.array([16e3])})
 print(json.dumps(time.perf_counter() - start))
 """
+)
 
 
 def _run(code: str, checkout: Path, env: dict[str, str] | None = None):

@@ -92,7 +92,7 @@ def _count_shared(sysdata, rows, n_steps, dt, every, counts):
 
 def run(quick: bool = False) -> dict:
     """Share of contact look-ups whose four lanes share the master cell, study 1."""
-    model = DiscBrake()
+    model = DiscBrake(integrator="rk4")
     study = Study(model, STUDY1, method="reduced", levels=[0.0, 0.25, 0.5, 0.75, 1.0])
     names = list(STUDY1)
     samples = np.asarray(study.plan.samples)
