@@ -29,12 +29,12 @@ class Decay:
     model: a tenth of it), like an error-controlled integrator whose global error scales
     with its tolerance."""
 
-    outputs = {"y": "m"}
-    coords = {"time": TIME}
-    output_dims = {"y": ("time",)}
     time_integration = "closed form with a made-up error"
 
     def __init__(self, error: float, fail_tight: bool = False) -> None:
+        self.outputs = {"y": "m"}
+        self.coords = {"time": TIME}
+        self.output_dims = {"y": ("time",)}
         self.error = error
         self.fail_tight = fail_tight
 
