@@ -229,8 +229,8 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     report = {} if args.skip_nominal else {"nominal": nominal(args.out)}
     if args.studies is not None:
-        names = ("brake-study1", "brake-study2", "brake-study1-converged", "brake-study2-converged")
-        for name in names:  # the demo's studies and, if run, the converged ones (examples/)
+        names = ("brake-study1", "brake-study2", "brake-study1-paper", "brake-study2-paper")
+        for name in names:  # the demo's studies and, if run, the paper's RK4 ones (examples/)
             if (args.studies / name / "result.nc").is_file():
                 report[name] = study_figure(args.studies / name / "result.nc", args.out, name)
     if args.stability:
