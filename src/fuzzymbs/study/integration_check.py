@@ -1,7 +1,8 @@
 """Every time-integrated study checks its own time integration.
 
 A model that integrates in time offers ``tightened()``: the same model with a
-tenfold tighter tolerance (fixed-step RK4: half the step). After the study's
+tenfold tighter tolerance (fixed-step RK4: half the step); a model with
+modes that do not integrate in time returns None there. After the study's
 runs, the runner re-integrates the modal sample (all parameters at their
 modal values, a run of every transformation-method plan) with it and reports
 the largest deviation over the study's outputs, each relative to its own peak:
@@ -89,15 +90,17 @@ def check_time_integration(
     Returns
     -------
     IntegrationCheck or None
-        None for models that do not integrate in time. Warns
+        None for models that do not integrate in time (no ``tightened``, or it
+        returns None). Warns
         (:class:`TimeIntegrationWarning`) when the error exceeds ``tolerance`` or
         cannot be computed.
     """
     tightened: Callable[[], Any] | None = getattr(model, "tightened", None)
-    if not callable(tightened):
+    tight = tightened() if callable(tightened) else None
+    if tight is None:
         return None
     method = str(getattr(model, "time_integration", ""))
-    check = tightened()(dict(sample))
+    check = tight(dict(sample))
     note = ""
     error = float("nan")
     if np.asarray(check.get("failed", [False])).any():

@@ -420,7 +420,8 @@ class Study:
         self, outputs: Mapping[str, np.ndarray], failed: np.ndarray
     ) -> IntegrationCheck | None:
         """The modal sample re-run by a time-integrated model at a tighter tolerance."""
-        if not callable(getattr(self.model, "tightened", None)):
+        tightened = getattr(self.model, "tightened", None)
+        if not callable(tightened) or tightened() is None:
             return None
         index = self.plan.nominal_index
         method = str(getattr(self.model, "time_integration", ""))

@@ -81,6 +81,10 @@ class DynamicSettings:
         zeta_t of the tooth hinge dampers.
     stiffness_margin : float
         Step chosen for stiffnesses up to this factor above the identified ones.
+    step_scale : float
+        RK4's step is chosen so that ``omega_max dt <= step_scale`` (default 1; at
+        most 2, inside RK4's stability interval). The study runner's check of the
+        time integration re-runs with half of it (:meth:`MubocoPR.tightened`).
     """
 
     speed_rpm: float = 1000.0
@@ -94,6 +98,7 @@ class DynamicSettings:
     torque_variation: Callable[[np.ndarray], np.ndarray] | None = None
     hinge_damping_ratio: float = 0.02
     stiffness_margin: float = 2.0
+    step_scale: float = 1.0
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.speed_rpm) and self.speed_rpm > 0):
@@ -117,6 +122,8 @@ class DynamicSettings:
             raise InvalidParameterError("hinge_damping_ratio must be in [0, 1)")
         if self.stiffness_margin < 1.0:
             raise InvalidParameterError("stiffness_margin must be >= 1")
+        if not (math.isfinite(self.step_scale) and 0.0 < self.step_scale <= 2.0):
+            raise InvalidParameterError(f"step_scale must be in (0, 2], got {self.step_scale!r}")
 
     def mesh_frequency(self, pair: GearPair) -> float:
         """f_z = z1 n / 60 [Hz]."""
@@ -222,7 +229,7 @@ def make_plan(model: DynamicModel) -> DynamicPlan:
     omega_max = max(math.sqrt(margin * omega_sq), margin * damping_rate)
     period = 1.0 / settings.mesh_frequency(pair)
     output_dt = period / settings.points_per_mesh
-    steps_per_output = max(1, math.ceil(output_dt * omega_max / 1.0))
+    steps_per_output = max(1, math.ceil(output_dt * omega_max / settings.step_scale))
     dt = output_dt / steps_per_output
     n_steps = settings.mesh_periods * settings.points_per_mesh * steps_per_output
     first_output = (settings.mesh_periods - settings.output_periods) * (

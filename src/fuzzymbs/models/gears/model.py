@@ -8,6 +8,7 @@ integrates the gear pair in time (:mod:`fuzzymbs.models.gears.dynamics`).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import hashlib
 import math
@@ -218,6 +219,31 @@ class MubocoPR:
             self.output_dims = {"dte": ("time",), "dte_spectrum": ("harmonic",)}
             self.coords["harmonic"] = np.arange(1, dynamic.harmonics + 1, dtype=float)
             self.reference = {}
+
+    @property
+    def time_integration(self) -> str:
+        """The dynamic mode's time integration in words ("" in the static mode)."""
+        if self.mode != "dynamic":
+            return ""
+        return f"rk4, dt {self.dynamic_plan.dt:.3g} s (omega_max dt <= {self.dynamic.step_scale:g})"
+
+    def tightened(self) -> MubocoPR | None:
+        """The dynamic mode at half the step, for the study runner's check of the time
+        integration (:mod:`fuzzymbs.study.integration_check`); None in the static mode,
+        which does not integrate in time. A torque history is interpolated linearly
+        onto the finer grid."""
+        if self.mode != "dynamic":
+            return None
+        tight = copy.copy(self)
+        tight.dynamic = dataclasses.replace(self.dynamic, step_scale=self.dynamic.step_scale / 2)
+        plan = make_plan(tight)
+        factor = self.dynamic_plan.torque_factor
+        if factor is not None:
+            coarse = np.arange(factor.size) * self.dynamic_plan.dt / 2
+            fine = np.arange(2 * plan.n_steps + 1) * plan.dt / 2
+            plan = dataclasses.replace(plan, torque_factor=np.interp(fine, coarse, factor))
+        tight.dynamic_plan = plan
+        return tight
 
     def identity(self) -> str:
         """SHA-256 digest of every setting that changes the outputs (for result stores).
