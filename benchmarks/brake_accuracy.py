@@ -33,7 +33,7 @@ PADS = ("y_lpad", "y_upad")
 
 def pads(dt: float, t_end: float = WINDOW, record: float = RECORD, sample=None, **options):
     """(2, T) pad translations (or (B, T) y_lpad for a batch ``sample``) with RK4 at dt."""
-    brake = DiscBrake(t_end=t_end, dt=dt, record_interval=record, **options)
+    brake = DiscBrake(t_end=t_end, dt=dt, record_interval=record, integrator="rk4", **options)
     out = brake({k: np.atleast_1d(v) for k, v in (sample or {"nodal_force": 16e3}).items()})
     if out["failed"].any():
         raise RuntimeError(f"brake run failed at dt = {dt}: {out['failure_reason']}")
@@ -49,7 +49,7 @@ def ramped_pads(dt: float, ramp: float) -> np.ndarray:
         for e in system.elements
     ]
     outputs = {"y_lpad": Coordinate("lower_pad", 0), "y_upad": Coordinate("upper_pad", 0)}
-    result = simulate(system, t_end=WINDOW, dt=dt, outputs=outputs, record_interval=RECORD)
+    result = simulate(system, t_end=WINDOW, dt=dt, outputs=outputs, record_interval=RECORD)  # RK4
     return np.array([result.outputs[name][0] for name in PADS])
 
 

@@ -28,7 +28,7 @@ RK4_REAL_LIMIT = 2.785
 
 def _pads(dt: float, friction: float = 0.7) -> np.ndarray:
     """(2, T) pad translations over WINDOW with RK4 at step dt [s]."""
-    brake = DiscBrake(t_end=WINDOW, dt=dt, record_interval=RECORD)
+    brake = DiscBrake(t_end=WINDOW, dt=dt, record_interval=RECORD, integrator="rk4")
     out = brake({"friction_coefficient": np.array([friction])})
     assert not out["failed"].any()
     return np.array([out[name][0] for name in PADS])
@@ -40,7 +40,7 @@ def _relative(y: np.ndarray, reference: np.ndarray) -> float:
 
 
 def test_rk4_accuracy_at_published_step_against_richardson_and_dop853():
-    brake = DiscBrake(t_end=WINDOW, dt=1e-6, record_interval=RECORD)
+    brake = DiscBrake(t_end=WINDOW, dt=1e-6, record_interval=RECORD, integrator="rk4")
     outputs = {name: brake.simulation.outputs[name] for name in PADS}
     # independent reference: SciPy DOP853 on the same right-hand side (rtol 1e-8 agrees with
     # rtol 1e-10 to 1e-8 relative, measured)
@@ -80,7 +80,7 @@ def test_friction_is_what_rk4_does_not_resolve_at_1us():
     # linearised brake about steady sliding (1 rad/s): friction damps the pads' in-plane
     # modes at up to 8.9e6 1/s (real eigenvalues), i.e. z = lambda dt = -8.9 at 1 us,
     # outside RK4's stability interval; without friction |lambda| dt is 0.23
-    brake = DiscBrake(t_end=1e-5, dt=1e-6)
+    brake = DiscBrake(t_end=1e-5, dt=1e-6, integrator="rk4")
     dt = 1e-6
     stab = eigenanalysis(brake.compiled, {"friction_coefficient": np.array([0.7, 0.0])})
     assert not stab.failed.any()

@@ -17,18 +17,20 @@ C_P = DEFAULTS["penalty_stiffness"]
 
 @pytest.mark.parametrize("contact, n_points", [("two-pass", 73), ("single-pass", 25)])
 def test_nominal_10ms_settles_near_closed_form_penetration(contact, n_points):
-    # Closed form (THEORY section 4): the pads sit at F_total / (n c_p) from the disc;
-    # measured over 5-10 ms the mean lies within 3 % (pad/disc compliance: +2.7 % and
-    # +1.3 %), mirror-symmetric (the only asymmetry, 4 kN/m of caliper-ground springs,
-    # is 2500 times softer than the pad-caliper springs).
+    # Closed form (THEORY section 4): rigid pads sit at F_total / (n c_p) from the disc;
+    # the disc's and pads' compliance add to it: over 5-10 ms the converged mean (the
+    # default ROS34PW2) is +4.1 % two-pass (57.04 against 54.8 um, docs/brake.md) and
+    # +1.0 % single-pass (161.5 against 160 um), so
+    # within 5 %; mirror-symmetric (the only asymmetry, 4 kN/m of caliper-ground
+    # springs, is 2500 times softer than the pad-caliper springs).
     brake = DiscBrake(contact=contact)
     out = brake({"nodal_force": np.array([DEFAULTS["nodal_force"]])})
     assert not out["failed"].any()
     t = brake.coords["time"]
     late = t >= 5e-3
     expected = F_TOTAL / (n_points * C_P)
-    assert out["y_lpad"][0, late].mean() == pytest.approx(expected, rel=0.03)
-    assert out["y_upad"][0, late].mean() == pytest.approx(-expected, rel=0.03)
+    assert out["y_lpad"][0, late].mean() == pytest.approx(expected, rel=0.05)
+    assert out["y_upad"][0, late].mean() == pytest.approx(-expected, rel=0.05)
     assert np.abs(out["y_lpad"][0] + out["y_upad"][0]).max() < 1e-7
     # friction damps the ringing: the late peak-to-peak is below a third of the early one
     early = t < 1e-3
