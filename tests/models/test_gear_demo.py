@@ -99,4 +99,4 @@ def test_dynamic_model_runs_as_a_study():
         levels=1,
     )
     assert static.model.tightened() is None
-    assert static._check_time_integration({}, np.zeros(3, dtype=bool)) is None
+    assert "time_integration_error" not in static.run(progress=False).dataset.attrs

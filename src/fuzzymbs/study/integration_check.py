@@ -76,6 +76,7 @@ def check_time_integration(
     outputs: Mapping[str, np.ndarray],
     names: Sequence[str],
     tolerance: float = DEFAULT_TOLERANCE,
+    sample_failed: bool = False,
 ) -> IntegrationCheck | None:
     """Re-run one sample with ``model.tightened()`` and compare with its study outputs.
 
@@ -86,6 +87,8 @@ def check_time_integration(
     outputs : ``{name: array}`` that sample's outputs as the study computed them.
     names : the study's outputs to compare.
     tolerance : the study's largest acceptable error (relative to each output's peak).
+    sample_failed : the sample failed in the study: nothing to compare with, so it is
+        not re-run and the check is reported as not made.
 
     Returns
     -------
@@ -100,10 +103,12 @@ def check_time_integration(
     if tight is None:
         return None
     method = str(getattr(model, "time_integration", ""))
-    check = tight(dict(sample))
     note = ""
     error = float("nan")
-    if np.asarray(check.get("failed", [False])).any():
+    check = {} if sample_failed else tight(dict(sample))
+    if sample_failed:
+        note = "the modal sample failed, so it could not be re-run"
+    elif np.asarray(check.get("failed", [False])).any():
         reason = np.asarray(check.get("failure_reason", [""]))[0]
         note = f"the tightened re-run of the modal sample failed ({reason})"
     else:

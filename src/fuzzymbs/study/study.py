@@ -52,7 +52,6 @@ from fuzzymbs.study.execution import (
 from fuzzymbs.study.integration_check import (
     DEFAULT_TOLERANCE,
     IntegrationCheck,
-    TimeIntegrationWarning,
     check_time_integration,
 )
 from fuzzymbs.study.planning import (
@@ -420,22 +419,14 @@ class Study:
         self, outputs: Mapping[str, np.ndarray], failed: np.ndarray
     ) -> IntegrationCheck | None:
         """The modal sample re-run by a time-integrated model at a tighter tolerance."""
-        tightened = getattr(self.model, "tightened", None)
-        if not callable(tightened) or tightened() is None:
-            return None
         index = self.plan.nominal_index
-        method = str(getattr(self.model, "time_integration", ""))
-        if failed[index]:
-            note = "the modal sample failed, so it could not be re-run"
-            warnings.warn(f"time integration not checked: {note}", TimeIntegrationWarning, 2)
-            return IntegrationCheck(float("nan"), self.integration_tolerance, method, note)
-        own = {name: outputs[name][index] for name in self.output_names}
         return check_time_integration(
             self.model,
             self.columns(index, index + 1),
-            own,
+            {name: outputs[name][index] for name in self.output_names},
             self.output_names,
             self.integration_tolerance,
+            sample_failed=bool(failed[index]),
         )
 
     def screen(
