@@ -177,3 +177,12 @@ def test_compare_checkouts_runs_both_sides():
         assert len(figures[side]["study1"]) == 2
         assert figures[side]["study1_wall_min"] > 0
     assert figures["study1_wall_this_over_other"] > 0
+
+
+def test_ros_parts_runs():
+    # the script behind the split of a ROS34PW2 step in docs/theory.md and benchmarks.md
+    import ros_parts
+
+    figures = ros_parts.parts(repeats=0.001)
+    assert set(figures) == {"rhs_ms", "jacobian_ms", "lu_ms", "solve_ms"}
+    assert all(value > 0 for value in figures.values())
