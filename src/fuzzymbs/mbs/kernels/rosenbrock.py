@@ -81,6 +81,11 @@ COEFFICIENTS = (
 #: gave 0.27 % of the peak in 3.1 s at rtol 1e-2, against 0.42 % in 5.8 s at rtol 3e-3
 #: with a fresh Jacobian every step (benchmarks/ros_accuracy.py)
 JACOBIAN_AGE = 10
+#: after a rejected step the Jacobian is renewed if it is at least this many accepted
+#: steps old (a younger one is not the likely cause). On the brake over 10 ms at rtol
+#: 1e-2: 2.0 s against 2.1-2.2 s when every rejection renews it (thresholds 2 and 5
+#: were slower than 3), errors 0.27 % and 0.25 % of the peak (nominal, corner)
+RENEW_AFTER_REJECT = 3
 #: largest growth of the step from one step to the next
 MAX_GROWTH = 5.0
 #: exponent of the step-size update: 1 / (embedded order + 1)
@@ -264,7 +269,7 @@ def advance_block_ros(
                 rejected += 1
                 after_reject = True
                 h = step * max(0.2, 0.9 * err**-_EXPONENT)
-                need_jac = jac_age > 0  # an aged Jacobian may be the cause: renew it first
+                need_jac = jac_age >= RENEW_AFTER_REJECT  # an aged Jacobian may be the cause
             if newly_failed and retire_failed(first, count, status, alive, out, x, p):
                 done = True
                 break
