@@ -26,8 +26,11 @@ Sec. IV.8), ``h_new = h min(5, max(0.2, 0.9 err^(-0.7/3) err_prev^(0.4/3)))``
 after an accepted step (no growth right after a rejection) and
 ``h max(0.2, 0.9 err^(-1/3))`` after a rejected one: on the brake's impact
 transient it rejects a third as many steps as the plain controller and lands
-nearer the tolerance (benchmarks/ros_accuracy.py). Steps end exactly at the
-recording times.
+nearer the tolerance (benchmarks/ros_accuracy.py). The steps do not stop at the
+recording times: the outputs there come from the cubic Hermite interpolant of the
+covering step (x and f at both ends; f at the end is the next step's first
+stage), and only the last step is shortened. On the brake over 10 ms this took 8 %
+fewer steps than stopping at every 10 us record (15,490 against 16,847 at rtol 1e-2).
 """
 
 from __future__ import annotations
@@ -94,7 +97,7 @@ _EXPONENT = 1.0 / 3.0
 
 #: control scalars of a block between slices (:func:`start_block_ros`)
 (_H, _ERR_PREV, _LU_STEP, _JAC_AGE, _NEED_JAC) = range(5)
-(_F_KNOWN, _AFTER_REJECT, _ACCEPTED, _REJECTED) = range(5, 9)
+(_F_KNOWN, _AFTER_REJECT, _ACCEPTED, _REJECTED, _NEXT_REC, _T) = range(5, 11)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -110,7 +113,7 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0):
     # da/dq, da/dv, the stage matrix I / (gamma h) - B_v - gamma h A_q per lane, then its LU
     matrices = np.empty((3, n * n * L))
     piv = np.empty(n * L, dtype=np.int64)
-    control = np.zeros(9)
+    control = np.zeros(11)
     control[_H] = h0
     control[_ERR_PREV] = 1.0  # the last accepted step's error (PI control)
     control[_LU_STEP] = -1.0  # the step the LU factors were made for
@@ -122,15 +125,20 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0):
 def advance_block_ros(
     sysdata, timing, recording, tolerances, coefficients, first, count, state, rec_begin, rec_end
 ):
-    """Records ``rec_begin .. rec_end - 1`` of a block: at each, record the outputs and
-    integrate to the next recording time. Returns False when the block is done (its
-    last record written, or no healthy lane left).
+    """Advances a block until records ``.. rec_end - 1`` are written (a step that passes
+    ``rec_end`` also writes the records it covers). Returns False when the block is
+    done (its last record written, or no healthy lane left).
+
+    Steps are chosen by the error control alone; the outputs at the recording
+    times come from the cubic Hermite interpolant of the step that covers them
+    (``x`` and ``f`` at both ends, O(h^4) like the method's local error), and
+    only the last step is shortened, to end at the last recording time.
 
     ``timing = (t0, record_interval, n_records, h0)``; ``recording`` as for
     :func:`fuzzymbs.mbs.kernels.rk4.rk4`; ``tolerances = (rtol, atol, h_min)``;
     ``coefficients``: :data:`COEFFICIENTS`; ``state`` from :func:`start_block_ros`.
     """
-    t0, interval, n_records = timing[0], timing[1], timing[2]
+    t0, interval, n_records = timing[0], timing[1], int(timing[2])
     out, status, fail_t = recording[2], recording[3], recording[4]
     rtol, atol, h_min = tolerances
     at, cc, m, me, alpha, gsum = coefficients
@@ -151,141 +159,149 @@ def advance_block_ros(
     after_reject = control[_AFTER_REJECT] != 0.0  # no growth right after a rejected step
     accepted = int(control[_ACCEPTED])
     rejected = int(control[_REJECTED])
+    next_rec = int(control[_NEXT_REC])  # the first record not written yet
+    t = control[_T] if next_rec > 0 else t0
+    t_final = t0 + (n_records - 1) * interval
+    tiny = 1e-12 * interval
     going = True
-    for rec in range(rec_begin, rec_end):
-        # record at t0 + rec * interval (reached exactly), then stop or go on
-        t = t0 + rec * interval
-        record(x, recording, first, count, alive, rec, t)
-        if retire_failed(first, count, status, alive, out, x, p) or rec == n_records - 1:
+    if next_rec == 0:
+        record(x, recording, first, count, alive, 0, t0)
+        next_rec = 1
+        if retire_failed(first, count, status, alive, out, x, p) or n_records == 1:
             going = False
-            break
-        done = False
-        target = t0 + (rec + 1) * interval
-        while True:  # steps until the next recording time
-            step = min(h, target - t)
-            last = step >= target - t - 1e-12 * interval
-            if last:
-                step = target - t
-            if need_jac:
-                jacobian(t, x, p, sysdata, work, f0, jq, jv)
-                # explicit time dependence (prescribed rotations, force profiles)
-                delta = max(1e-9, 1e-7 * abs(t))
-                rhs(t + delta, x, ft, p, sysdata, work)
-                for k in range(size):
-                    ft[k] = (ft[k] - f0[k]) / delta
-                need_jac = False
-                jac_age = 0
-                f_known = True
-                lu_step = -1.0
-            elif not f_known:
-                rhs(t, x, f0, p, sysdata, work)
-                f_known = True
-            gh = GAMMA * step
-            if step != lu_step:
-                for e in range(n * n):
-                    V.store(mat, L * e, -(V.load(jv, L * e) + gh * V.load(jq, L * e)))
-                for i in range(n):
-                    at_ii = L * (n * i + i)
-                    V.store(mat, at_ii, V.load(mat, at_ii) + 1.0 / gh)
-                lu_factor_lanes(mat, n, piv)
-                lu_step = step
-            for s in range(4):
-                if s == 0:
-                    stage_f = f0
-                else:
-                    for i in range(nstate):
-                        acc = V.load(x, L * i)
-                        for j in range(s):
-                            acc = acc + at[s, j] * V.load(u[j], L * i)
-                        V.store(y, L * i, acc)
-                    rhs(t + alpha[s] * step, y, fy, p, sysdata, work)
-                    stage_f = fy
-                for i in range(nstate):
-                    acc = V.load(stage_f, L * i) + (gsum[s] * step) * V.load(ft, L * i)
-                    for j in range(s):
-                        acc = acc + (cc[s, j] / step) * V.load(u[j], L * i)
-                    V.store(r, L * i, acc)
-                # velocity-reduced solve: (I/(g h) - B - g h A) u_v = r_v + g h A r_q
-                for i in range(n):
-                    acc = V.splat(0.0)
-                    for j in range(n):
-                        acc = acc + V.load(jq, L * (n * i + j)) * V.load(r, L * j)
-                    V.store(rhs_v, L * i, V.load(r, L * (n + i)) + gh * acc)
-                lu_solve_lanes(mat, n, piv, rhs_v)
-                us = u[s]
-                for i in range(n):
-                    solved = V.load(rhs_v, L * i)
-                    V.store(us, L * (n + i), solved)
-                    V.store(us, L * i, gh * (V.load(r, L * i) + solved))
-            # new state and the error norm (largest over the healthy lanes); a lane whose
-            # error is not finite fails alone
-            squares = V.splat(0.0)
-            for i in range(nstate):
-                xi = V.load(x, L * i)
-                xn = xi
-                e = V.splat(0.0)
-                for j in range(4):
-                    uj = V.load(u[j], L * i)
-                    xn = xn + m[j] * uj
-                    e = e + me[j] * uj
-                V.store(x_new, L * i, xn)
-                ax = V.vabs(xi)
-                an = V.vabs(xn)
-                scaled = e / (atol + rtol * V.where_lt(ax, an, an, ax))
-                squares = squares + scaled * scaled
-            err = 0.0
-            newly_failed = False
-            for lane in range(L):
-                source = lane if lane < count else count - 1
-                if not alive[source]:
-                    continue
-                norm = np.sqrt(V.get(squares, lane) / nstate)
-                if not np.isfinite(norm):
-                    if lane < count and status[first + lane] == OK:
-                        status[first + lane] = NONFINITE
-                        fail_t[first + lane] = t
-                        newly_failed = True
-                elif norm > err:
-                    err = norm
-            if err <= 1.0:
-                for k in range(size):
-                    x[k] = x_new[k]
-                t = target if last else t + step
-                accepted += 1
-                f_known = False
-                jac_age += 1
-                need_jac = jac_age >= JACOBIAN_AGE
-                factor = MAX_GROWTH
-                if err > 0.0:
-                    pi = 0.9 * err ** (-0.7 * _EXPONENT) * err_prev ** (0.4 * _EXPONENT)
-                    factor = min(MAX_GROWTH, max(0.2, pi))
-                err_prev = max(err, 1e-4)
-                if after_reject:
-                    factor = min(factor, 1.0)
-                after_reject = False
-                # a step shortened to reach a recording time does not shrink h
-                h = max(h, step * factor) if last else step * factor
+    while going and next_rec < rec_end:
+        step = min(h, t_final - t)
+        last = step >= t_final - t - tiny
+        if last:
+            step = t_final - t
+        if need_jac:
+            jacobian(t, x, p, sysdata, work, f0, jq, jv)
+            # explicit time dependence (prescribed rotations, force profiles)
+            delta = max(1e-9, 1e-7 * abs(t))
+            rhs(t + delta, x, ft, p, sysdata, work)
+            for k in range(size):
+                ft[k] = (ft[k] - f0[k]) / delta
+            need_jac = False
+            jac_age = 0
+            f_known = True
+            lu_step = -1.0
+        elif not f_known:
+            rhs(t, x, f0, p, sysdata, work)
+            f_known = True
+        gh = GAMMA * step
+        if step != lu_step:
+            for e in range(n * n):
+                V.store(mat, L * e, -(V.load(jv, L * e) + gh * V.load(jq, L * e)))
+            for i in range(n):
+                at_ii = L * (n * i + i)
+                V.store(mat, at_ii, V.load(mat, at_ii) + 1.0 / gh)
+            lu_factor_lanes(mat, n, piv)
+            lu_step = step
+        for s in range(4):
+            if s == 0:
+                stage_f = f0
             else:
-                rejected += 1
-                after_reject = True
-                h = step * max(0.2, 0.9 * err**-_EXPONENT)
-                need_jac = jac_age >= RENEW_AFTER_REJECT  # an aged Jacobian may be the cause
-            if newly_failed and retire_failed(first, count, status, alive, out, x, p):
-                done = True
-                break
-            if err <= 1.0 and last:
-                break
-            if err > 1.0 and h < h_min:
-                for lane in range(count):
-                    if alive[lane]:
-                        status[first + lane] = STEP_TOO_SMALL
-                        fail_t[first + lane] = t
-                done = True
-                break
-        if done:
+                for i in range(nstate):
+                    acc = V.load(x, L * i)
+                    for j in range(s):
+                        acc = acc + at[s, j] * V.load(u[j], L * i)
+                    V.store(y, L * i, acc)
+                rhs(t + alpha[s] * step, y, fy, p, sysdata, work)
+                stage_f = fy
+            for i in range(nstate):
+                acc = V.load(stage_f, L * i) + (gsum[s] * step) * V.load(ft, L * i)
+                for j in range(s):
+                    acc = acc + (cc[s, j] / step) * V.load(u[j], L * i)
+                V.store(r, L * i, acc)
+            # velocity-reduced solve: (I/(g h) - B - g h A) u_v = r_v + g h A r_q
+            for i in range(n):
+                acc = V.splat(0.0)
+                for j in range(n):
+                    acc = acc + V.load(jq, L * (n * i + j)) * V.load(r, L * j)
+                V.store(rhs_v, L * i, V.load(r, L * (n + i)) + gh * acc)
+            lu_solve_lanes(mat, n, piv, rhs_v)
+            us = u[s]
+            for i in range(n):
+                solved = V.load(rhs_v, L * i)
+                V.store(us, L * (n + i), solved)
+                V.store(us, L * i, gh * (V.load(r, L * i) + solved))
+        # new state and the error norm (largest over the healthy lanes); a lane whose
+        # error is not finite fails alone
+        squares = V.splat(0.0)
+        for i in range(nstate):
+            xi = V.load(x, L * i)
+            xn = xi
+            e = V.splat(0.0)
+            for j in range(4):
+                uj = V.load(u[j], L * i)
+                xn = xn + m[j] * uj
+                e = e + me[j] * uj
+            V.store(x_new, L * i, xn)
+            ax = V.vabs(xi)
+            an = V.vabs(xn)
+            scaled = e / (atol + rtol * V.where_lt(ax, an, an, ax))
+            squares = squares + scaled * scaled
+        err = 0.0
+        newly_failed = False
+        for lane in range(L):
+            source = lane if lane < count else count - 1
+            if not alive[source]:
+                continue
+            norm = np.sqrt(V.get(squares, lane) / nstate)
+            if not np.isfinite(norm):
+                if lane < count and status[first + lane] == OK:
+                    status[first + lane] = NONFINITE
+                    fail_t[first + lane] = t
+                    newly_failed = True
+            elif norm > err:
+                err = norm
+        if err <= 1.0:
+            t_new = t_final if last else t + step
+            f_known = False
+            if t0 + next_rec * interval <= t_new + tiny:
+                # the records this step covers, from the Hermite interpolant; f at the
+                # step's end is the next step's f0
+                rhs(t_new, x_new, fy, p, sysdata, work)
+                while next_rec < n_records and t0 + next_rec * interval <= t_new + tiny:
+                    t_rec = t0 + next_rec * interval
+                    hermite(x, f0, x_new, fy, step, min(1.0, (t_rec - t) / step), y)
+                    record(y, recording, first, count, alive, next_rec, t_rec)
+                    next_rec += 1
+                for k in range(size):
+                    f0[k] = fy[k]
+                f_known = True
+                newly_failed = True  # a record may have flagged a lane out of bound
+            for k in range(size):
+                x[k] = x_new[k]
+            t = t_new
+            accepted += 1
+            jac_age += 1
+            need_jac = jac_age >= JACOBIAN_AGE
+            factor = MAX_GROWTH
+            if err > 0.0:
+                pi = 0.9 * err ** (-0.7 * _EXPONENT) * err_prev ** (0.4 * _EXPONENT)
+                factor = min(MAX_GROWTH, max(0.2, pi))
+            err_prev = max(err, 1e-4)
+            if after_reject:
+                factor = min(factor, 1.0)
+            after_reject = False
+            h = step * factor
+        else:
+            rejected += 1
+            after_reject = True
+            h = step * max(0.2, 0.9 * err**-_EXPONENT)
+            need_jac = jac_age >= RENEW_AFTER_REJECT  # an aged Jacobian may be the cause
+        if newly_failed and retire_failed(first, count, status, alive, out, x, p):
+            going = False
+        elif next_rec >= n_records:
+            going = False
+        elif err > 1.0 and h < h_min:
+            for lane in range(count):
+                if alive[lane]:
+                    status[first + lane] = STEP_TOO_SMALL
+                    fail_t[first + lane] = t
             retire_failed(first, count, status, alive, out, x, p)
             going = False
-            break
     control[_H] = h
     control[_ERR_PREV] = err_prev
     control[_LU_STEP] = lu_step
@@ -295,7 +311,26 @@ def advance_block_ros(
     control[_AFTER_REJECT] = 1.0 if after_reject else 0.0
     control[_ACCEPTED] = accepted
     control[_REJECTED] = rejected
+    control[_NEXT_REC] = next_rec
+    control[_T] = t
     return going
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def hermite(xa, fa, xb, fb, h, theta, dst):
+    """``dst`` <- the cubic Hermite interpolant at ``t_a + theta h`` of a step of length h
+    from (x_a, f_a) to (x_b, f_b), all lanes."""
+    t2 = theta * theta
+    t3 = t2 * theta
+    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
+    h10 = (t3 - 2.0 * t2 + theta) * h
+    h01 = 3.0 * t2 - 2.0 * t3
+    h11 = (t3 - t2) * h
+    for i in range(xa.shape[0] // L):
+        at = L * i
+        value = h00 * V.load(xa, at) + h10 * V.load(fa, at)
+        value = value + h01 * V.load(xb, at) + h11 * V.load(fb, at)
+        V.store(dst, at, value)
 
 
 #: slices (in recording intervals) a block's run is cut into when blocks share threads
