@@ -41,6 +41,8 @@ class CountingModel:
 
 
 def auto_study(model, **kwargs):
+    # the screening and the plan are counted here; validation runs: test_method_check.py
+    kwargs.setdefault("validation_runs", 0)
     return Study(model, NUMBERS, method="extended", levels=4, nonmonotonic="auto", **kwargs)
 
 

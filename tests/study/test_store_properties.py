@@ -29,7 +29,11 @@ class StopAfter:
         return {"z": samples["x1"] * samples["x2"] + samples["x3"]}
 
 
-REFERENCE = Study(StopAfter(), PARAMETERS, levels=3, name="p").run(progress=False).dataset
+REFERENCE = (
+    Study(StopAfter(), PARAMETERS, levels=3, name="p", validation_runs=0)
+    .run(progress=False)
+    .dataset
+)
 
 
 @settings(max_examples=15, deadline=None)
@@ -37,13 +41,13 @@ REFERENCE = Study(StopAfter(), PARAMETERS, levels=3, name="p").run(progress=Fals
 def test_resumed_equals_uninterrupted(chunk_size, stop):
     with tempfile.TemporaryDirectory() as store:
         try:
-            Study(StopAfter(stop), PARAMETERS, levels=3, name="p").run(
+            Study(StopAfter(stop), PARAMETERS, levels=3, name="p", validation_runs=0).run(
                 store=store, chunk_size=chunk_size, progress=False
             )
         except KeyboardInterrupt:
             pass
         model = StopAfter()
-        result = Study(model, PARAMETERS, levels=3, name="p").run(
+        result = Study(model, PARAMETERS, levels=3, name="p", validation_runs=0).run(
             store=store, chunk_size=chunk_size, progress=False
         )
         chunks = -(-len(result.dataset["sample"]) // chunk_size)

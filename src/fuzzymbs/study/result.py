@@ -18,7 +18,14 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
            provenance (JSON: versions, plan, options, wall time, evaluations, ...);
            time-integrated models: time_integration_error (largest deviation of the
            modal sample from a tenfold tighter re-run, relative to each output's
-           peak), time_integration_tolerance, time_integration, time_integration_note
+           peak), time_integration_tolerance, time_integration, time_integration_note;
+           with validation runs: method_error (largest excursion of a validation run
+           beyond its level's cut, relative to the cut's width), method_tolerance,
+           validation_runs
+    o_validation                   (validation, *dims)  outputs of the validation runs
+    o_validation_excursion         (validation)     each run's excursion / cut width
+    validation_samples             (validation, parameter)
+    validation_level, validation_failed  (validation)
 """
 
 from __future__ import annotations
@@ -42,6 +49,7 @@ from fuzzymbs.errors import (
     UnsupportedOperationError,
 )
 from fuzzymbs.study.integration_check import IntegrationCheck
+from fuzzymbs.study.method_check import ValidationRuns, check_method
 from fuzzymbs.study.store import json_safe
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -153,6 +161,9 @@ STUDY_VARIABLES = (
     "level_complete",
     "parameter_lower",
     "parameter_upper",
+    "validation_samples",
+    "validation_level",
+    "validation_failed",
 )
 _OUTPUT_SUFFIXES = (
     "lower",
@@ -164,6 +175,8 @@ _OUTPUT_SUFFIXES = (
     "mean_gain",
     "absolute_influence",
     "relative_influence",
+    "validation",
+    "validation_excursion",
 )
 
 
@@ -198,6 +211,7 @@ def build_dataset(
     code: Mapping[str, Any],
     keep_raw: bool = True,
     integration: IntegrationCheck | None = None,
+    validation: ValidationRuns | None = None,
 ) -> xarray.Dataset:
     """Retransform the outputs and assemble the result dataset (layout in the module doc).
 
@@ -205,6 +219,10 @@ def build_dataset(
     ``integration``: the study's check of its time integration (attributes
     ``time_integration_error``, ``time_integration_tolerance``, ``time_integration``,
     ``time_integration_note``), None for models without time integration.
+    ``validation``: the study's validation runs (:mod:`fuzzymbs.study.method_check`):
+    variables ``o_validation``, ``o_validation_excursion``, ``validation_samples``,
+    ``validation_level``, ``validation_failed``, attributes ``method_error``,
+    ``method_tolerance``, ``validation_runs``; None when the check is off.
     """
     import xarray
 
@@ -212,6 +230,24 @@ def build_dataset(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         fuzzy = plan.retransform(dict(outputs), failed=failed)
+    bounds = {name: (result.lower.copy(), result.upper.copy()) for name, result in fuzzy.items()}
+    method = None
+    if validation is not None and len(validation.points):
+        with warnings.catch_warnings(record=True) as caught_check:
+            warnings.simplefilter("always")
+            method = check_method(
+                plan.names,
+                plan.levels,
+                bounds,
+                validation.points,
+                validation.outputs,
+                validation.failed,
+                validation.tolerance,
+                validation.widen,
+            )
+        caught = [*caught, *caught_check]
+        for w in caught_check:  # the method check's warning also reaches the caller
+            warnings.warn(w.message, w.category, stacklevel=3)
     warning_texts = [str(w.message) for w in caught]
     for text in warning_texts:
         logger.warning("%s", text)
@@ -234,8 +270,19 @@ def build_dataset(
             unit = coord_units.get(dim)
             coords.setdefault(dim, (dim, values, {"units": unit} if unit else {}))
         attrs = {"units": units[name]} if name in units else {}
-        data[f"{name}_lower"] = (("level", *dims), result.lower, attrs)
-        data[f"{name}_upper"] = (("level", *dims), result.upper, attrs)
+        data[f"{name}_lower"] = (("level", *dims), bounds[name][0], attrs)
+        data[f"{name}_upper"] = (("level", *dims), bounds[name][1], attrs)
+        if method is not None and validation is not None:
+            data[f"{name}_validation"] = (
+                ("validation", *dims),
+                np.asarray(validation.outputs[name], dtype=float),
+                attrs,
+            )
+            data[f"{name}_validation_excursion"] = (
+                ("validation",),
+                method.excursion[name],
+                {"long_name": "largest excursion beyond the level's cut / cut width"},
+            )
         nominal = result.nominal if result.nominal is not None else np.full(result.shape, np.nan)
         data[f"{name}_nominal"] = (dims, nominal, attrs)
         if name in reference and np.shape(reference[name]) == result.shape:
@@ -266,6 +313,14 @@ def build_dataset(
     cuts = np.stack([plan.parameters[n].cuts(plan.levels) for n in plan.names], axis=1)
     data["parameter_lower"] = (("level", "parameter"), cuts[:, :, 0])
     data["parameter_upper"] = (("level", "parameter"), cuts[:, :, 1])
+    if method is not None and validation is not None:
+        data["validation_samples"] = (("validation", "parameter"), validation.points.samples)
+        data["validation_level"] = (
+            ("validation",),
+            plan.levels[validation.points.level],
+            {"long_name": "level whose cut the validation run is checked against"},
+        )
+        data["validation_failed"] = (("validation",), np.asarray(validation.failed, dtype=bool))
 
     status = "complete" if not failed.any() else "partial"
     provenance = {
@@ -288,6 +343,16 @@ def build_dataset(
         "wall_time_s": round(float(wall_time), 6),
         "warnings": warning_texts,
     }
+    if method is not None and validation is not None:
+        provenance["method_check"] = {
+            **method.to_provenance(),
+            "evaluated": int(validation.evaluated),
+            "reused_from_store": int(validation.reused),
+            "failure_reasons": {
+                str(i): str(validation.reasons[i]) or "non-finite output"
+                for i in np.flatnonzero(validation.failed)
+            },
+        }
     if study.screening is not None:  # nonmonotonic="auto": what the screening found
         provenance["screening"] = study.screening
     dataset = xarray.Dataset(data, coords=coords)
@@ -314,6 +379,8 @@ def build_dataset(
     )
     if integration is not None:
         dataset.attrs.update(integration.to_attrs())
+    if method is not None:
+        dataset.attrs.update(method.to_attrs())
     if status == "partial":
         dataset.attrs["incomplete_levels"] = json.dumps(plan.levels[touched].tolist())
     return dataset

@@ -39,6 +39,11 @@ from fuzzymbs.errors import (
 )
 from fuzzymbs.fuzzy.screening import nonmonotonic_parameters
 from fuzzymbs.fuzzy.transform import Plan, make_levels
+from fuzzymbs.fuzzy.validation import (
+    ValidationPoints,
+    default_validation_count,
+    validation_points,
+)
 from fuzzymbs.study.code_version import code_version
 from fuzzymbs.study.evaluation import ChunkResult
 from fuzzymbs.study.execution import (
@@ -54,6 +59,7 @@ from fuzzymbs.study.integration_check import (
     IntegrationCheck,
     check_time_integration,
 )
+from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE, ValidationRuns
 from fuzzymbs.study.planning import (
     AUTO,
     build_plan,
@@ -72,6 +78,8 @@ logger = logging.getLogger(__name__)
 
 #: sub-folder of a store holding the screening chunks of a ``nonmonotonic="auto"`` study
 SCREENING_FOLDER = "screening"
+#: sub-folder of a store holding the validation runs' chunks
+VALIDATION_FOLDER = "validation"
 
 
 class Study:
@@ -114,6 +122,21 @@ class Study:
         tenfold tighter tolerance (RK4: half the step) and the difference stored
         as ``time_integration_error`` (:mod:`fuzzymbs.study.integration_check`).
         Default 0.5 %.
+    validation_runs : int, optional
+        Extra runs that check the method (:mod:`fuzzymbs.study.method_check`):
+        points inside the cut boxes that no run of the method covers, compared
+        with the retransformed cuts (``method_error``). Default: a fifth of the
+        method's runs for studies of 30 runs or more, else n + 1 (n fuzzy
+        parameters). 0 turns the check off (for a model known to be monotonic,
+        or when every run counts).
+    method_tolerance : float
+        Largest method error (excursion of a validation run beyond its level's
+        cut, relative to the cut's width) without a
+        :class:`~fuzzymbs.fuzzy.retransform.NonMonotonicWarning`. Default 1 %.
+    widen_with_validation : bool
+        Widen the cuts to the validation outputs (each point's level and the
+        levels below). Default False: the validation outputs are reported
+        (``o_validation``) and never merged silently.
     name, description : str, optional
         Labels used in results, summaries and output folders.
 
@@ -140,14 +163,31 @@ class Study:
         sparse_level: int | None = None,
         search_points: int | None = None,
         integration_tolerance: float = DEFAULT_TOLERANCE,
+        validation_runs: int | None = None,
+        method_tolerance: float = DEFAULT_METHOD_TOLERANCE,
+        widen_with_validation: bool = False,
         name: str | None = None,
         description: str = "",
     ) -> None:
-        if not (np.isfinite(integration_tolerance) and integration_tolerance > 0):
+        for label, value in (
+            ("integration_tolerance", integration_tolerance),
+            ("method_tolerance", method_tolerance),
+        ):
+            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
+                raise InvalidParameterError(f"{label} must be a positive number, got {value!r}")
+        if validation_runs is not None and (
+            isinstance(validation_runs, bool)
+            or not isinstance(validation_runs, (int, np.integer))
+            or validation_runs < 0
+        ):
             raise InvalidParameterError(
-                f"integration_tolerance must be a positive number, got {integration_tolerance!r}"
+                f"validation_runs must be a whole number >= 0 (0: no method check), "
+                f"got {validation_runs!r}"
             )
         self.integration_tolerance = float(integration_tolerance)
+        self.validation_runs = None if validation_runs is None else int(validation_runs)
+        self.method_tolerance = float(method_tolerance)
+        self.widen_with_validation = bool(widen_with_validation)
         resolved = resolve_model(model, model_options or {})
         self.model = resolved.model
         self.model_name = resolved.name
@@ -383,12 +423,14 @@ class Study:
                     else None
                 ),
             )
+            ordered = [results[i] for i in range(chunk_count)]
+            outputs, failed, reasons = assemble_chunks(ordered, count)
+            validation = self._validate(
+                work, outputs, failed, requested_size, store, resume, progress, code
+            )
         finally:
             work.close()
         executor_label = work.label or "none (every chunk from the store)"
-
-        ordered = [results[i] for i in range(chunk_count)]
-        outputs, failed, reasons = assemble_chunks(ordered, count)
         if failed.all():
             raise IncompleteResultError(
                 f"all {count} samples of study {self.name!r} failed; first reason: {reasons[0]}"
@@ -412,8 +454,82 @@ class Study:
             code=code,
             keep_raw=keep_raw,
             integration=integration,
+            validation=validation,
         )
         return StudyResult(dataset)
+
+    def validation_points(
+        self, outputs: Mapping[str, np.ndarray] | None = None, failed: np.ndarray | None = None
+    ) -> ValidationPoints:
+        """The validation points of the study (:mod:`fuzzymbs.fuzzy.validation`), given
+        the method's outputs and failed runs (without them: Halton points only)."""
+        plan = self.plan
+        count = self.validation_runs
+        if count is None:
+            count = default_validation_count(len(plan), len(plan.names))
+        return validation_points(plan, count, outputs, failed)
+
+    def _validate(
+        self,
+        work: LazyExecutor,
+        method_outputs: Mapping[str, np.ndarray],
+        method_failed: np.ndarray,
+        size: int,
+        store: str | Path | None,
+        resume: bool,
+        progress: bool,
+        code: dict[str, Any],
+    ) -> ValidationRuns | None:
+        """Evaluate the validation points (chunks into ``STORE/validation``); None if off."""
+        points = self.validation_points(method_outputs, method_failed)
+        count = len(points)
+        if count == 0:
+            return None
+        digest = hashlib.sha256(np.ascontiguousarray(points.samples, dtype="<f8").tobytes())
+        identity = {
+            "validation_fingerprint": digest.hexdigest(),
+            "plan_fingerprint": self.plan.fingerprint(),
+            **self._model_identity(),
+        }
+        chunk_store, size, chunk_count, results, missing, reused = open_chunks(
+            None if store is None else Path(store) / VALIDATION_FOLDER,
+            identity,
+            count,
+            size,
+            resume,
+            code,
+        )
+        evaluated = evaluate_chunks(
+            self.model,
+            self.outputs,
+            lambda start, stop: self._columns(points.samples, start, stop),
+            count,
+            missing,
+            size,
+            results,
+            chunk_store,
+            work,
+            progress=(progress, reused, f"{self.name} (validation)"),
+            fail_fast=None,
+        )
+        outputs, failed, reasons = assemble_chunks([results[i] for i in range(chunk_count)], count)
+        logger.info(
+            "study %s: %d validation runs (%d from the store, %d failed)",
+            self.name,
+            count,
+            reused,
+            int(np.count_nonzero(failed)),
+        )
+        return ValidationRuns(
+            points,
+            outputs,
+            failed,
+            reasons,
+            self.method_tolerance,
+            self.widen_with_validation,
+            evaluated=int(evaluated),
+            reused=int(reused),
+        )
 
     def _check_time_integration(
         self, outputs: Mapping[str, np.ndarray], failed: np.ndarray

@@ -4,7 +4,9 @@ Layout (see docs/studies.md)::
 
     [study]      name, description, method, levels, outputs, nonmonotonic (list or "auto"),
                  screening_rtol, sparse_level, search_points (method "sparse"),
-                 integration_tolerance (time-integrated models; default 0.005)
+                 integration_tolerance (time-integrated models; default 0.005),
+                 validation_runs (default: a fifth of the runs, at least n + 1; 0: off),
+                 method_tolerance (default 0.01), widen_with_validation (default false)
     [model]      name ("registry-name" or "package.module:callable"), [model.options]
     [parameters] one table (fuzzy) or number (crisp) per model parameter
     [run]        executor, chunk_size, on_failure
@@ -33,6 +35,7 @@ from fuzzymbs.errors import (
     StudyFileError,
 )
 from fuzzymbs.study.integration_check import DEFAULT_TOLERANCE
+from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE
 from fuzzymbs.study.parameters import FUZZY_TYPES
 
 
@@ -53,6 +56,9 @@ class StudySection(_Section):
     sparse_level: int | None = Field(default=None, ge=1)
     search_points: int | None = Field(default=None, ge=1)
     integration_tolerance: float = Field(default=DEFAULT_TOLERANCE, gt=0.0, allow_inf_nan=False)
+    validation_runs: int | None = Field(default=None, ge=0)
+    method_tolerance: float = Field(default=DEFAULT_METHOD_TOLERANCE, gt=0.0, allow_inf_nan=False)
+    widen_with_validation: bool = False
 
     @field_validator("nonmonotonic", mode="before")
     @classmethod
@@ -282,6 +288,9 @@ def load_study_file(path: str | Path) -> StudyDefinition:
             sparse_level=parsed.study.sparse_level,
             search_points=parsed.study.search_points,
             integration_tolerance=parsed.study.integration_tolerance,
+            validation_runs=parsed.study.validation_runs,
+            method_tolerance=parsed.study.method_tolerance,
+            widen_with_validation=parsed.study.widen_with_validation,
             name=name,
             description=parsed.study.description,
         )

@@ -15,6 +15,30 @@ def _fmt(value: float) -> str:
     return "nan" if not np.isfinite(value) else f"{value:.6g}"
 
 
+def _method_line(attrs: dict, provenance: dict) -> str:
+    """The method check's line: validation runs, method error, worst point."""
+    check = provenance.get("method_check", {})
+    runs = int(attrs["validation_runs"])
+    failed = int(check.get("failed", 0))
+    error = float(attrs["method_error"])
+    tolerance = float(attrs["method_tolerance"])
+    head = f"Method check: {runs} validation runs" + (f" ({failed} failed)" if failed else "")
+    if not np.isfinite(error):
+        return f"{head}; NOT CHECKED: no validation run could be compared"
+    verdict = "within" if error <= tolerance else "EXCEEDS"
+    line = (
+        f"{head}; method error {100 * error:.3g} % of the cut's width, {verdict} the "
+        f"tolerance {100 * tolerance:.3g} %"
+    )
+    worst = check.get("worst")
+    if worst and error > 0:
+        where = ", ".join(f"{k}={_fmt(v)}" for k, v in worst["parameters"].items())
+        line += f" (output {worst['output']}, mu = {_fmt(worst['level'])}, at {where})"
+    if check.get("widened"):
+        line += "; bounds widened with the validation outputs"
+    return line
+
+
 def summarize(dataset: xarray.Dataset) -> str:
     """Summarise a study result: setup, status, cuts, influence, failures.
 
@@ -73,6 +97,8 @@ def summarize(dataset: xarray.Dataset) -> str:
                 f"Time integration: {attrs['time_integration']}; NOT CHECKED: "
                 f"{attrs['time_integration_note']}"
             )
+    if "method_error" in attrs:
+        lines.append(_method_line(attrs, provenance))
     if attrs["status"] == "complete":
         lines.append("Status: complete")
     else:
