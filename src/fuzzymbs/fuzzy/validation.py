@@ -24,13 +24,15 @@ over points, levels and elements.
 Points (:func:`validation_points`), ``count`` in all:
 
 * half of them (rounded up), when the method's outputs are given: **edge
-  probes** from the runs that bound the mu = 0 cut. For every output element
-  the run giving the smallest and the one giving the largest value are
-  tallied; from the most frequent such runs on, one parameter at a time is
-  moved half-way towards its modal value (from a corner of the box: the
-  quarter point of the edge towards the centre). An extremum inside the box
-  next to a bounding corner, such as a valley that the corners straddle while
-  other parameters sit at their bounds, lies on such an edge;
+  probes** from the runs that bound each cut. For every level below the core
+  and every output element, the level's run giving the smallest and the one
+  giving the largest value are tallied; from the most frequent such runs on,
+  one parameter at a time is moved half-way towards its modal value (from a
+  corner of the box: the quarter point of the edge towards the centre). The
+  levels take turns (a probe of level 0, one of the next level, ...). An
+  extremum inside the box next to a bounding run, such as a valley that the
+  corners straddle while other parameters sit at their bounds, lies on such
+  an edge;
 * the rest: a scrambled Halton sequence (:class:`scipy.stats.qmc.Halton`, fixed
   seed) in the mu = 0 box, space-filling in every dimension, for extrema away
   from the bounding runs. Points fall into the inner boxes in proportion to
@@ -164,9 +166,31 @@ def _edge_probes(
     failed: NDArray[np.bool_] | None,
     limit: int,
 ) -> list[NDArray[np.float64]]:
-    """Up to ``limit`` points: from the runs that bound the mu = 0 cut most often (per
-    output element, smallest and largest), each parameter moved half-way to its modal."""
-    usable = np.asarray(plan.level_usage[0], dtype=bool).copy()
+    """Up to ``limit`` edge probes, taken from the levels below the core in turn (one
+    probe of level 0, one of the next level, ...), so that every cut is probed."""
+    per_level = [
+        _level_probes(plan, j, modal, outputs, failed, limit) for j in range(len(plan.levels) - 1)
+    ]
+    probes: list[NDArray[np.float64]] = []
+    for rank in range(limit):
+        for level_probes in per_level:
+            if rank < len(level_probes) and len(probes) < limit:
+                probes.append(level_probes[rank])
+    return probes
+
+
+def _level_probes(
+    plan: Plan,
+    level: int,
+    modal: NDArray[np.float64],
+    outputs: Mapping[str, NDArray[np.float64]],
+    failed: NDArray[np.bool_] | None,
+    limit: int,
+) -> list[NDArray[np.float64]]:
+    """Up to ``limit`` probes of one level: from the runs that bound its cut most often
+    (per output element, smallest and largest), each parameter moved half-way to its
+    modal value."""
+    usable = np.asarray(plan.level_usage[level], dtype=bool).copy()
     if failed is not None:
         usable &= ~np.asarray(failed, dtype=bool)
     rows = np.flatnonzero(usable)
