@@ -28,6 +28,9 @@ def test_user_guide_examples_run(capsys):
     np.testing.assert_allclose(namespace["deflection"].lower, force_low / stiffness_high)
     np.testing.assert_allclose(namespace["deflection"].upper, force_high / stiffness_low)
     np.testing.assert_array_equal(namespace["partial"].complete, [False, False, False, True, True])
+    # validation runs: the first edge probe finds the valley floor, 1/12 of the mu = 0 cut
+    # (reduced [0.25, 3.25] against the true [0, 3.25])
+    assert namespace["miss"].max() == __import__("pytest").approx(0.25 / 3.0, rel=1e-12)
     # symmetric triangles: (m+1)^n + m^n = 189 unique of sum_k k^n = 225 (docs/theory.md)
     assert len(namespace["general"]) == 189
     assert namespace["general"].points_without_reuse == 225
