@@ -9,7 +9,8 @@ compiles or loads the Numba kernels and imports what building a result needs):
   k_c +-10 %, F_n +-1 %, 10 ms) with the brake's defaults (ROS34PW2 at rtol 1e-2,
   all 33 samples in one call: 9 blocks of four samples, the last one padded,
   round robin over the threads), including the study's own check of its time
-  integration (the modal sample re-run at rtol 1e-3), whose result is
+  integration (the modal sample re-run at rtol 1e-3) and of its method (6
+  validation runs, docs/studies.md; both studies make them), whose result is
   ``study1_default_time_integration_error``; ``study1_rk4_1us_warm_s``: the same
   study with the paper's RK4 at dt = 1 us (its check: dt = 0.5 us), and
   ``study1_default_over_rk4_1us`` the ratio (issue #14: at most 4);
