@@ -48,6 +48,34 @@ def test_demo_writes_results_plots_and_summary(demo_out):
         np.testing.assert_allclose(ds["z_lower"].values, (1 + mu) * (9 + mu), rtol=1e-14)
         np.testing.assert_allclose(ds["z_upper"].values, (3 - mu) * (11 - mu), rtol=1e-14)
         assert json.loads(ds.attrs["plots"]) == {"membership": []}
+        # monotonic: the method check (3 validation runs for 17 runs) finds round-off
+        assert ds.attrs["validation_runs"] == 3 and ds.attrs["method_error"] < 1e-12
+    assert "Method check: 3 validation runs" in (demo_out / "product" / "summary.txt").read_text()
+
+
+def test_method_check_reaches_the_cli_user(tmp_path, monkeypatch):
+    # a model with a valley the reduced corners straddle (tests/study/test_method_check.py):
+    # the validation runs find 1/12 of the mu = 0 cut missed; the user sees the warning
+    (tmp_path / "valley_model.py").write_text(
+        "def make():\n"
+        "    def model(s):\n"
+        "        return {'z': (s['x1'] - 0.5 * s['x2']) ** 2 + 0.5 * s['x3']}\n"
+        "    return model\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    study = tmp_path / "valley.toml"
+    study.write_text(
+        '[study]\nmethod = "reduced"\nlevels = 4\n[model]\nname = "valley_model:make"\n'
+        "[parameters]\n"
+        'x1 = { type = "triangular", lower = -1.0, modal = 0.0, upper = 1.0 }\n'
+        'x2 = { type = "triangular", lower = -1.0, modal = 0.0, upper = 1.0 }\n'
+        'x3 = { type = "triangular", lower = 0.0, modal = 1.0, upper = 2.0 }\n'
+    )
+    result = runner.invoke(app, ["run", str(study), "--out", str(tmp_path / "o"), "-q"])
+    assert result.exit_code == 0, result.output
+    assert "validation run" in " ".join(result.output.split())
+    summary = (tmp_path / "o" / "summary.txt").read_text()
+    assert "method error 8.33 % of the cut's width, EXCEEDS" in summary
 
 
 def test_sparse_demo_matches_closed_form_and_a_dense_search(demo_out):
