@@ -188,7 +188,11 @@ def test_validation_runs_are_stored_and_resumed(tmp_path):
     result = Study(again, NUMBERS, levels=4).run(progress=False, store=tmp_path)
     assert again.calls == 0
     assert result.provenance["method_check"]["reused_from_store"] == 6
-    assert (tmp_path / "validation").is_dir()
+    assert len(list(tmp_path.glob("validation-6-*"))) == 1
+    # another number of validation runs starts its own folder, no store mismatch
+    other = Counting()
+    Study(other, NUMBERS, levels=4, validation_runs=4).run(progress=False, store=tmp_path)
+    assert other.calls == 4 and len(list(tmp_path.glob("validation-*"))) == 2
 
 
 def test_bad_options_are_refused():

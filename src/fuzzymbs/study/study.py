@@ -78,7 +78,8 @@ logger = logging.getLogger(__name__)
 
 #: sub-folder of a store holding the screening chunks of a ``nonmonotonic="auto"`` study
 SCREENING_FOLDER = "screening"
-#: sub-folder of a store holding the validation runs' chunks
+#: prefix of the sub-folders of a store holding validation runs' chunks
+#: (``validation-<count>-<fingerprint>``)
 VALIDATION_FOLDER = "validation"
 
 
@@ -425,9 +426,11 @@ class Study:
             )
             ordered = [results[i] for i in range(chunk_count)]
             outputs, failed, reasons = assemble_chunks(ordered, count)
-            validation = self._validate(
-                work, outputs, failed, requested_size, store, resume, progress, code
-            )
+            validation = None
+            if not failed.all() and (on_failure == "partial" or not failed.any()):
+                validation = self._validate(
+                    work, outputs, failed, requested_size, store, resume, progress, code
+                )
         finally:
             work.close()
         executor_label = work.label or "none (every chunk from the store)"
@@ -480,7 +483,8 @@ class Study:
         progress: bool,
         code: dict[str, Any],
     ) -> ValidationRuns | None:
-        """Evaluate the validation points (chunks into ``STORE/validation``); None if off."""
+        """Evaluate the validation points (chunks into
+        ``STORE/validation-<count>-<fingerprint>``); None if off."""
         points = self.validation_points(method_outputs, method_failed)
         count = len(points)
         if count == 0:
@@ -491,8 +495,10 @@ class Study:
             "plan_fingerprint": self.plan.fingerprint(),
             **self._model_identity(),
         }
+        # a folder per set of points: another count (or other method outputs) starts afresh
+        folder = f"{VALIDATION_FOLDER}-{count}-{identity['validation_fingerprint'][:12]}"
         chunk_store, size, chunk_count, results, missing, reused = open_chunks(
-            None if store is None else Path(store) / VALIDATION_FOLDER,
+            None if store is None else Path(store) / folder,
             identity,
             count,
             size,
