@@ -71,7 +71,8 @@ def test_method_check_reaches_the_cli_user(tmp_path, monkeypatch):
         'x2 = { type = "triangular", lower = -1.0, modal = 0.0, upper = 1.0 }\n'
         'x3 = { type = "triangular", lower = 0.0, modal = 1.0, upper = 2.0 }\n'
     )
-    result = runner.invoke(app, ["run", str(study), "--out", str(tmp_path / "o"), "-q"])
+    command = ["run", str(study), "--out", str(tmp_path / "o"), "-q", "--allow-code"]
+    result = runner.invoke(app, command)
     assert result.exit_code == 0, result.output
     assert "validation run" in " ".join(result.output.split())
     summary = (tmp_path / "o" / "summary.txt").read_text()

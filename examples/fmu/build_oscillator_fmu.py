@@ -70,6 +70,7 @@ def _model_description_2(guid: str) -> str:
     )
     units = "".join(f'<Unit name="{u}"/>' for u in UNITS)
     initial = [index["omega0"], index["x"], index["v"], index["der(x)"], index["der(v)"]]
+    derivatives = "".join(f'<Unknown index="{index[n]}"/>' for n in ("der(x)", "der(v)"))
     return f"""<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="Oscillator" guid="{guid}"
   description="damped oscillator m x'' + c x' + k x = F (fuzzymbs example)"
@@ -83,7 +84,7 @@ def _model_description_2(guid: str) -> str:
   </ModelVariables>
   <ModelStructure>
     <Outputs><Unknown index="{index["x"]}"/><Unknown index="{index["v"]}"/></Outputs>
-    <Derivatives><Unknown index="{index["der(x)"]}"/><Unknown index="{index["der(v)"]}"/></Derivatives>
+    <Derivatives>{derivatives}</Derivatives>
     <InitialUnknowns>{"".join(f'<Unknown index="{i}"/>' for i in initial)}</InitialUnknowns>
   </ModelStructure>
 </fmiModelDescription>
@@ -180,7 +181,9 @@ def build(out: str | Path, fmi_version: int = 2) -> Path:
         compiled = subprocess.run(command, capture_output=True, text=True, check=False)
         if compiled.returncode != 0:
             raise RuntimeError(f"compiling the example FMU failed:\n{compiled.stderr}")
-        identifier = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"fuzzymbs-oscillator-{fmi_version}")) + "}"
+        identifier = (
+            "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"fuzzymbs-oscillator-{fmi_version}")) + "}"
+        )
         text = (_model_description_2 if fmi_version == 2 else _model_description_3)(identifier)
         (root / "modelDescription.xml").write_text(text, encoding="utf-8")
         sources = root / "sources"

@@ -77,10 +77,22 @@ def run(
         bool, typer.Option("--fresh", help="Discard stored chunks of this study; do not resume.")
     ] = False,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the plots.")] = False,
+    allow_code: Annotated[
+        bool,
+        typer.Option(
+            "--allow-code",
+            help="Let the study file run code it names: a 'module:callable' model, an FMU or "
+            "a program. Only for files you trust.",
+        ),
+    ] = False,
     quiet: QuietOption = False,
     verbose: VerboseOption = False,
 ) -> None:
-    """Run STUDY_FILE; write OUT/result.nc, plots and OUT/summary.txt (rerun resumes)."""
+    """Run STUDY_FILE; write OUT/result.nc, plots and OUT/summary.txt (rerun resumes).
+
+    A study file is data: one that names code to run (a module reference, an FMU, a
+    program) is refused unless --allow-code is given or the code is in your trust file.
+    """
     from fuzzymbs.study.study import ON_FAILURE
 
     _setup_logging(quiet, verbose)
@@ -95,6 +107,7 @@ def run(
         resume=not fresh,
         progress=not quiet,
         plots=not no_plots,
+        allow_code=allow_code,
     )
 
 
@@ -174,14 +187,27 @@ def plot(
 
 @app.command()
 def info(
-    model: Annotated[str | None, typer.Argument(help="Show only this model.")] = None,
+    model: Annotated[
+        str | None, typer.Argument(help="Show only this model, or an FMU file's variables.")
+    ] = None,
 ) -> None:
-    """List the registered models (parameters with units, outputs, options), methods, demos."""
+    """List the registered models (parameters with units, outputs, options), methods, demos.
+
+    With a .fmu file: its settable real parameters and its outputs, with units.
+    """
     from fuzzymbs.errors import FuzzymbsError
     from fuzzymbs.fuzzy.transform import METHODS
     from fuzzymbs.study.pipeline import demo_names
     from fuzzymbs.study.registry import available_models, get_model
 
+    if model is not None and model.lower().endswith(".fmu"):
+        from fuzzymbs.models.external.fmu import describe_fmu
+
+        try:
+            typer.echo("\n".join(describe_fmu(model).lines()))
+        except FuzzymbsError as exc:
+            raise _fail(str(exc)) from None
+        return
     try:
         specs = {model: get_model(model)} if model else available_models()
     except FuzzymbsError as exc:
@@ -189,12 +215,17 @@ def info(
     lines = ["Models:"]
     for name, spec in specs.items():
         lines.append(f"  {name}: {spec.description}")
-        lines.append("    parameters:")
-        for parameter, meta in spec.parameters.items():
-            default = "" if meta.default is None else f" (default {meta.default:g})"
-            lines.append(f"      {parameter} [{meta.unit}]: {meta.description}{default}")
-        outputs = ", ".join(f"{o} [{u}]" for o, u in spec.outputs.items())
-        lines.append(f"    outputs: {outputs}")
+        if spec.dynamic:
+            lines.append("    parameters, outputs: those of the FMU or program it runs")
+        else:
+            lines.append("    parameters:")
+            for parameter, meta in spec.parameters.items():
+                default = "" if meta.default is None else f" (default {meta.default:g})"
+                lines.append(f"      {parameter} [{meta.unit}]: {meta.description}{default}")
+            outputs = ", ".join(f"{o} [{u}]" for o, u in spec.outputs.items())
+            lines.append(f"    outputs: {outputs}")
+        if spec.runs_code:
+            lines.append("    in a study file: needs fuzzymbs run --allow-code (runs named code)")
         if spec.options:
             lines.append("    options:")
             lines += [f"      {k}: {v}" for k, v in spec.options.items()]

@@ -46,3 +46,7 @@ class StoreMismatchError(FuzzymbsError, ValueError):
 
 class IncompleteResultError(FuzzymbsError, ValueError):
     """Samples failed, so some alpha levels cannot be bounded."""
+
+
+class UntrustedCodeError(StudyFileError):
+    """A study file names code (a module, an FMU, a program) its user has not allowed."""

@@ -14,7 +14,9 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 def test_cantilever_user_model_study(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(EXAMPLES))
-    written = run_study_file(EXAMPLES / "cantilever.toml", tmp_path, progress=False, plots=False)
+    written = run_study_file(
+        EXAMPLES / "cantilever.toml", tmp_path, progress=False, plots=False, allow_code=True
+    )
     ds = written.result.dataset
     # delta = F L^3 / (3 E I) is increasing in F and decreasing in E, so the reduced
     # method is exact: lower = F_lo / (3 E_hi I), upper = F_hi / (3 E_lo I) (rtol 1e-13)

@@ -61,6 +61,7 @@ def _command(study: Path, out: Path) -> list[str]:
         str(out),
         "-q",
         "--no-plots",
+        "--allow-code",  # the study names a test module (fuzzymbs.study.trust)
     ]
 
 
@@ -80,7 +81,7 @@ def _logged_calls(log: Path) -> list[list[float]]:
 def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
     study = tmp_path / "slow.toml"
     study.write_text(STUDY.format(delay=0.15, chunk_size=CHUNK_SIZE))
-    plan = load_study_file(study).study.plan
+    plan = load_study_file(study, allow_code=True).study.plan
     count = len(plan)  # 10 * 2^2 + 1 = 41 samples
     chunks = [plan.samples[i : i + CHUNK_SIZE, 0].tolist() for i in range(0, count, CHUNK_SIZE)]
     assert count == 41 and len(chunks) == 11
@@ -109,7 +110,7 @@ def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(HERE))
     second_log = tmp_path / "second.log"
     monkeypatch.setenv("FUZZYMBS_TEST_CALL_LOG", str(second_log))
-    run_study_file(study, out, progress=False, plots=False)
+    run_study_file(study, out, progress=False, plots=False, allow_code=True)
     resumed_calls = _logged_calls(second_log)
     missing = [chunks[i] for i in range(len(chunks)) if i not in stored]
     assert sorted(resumed_calls) == sorted(missing)
@@ -117,7 +118,7 @@ def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
     # an uninterrupted run of the same study into a fresh folder
     clean = tmp_path / "clean"
     monkeypatch.setenv("FUZZYMBS_TEST_CALL_LOG", str(tmp_path / "clean.log"))
-    run_study_file(study, clean, progress=False, plots=False)
+    run_study_file(study, clean, progress=False, plots=False, allow_code=True)
     assert len(_logged_calls(tmp_path / "clean.log")) == len(chunks)
 
     with (

@@ -7,7 +7,7 @@ function of picklable arguments.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -17,6 +17,9 @@ from fuzzymbs.errors import ModelOutputError
 #: Optional model outputs that flag failed samples instead of carrying data.
 FAILED_KEY = "failed"
 REASON_KEY = "failure_reason"
+#: Optional model output giving coordinate values found while running (e.g. the time column
+#: of an external program's output file): ``{dim: (T,) array}``, not batched.
+COORDS_KEY = "coords"
 
 
 @dataclass
@@ -32,10 +35,56 @@ class ChunkResult:
     outputs: dict[str, np.ndarray]
     failed: np.ndarray  # (B,) bool
     reasons: np.ndarray  # (B,) str, "" where the sample succeeded
+    coords: dict[str, np.ndarray] = field(default_factory=dict)  # returned under COORDS_KEY
 
     @property
     def size(self) -> int:
         return self.stop - self.start
+
+
+def _checked_coords(raw: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """The coordinate values a model returned under :data:`COORDS_KEY` (1-D float arrays)."""
+    given = raw.get(COORDS_KEY)
+    if given is None:
+        return {}
+    if not isinstance(given, Mapping):
+        raise ModelOutputError(
+            f"model output {COORDS_KEY!r} must be a dict {{dimension: 1-D array}}, "
+            f"got {type(given).__name__}"
+        )
+    coords = {}
+    for dim, values in given.items():
+        array = np.asarray(values, dtype=np.float64)
+        if array.ndim != 1 or not np.isfinite(array).all():
+            raise ModelOutputError(
+                f"coordinate {dim!r} returned by the model must be a finite 1-D array"
+            )
+        coords[str(dim)] = array
+    return coords
+
+
+def merged_coords(chunks: Sequence[ChunkResult]) -> dict[str, np.ndarray]:
+    """The coordinates the chunks returned, which must agree between chunks.
+
+    Raises
+    ------
+    ModelOutputError
+        A coordinate differs between two chunks (names the samples).
+    """
+    merged: dict[str, np.ndarray] = {}
+    first: dict[str, int] = {}
+    for chunk in chunks:
+        for dim, values in chunk.coords.items():
+            if dim not in merged:
+                merged[dim], first[dim] = values, chunk.start
+            elif values.shape != merged[dim].shape or not np.allclose(
+                values, merged[dim], rtol=1e-9, atol=0.0
+            ):
+                raise ModelOutputError(
+                    f"coordinate {dim!r} differs between the runs from sample {first[dim]} "
+                    f"and sample {chunk.start}; every run must report the same {dim!r} values"
+                )
+    return merged
 
 
 def _checked_outputs(
@@ -47,7 +96,8 @@ def _checked_outputs(
             f"the model returned {type(raw).__name__}; it must return a dict "
             "{output name: (B, ...) array}"
         )
-    names = list(wanted) if wanted else [k for k in raw if k not in (FAILED_KEY, REASON_KEY)]
+    reserved = (FAILED_KEY, REASON_KEY, COORDS_KEY)
+    names = list(wanted) if wanted else [k for k in raw if k not in reserved]
     failed = np.zeros(size, dtype=bool)
     reasons = np.full(size, "", dtype=object)
     if FAILED_KEY in raw:
@@ -64,6 +114,8 @@ def _checked_outputs(
         failed |= flagged
     outputs: dict[str, np.ndarray] = {}
     for name in names:
+        if name not in raw and failed.all():
+            continue  # every sample failed: a model may return no outputs at all then
         if name not in raw:
             raise ModelOutputError(
                 f"the model returned no output {name!r}; it returned: {', '.join(map(str, raw))}"
@@ -137,11 +189,12 @@ def evaluate_chunk(
     else:
         try:
             data, failed, reasons = _checked_outputs(raw, size, outputs)
+            coords = _checked_coords(raw)
         except ModelOutputError as exc:
             raise ModelOutputError(
                 f"{exc} (model called with samples {start} to {start + size - 1}, B = {size})"
             ) from None
-        return ChunkResult(start, start + size, data, failed, reasons.astype(str))
+        return ChunkResult(start, start + size, data, failed, reasons.astype(str), coords)
     # Isolate the failing samples: one call per sample, only after a batched call raised.
     singles = [
         evaluate_chunk(model, {k: v[i : i + 1] for k, v in columns.items()}, start + i, outputs)
@@ -162,4 +215,5 @@ def evaluate_chunk(
                     )
                 merged[i] = single.outputs[name][0]
         data[name] = merged
-    return ChunkResult(start, start + size, data, failed, reasons)
+    coords = merged_coords(singles)
+    return ChunkResult(start, start + size, data, failed, reasons, coords)

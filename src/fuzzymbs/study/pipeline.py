@@ -42,10 +42,13 @@ def run_study_file(
     resume: bool = True,
     progress: bool = True,
     plots: bool = True,
+    allow_code: bool = False,
 ) -> StudyOutput:
     """Load a study file, run it with ``out/chunks`` as store, and write the results.
 
-    Settings given here override the file's ``[run]`` table.
+    Settings given here override the file's ``[run]`` table. ``allow_code``
+    lets the file run code its author named (a module reference, an FMU, a
+    program; :mod:`fuzzymbs.study.trust`).
 
     Raises
     ------
@@ -59,7 +62,7 @@ def run_study_file(
     """
     from fuzzymbs.study.studyfile import load_study_file
 
-    definition = load_study_file(path)
+    definition = load_study_file(path, allow_code=allow_code)
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InvalidParameterError(f"output folder {out} exists and is not a directory")

@@ -1,9 +1,17 @@
 """Registry of models a study file can name.
 
 Built-in models register themselves when their package is imported; the
-registry imports the built-in packages on first lookup. A user model is named
-``"package.module:callable"`` instead, where the callable takes the model
-options as keyword arguments and returns a batched model.
+registry imports the built-in packages on first lookup. Installed packages
+add models through the entry-point group ``fuzzymbs.models``: each entry
+point names a module (imported) or a function (imported and called) that
+calls :func:`register_model`, for example in the package's pyproject.toml::
+
+    [project.entry-points."fuzzymbs.models"]
+    my-brake = "my_package.fuzzymbs_models"
+
+A user model is named ``"package.module:callable"`` instead, where the
+callable takes the model options as keyword arguments and returns a batched
+model (in a study file only with ``--allow-code``: :mod:`fuzzymbs.study.trust`).
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ BUILTIN_PACKAGES: tuple[str, ...] = (
     "fuzzymbs.models.closed_form",
     "fuzzymbs.models.gears",
     "fuzzymbs.models.brake",
+    "fuzzymbs.models.external",
 )
 
 
@@ -52,6 +61,15 @@ class ModelSpec:
         Output name -> unit.
     description : str
         One line for ``fuzzymbs info``.
+    options : mapping of str to str
+        Factory keyword options and a short description of each.
+    dynamic : bool
+        The parameters and outputs are those of the built model
+        (``model.parameters``, ``model.outputs``: an FMU, an external program),
+        not listed here.
+    runs_code : bool
+        The options name code to run (a program, an FMU's binary): a study
+        file may use the model only when its user allows it (``--allow-code``).
     """
 
     name: str
@@ -60,6 +78,8 @@ class ModelSpec:
     outputs: Mapping[str, str]
     description: str
     options: Mapping[str, str] = field(default_factory=dict)
+    dynamic: bool = False
+    runs_code: bool = False
 
 
 class LazyFactory:
@@ -92,6 +112,8 @@ def register_model(
     outputs: Mapping[str, str],
     description: str,
     options: Mapping[str, str] | None = None,
+    dynamic: bool = False,
+    runs_code: bool = False,
 ) -> ModelSpec:
     """Register a model under ``name`` (re-registering the same name replaces it).
 
@@ -111,6 +133,8 @@ def register_model(
         One line shown by ``fuzzymbs info``.
     options : mapping of str to str, optional
         Factory keyword options and a short description of each.
+    dynamic, runs_code : bool
+        See :class:`ModelSpec`.
     """
     if isinstance(factory, str):
         factory = LazyFactory(factory)
@@ -121,6 +145,8 @@ def register_model(
         outputs=dict(outputs),
         description=description,
         options=dict(options or {}),
+        dynamic=dynamic,
+        runs_code=runs_code,
     )
     _REGISTRY[name] = spec
     return spec
@@ -139,9 +165,37 @@ def _import_builtin(package: str) -> None:
         _imported.add(package)
 
 
+#: entry-point group through which installed packages register models
+ENTRY_POINT_GROUP = "fuzzymbs.models"
+
+
+def _plugin_entry_points() -> list[Any]:
+    from importlib.metadata import entry_points
+
+    return list(entry_points(group=ENTRY_POINT_GROUP))
+
+
+def _load_plugin(entry_point: Any) -> None:
+    """Load one ``fuzzymbs.models`` entry point (once); a broken plugin is logged, not fatal."""
+    key = f"entry point {entry_point.name} = {entry_point.value}"
+    if key in _imported or key in _import_errors:
+        return
+    try:
+        target = entry_point.load()
+        if callable(target):
+            target()
+    except Exception as exc:  # one broken plugin must not disable the other models
+        _import_errors[key] = f"{type(exc).__name__}: {exc}"
+        logger.warning("model plugin %s failed to load: %s", key, exc)
+    else:
+        _imported.add(key)
+
+
 def _load_builtins() -> None:
     for package in BUILTIN_PACKAGES:
         _import_builtin(package)
+    for entry_point in _plugin_entry_points():
+        _load_plugin(entry_point)
 
 
 def available_models() -> dict[str, ModelSpec]:
@@ -168,10 +222,13 @@ def get_model(name: str) -> ModelSpec:
             _import_builtin(package)
         if name in _REGISTRY:
             return _REGISTRY[name]
+    for entry_point in _plugin_entry_points():
+        _load_plugin(entry_point)
+        if name in _REGISTRY:
+            return _REGISTRY[name]
     known = ", ".join(sorted(_REGISTRY)) or "(none)"
     broken = "".join(
-        f"; built-in package {package} failed to import ({error})"
-        for package, error in _import_errors.items()
+        f"; {package} failed to import ({error})" for package, error in _import_errors.items()
     )
     raise InvalidParameterError(
         f"unknown model {name!r}; registered models are: {known}; "

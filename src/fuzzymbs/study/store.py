@@ -36,6 +36,8 @@ logger = logging.getLogger(__name__)
 FORMAT = "fuzzymbs-chunk-store"
 VERSION = 1
 _OUTPUT_PREFIX = "output__"
+#: prefix of coordinate arrays a model returned while running (e.g. an external program's time)
+_COORD_PREFIX = "coord__"
 
 
 def json_safe(value: Any) -> Any:
@@ -247,6 +249,8 @@ class ChunkStore:
         }
         for name, values in chunk.outputs.items():
             arrays[_OUTPUT_PREFIX + name] = values
+        for dim, values in chunk.coords.items():
+            arrays[_COORD_PREFIX + dim] = values
         _write_atomic(self.chunk_path(index), lambda handle: np.savez(handle, **arrays))
 
     def read(self, index: int) -> ChunkResult | None:
@@ -262,6 +266,11 @@ class ChunkStore:
                     for key in data.files
                     if key.startswith(_OUTPUT_PREFIX)
                 }
+                coords = {
+                    key[len(_COORD_PREFIX) :]: data[key]
+                    for key in data.files
+                    if key.startswith(_COORD_PREFIX)
+                }
                 failed = data["failed"].astype(bool)
                 reasons = data["failure_reason"].astype(str)
         except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
@@ -272,7 +281,7 @@ class ChunkStore:
         if (start, stop) != (expected_start, expected_stop) or failed.shape != (stop - start,):
             logger.warning("stored chunk %s has the wrong extent; it is evaluated again", path)
             return None
-        return ChunkResult(start, stop, outputs, failed, reasons)
+        return ChunkResult(start, stop, outputs, failed, reasons, coords)
 
     def finished(self) -> list[int]:
         """Indices of the chunk files present (not yet validated)."""

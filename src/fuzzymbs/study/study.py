@@ -35,6 +35,7 @@ import numpy as np
 from fuzzymbs.errors import (
     IncompleteResultError,
     InvalidParameterError,
+    ModelOutputError,
     UnsupportedOperationError,
 )
 from fuzzymbs.fuzzy.screening import nonmonotonic_parameters
@@ -45,7 +46,7 @@ from fuzzymbs.fuzzy.validation import (
     validation_points,
 )
 from fuzzymbs.study.code_version import code_version
-from fuzzymbs.study.evaluation import ChunkResult
+from fuzzymbs.study.evaluation import ChunkResult, merged_coords
 from fuzzymbs.study.execution import (
     DEFAULT_CHUNK_SIZE,
     ON_FAILURE,
@@ -194,10 +195,15 @@ class Study:
         self.model_name = resolved.name
         self.model_options = resolved.options
         self.spec = resolved.spec
+        self._run_coords: dict[str, np.ndarray] = {}
         self._factory = resolved.factory  # registered or referenced models: the source digest
+        static = self.spec is not None and not self.spec.dynamic
         self.parameter_info: dict[str, ParameterInfo] | None = (
-            dict(self.spec.parameters) if self.spec else declared_parameters(self.model)
+            dict(self.spec.parameters) if static else declared_parameters(self.model)
         )
+        check_parameters = getattr(self.model, "check_parameters", None)
+        if callable(check_parameters):  # a model that explains why a name is refused
+            check_parameters(list(parameters))
         fuzzy, crisp = split_parameters(parameters, self.parameter_info, self.model_name)
         self.constants = crisp
         self._fuzzy = fuzzy
@@ -233,7 +239,7 @@ class Study:
 
     # ----------------------------------------------------------------- helpers
     def _declared_outputs(self) -> list[str] | None:
-        if self.spec is not None:
+        if self.spec is not None and not self.spec.dynamic:
             return list(self.spec.outputs)
         declared = getattr(self.model, "outputs", None)
         if isinstance(declared, Mapping):
@@ -242,8 +248,30 @@ class Study:
 
     @property
     def coords(self) -> dict[str, np.ndarray]:
-        """Coordinates of the model's trailing output axes (e.g. ``{"time": t}``)."""
-        return {k: np.asarray(v) for k, v in (getattr(self.model, "coords", None) or {}).items()}
+        """Coordinates of the model's trailing output axes (e.g. ``{"time": t}``).
+
+        Declared by the model (``model.coords``) or, for a model that learns them
+        while running (an external program's output file), returned by its runs
+        (:data:`~fuzzymbs.study.evaluation.COORDS_KEY`).
+        """
+        declared = getattr(self.model, "coords", None) or {}
+        return {**self._run_coords, **{k: np.asarray(v) for k, v in declared.items()}}
+
+    def _adopt_coords(self, chunks: Sequence[ChunkResult]) -> None:
+        """Keep the coordinates the runs returned; they must agree with earlier runs.
+
+        Raises
+        ------
+        ModelOutputError
+            A coordinate differs between runs (of the plan, screening or validation).
+        """
+        for dim, values in merged_coords(chunks).items():
+            known = self._run_coords.setdefault(dim, values)
+            if known.shape != values.shape or not np.allclose(known, values, rtol=1e-9, atol=0):
+                raise ModelOutputError(
+                    f"coordinate {dim!r} returned by the model differs between this study's "
+                    "runs (plan, screening or validation); every run must report the same values"
+                )
 
     def output_dims(self, output: str) -> tuple[str, ...]:
         """Expected trailing dimensions of ``output`` (from ``model.output_dims`` or coords)."""
@@ -254,7 +282,7 @@ class Study:
 
     def units(self) -> dict[str, str]:
         """Output name -> unit, where the model declares it."""
-        if self.spec is not None:
+        if self.spec is not None and not self.spec.dynamic:
             return dict(self.spec.outputs)
         declared = getattr(self.model, "outputs", None)
         return {k: str(v) for k, v in declared.items()} if isinstance(declared, Mapping) else {}
@@ -426,6 +454,7 @@ class Study:
             )
             ordered = [results[i] for i in range(chunk_count)]
             outputs, failed, reasons = assemble_chunks(ordered, count)
+            self._adopt_coords(ordered)
             validation = None
             if not failed.all() and (on_failure == "partial" or not failed.any()):
                 validation = self._validate(
@@ -518,7 +547,9 @@ class Study:
             progress=(progress, reused, f"{self.name} (validation)"),
             fail_fast=None,
         )
-        outputs, failed, reasons = assemble_chunks([results[i] for i in range(chunk_count)], count)
+        ordered = [results[i] for i in range(chunk_count)]
+        outputs, failed, reasons = assemble_chunks(ordered, count)
+        self._adopt_coords(ordered)
         logger.info(
             "study %s: %d validation runs (%d from the store, %d failed)",
             self.name,
@@ -658,7 +689,9 @@ class Study:
             progress=(progress, reused, f"{self.name} (screening)"),
             fail_fast=fail_fast,
         )
-        outputs, failed, reasons = assemble_chunks([results[i] for i in range(chunk_count)], count)
+        ordered = [results[i] for i in range(chunk_count)]
+        outputs, failed, reasons = assemble_chunks(ordered, count)
+        self._adopt_coords(ordered)
         if failed.all():
             raise IncompleteResultError(
                 f"all {count} screening samples of study {self.name!r} failed; "

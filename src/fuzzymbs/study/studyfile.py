@@ -7,7 +7,8 @@ Layout (see docs/studies.md)::
                  integration_tolerance (time-integrated models; default 0.005),
                  validation_runs (default: a fifth of the runs, at least n + 1; 0: off),
                  method_tolerance (default 0.01), widen_with_validation (default false)
-    [model]      name ("registry-name" or "package.module:callable"), [model.options]
+    [model]      name ("registry-name", "fmu", "command" or "package.module:callable"),
+                 [model.options] (fmu, command and references need --allow-code)
     [parameters] one table (fuzzy) or number (crisp) per model parameter
     [run]        executor, chunk_size, on_failure
     [[plots.membership]]  output, coord, value
@@ -236,13 +237,29 @@ def _parameter_definitions(path: Path, raw: dict[str, Any]) -> dict[str, Any]:
     return definitions
 
 
-def load_study_file(path: str | Path) -> StudyDefinition:
+def _model_options(path: Path, model: str, options: dict[str, Any]) -> dict[str, Any]:
+    """The model options with paths made relative to the study file's folder."""
+    options = dict(options)
+    folder = path.parent.resolve()
+    if model == "fmu" and isinstance(options.get("path"), str):
+        fmu = Path(options["path"]).expanduser()
+        options["path"] = str(fmu if fmu.is_absolute() else folder / fmu)
+    if model == "command":
+        options.setdefault("base_dir", str(folder))
+    return options
+
+
+def load_study_file(path: str | Path, allow_code: bool = False) -> StudyDefinition:
     """Read, validate and resolve a study file.
 
     Parameters
     ----------
     path : str or Path
         The TOML study file.
+    allow_code : bool
+        Let the file run code its author named: a ``"package.module:callable"``
+        model, an FMU or a program (``fuzzymbs run --allow-code``; see
+        :mod:`fuzzymbs.study.trust`). Registered models never need it.
 
     Returns
     -------
@@ -254,8 +271,13 @@ def load_study_file(path: str | Path) -> StudyDefinition:
     StudyFileError
         Malformed TOML, unknown or mistyped keys, unknown model, parameter or
         output names, or invalid fuzzy numbers; the message names the file and key.
+    UntrustedCodeError
+        The file names code to run and ``allow_code`` is False (and the user's
+        trust file does not list it); nothing has been imported or run.
     """
+    from fuzzymbs.study.registry import get_model
     from fuzzymbs.study.study import Study
+    from fuzzymbs.study.trust import check_study_code
 
     path = Path(path)
     try:
@@ -274,15 +296,25 @@ def load_study_file(path: str | Path) -> StudyDefinition:
         raise StudyFileError(f"{path}: [parameters] is empty; give at least one fuzzy parameter")
     definitions = _parameter_definitions(path, parsed.parameters)
 
+    model = parsed.model.name
+    options = _model_options(path, model, parsed.model.options)
+    runs_code = False
+    if ":" not in model:
+        try:
+            runs_code = get_model(model).runs_code
+        except InvalidParameterError as exc:
+            raise StudyFileError(f"{path}: key 'model.name': {exc}") from exc
+    check_study_code(path, model, options, runs_code, allow_code)  # before any import or run
+
     name = parsed.study.name or path.stem
     try:
         study = Study(
-            parsed.model.name,
+            model,
             definitions,
             method=parsed.study.method,
             levels=parsed.study.levels,
             outputs=parsed.study.outputs,
-            model_options=parsed.model.options,
+            model_options=options,
             nonmonotonic=parsed.study.nonmonotonic or None,
             screening_rtol=parsed.study.screening_rtol,
             sparse_level=parsed.study.sparse_level,
