@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -67,6 +68,12 @@ def model_label(model: Any) -> str:
     return f"{kind.__module__}.{kind.__qualname__}"
 
 
+def _path_text(value: Any) -> str:
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    raise TypeError(f"Object of type {type(value).__name__} is not JSON serializable")
+
+
 def resolve_model(model: str | Callable[..., Any], options: Mapping[str, Any]) -> ResolvedModel:
     """A registered name, a ``"package.module:callable"`` factory, or a batched model.
 
@@ -76,8 +83,8 @@ def resolve_model(model: str | Callable[..., Any], options: Mapping[str, Any]) -
         Unknown model or options, options that are not plain data, options for
         a model given as an object, or options the factory rejects.
     """
-    try:
-        plain = json.loads(json.dumps(dict(options), sort_keys=True))
+    try:  # paths become strings (an FMU's path, a template); nothing else is converted
+        plain = json.loads(json.dumps(dict(options), sort_keys=True, default=_path_text))
     except TypeError as exc:
         raise InvalidParameterError(
             f"model options must be plain data (numbers, strings, lists, tables): {exc}"

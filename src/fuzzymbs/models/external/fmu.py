@@ -205,6 +205,31 @@ def describe_fmu(path: str | Path) -> FmuDescription:
     )
 
 
+def _log_message(*args: Any) -> None:
+    """The FMU logger of every instance: appends to the calling thread's log.
+
+    FMPy passes FMI 2.0 log messages through one process-wide proxy that keeps
+    only the logger registered last, so a logger per instance would see other
+    instances' messages. An FMU logs on the thread that called it, and a thread
+    runs one sample at a time, so the thread's log is the running sample's.
+    """
+    # FMI 2.0: (environment, instance name, status, category, message); 3.0 drops the name
+    status, message = args[-3], args[-1]
+    text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
+    label = ["OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING"][int(status)]
+    log = _thread_log()
+    log.append(f"[{label}] {text}")
+    del log[:-LOG_LINES]
+
+
+def _thread_log() -> list[str]:
+    """The last :data:`LOG_LINES` FMU messages logged on this thread."""
+    log: list[str] | None = getattr(_local, "log", None)
+    if log is None:
+        log = _local.log = []
+    return log
+
+
 class _Loaded:
     """An extracted FMU and its instance in one process and thread."""
 
@@ -214,20 +239,16 @@ class _Loaded:
         self.directory = fmpy.extract(str(model.path))
         self.description = fmpy.read_model_description(self.directory, validate=False)
         self.fmi_type = model.fmi_type
-        self.log: list[str] = []
         self.instance = self._instantiate()
 
-    def _logger(self, *args: Any) -> None:
-        # FMI 2.0: (environment, instance name, status, category, message); 3.0 drops the name
-        status, message = args[-3], args[-1]
-        text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
-        label = ["OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING"][int(status)]
-        self.log.append(f"[{label}] {text}")
-        del self.log[:-LOG_LINES]
+    @property
+    def log(self) -> list[str]:
+        """This thread's recent FMU messages (cleared before each sample)."""
+        return _thread_log()
 
     def _instantiate(self) -> Any:
         return self.fmpy.instantiate_fmu(
-            self.directory, self.description, self.fmi_type, logger=self._logger
+            self.directory, self.description, self.fmi_type, logger=_log_message
         )
 
     def renew(self) -> None:
