@@ -28,6 +28,8 @@ _LAZY: dict[str, str] = {
     "Plan": "fuzzymbs.fuzzy.transform",
     "FuzzyResult": "fuzzymbs.fuzzy.retransform",
     "Influence": "fuzzymbs.fuzzy.influence",
+    "inverse": "fuzzymbs.fuzzy.inverse",
+    "InverseResult": "fuzzymbs.fuzzy.inverse",
     "Study": "fuzzymbs.study.study",
     "StudyResult": "fuzzymbs.study.study",
 }
@@ -37,6 +39,7 @@ __all__ = [
     "FuzzyResult",
     "Gaussian",
     "Influence",
+    "InverseResult",
     "PiecewiseLinear",
     "Plan",
     "Study",
@@ -44,11 +47,13 @@ __all__ = [
     "Trapezoidal",
     "Triangular",
     "__version__",
+    "inverse",
     "plan",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for static analysers only
     from fuzzymbs.fuzzy.influence import Influence
+    from fuzzymbs.fuzzy.inverse import InverseResult, inverse
     from fuzzymbs.fuzzy.numbers import (
         FuzzyNumber,
         Gaussian,

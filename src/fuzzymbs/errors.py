@@ -50,3 +50,19 @@ class IncompleteResultError(FuzzymbsError, ValueError):
 
 class UntrustedCodeError(StudyFileError):
     """A study file names code (a module, an FMU, a program) its user has not allowed."""
+
+
+class InverseProblemError(FuzzymbsError, ValueError):
+    """An inverse fuzzy-arithmetic problem is ill-posed or its model fails (names the cause)."""
+
+
+class InverseMismatchError(InverseProblemError):
+    """The model cannot reproduce the measured uncertainty within the tolerance.
+
+    ``result`` holds the best fit (an :class:`~fuzzymbs.fuzzy.inverse.InverseResult`
+    with ``converged = False``) and its residual per output and level.
+    """
+
+    def __init__(self, message: str, result: object) -> None:
+        super().__init__(message)
+        self.result = result
