@@ -186,6 +186,42 @@ def plot(
 
 
 @app.command()
+def identify(
+    identification_file: Annotated[Path, typer.Argument(help="Identification file (TOML).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")],
+    no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the plots.")] = False,
+    allow_code: Annotated[
+        bool,
+        typer.Option(
+            "--allow-code",
+            help="Let the file run a 'module:callable' model it names. Only for files you trust.",
+        ),
+    ] = False,
+    quiet: QuietOption = False,
+    verbose: VerboseOption = False,
+) -> None:
+    """Identify fuzzy parameters from fuzzy (measured) outputs: inverse fuzzy arithmetic.
+
+    Writes OUT/identified.toml (a [parameters] table for a study file), OUT/identified.nc,
+    OUT/summary.txt and membership plots. A measured uncertainty the model cannot reproduce
+    ends with exit status 1 after the best fit has been written.
+    """
+    from fuzzymbs.errors import FuzzymbsError
+    from fuzzymbs.study.inverse_file import run_identification_file
+
+    _setup_logging(quiet, verbose)
+    try:
+        written = run_identification_file(
+            identification_file, out, plots=not no_plots, allow_code=allow_code
+        )
+    except FuzzymbsError as exc:
+        raise _fail(str(exc)) from None
+    if not quiet:
+        typer.echo(written.result.summary())
+    typer.echo(f"{written.toml_path}  ({written.result_path}, {len(written.plots)} plots)")
+
+
+@app.command()
 def info(
     model: Annotated[
         str | None, typer.Argument(help="Show only this model, or an FMU file's variables.")

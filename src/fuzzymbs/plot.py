@@ -113,6 +113,36 @@ def plot_input_memberships(dataset: xarray.Dataset) -> Figure:
     return figure
 
 
+def plot_inverse_outputs(dataset: xarray.Dataset) -> Figure:
+    """Measured outputs (filled) and the forward propagation of the identified
+    parameters (line) of an inverse fuzzy-arithmetic result
+    (:meth:`fuzzymbs.fuzzy.inverse.InverseResult.to_dataset`)."""
+    names = [str(n) for n in dataset["output"].values]
+    columns = min(3, len(names))
+    rows = int(np.ceil(len(names) / columns))
+    figure = _figure(3.2 * columns, 2.6 * rows)
+    axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
+    levels = dataset["level"].values
+    for i, name in enumerate(names):
+        ax = axes[i]
+        x, mu = _membership_polygon(
+            levels, dataset["measured_lower"].values[:, i], dataset["measured_upper"].values[:, i]
+        )
+        ax.fill(x, mu, color=_band_color(0.3), alpha=0.6, linewidth=0, label="measured")
+        x, mu = _membership_polygon(
+            levels, dataset["forward_lower"].values[:, i], dataset["forward_upper"].values[:, i]
+        )
+        ax.plot(x, mu, color="black", linestyle="--", label="forward (identified)")
+        ax.set_xlabel(name)
+        ax.set_ylabel("membership mu")
+        ax.set_ylim(0, 1.05)
+    axes[0].legend(fontsize="small")
+    for ax in axes[len(names) :]:
+        ax.set_visible(False)
+    figure.suptitle(f"{dataset.attrs.get('study_name', '')}: measured and reproduced outputs")
+    return figure
+
+
 def plot_output_membership(
     dataset: xarray.Dataset,
     output: str,

@@ -128,6 +128,59 @@ class InverseResult:
         """Largest relative residual over outputs, levels and bounds."""
         return max(float(np.max(np.abs(r))) for r in self.residual.values())
 
+    def to_dataset(
+        self,
+        name: str = "inverse",
+        units: Mapping[str, str] | None = None,
+    ) -> Any:
+        """The result as an :class:`xarray.Dataset`.
+
+        Variables ``parameter_lower``/``parameter_upper`` (level, parameter),
+        ``measured_lower``/``measured_upper``, ``forward_lower``/``forward_upper``
+        and ``residual_lower``/``residual_upper`` (level, output); attributes
+        ``study_name``, ``method``, ``converged``, ``max_residual``, ``tolerance``,
+        ``evaluations``, ``nonmonotonic`` and ``parameter_units`` (JSON), so that
+        :func:`fuzzymbs.plot.plot_input_memberships` draws the identified parameters.
+        """
+        import json
+
+        import xarray
+
+        names, outputs = list(self.parameters), list(self.measured)
+        cuts = np.stack([self.parameters[n].cuts(self.levels) for n in names], axis=1)
+
+        def by_output(table: Mapping[str, NDArray], side: int) -> NDArray:
+            return np.stack([table[o][:, side] for o in outputs], axis=1)
+
+        data = {
+            "parameter_lower": (("level", "parameter"), cuts[:, :, 0]),
+            "parameter_upper": (("level", "parameter"), cuts[:, :, 1]),
+        }
+        for label, table in (
+            ("measured", self.measured),
+            ("forward", self.forward),
+            ("residual", self.residual),
+        ):
+            data[f"{label}_lower"] = (("level", "output"), by_output(table, 0))
+            data[f"{label}_upper"] = (("level", "output"), by_output(table, 1))
+        units = dict(units or {})
+        return xarray.Dataset(
+            data,
+            coords={"level": self.levels, "parameter": names, "output": outputs},
+            attrs={
+                "study_name": name,
+                "method": self.method,
+                "converged": int(self.converged),
+                "max_residual": self.max_residual,
+                "tolerance": self.tolerance,
+                "evaluations": self.evaluations,
+                "nonmonotonic": json.dumps(list(self.nonmonotonic)),
+                "iterations": json.dumps(self.iterations.tolist()),
+                "modal": json.dumps(self.modal),
+                "parameter_units": json.dumps({n: units[n] for n in names if n in units}),
+            },
+        )
+
     def summary(self) -> str:
         """Identified cuts and residuals as plain text."""
         lines = [

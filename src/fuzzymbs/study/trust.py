@@ -158,13 +158,15 @@ def check_study_code(
     runs_code: bool,
     allow_code: bool,
     trusted: Trusted | None = None,
+    command: str = "run",
 ) -> None:
     """Refuse a study file that would run code its user did not allow.
 
     Raises
     ------
     UntrustedCodeError
-        Naming the study file, what it would run, and the two ways to allow it.
+        Naming the study file, what it would run, and the two ways to allow it
+        (``command``: the CLI command to name, ``run`` or ``identify``).
     """
     code = code_to_run(model, options, study_file.parent.resolve(), runs_code)
     if code is None or allow_code:
@@ -175,6 +177,6 @@ def check_study_code(
     raise UntrustedCodeError(
         f"{study_file}: this study file would run {code.description}. A study file is data "
         "and runs no code its user did not choose: if you trust this file, run it with "
-        f"`fuzzymbs run --allow-code {study_file} ...`, or add {code.entry!r} to {code.kind} "
+        f"`fuzzymbs {command} --allow-code {study_file} ...`, or add {code.entry!r} to {code.kind} "
         f"in your trust file {trust_file()}"
     )
