@@ -35,3 +35,11 @@ def test_user_guide_examples_run(capsys):
     assert len(namespace["general"]) == 189
     assert namespace["general"].points_without_reuse == 225
     np.testing.assert_allclose(namespace["influence"].relative.sum(), 1.0)
+    # inverse fuzzy arithmetic: the synthetic measurement gives the truth back; the
+    # residual tolerance 1e-3 of the output widths bounds the support error (~1e-3)
+    identified = namespace["identified"]
+    assert identified.converged and identified.max_residual <= 1e-3
+    for name, number in namespace["truth"].items():
+        np.testing.assert_allclose(
+            identified.parameters[name].alpha_cut(0.0), number.alpha_cut(0.0), rtol=2e-3
+        )

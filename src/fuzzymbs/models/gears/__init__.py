@@ -171,6 +171,29 @@ def _register() -> None:
         },
     )
     register_model(
+        "gear-ste-features",
+        "fuzzymbs.models.gears.features:SteFeatureModel",
+        parameters=parameters,
+        outputs={
+            "ste_mean": "m",
+            "ste_peak_to_peak": "m",
+            "ste_single": "m",
+            "ste_double": "m",
+        },
+        description=(
+            "MUBOCO-PR spur-gear pair, its STE reduced to scalar features: mean, "
+            "peak-to-peak, single- and double-contact levels (inverse fuzzy arithmetic)"
+        ),
+        options={
+            "torque": "design pinion torque T1 [N m] (default 100)",
+            "positions": "mesh positions over one mesh period (default 120)",
+            "contact_exponent": "m1 of the penalty law F = k delta^m1 (default 1)",
+            "margin": "distance of the contact zones from the zone changes, of the period "
+            "(default 0.08)",
+            **gear_options,
+        },
+    )
+    register_model(
         "gear-pair-dynamic",
         gear_pair_dynamic_model,
         parameters=parameters,
