@@ -66,3 +66,49 @@ def test_best_fit_and_its_residual(definition):
     low, high = result.parameters["contact_stiffness"].alpha_cut(0.0)
     modal = result.modal["contact_stiffness"]
     assert -0.08 < (low - modal) / modal < -0.04 and (high - modal) / modal < 0.01
+
+
+def _coverage(parameters):
+    """Fraction of the period where the PE reference lies in the mu = 0 cut, and the mean
+    width of that cut relative to the mean modal STE (docs/gears.md quotes both)."""
+    from fuzzymbs import Study
+
+    study = Study(
+        "gear-pair",
+        parameters,
+        "reduced",
+        3,
+        ["ste"],
+        model_options={"positions": 120},
+        validation_runs=0,
+    )
+    data = study.run(progress=False).dataset
+    lower, upper = data["ste_lower"].values, data["ste_upper"].values
+    reference = study.model.reference["ste"]
+    inside = np.mean((reference >= lower[0]) & (reference <= upper[0]))
+    return inside, np.mean(upper[0] - lower[0]) / np.mean(lower[-1])
+
+
+def test_what_the_identified_spread_means_for_the_fuzzy_ste(definition):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InverseWarning)
+        result = inverse(
+            definition.model,
+            definition.measured,
+            definition.modal,
+            bounds=definition.bounds,
+            **definition.options,
+        )
+    identified = {
+        "pinion_tooth_stiffness": result.modal["pinion_tooth_stiffness"],
+        "wheel_tooth_stiffness": result.modal["wheel_tooth_stiffness"],
+        "contact_stiffness": result.parameters["contact_stiffness"],
+    }
+    assumed = {
+        "tooth_stiffness": {"type": "triangular", "modal": 14732.9, "spread": 0.2},
+        "contact_stiffness": {"type": "triangular", "modal": 8.82418e8, "spread": 0.3},
+    }
+    inside, width = _coverage(identified)
+    assert inside < 0.6 and width == pytest.approx(0.017, rel=0.15)  # docs: 44 %, 1.7 %
+    inside, width = _coverage(assumed)
+    assert inside > 0.9 and width == pytest.approx(0.475, rel=0.05)  # docs: 93 %, 47 %
