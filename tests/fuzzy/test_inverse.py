@@ -239,3 +239,17 @@ def test_evaluations_are_counted_and_batched():
     result = inverse(counted, corner_outputs(model, truth), {"a": 1.0, "b": 1.0}, LEVELS)
     assert result.evaluations == sum(calls)
     assert max(calls) >= 9  # a level's transformation-method points in one call (3 x 3)
+
+
+def test_modal_value_at_a_bound_never_leaves_the_admissible_range():
+    # the model is undefined below a = 1; a's modal value sits on that bound, so its cuts
+    # can only grow upwards (closed form: z1 = a + b, z2 = a - b -> a in [1, 1.4])
+    def model(p):
+        if np.any(p["a"] < 1.0):
+            raise ValueError("a below 1")
+        return {"z1": p["a"] + p["b"], "z2": p["a"] - p["b"]}
+
+    measured = {"z1": Triangular(2.0, 2.0, 2.6), "z2": Triangular(-0.2, 0.0, 0.4)}
+    result = inverse(model, measured, {"a": 1.0, "b": 1.0}, 2, bounds={"a": (1.0, 5.0)})
+    np.testing.assert_allclose(result.parameters["a"].alpha_cut(0.0), (1.0, 1.4), atol=1e-9)
+    np.testing.assert_allclose(result.parameters["b"].alpha_cut(0.0), (1.0, 1.2), atol=1e-9)

@@ -449,9 +449,10 @@ class _LevelSolver:
                     self.gain_right[:, i] = slope.mean(axis=other) if other else slope
         return forward
 
-    def probe_gains(self) -> None:
-        """Gain factors of a small cut around the modal point (before the first cut)."""
-        widths = np.vstack([self.probe, self.probe]) * 2.0
+    def probe_gains(self, most: NDArray[np.float64]) -> None:
+        """Gain factors of a small cut around the modal point (before the first cut),
+        inside the admissible half-widths ``most`` (2, n)."""
+        widths = np.minimum(np.vstack([self.probe, self.probe]) * 2.0, most)
         self.propagate(widths)
 
     def jacobian(
@@ -500,8 +501,8 @@ def _identify_levels(
     levels_count, n = cuts.shape[1], len(modal)
     probe = PROBE * np.where(modal != 0.0, np.abs(modal), 1.0)
     solver = _LevelSolver(evaluate, modal, modal_outputs, nonmonotonic, probe)
-    solver.probe_gains()
     most = np.vstack([modal - lower, upper - modal])  # admissible half-widths
+    solver.probe_gains(most)
     widths_all = np.zeros((levels_count, 2, n))
     forward_all = np.zeros((levels_count, len(modal_outputs), 2))
     steps = np.zeros(levels_count, dtype=np.int64)
