@@ -34,7 +34,7 @@ from fuzzymbs.fuzzy.bookkeeping import PlanBookkeeping
 from fuzzymbs.fuzzy.labels import DatasetExport, DatasetParts
 from fuzzymbs.fuzzy.numbers import real_array
 
-__all__ = ["Influence", "compute_influence", "level_weights"]
+__all__ = ["Influence", "compute_influence", "influence_from_sums", "level_weights"]
 
 
 def level_weights(weights: str | ArrayLike, levels: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -171,29 +171,49 @@ def compute_influence(
             f"influence measures need the corner pairs of a reduced or extended plan; "
             f"this plan uses method={plan.method!r}"
         )
+    from fuzzymbs.fuzzy.accumulate import OutputAccumulator, StreamLayout
+
+    values = np.asarray(outputs, dtype=float)
+    mask = np.zeros(len(values), dtype=bool) if failed is None else np.asarray(failed, bool)
+    accumulator = OutputAccumulator(StreamLayout(plan), values.shape[1:])
+    accumulator.update(0, values, mask)
+    assert accumulator.pair_sum is not None
+    return influence_from_sums(
+        plan, accumulator.pair_sum, accumulator.bad_level, values.shape[1:], weights
+    )
+
+
+def influence_from_sums(
+    plan: PlanBookkeeping,
+    pair_sum: NDArray[np.float64],
+    bad_level: NDArray[np.bool_],
+    trailing: tuple[int, ...],
+    weights: str | ArrayLike = "membership",
+) -> Influence:
+    """Influence measures from the signed corner sums of a reduced/extended plan.
+
+    Parameters
+    ----------
+    pair_sum : (n, L, E) ndarray
+        ``sum over the level's corners s of sign_i(s) z_s / 2^(n-1)`` (sign +1 where
+        parameter i is at its upper bound), as :class:`~fuzzymbs.fuzzy.accumulate.
+        OutputAccumulator` accumulates it.
+    bad_level : (L,) bool
+        Levels with a failed corner (their gains are NaN).
+    trailing : the output's trailing shape (E = its size).
+    """
     w = level_weights(weights, plan.levels)
     count_parameters = len(plan.names)
-    corners = plan.corner_index  # (L, 2^n)
-    values = np.asarray(outputs, dtype=float)
-    trailing = values.shape[1:]
-    corner_values = values[corners]  # (L, 2^n, ...)
-    # sign[i, s] = +1 if corner s has parameter i at b (upper bound), else -1
-    bits = (
-        np.arange(2**count_parameters)[None, :] >> np.arange(count_parameters - 1, -1, -1)[:, None]
-    ) & 1
-    sign = 2.0 * bits - 1.0
-    flat = corner_values.reshape(corner_values.shape[0], corner_values.shape[1], -1)
-    pair_sum = np.einsum("is,lsk->ilk", sign, flat) / 2.0 ** (count_parameters - 1)
     width = (plan.cut_upper - plan.cut_lower).T  # (n, L)
     defined = width > 0.0
     safe_width = np.where(defined, width, 1.0)
     gain = np.where(defined[:, :, None], pair_sum / safe_width[:, :, None], np.nan)
-    if failed is not None and np.any(failed):
-        bad_level = np.any(failed[corners], axis=1)  # (L,)
+    if np.any(bad_level):
         gain[:, bad_level, :] = np.nan
         defined_or_failed = defined | bad_level[None, :]
     else:
         defined_or_failed = defined
+    flat = gain  # (n, L, E)
     # mean gain over the levels where the gain exists (and failed ones, which give NaN)
     level_weight = np.where(defined_or_failed, w[None, :], 0.0)  # (n, L)
     weight_sum = level_weight.sum(axis=1)  # (n,)

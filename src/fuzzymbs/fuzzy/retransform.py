@@ -18,7 +18,6 @@ extrema between grid points are found up to the grid spacing.
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import numpy as np
@@ -30,25 +29,28 @@ from fuzzymbs.errors import (
     ModelOutputError,
     UnsupportedOperationError,
 )
+from fuzzymbs.fuzzy.accumulate import (
+    MONOTONIC_RTOL,
+    AccumulatedBounds,
+    NonMonotonicWarning,
+    OutputAccumulator,
+    StreamLayout,
+)
 from fuzzymbs.fuzzy.bookkeeping import PlanBookkeeping
 from fuzzymbs.fuzzy.grids import cartesian, unique_rows
-from fuzzymbs.fuzzy.influence import Influence, compute_influence
+from fuzzymbs.fuzzy.influence import Influence, influence_from_sums
 from fuzzymbs.fuzzy.labels import DatasetExport, DatasetParts
 from fuzzymbs.fuzzy.numbers import check_level
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
-__all__ = ["FuzzyResult", "NonMonotonicWarning", "cut_index", "retransform"]
-
-#: relative tolerance of the monotonicity guard (round-off must not warn)
-MONOTONIC_RTOL = 1e-9
-
-
-class NonMonotonicWarning(UserWarning):
-    """A reduced/extended plan saw an output outside the range of a level's own points.
-
-    The model is then not monotonic in the parameters treated as monotonic, and
-    the bounds of that level are (probably) too narrow.
-    """
+__all__ = [
+    "MONOTONIC_RTOL",
+    "FuzzyResult",
+    "NonMonotonicWarning",
+    "cut_index",
+    "from_accumulated",
+    "retransform",
+]
 
 
 def cut_index(levels: NDArray[np.float64], mu: float) -> int:
@@ -109,8 +111,7 @@ class FuzzyResult(DatasetExport):
         method: str | None = None,
         *,
         _plan: PlanBookkeeping | None = None,
-        _outputs: NDArray | None = None,
-        _failed: NDArray[np.bool_] | None = None,
+        _sums: tuple[NDArray[np.float64], NDArray[np.bool_]] | None = None,
     ) -> None:
         self.levels = np.asarray(levels, dtype=float)
         self.lower = np.asarray(lower, dtype=float)
@@ -131,8 +132,7 @@ class FuzzyResult(DatasetExport):
         self.nominal = None if nominal is None else np.asarray(nominal, dtype=float)
         self.method = method
         self._plan = _plan
-        self._outputs = _outputs
-        self._failed = _failed
+        self._sums = _sums  # (corner pair sums, levels with a failed corner): influence
         for array in (self.levels, self.lower, self.upper, self.complete, self.nominal):
             if array is not None:
                 array.setflags(write=False)
@@ -175,12 +175,18 @@ class FuzzyResult(DatasetExport):
         UnsupportedOperationError
             For general and grid plans, or a result not built from a plan.
         """
-        if self._plan is None or self._outputs is None:
+        if self._plan is None:
             raise UnsupportedOperationError(
                 "influence needs the plan and the sample outputs; this FuzzyResult was built "
                 "from bounds only (use plan.retransform(outputs).influence())"
             )
-        return compute_influence(self._plan, self._outputs, self._failed, weights)
+        if self._plan.method not in ("reduced", "extended") or self._sums is None:
+            raise UnsupportedOperationError(
+                f"influence measures need the corner pairs of a reduced or extended plan; "
+                f"this plan uses method={self._plan.method!r}"
+            )
+        pair_sum, bad_level = self._sums
+        return influence_from_sums(self._plan, pair_sum, bad_level, self.shape, weights)
 
     def dataset_parts(self, name: str, dims: list[str]) -> DatasetParts:
         """Bounds, completeness and nominal output as Dataset variables (see the Notes)."""
@@ -260,38 +266,26 @@ def retransform(
             nominal=values[plan.nominal_index],
             method=plan.method,
             _plan=plan,
-            _outputs=values,
-            _failed=mask,
         )
-    # failed samples must not enter a min/max: +inf / -inf are neutral there
-    for_min = np.where(_expand(mask, values), np.inf, values)
-    for_max = np.where(_expand(mask, values), -np.inf, values)
-    own_lower = np.empty((count_levels, *shape))
-    own_upper = np.empty((count_levels, *shape))
-    for j in range(count_levels):
-        index = plan.level_indices(j)
-        own_lower[j] = for_min[index].min(axis=0)
-        own_upper[j] = for_max[index].max(axis=0)
-    # nesting from the core down
-    lower = np.minimum.accumulate(own_lower[::-1], axis=0)[::-1]
-    upper = np.maximum.accumulate(own_upper[::-1], axis=0)[::-1]
-    touched = plan.levels_touched(mask)
-    if check_monotonic and plan.method in ("reduced", "extended"):
-        _monotonicity_guard(plan, values, touched, name)
-    lower[touched] = np.nan
-    upper[touched] = np.nan
-    nominal_index = plan.nominal_index
-    nominal = np.full(shape, np.nan) if mask[nominal_index] else values[nominal_index]
+    accumulator = OutputAccumulator(StreamLayout(plan), values.shape[1:])
+    accumulator.update(0, values, mask)
+    return from_accumulated(
+        plan, accumulator.finish(mask, name=name, check_monotonic=check_monotonic)
+    )
+
+
+def from_accumulated(plan: PlanBookkeeping, bounds: AccumulatedBounds) -> FuzzyResult:
+    """A :class:`FuzzyResult` from an accumulator's bounds (:mod:`fuzzymbs.fuzzy.accumulate`)."""
+    sums = None if bounds.pair_sum is None else (bounds.pair_sum, bounds.bad_level)
     return FuzzyResult(
         plan.levels,
-        lower,
-        upper,
-        complete=~touched,
-        nominal=nominal,
+        bounds.lower,
+        bounds.upper,
+        complete=bounds.complete,
+        nominal=bounds.nominal,
         method=plan.method,
         _plan=plan,
-        _outputs=values,
-        _failed=mask,
+        _sums=sums,
     )
 
 
@@ -387,73 +381,3 @@ def _local_search(
         if np.isfinite(found.fun):
             best = min(best, float(found.fun))
     return best
-
-
-def _expand(mask: NDArray[np.bool_], values: NDArray) -> NDArray[np.bool_]:
-    return mask.reshape((-1,) + (1,) * (values.ndim - 1))
-
-
-def _monotonicity_guard(
-    plan: PlanBookkeeping, values: NDArray, touched: NDArray[np.bool_], name: str
-) -> None:
-    """Warn if a point inside a level's box gave an output beyond what monotonicity allows.
-
-    Reduced scheme: the points of the levels above j (and the nominal point)
-    lie inside the level-j box, so for a model monotonic in every parameter
-    their outputs lie in the range spanned by the level-j corner outputs.
-    Extended scheme: the same check per value of the nonmonotonic
-    coordinates; an inner point is compared with the level-j corners (in the
-    monotonic parameters) that share its nonmonotonic coordinates, if level j
-    has such points, so only the declared monotonicity is tested.
-    """
-    count = len(plan)
-    flat = values.reshape(count, -1)
-    columns = [plan.names.index(parameter) for parameter in plan.nonmonotonic]
-    if columns:
-        _, group = unique_rows(plan.samples[:, columns])
-    else:
-        group = np.zeros(count, dtype=np.intp)
-    group_count = int(group.max()) + 1
-    finite = np.isfinite(flat)
-    scale = float(np.max(np.abs(flat[finite]))) if finite.any() else 0.0
-    usage = plan.level_usage
-    inner = usage[-1].copy()  # points of the levels above j
-    worst_level, worst_excess, worst_count = -1, 0.0, 0
-    for j in range(len(plan.levels) - 2, -1, -1):
-        if touched[j]:
-            break  # touched levels are j and everything below it
-        own = np.flatnonzero(usage[j])
-        range_lower = np.full((group_count, flat.shape[1]), np.inf)
-        range_upper = np.full((group_count, flat.shape[1]), -np.inf)
-        np.minimum.at(range_lower, group[own], flat[own])
-        np.maximum.at(range_upper, group[own], flat[own])
-        present = np.zeros(group_count, dtype=bool)
-        present[group[own]] = True
-        candidates = np.flatnonzero(inner & ~usage[j] & present[group])
-        inner |= usage[j]
-        if candidates.size == 0:
-            continue
-        z = flat[candidates]
-        low, high = range_lower[group[candidates]], range_upper[group[candidates]]
-        magnitude = np.maximum(np.maximum(np.abs(low), np.abs(high)), np.abs(z))
-        tolerance = MONOTONIC_RTOL * magnitude + 1e-12 * scale
-        excess = np.maximum(low - z, z - high)
-        outside = excess > tolerance
-        outside_count = int(np.count_nonzero(outside.any(axis=0)))
-        if outside_count:
-            relative = float(np.max(excess[outside] / np.maximum(magnitude[outside], 1e-300)))
-            if worst_level < 0 or relative > worst_excess:
-                worst_level, worst_excess, worst_count = j, relative, outside_count
-    if worst_level >= 0:
-        treated = (
-            "the parameters not named nonmonotonic" if plan.nonmonotonic else "every parameter"
-        )
-        warnings.warn(
-            f"output {name!r} is not monotonic in {treated}: at level "
-            f"mu={plan.levels[worst_level]:g} points inside the cut box gave outputs outside "
-            f"the range of that level's corner runs for {worst_count} output element(s) "
-            f"(up to {worst_excess:.3g} relative), so the {plan.method} bounds are too narrow. "
-            "Use method='extended' with nonmonotonic=[...], or method='general'.",
-            NonMonotonicWarning,
-            stacklevel=4,
-        )
