@@ -46,7 +46,7 @@ with few points, and (being a lower bound) it never overstates a miss.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -118,6 +118,8 @@ def validation_points(
     outputs: Mapping[str, NDArray[np.float64]] | None = None,
     failed: NDArray[np.bool_] | None = None,
     seed: int = SEED,
+    *,
+    tally: Callable[[int], NDArray[np.int64]] | None = None,
 ) -> ValidationPoints:
     """``count`` validation points of ``plan`` (module docstring).
 
@@ -129,6 +131,9 @@ def validation_points(
         them every point is a Halton point.
     failed : (N,) bool, the method's failed runs (not used as probe origins).
     seed : seed of the scrambled Halton sequence.
+    tally : instead of ``outputs``: ``tally(level)`` -> (N,) how many output elements
+        each sample bounds at that level (a study's online retransformation counts them,
+        :meth:`fuzzymbs.fuzzy.accumulate.OutputAccumulator.bound_tally`).
 
     Raises
     ------
@@ -144,8 +149,8 @@ def validation_points(
     modal = np.array([plan.parameters[name].modal for name in plan.names])
     points: list[NDArray[np.float64]] = []
     kinds: list[str] = []
-    if outputs:
-        for point in _edge_probes(plan, modal, outputs, failed, -(-count // 2)):
+    if outputs or tally is not None:
+        for point in _edge_probes(plan, modal, outputs or {}, failed, -(-count // 2), tally):
             points.append(point)
             kinds.append("edge")
     rest = count - len(points)
@@ -165,11 +170,13 @@ def _edge_probes(
     outputs: Mapping[str, NDArray[np.float64]],
     failed: NDArray[np.bool_] | None,
     limit: int,
+    tally: Callable[[int], NDArray[np.int64]] | None = None,
 ) -> list[NDArray[np.float64]]:
     """Up to ``limit`` edge probes, taken from the levels below the core in turn (one
     probe of level 0, one of the next level, ...), so that every cut is probed."""
     per_level = [
-        _level_probes(plan, j, modal, outputs, failed, limit) for j in range(len(plan.levels) - 1)
+        _level_probes(plan, j, modal, outputs, failed, limit, tally)
+        for j in range(len(plan.levels) - 1)
     ]
     probes: list[NDArray[np.float64]] = []
     for rank in range(limit):
@@ -186,6 +193,7 @@ def _level_probes(
     outputs: Mapping[str, NDArray[np.float64]],
     failed: NDArray[np.bool_] | None,
     limit: int,
+    bound_tally: Callable[[int], NDArray[np.int64]] | None = None,
 ) -> list[NDArray[np.float64]]:
     """Up to ``limit`` probes of one level: from the runs that bound its cut most often
     (per output element, smallest and largest), each parameter moved half-way to its
@@ -197,6 +205,8 @@ def _level_probes(
     if len(rows) == 0:
         return []
     tally = np.zeros(len(plan), dtype=np.int64)
+    if bound_tally is not None:
+        tally[rows] = np.asarray(bound_tally(level))[rows]
     for values in outputs.values():
         flat = np.asarray(values, dtype=float)[rows].reshape(len(rows), -1)
         finite = np.isfinite(flat).all(axis=0)

@@ -9,6 +9,7 @@ the next, and :func:`assemble_chunks` puts the chunks back in sample order.
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from contextlib import contextmanager
@@ -98,6 +99,8 @@ def evaluate_chunks(
     *,
     progress: tuple[bool, int, str],
     fail_fast: Callable[[], None] | None,
+    on_chunk: Callable[[int, ChunkResult], None] | None = None,
+    may_submit: Callable[[], bool] | None = None,
 ) -> int:
     """Evaluate chunks ``missing`` of a table of ``count`` samples into ``results``.
 
@@ -113,6 +116,11 @@ def evaluate_chunks(
     progress : ``(enabled, samples already done, label)`` of the progress bar.
     fail_fast : called (after cancelling the pending chunks) when a chunk holds a
         failed sample; it raises. None: evaluate everything.
+    on_chunk : called with every finished chunk (after it was stored); ``results``
+        then keeps the chunk without its outputs (streaming: memory does not grow
+        with the run count).
+    may_submit : while it returns False no further chunk is submitted (the
+        consumer's backlog is full); chunks already running still finish.
 
     Returns
     -------
@@ -121,13 +129,18 @@ def evaluate_chunks(
     """
     enabled, already, label = progress
     evaluated = 0
+    started = time.perf_counter()
     with progress_bar(enabled, count, already, label) as advance:
         pending: dict[Future, int] = {}
         queue = list(missing)
         resolved = work.get() if queue else None
         while queue or pending:
             assert resolved is not None
-            while queue and len(pending) < resolved.in_flight:
+            while (
+                queue
+                and len(pending) < resolved.in_flight
+                and (not pending or may_submit is None or may_submit())
+            ):
                 index = queue.pop(0)
                 start, stop = index * size, min((index + 1) * size, count)
                 future = resolved.executor.submit(
@@ -140,9 +153,16 @@ def evaluate_chunks(
                 chunk = future.result()
                 if chunk_store is not None:
                     chunk_store.write(index, chunk)
+                if on_chunk is not None:
+                    on_chunk(index, chunk)
+                    chunk = ChunkResult(
+                        chunk.start, chunk.stop, {}, chunk.failed, chunk.reasons, chunk.coords
+                    )
                 results[index] = chunk
                 evaluated += chunk.size
                 advance(chunk.size)
+                if evaluated == chunk.size and len(queue) + len(pending) > 0:
+                    _log_estimate(label, chunk, count - already, started, chunk_store, size)
                 if chunk.failed.any():
                     logger.warning(
                         "chunk %d: %d of %d samples failed (first: %s)",
@@ -156,6 +176,30 @@ def evaluate_chunks(
                             other.cancel()
                         fail_fast()
     return evaluated
+
+
+def _log_estimate(
+    label: str, first: ChunkResult, remaining: int, started: float, chunk_store: Any, size: int
+) -> None:
+    """After the first (pilot) chunk: the run's size, time and disk estimate."""
+    elapsed = time.perf_counter() - started
+    per_sample = elapsed / max(first.size, 1)
+    disk = ""
+    if chunk_store is not None:
+        path = chunk_store.chunk_path(first.start // size)
+        if path.exists():
+            chunks = -(-remaining // size)
+            disk = f", about {path.stat().st_size * chunks / 1e6:.3g} MB of chunks on disk"
+    logger.info(
+        "%s: %d samples to evaluate; the first chunk took %.3g s for %d samples: about %.3g s "
+        "on one worker (less in parallel)%s",
+        label,
+        remaining,
+        elapsed,
+        first.size,
+        per_sample * remaining,
+        disk,
+    )
 
 
 def assemble_chunks(

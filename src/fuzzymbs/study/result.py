@@ -57,6 +57,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from fuzzymbs.fuzzy.transform import Plan
     from fuzzymbs.study.registry import ParameterInfo
+    from fuzzymbs.study.streaming import ChunkFeed
 
 logger = logging.getLogger(__name__)
 
@@ -198,7 +199,7 @@ def check_output_names(outputs: Mapping[str, Any]) -> None:
 
 def build_dataset(
     study: StudyDescription,
-    outputs: Mapping[str, np.ndarray],
+    feed: ChunkFeed,
     failed: np.ndarray,
     reasons: np.ndarray,
     *,
@@ -209,11 +210,11 @@ def build_dataset(
     chunk_size: int,
     on_failure: str,
     code: Mapping[str, Any],
-    keep_raw: bool = True,
     integration: IntegrationCheck | None = None,
     validation: ValidationRuns | None = None,
 ) -> xarray.Dataset:
-    """Retransform the outputs and assemble the result dataset (layout in the module doc).
+    """Finish the online retransformation and assemble the result dataset (layout in the
+    module doc). ``feed`` holds the reduced outputs (and the raw ones, if kept).
 
     ``code`` is :meth:`Study.code_version` as the run computed it (the store records the same).
     ``integration``: the study's check of its time integration (attributes
@@ -229,7 +230,7 @@ def build_dataset(
     plan = study.plan
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        fuzzy = plan.retransform(dict(outputs), failed=failed)
+        fuzzy = feed.results()
     bounds = {name: (result.lower.copy(), result.upper.copy()) for name, result in fuzzy.items()}
     method = None
     if validation is not None and len(validation.points):
@@ -263,7 +264,8 @@ def build_dataset(
     }
     data: dict[str, Any] = {}
     influence_outputs = []
-    check_output_names(outputs)
+    check_output_names(fuzzy)
+    raw = feed.raw
     for name, result in fuzzy.items():
         dims, used = _output_layout(study, name, result.shape)
         for dim, values in used.items():
@@ -287,8 +289,8 @@ def build_dataset(
         data[f"{name}_nominal"] = (dims, nominal, attrs)
         if name in reference and np.shape(reference[name]) == result.shape:
             data[f"{name}_reference"] = (dims, np.asarray(reference[name], dtype=float), attrs)
-        if keep_raw:
-            data[f"{name}_samples"] = (("sample", *dims), outputs[name], attrs)
+        if raw is not None:
+            data[f"{name}_samples"] = (("sample", *dims), raw[name], attrs)
         if failed.any():
             continue  # influence needs every sample of every level
         try:

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from fuzzymbs.errors import StoreMismatchError
+from fuzzymbs.errors import InvalidParameterError, StoreMismatchError
 from fuzzymbs.study.evaluation import ChunkResult
 
 logger = logging.getLogger(__name__)
@@ -301,31 +301,91 @@ def open_chunks(
     size: int,
     resume: bool,
     code: dict[str, Any] | None,
+    load: bool = True,
 ) -> tuple[ChunkStore | None, int, int, dict[int, ChunkResult], list[int], int]:
     """Open (or skip, without ``store``) the chunk store of a table of ``count`` samples.
 
     Returns the store (or None), the chunk size in force (a resumed store keeps
     its own), the chunk count, the chunks already stored, the missing chunk
-    indices and the number of samples reused.
+    indices and the number of samples reused. ``load=False``: the stored chunks
+    are checked but kept without their outputs (read again when needed).
     """
     chunk_store = None
     if store is not None:
         chunk_store = ChunkStore.open(store, identity, count, size, resume=resume, code=code)
         size = chunk_store.chunk_size
     chunk_count = math.ceil(count / size)
-    results = stored_chunks(chunk_store, chunk_count)
+    results = stored_chunks(chunk_store, chunk_count, load)
     missing = [i for i in range(chunk_count) if i not in results]
     reused = sum(results[i].size for i in results)
     return chunk_store, size, chunk_count, results, missing, reused
 
 
-def stored_chunks(chunk_store: ChunkStore | None, chunk_count: int) -> dict[int, ChunkResult]:
-    """The readable chunks ``0 .. chunk_count - 1`` of a store (none without one)."""
+def stored_chunks(
+    chunk_store: ChunkStore | None, chunk_count: int, load: bool = True
+) -> dict[int, ChunkResult]:
+    """The readable chunks ``0 .. chunk_count - 1`` of a store (none without one);
+    without ``load``, without their outputs."""
     results: dict[int, ChunkResult] = {}
     if chunk_store is not None:
         for index in chunk_store.finished():
             if index < chunk_count:
                 stored = chunk_store.read(index)
                 if stored is not None:
+                    if not load:
+                        stored = ChunkResult(
+                            stored.start,
+                            stored.stop,
+                            {},
+                            stored.failed,
+                            stored.reasons,
+                            stored.coords,
+                        )
                     results[index] = stored
     return results
+
+
+def read_outputs(
+    store: str | Path, outputs: list[str] | None = None
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Every sample's outputs from a study's chunk store (``OUT/chunks`` of ``fuzzymbs run``).
+
+    A study keeps only the reduced outputs in memory (and in result.nc above a
+    size, see :data:`fuzzymbs.study.streaming.RAW_LIMIT_BYTES`); the chunks keep
+    every sample. This reads them back, in sample order.
+
+    Returns
+    -------
+    outputs : dict of str to (N, ...) ndarray
+        NaN rows for failed samples.
+    failed : (N,) bool
+
+    Raises
+    ------
+    InvalidParameterError
+        No manifest (not a chunk store), or chunks missing (an unfinished run).
+    """
+    path = Path(store)
+    manifest_path = path / "manifest.json"
+    if not manifest_path.is_file():
+        raise InvalidParameterError(f"{path} is not a chunk store (no manifest.json)")
+    manifest = json.loads(manifest_path.read_text())
+    count, size = int(manifest["n_samples"]), int(manifest["chunk_size"])
+    chunk_store = ChunkStore(path, manifest.get("identity", {}), count, size)
+    chunk_count = math.ceil(count / size)
+    failed = np.zeros(count, dtype=bool)
+    merged: dict[str, np.ndarray] = {}
+    for index in range(chunk_count):
+        chunk = chunk_store.read(index)
+        if chunk is None:
+            raise InvalidParameterError(
+                f"{path}: chunk {index} of {chunk_count} is missing; finish the run first"
+            )
+        failed[chunk.start : chunk.stop] = chunk.failed
+        for name, values in chunk.outputs.items():
+            if outputs is not None and name not in outputs:
+                continue
+            if name not in merged:
+                merged[name] = np.full((count, *values.shape[1:]), np.nan)
+            merged[name][chunk.start : chunk.stop] = values
+    return merged, failed

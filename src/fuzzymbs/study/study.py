@@ -72,6 +72,7 @@ from fuzzymbs.study.planning import (
 from fuzzymbs.study.registry import ParameterInfo
 from fuzzymbs.study.result import StudyResult, build_dataset, check_output_names
 from fuzzymbs.study.store import open_chunks
+from fuzzymbs.study.streaming import ChunkFeed
 
 __all__ = ["DEFAULT_CHUNK_SIZE", "ON_FAILURE", "Study", "StudyResult"]
 
@@ -371,7 +372,7 @@ class Study:
         resume: bool = True,
         progress: bool = True,
         on_failure: str = "raise",
-        keep_raw: bool = True,
+        keep_raw: bool | None = None,
     ) -> StudyResult:
         """Evaluate the plan's samples chunk by chunk and retransform.
 
@@ -398,8 +399,14 @@ class Study:
             What to do when samples fail: raise after evaluating everything,
             raise at the first failed chunk, or return bounds of the complete
             levels only (incomplete levels are NaN and flagged).
-        keep_raw : bool
-            Keep the raw outputs of every sample in the dataset.
+        keep_raw : bool, optional
+            Put every sample's outputs into the dataset (``o_samples``). Default:
+            only when they take at most 64 MiB
+            (:data:`~fuzzymbs.study.streaming.RAW_LIMIT_BYTES`); the outputs are
+            reduced chunk by chunk as they arrive, so without them the run's
+            memory does not grow with the number of runs. With a ``store`` the
+            chunks keep every sample's outputs anyway
+            (:func:`fuzzymbs.study.store.read_outputs` reads them back).
 
         Raises
         ------
@@ -422,8 +429,11 @@ class Study:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
             count = len(self.plan)
             chunk_store, size, chunk_count, results, missing, reused = open_chunks(
-                store, self.identity(), count, requested_size, resume, code
+                store, self.identity(), count, requested_size, resume, code, load=False
             )
+            # outputs are reduced chunk by chunk in sample order and then dropped
+            feed = ChunkFeed(self.plan, count, size, results, chunk_store, keep_raw)
+            feed.drain_stored()
             logger.info(
                 "study %s: %d samples in %d chunks of %d; %d chunks from the store, %d to evaluate",
                 self.name,
@@ -451,14 +461,16 @@ class Study:
                     if on_failure == "fail-fast"
                     else None
                 ),
+                on_chunk=feed.add,
+                may_submit=feed.may_submit,
             )
-            ordered = [results[i] for i in range(chunk_count)]
-            outputs, failed, reasons = assemble_chunks(ordered, count)
-            self._adopt_coords(ordered)
+            feed.drain_stored()
+            self._adopt_coords([results[i] for i in range(chunk_count)])
+            failed, reasons = feed.failed, feed.reasons_array()
             validation = None
             if not failed.all() and (on_failure == "partial" or not failed.any()):
                 validation = self._validate(
-                    work, outputs, failed, requested_size, store, resume, progress, code
+                    work, feed, failed, requested_size, store, resume, progress, code
                 )
         finally:
             work.close()
@@ -470,11 +482,11 @@ class Study:
         touched = self.plan.levels_touched(failed)
         if failed.any() and (on_failure != "partial" or touched.all()):
             raise IncompleteResultError(self._failure_message(failed, reasons, touched))
-        integration = self._check_time_integration(outputs, failed)
+        integration = self._check_time_integration(feed.nominal(), failed)
         wall_time = time.perf_counter() - started
         dataset = build_dataset(
             self,
-            outputs,
+            feed,
             failed,
             reasons,
             wall_time=wall_time,
@@ -484,7 +496,6 @@ class Study:
             chunk_size=size,
             on_failure=on_failure,
             code=code,
-            keep_raw=keep_raw,
             integration=integration,
             validation=validation,
         )
@@ -504,7 +515,7 @@ class Study:
     def _validate(
         self,
         work: LazyExecutor,
-        method_outputs: Mapping[str, np.ndarray],
+        feed: ChunkFeed,
         method_failed: np.ndarray,
         size: int,
         store: str | Path | None,
@@ -514,7 +525,14 @@ class Study:
     ) -> ValidationRuns | None:
         """Evaluate the validation points (chunks into
         ``STORE/validation-<count>-<fingerprint>``); None if off."""
-        points = self.validation_points(method_outputs, method_failed)
+        plan = self.plan
+        count = self.validation_runs
+        if count is None:
+            count = default_validation_count(len(plan), len(plan.names))
+        if feed.layout is None:  # sparse: the outputs are all there
+            points = validation_points(plan, count, feed.raw, method_failed)
+        else:
+            points = validation_points(plan, count, None, method_failed, tally=feed.bound_tally)
         count = len(points)
         if count == 0:
             return None
@@ -569,14 +587,15 @@ class Study:
         )
 
     def _check_time_integration(
-        self, outputs: Mapping[str, np.ndarray], failed: np.ndarray
+        self, nominal: Mapping[str, np.ndarray], failed: np.ndarray
     ) -> IntegrationCheck | None:
-        """The modal sample re-run by a time-integrated model at a tighter tolerance."""
+        """The modal sample re-run by a time-integrated model at a tighter tolerance
+        (``nominal``: the study's outputs at the modal sample)."""
         index = self.plan.nominal_index
         return check_time_integration(
             self.model,
             self.columns(index, index + 1),
-            {name: outputs[name][index] for name in self.output_names},
+            {name: nominal[name] for name in self.output_names},
             self.output_names,
             self.integration_tolerance,
             sample_failed=bool(failed[index]),

@@ -1,0 +1,208 @@
+"""A study's outputs reduced chunk by chunk as they arrive: memory independent of the run count.
+
+:class:`ChunkFeed` receives the plan's chunks in any order (from the executor,
+or from the chunk store on resume), puts them back in sample order and feeds
+each output to an :class:`~fuzzymbs.fuzzy.accumulate.OutputAccumulator`; the
+chunk is dropped afterwards. What stays in memory is the accumulators (a few
+arrays of the output's shape per level), the failed flags and reasons (one per
+sample), the chunks waiting for an earlier one (at most a few per worker), and
+the raw per-sample outputs only when they are kept (``keep_raw``; by default
+only below :data:`RAW_LIMIT_BYTES`, the chunk store keeps them anyway).
+
+Sparse plans are collected whole: their interpolant needs every sample.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from fuzzymbs.fuzzy.accumulate import OutputAccumulator, StreamLayout
+from fuzzymbs.fuzzy.retransform import FuzzyResult, from_accumulated
+from fuzzymbs.study.evaluation import ChunkResult
+
+__all__ = ["RAW_LIMIT_BYTES", "ChunkFeed", "slim"]
+
+logger = logging.getLogger(__name__)
+
+#: raw per-sample outputs go into the result by default only below this size [bytes]
+RAW_LIMIT_BYTES = 64 * 2**20
+#: chunks that may wait for an earlier one before the runner stops submitting new ones
+BACKLOG_CHUNKS = 16
+
+
+def slim(chunk: ChunkResult) -> ChunkResult:
+    """The chunk without its outputs (what the runner keeps: failures and coordinates)."""
+    return ChunkResult(chunk.start, chunk.stop, {}, chunk.failed, chunk.reasons, chunk.coords)
+
+
+class ChunkFeed:
+    """Puts a plan's chunks in sample order and reduces each output online.
+
+    Parameters
+    ----------
+    plan : Plan
+        The study's plan.
+    count, size : the number of samples and the chunk size.
+    stored : iterable of int
+        Chunks in the store (read from ``chunk_store`` when their turn comes).
+    chunk_store : ChunkStore or None
+    keep_raw : bool or None
+        Keep every sample's outputs: True, False, or None (only if they take
+        at most :data:`RAW_LIMIT_BYTES`).
+    """
+
+    def __init__(
+        self,
+        plan: Any,
+        count: int,
+        size: int,
+        stored: Any,
+        chunk_store: Any,
+        keep_raw: bool | None = None,
+    ) -> None:
+        self.plan = plan
+        self.count = count
+        self.size = size
+        self.chunk_count = math.ceil(count / size) if count else 0
+        self.stored = set(stored)
+        self.chunk_store = chunk_store
+        self.keep_raw = keep_raw
+        self.layout = None if plan.method == "sparse" else StreamLayout(plan)
+        self.failed = np.zeros(count, dtype=bool)
+        self.reasons = np.full(count, "", dtype=object)
+        self.accumulators: dict[str, OutputAccumulator] = {}
+        self.raw: dict[str, np.ndarray] | None = None
+        self._pending_failed: list[tuple[int, int]] = []  # all-failed chunks before any shape
+        self._buffer: dict[int, ChunkResult] = {}
+        self._next = 0
+        self.peak_backlog = 0
+
+    # ----------------------------------------------------------------- feeding
+    def add(self, index: int, chunk: ChunkResult) -> None:
+        """A finished chunk (any order); it is reduced once every earlier one was."""
+        self._buffer[index] = chunk
+        self.peak_backlog = max(self.peak_backlog, len(self._buffer))
+        self._drain()
+
+    def backlog(self) -> int:
+        """Chunks waiting for an earlier one."""
+        return len(self._buffer)
+
+    def may_submit(self) -> bool:
+        """False while too many chunks wait for an earlier one (bounds the memory)."""
+        return len(self._buffer) < BACKLOG_CHUNKS
+
+    def drain_stored(self) -> None:
+        """Reduce the stored chunks that are next in line (before or after evaluating)."""
+        self._drain()
+
+    def _drain(self) -> None:
+        while self._next < self.chunk_count:
+            index = self._next
+            if index in self._buffer:
+                chunk = self._buffer.pop(index)
+            elif index in self.stored:
+                chunk = self.chunk_store.read(index)
+                if chunk is None:  # vanished or damaged since it was opened
+                    raise RuntimeError(f"stored chunk {index} is no longer readable")
+            else:
+                return
+            self._consume(chunk)
+            self._next += 1
+
+    def _consume(self, chunk: ChunkResult) -> None:
+        start, stop = chunk.start, chunk.stop
+        self.failed[start:stop] = np.asarray(chunk.failed, dtype=bool)
+        self.reasons[start:stop] = np.asarray(chunk.reasons, dtype=object)
+        if not chunk.outputs:  # every sample failed before the outputs had a shape
+            if self.accumulators or self.raw is not None:
+                for accumulator in self.accumulators.values():
+                    accumulator.update(
+                        start, np.zeros((stop - start, *accumulator.shape)), chunk.failed
+                    )
+            else:
+                self._pending_failed.append((start, stop))
+            return
+        if not self.accumulators and self.raw is None:
+            self._start(chunk.outputs)
+        for name, values in chunk.outputs.items():
+            if self.layout is not None:
+                self.accumulators[name].update(start, values, chunk.failed)
+            if self.raw is not None:
+                self.raw[name][start:stop] = values
+
+    def _start(self, outputs: Mapping[str, np.ndarray]) -> None:
+        """Create the accumulators (and raw arrays) once the outputs' shapes are known."""
+        shapes = {name: np.shape(values)[1:] for name, values in outputs.items()}
+        raw_bytes = 8 * self.count * sum(int(np.prod(s, dtype=np.int64)) for s in shapes.values())
+        keep = self.keep_raw if self.keep_raw is not None else raw_bytes <= RAW_LIMIT_BYTES
+        if keep or self.layout is None:  # sparse plans need every sample
+            self.raw = {name: np.full((self.count, *s), np.nan) for name, s in shapes.items()}
+        if self.layout is not None:
+            self.accumulators = {
+                name: OutputAccumulator(self.layout, shape) for name, shape in shapes.items()
+            }
+        for start, stop in self._pending_failed:
+            for accumulator in self.accumulators.values():
+                accumulator.update(
+                    start, np.zeros((stop - start, *accumulator.shape)), np.ones(stop - start, bool)
+                )
+        self._pending_failed.clear()
+        logger.debug(
+            "study outputs %s: raw outputs %.1f MB, %s",
+            list(shapes),
+            raw_bytes / 1e6,
+            "kept" if self.raw is not None else "left in the chunk store",
+        )
+
+    # --------------------------------------------------------------- results
+    @property
+    def complete(self) -> bool:
+        """Every chunk was reduced."""
+        return self._next == self.chunk_count
+
+    def results(self, check_monotonic: bool = True) -> dict[str, FuzzyResult]:
+        """The retransformed outputs (warns like :meth:`Plan.retransform`)."""
+        if not self.complete:
+            raise RuntimeError(f"{self._next} of {self.chunk_count} chunks reduced")
+        if self.layout is None:
+            assert self.raw is not None
+            fuzzy = self.plan.retransform(
+                dict(self.raw), failed=self.failed, check_monotonic=check_monotonic
+            )
+            return fuzzy if isinstance(fuzzy, dict) else {"output": fuzzy}
+        return {
+            name: from_accumulated(
+                self.plan,
+                accumulator.finish(self.failed, name=name, check_monotonic=check_monotonic),
+            )
+            for name, accumulator in self.accumulators.items()
+        }
+
+    def nominal(self) -> dict[str, np.ndarray]:
+        """Every output at the all-modal sample (NaN if it failed)."""
+        index = self.plan.nominal_index
+        if self.raw is not None:
+            return {name: values[index] for name, values in self.raw.items()}
+        return {
+            name: accumulator.nominal.reshape(accumulator.shape)
+            for name, accumulator in self.accumulators.items()
+        }
+
+    def bound_tally(self, level: int) -> np.ndarray:
+        """(N,) how many output elements (of all outputs) each sample bounds at ``level``."""
+        if self.layout is None:
+            raise RuntimeError("sparse plans have no per-level bounds to tally")
+        tally = np.zeros(self.count, dtype=np.int64)
+        for accumulator in self.accumulators.values():
+            tally += accumulator.bound_tally(level)
+        return tally
+
+    def reasons_array(self) -> np.ndarray:
+        """(N,) failure reasons as str ("" where the sample succeeded)."""
+        return self.reasons.astype(str)
