@@ -200,3 +200,12 @@ def test_work_precision_diagram_runs(tmp_path):
     # RK4 reference to 1e-3 of the peak over 0.2 ms (measured 1e-4)
     assert rows[("SciPy Radau", "rtol 0.001")]["error"] < 1e-3
     assert (tmp_path / "wp.png").stat().st_size > 1000
+
+
+def test_memory_scaling_quick_reports_both_cases():
+    import memory_scaling
+
+    row = memory_scaling.measure(2, False)  # 5^3 = 125 runs in a fresh interpreter
+    assert row["runs"] == 125 and row["keep_raw"] is False
+    assert not row["result_has_samples"]  # keep_raw=False: no raw outputs in the result
+    assert row["peak_mb"] >= row["baseline_peak_mb"] > 0
