@@ -171,11 +171,10 @@ def test_to_xarray_labels():
         result.to_xarray("y", dims=["time"], coords={"time": t[:2]})
 
 
-def test_influence_unsupported_for_general_and_grid_and_bare_results():
-    for method in ("general", "grid"):
-        p = plan({"a": SYMMETRIC}, method, 2)
-        with pytest.raises(UnsupportedOperationError, match="reduced"):
-            p.retransform(p.samples[:, 0].copy()).influence()
+def test_influence_unsupported_for_general_and_bare_results():
+    p = plan({"a": SYMMETRIC}, "general", 2)
+    with pytest.raises(UnsupportedOperationError, match="reduced"):
+        p.retransform(p.samples[:, 0].copy()).influence()
     bare = FuzzyResult([0.0, 1.0], [[0.0], [1.0]], [[2.0], [1.0]])
     with pytest.raises(UnsupportedOperationError):
         bare.influence()
@@ -225,3 +224,19 @@ def test_general_method_error_bound_for_interior_minimum(m):
     assert np.all(result.lower - exact_lower <= 1.0 / m**2 + 1e-15)
     # the upper bound is attained at the cut bound x = -(1 - mu): exact
     np.testing.assert_allclose(result.upper, (half_width + 0.3) ** 2, rtol=1e-14)
+
+
+def test_grid_influence_is_the_reduced_methods_from_its_corners():
+    # a grid holds every level's cut-box corners, so its gain factors are the reduced
+    # method's (Hanss); reference: the reduced plan of the same parameters
+    # (THEORY.md 1 oracle: z = 2 x1 + x2 has eta = (2, 1) on every level)
+    parameters = {"x1": SYMMETRIC, "x2": Triangular(-1.0, 0.0, 2.0), "x3": Triangular(1, 2, 3)}
+
+    def model(x):
+        return 2.0 * x[:, 0] + x[:, 1] + x[:, 0] * x[:, 2] ** 2
+
+    reduced, grid = plan(parameters, "reduced", 3), plan(parameters, "grid", 3)
+    expected = reduced.retransform(model(reduced.samples)).influence()
+    found = grid.retransform(model(grid.samples)).influence()
+    np.testing.assert_allclose(found.gain, expected.gain, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(found.relative, expected.relative, rtol=1e-12, atol=1e-12)

@@ -237,9 +237,14 @@ def test_failed_mask_validated():
         p.levels_touched(np.zeros(len(p)))
 
 
-def test_corner_index_only_for_reduced_and_extended():
+def test_corner_index_of_reduced_extended_and_grid_only():
     with pytest.raises(UnsupportedOperationError):
-        _ = plan({"a": SYMMETRIC}, "grid", 2).corner_index
+        _ = plan({"a": SYMMETRIC}, "general", 2).corner_index
+    grid = plan({"a": SYMMETRIC, "b": Triangular(1, 2, 3)}, "grid", 2)
+    # level 0 corners of the grid: the mu = 0 cut bounds, (a_lo, b_lo) ... (a_hi, b_hi)
+    np.testing.assert_array_equal(
+        grid.samples[grid.corner_index[0]], [[-1.0, 1.0], [-1.0, 3.0], [1.0, 1.0], [1.0, 3.0]]
+    )
 
 
 def test_to_dict_round_trip_and_fingerprint():

@@ -137,15 +137,23 @@ def test_output_subset():
 
 
 @pytest.mark.parametrize("method", ["general", "grid"])
-def test_methods_without_influence(method):
+def test_general_and_grid_bounds_and_influence(method):
     # product of positive TFNs: every scheme that includes the cut corners is exact here
     result = product_study(method=method).run(progress=False)
     ds = result.dataset
     mu = ds["level"].values
     np.testing.assert_allclose(ds["z_lower"].values, (1 + mu) * (2 + mu), rtol=1e-14)
     np.testing.assert_allclose(ds["z_upper"].values, (3 - mu) * (4 - mu), rtol=1e-14)
-    assert "z_relative_influence" not in ds
-    assert "influence" not in result.summary()
+    if method == "general":
+        assert "z_relative_influence" not in ds
+        assert "influence" not in result.summary()
+    else:
+        # the grid's corner runs give the reduced method's gains: for z = x1 x2 with
+        # x1 = TFN(1, 2, 3), x2 = TFN(2, 3, 4) the pairs average to eta = (3, 2) on the 4
+        # level below the core (closed form: mean of the other factor's cut bounds)
+        gain = ds["z_gain"].values  # (parameter, level)
+        np.testing.assert_allclose(gain[:, :-1], [[3.0] * 4, [2.0] * 4], rtol=1e-14)
+        assert np.isnan(gain[:, -1]).all()  # zero-width core: no gain
 
 
 def test_netcdf3_fallback_roundtrip(tmp_path, monkeypatch):

@@ -84,7 +84,10 @@ class StreamLayout:
         self.usage = np.asarray(plan.level_usage, dtype=bool)  # (L, N)
         self.levels = len(plan.levels)
         self.nominal_index = int(plan.nominal_index)
-        self.corners = plan.method in ("reduced", "extended")
+        # corner sums (gain factors): reduced, extended and grid plans; the monotonicity
+        # guard: reduced and extended only (a grid's bounds use every grid point)
+        self.corners = plan.method in ("reduced", "extended", "grid")
+        self.guard = plan.method in ("reduced", "extended")
         if not self.corners:
             return
         columns = [plan.names.index(parameter) for parameter in plan.nonmonotonic]
@@ -250,7 +253,7 @@ class OutputAccumulator:
         lower = np.minimum.accumulate(self.own_min[::-1], axis=0)[::-1]
         upper = np.maximum.accumulate(self.own_max[::-1], axis=0)[::-1]
         touched = plan.levels_touched(np.asarray(failed, dtype=bool))
-        if check_monotonic and layout.corners:
+        if check_monotonic and layout.guard:
             self._guard(touched, name)
         lower = lower.copy()
         upper = upper.copy()

@@ -148,12 +148,14 @@ def compute_influence(
     failed: NDArray[np.bool_] | None,
     weights: str | ArrayLike = "membership",
 ) -> Influence:
-    """Influence measures of one output from the corner runs of a reduced/extended plan.
+    """Influence measures of one output from the corner runs of a reduced, extended or
+    grid plan (a grid holds every level's cut-box corners: the reduced method's gain
+    factors, while its bounds use every grid point).
 
     Parameters
     ----------
     plan : Plan
-        A ``"reduced"`` or ``"extended"`` plan.
+        A ``"reduced"``, ``"extended"`` or ``"grid"`` plan.
     outputs : ndarray (N, ...)
         Model output at the plan's samples.
     failed : ndarray (N,) bool or None
@@ -164,11 +166,11 @@ def compute_influence(
     Raises
     ------
     UnsupportedOperationError
-        For general and grid plans (their points do not pair up in one parameter).
+        For general and sparse plans (their points do not pair up in one parameter).
     """
-    if plan.method not in ("reduced", "extended"):
+    if plan.method not in ("reduced", "extended", "grid"):
         raise UnsupportedOperationError(
-            f"influence measures need the corner pairs of a reduced or extended plan; "
+            f"influence measures need the corner pairs of a reduced, extended or grid plan; "
             f"this plan uses method={plan.method!r}"
         )
     from fuzzymbs.fuzzy.accumulate import OutputAccumulator, StreamLayout

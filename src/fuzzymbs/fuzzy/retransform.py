@@ -180,9 +180,9 @@ class FuzzyResult(DatasetExport):
                 "influence needs the plan and the sample outputs; this FuzzyResult was built "
                 "from bounds only (use plan.retransform(outputs).influence())"
             )
-        if self._plan.method not in ("reduced", "extended") or self._sums is None:
+        if self._plan.method not in ("reduced", "extended", "grid") or self._sums is None:
             raise UnsupportedOperationError(
-                f"influence measures need the corner pairs of a reduced or extended plan; "
+                f"influence measures need the corner pairs of a reduced, extended or grid plan; "
                 f"this plan uses method={self._plan.method!r}"
             )
         pair_sum, bad_level = self._sums

@@ -303,7 +303,8 @@ class Plan:
             usage[j, index] = True
         usage.setflags(write=False)
         self._level_usage = usage
-        if self.method in ("reduced", "extended"):
+        if self.method in ("reduced", "extended", "grid"):
+            # the grid holds every level's cut-box corners too: its influence measures
             self._corner_index = self._corners()
 
     def _build_sparse(self) -> None:
@@ -458,10 +459,11 @@ class Plan:
 
     @property
     def corner_index(self) -> NDArray[np.intp]:
-        """(L, 2^n) sample index of the cut-box corners (reduced and extended plans only)."""
-        if self.method not in ("reduced", "extended"):
+        """(L, 2^n) sample index of the cut-box corners (reduced, extended and grid plans)."""
+        if self.method not in ("reduced", "extended", "grid"):
             raise UnsupportedOperationError(
-                f"corner bookkeeping exists for reduced and extended plans, not {self.method!r}"
+                f"corner bookkeeping exists for reduced, extended and grid plans, "
+                f"not {self.method!r}"
             )
         return self._corner_index
 
