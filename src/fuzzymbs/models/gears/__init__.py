@@ -1,8 +1,10 @@
 """MUBOCO-PR pseudo-rigid contact-based spur-gear pair.
 
-Registers the model ``"gear-pair"`` with the study runner. Its stiffness
-defaults are the modal values identified for the default pair (z 20/40,
-m = 4.5 mm, b = 20 mm, steel, T1 = 100 N m); see docs/gears.md.
+Registers the models ``"gear-pair"``, ``"gear-pair-dynamic"`` and
+``"gear-ste-features"`` with the study runner. Their stiffness defaults are the
+modal values identified for the default pair (z 20/40, m = 4.5 mm, b = 20 mm,
+steel, T1 = 100 N m); the manufacturing tolerances ``center_distance_deviation``
+and ``tip_relief`` default to 0; see docs/gears.md.
 """
 
 from __future__ import annotations
@@ -88,15 +90,30 @@ def _pair_from_options(gear_options: dict[str, Any], valid_extra: list[str]) -> 
     return make_pair(**{**DEFAULT_PAIR_OPTIONS, **gear_options})
 
 
+#: Model options of the tip relief (sample parameter ``tip_relief``).
+RELIEF_OPTIONS = ("pinion_relief_start_diameter", "wheel_relief_start_diameter")
+
+
 def gear_pair_model(
     torque: float = DEFAULT_TORQUE,
     positions: int = 60,
     contact_exponent: float = 1.0,
+    pinion_relief_start_diameter: float | None = None,
+    wheel_relief_start_diameter: float | None = None,
     **gear_options: Any,
 ) -> MubocoPR:
     """Factory of the registered ``"gear-pair"`` model: quasi-static STE."""
-    pair = _pair_from_options(gear_options, ["torque", "positions", "contact_exponent"])
-    return MubocoPR(pair, torque=torque, positions=positions, contact_exponent=contact_exponent)
+    pair = _pair_from_options(
+        gear_options, ["torque", "positions", "contact_exponent", *RELIEF_OPTIONS]
+    )
+    return MubocoPR(
+        pair,
+        torque=torque,
+        positions=positions,
+        contact_exponent=contact_exponent,
+        pinion_relief_start_diameter=pinion_relief_start_diameter,
+        wheel_relief_start_diameter=wheel_relief_start_diameter,
+    )
 
 
 def gear_pair_dynamic_model(
@@ -104,10 +121,14 @@ def gear_pair_dynamic_model(
     contact_exponent: float = 1.0,
     damping: float = 3000.0,
     dynamic: dict[str, Any] | None = None,
+    pinion_relief_start_diameter: float | None = None,
+    wheel_relief_start_diameter: float | None = None,
     **gear_options: Any,
 ) -> MubocoPR:
     """Factory of the registered ``"gear-pair-dynamic"`` model: DTE and its harmonics."""
-    pair = _pair_from_options(gear_options, ["torque", "contact_exponent", "damping", "dynamic"])
+    pair = _pair_from_options(
+        gear_options, ["torque", "contact_exponent", "damping", "dynamic", *RELIEF_OPTIONS]
+    )
     return MubocoPR(
         pair,
         torque=torque,
@@ -115,6 +136,8 @@ def gear_pair_dynamic_model(
         contact_exponent=contact_exponent,
         damping=damping,
         dynamic=dynamic,
+        pinion_relief_start_diameter=pinion_relief_start_diameter,
+        wheel_relief_start_diameter=wheel_relief_start_diameter,
     )
 
 
@@ -140,6 +163,18 @@ def _register() -> None:
         "torque": ParameterInfo(
             "N m", "pinion drive torque T1 (NaN: the model's torque option)", math.nan
         ),
+        "center_distance_deviation": ParameterInfo(
+            "m",
+            "operating minus nominal centre distance a_w - a (changes backlash, operating "
+            "pressure angle, contact ratio; a jammed pair fails)",
+            0.0,
+        ),
+        "tip_relief": ParameterInfo(
+            "m",
+            "linear tip relief C_a of both gears' teeth, from the relief-start diameter "
+            "(default: HPSTC) to the tip",
+            0.0,
+        ),
     }
     gear_options = {
         "pinion_teeth": "z1 (default 20)",
@@ -149,10 +184,15 @@ def _register() -> None:
         "pressure_angle_deg": "rack pressure angle [deg] (default 20)",
         "pinion_profile_shift": "x1 (default 0)",
         "wheel_profile_shift": "x2 (default 0)",
-        "center_distance": "operating centre distance [m] (default: zero backlash)",
+        "center_distance": "nominal operating centre distance a [m] (default: zero "
+        "backlash; the sample parameter center_distance_deviation adds to it)",
         "youngs_modulus": "E [Pa] (default 2.1e11)",
         "poisson_ratio": "nu (default 0.3)",
         "density": "rho [kg/m^3] (default 7850)",
+        "pinion_relief_start_diameter": "diameter where the pinion tip relief starts [m] "
+        "(default: highest point of single tooth contact)",
+        "wheel_relief_start_diameter": "diameter where the wheel tip relief starts [m] "
+        "(default: highest point of single tooth contact)",
     }
     register_model(
         "gear-pair",

@@ -36,6 +36,7 @@ import numpy as np
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.models.gears.flank_contact import (
     CENTER,
+    GEOMETRY_SIZE,
     PHI_REF2,
     PITCH1,
     PITCH2,
@@ -43,12 +44,12 @@ from fuzzymbs.models.gears.flank_contact import (
     RB2,
     THETA_REF1,
     contact_force,
-    pack_geometry,
     pair_contact,
+    sample_geometry,
 )
 from fuzzymbs.models.gears.geometry import GearPair
 from fuzzymbs.models.gears.identification import hinge_lever_arm
-from fuzzymbs.models.gears.muboco import solve_static_batch
+from fuzzymbs.models.gears.muboco import STATUS_TEXT, solve_static_batch_tolerances
 
 STATUS_DIVERGED = 3
 
@@ -181,6 +182,8 @@ class DynamicModel(Protocol):
         Settings of the dynamic mode.
     dynamic_plan : DynamicPlan
         The result of :func:`make_plan` (read by :func:`simulate`).
+    geometry : ndarray
+        The nominal geometry vector (:func:`~fuzzymbs.models.gears.flank_contact.pack_geometry`).
     """
 
     pair: GearPair
@@ -192,9 +195,14 @@ class DynamicModel(Protocol):
     pairs: np.ndarray
     dynamic: DynamicSettings
     dynamic_plan: DynamicPlan
+    geometry: np.ndarray
 
     def stiffness_columns(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
-        """Per-sample torque, contact stiffness and both tooth stiffnesses, defaults filled."""
+        """Per-sample torque, stiffnesses and tolerances, defaults filled."""
+        ...
+
+    def batch_pairs(self, center_deviation: np.ndarray) -> np.ndarray:
+        """Tooth-pair indices covering every sample's contact ratio."""
         ...
 
 
@@ -341,19 +349,31 @@ def _gear_rates(state, hinge, moment, angles, rates, teeth, kt, ct, inertia, jh,
 
 @numba.njit(cache=True, parallel=True)
 def simulate_batch(
-    g, pairs, z1, z2, initial, torque, load, params, torque_factor, dt, n_steps, first, every
-):
-    """RK4 of a batch; returns DTE (B, n_out) [m] and status (B,) (0 ok, 3 diverged).
+    g, pairs, z1, z2, initial, torque, load, params, torque_factor, dt, n_steps, first, every,
+    center_deviation, tip_relief,
+):  # fmt: skip
+    """RK4 of a batch; returns DTE (B, n_out) [m] and status (B,) (0 ok, 3 diverged, or
+    a geometry status of ``sample_geometry``).
 
-    initial (B, S) states; torque, load (B,) [N m]; params (B, 13) (see _derivatives);
-    torque_factor (2 n_steps + 1,) at half steps.
+    g the nominal geometry; initial (B, S) states; torque, load (B,) [N m]; params
+    (B, 13) (see _derivatives); torque_factor (2 n_steps + 1,) at half steps;
+    center_deviation, tip_relief (B,) [m] (each sample's geometry is made here).
     """
     n_samples = initial.shape[0]
     size = initial.shape[1]
     n_out = (n_steps - first) // every
     dte = np.full((n_samples, n_out), np.nan)
     status = np.zeros(n_samples, dtype=np.int64)
+    # each sample's geometry, made before the parallel loop: a row of an argument-owned
+    # array keeps the hot loop as fast as the shared nominal vector (an array allocated
+    # inside the prange loop costs ~10 % in reference counting)
+    geometry = np.empty((n_samples, GEOMETRY_SIZE))
+    for b in range(n_samples):
+        status[b] = sample_geometry(g, center_deviation[b], tip_relief[b], geometry[b])
     for b in numba.prange(n_samples):
+        if status[b] != 0:
+            continue
+        gb = geometry[b]
         y = initial[b].copy()
         k1 = np.empty(size)
         k2 = np.empty(size)
@@ -368,16 +388,16 @@ def simulate_batch(
             t_in0 = torque[b] * torque_factor[2 * step]
             t_in1 = torque[b] * torque_factor[2 * step + 1]
             t_in2 = torque[b] * torque_factor[2 * step + 2]
-            ok = _derivatives(y, t_in0, load[b], g, pairs, z1, z2, p, k1)
+            ok = _derivatives(y, t_in0, load[b], gb, pairs, z1, z2, p, k1)
             for i in range(size):
                 tmp[i] = y[i] + 0.5 * dt * k1[i]
-            ok &= _derivatives(tmp, t_in1, load[b], g, pairs, z1, z2, p, k2)
+            ok &= _derivatives(tmp, t_in1, load[b], gb, pairs, z1, z2, p, k2)
             for i in range(size):
                 tmp[i] = y[i] + 0.5 * dt * k2[i]
-            ok &= _derivatives(tmp, t_in1, load[b], g, pairs, z1, z2, p, k3)
+            ok &= _derivatives(tmp, t_in1, load[b], gb, pairs, z1, z2, p, k3)
             for i in range(size):
                 tmp[i] = y[i] + dt * k3[i]
-            ok &= _derivatives(tmp, t_in2, load[b], g, pairs, z1, z2, p, k4)
+            ok &= _derivatives(tmp, t_in2, load[b], gb, pairs, z1, z2, p, k4)
             for i in range(size):
                 y[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             # diverged: NaN, or a transmission error beyond a base pitch / hinge > 0.1 rad
@@ -416,14 +436,15 @@ def simulate(model: DynamicModel, samples: Mapping[str, Any]) -> dict[str, np.nd
     cols = model.stiffness_columns(samples)
     size = cols["torque"].shape[0]
     z1, z2 = pair.pinion.teeth, pair.wheel.teeth
-    g = pack_geometry(pair)
-    pairs = model.pairs
+    g = model.geometry
+    deviation, relief = cols["center_distance_deviation"], cols["tip_relief"]
+    pairs = model.batch_pairs(deviation)
     factor = np.ones(2 * plan.n_steps + 1) if plan.torque_factor is None else plan.torque_factor
     # initial state: quasi-static equilibrium at mesh position 0 under the initial torque
-    ste, _, _, _, status0, beta1, beta2 = solve_static_batch(
+    ste, _, _, _, status0, beta1, beta2 = solve_static_batch_tolerances(
         g, np.zeros(1), pairs, cols["torque"] * factor[0], cols["contact_stiffness"],
         model.contact_exponent,
-        cols["pinion_tooth_stiffness"], cols["wheel_tooth_stiffness"],
+        cols["pinion_tooth_stiffness"], cols["wheel_tooth_stiffness"], deviation, relief,
     )  # fmt: skip
     initial = np.zeros((size, 4 + 2 * (z1 + z2)))
     initial[:, 0] = np.nan_to_num(ste[:, 0]) / pair.pinion.base_radius
@@ -460,15 +481,17 @@ def simulate(model: DynamicModel, samples: Mapping[str, Any]) -> dict[str, np.nd
     dte, status = simulate_batch(
         g, pairs, z1, z2, initial, cols["torque"], load, params, factor,
         plan.dt, plan.n_steps, plan.first_output_step, plan.steps_per_output,
+        deviation, relief,
     )  # fmt: skip
     status = np.where(status0 != 0, status0, status)
     failed = status != 0
     dte[failed] = np.nan
     spectrum = harmonic_amplitudes(np.nan_to_num(dte), settings.output_periods, settings.harmonics)
     spectrum[failed] = np.nan
-    reasons = np.where(
-        status == STATUS_DIVERGED,
-        "time integration diverged",
-        np.where(status != 0, "no quasi-static start (Newton failed)", ""),
-    ).astype(str)
+    texts = {
+        **{code: f"no quasi-static start ({text})" for code, text in STATUS_TEXT.items()},
+        **{code: text for code, text in STATUS_TEXT.items() if code > STATUS_DIVERGED},
+        STATUS_DIVERGED: "time integration diverged",
+    }
+    reasons = np.array([texts.get(int(code), "") for code in status], dtype=str)
     return {"dte": dte, "dte_spectrum": spectrum, "failed": failed, "failure_reason": reasons}

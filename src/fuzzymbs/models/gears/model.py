@@ -19,10 +19,19 @@ import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.models.gears.dynamics import DynamicSettings, make_plan, simulate
-from fuzzymbs.models.gears.flank_contact import pack_geometry
+from fuzzymbs.models.gears.flank_contact import (
+    hpstc_radii,
+    operating_geometry_batch,
+    pack_geometry,
+)
 from fuzzymbs.models.gears.geometry import GearPair
 from fuzzymbs.models.gears.identification import identify
-from fuzzymbs.models.gears.muboco import STATUS_OK, STATUS_TEXT, pair_indices, solve_static_batch
+from fuzzymbs.models.gears.muboco import (
+    STATUS_OK,
+    STATUS_TEXT,
+    pair_indices,
+    solve_static_batch_tolerances,
+)
 from fuzzymbs.models.gears.potential_energy import reference_ste
 
 __all__ = ["SAMPLE_PARAMETERS", "MubocoPR"]
@@ -34,7 +43,11 @@ SAMPLE_PARAMETERS = (
     "wheel_tooth_stiffness",
     "contact_stiffness",
     "torque",
+    "center_distance_deviation",
+    "tip_relief",
 )
+#: Manufacturing tolerances a sample may carry (default 0): any finite value; relief >= 0.
+TOLERANCE_PARAMETERS = ("center_distance_deviation", "tip_relief")
 
 
 #: Columns whose registered default is NaN, "not set": an all-NaN column means "use the fallback".
@@ -53,6 +66,12 @@ def _column(samples: Mapping[str, Any], name: str, size: int | None) -> np.ndarr
         raise InvalidParameterError(f"sample column {name!r} must be 1-D (B,), got {values.shape}")
     if name in UNSET_BY_NAN and np.isnan(values).all():
         return None
+    if name in TOLERANCE_PARAMETERS:
+        ok = np.isfinite(values) & ((values >= 0.0) if name == "tip_relief" else True)
+        if not np.all(ok):
+            valid = "finite and >= 0" if name == "tip_relief" else "finite"
+            raise InvalidParameterError(f"{name} [m] must be {valid}, got {values[~ok][:3]!r}")
+        return values
     allowed = np.isfinite(values) | (np.isposinf(values) if name in MAY_BE_INFINITE else False)
     if not np.all(allowed & (values > 0.0)):
         bad = values[~(allowed & (values > 0.0))]
@@ -112,14 +131,25 @@ class MubocoPR:
         Settings of the dynamic mode.
     reference : bool
         Compute the potential-energy reference STE (``model.reference``).
+    pinion_relief_start_diameter, wheel_relief_start_diameter : float, optional
+        Diameters [m] at which the linear tip relief (sample parameter
+        ``tip_relief``) starts on each gear, between the form and the tip diameter.
+        Default: each gear's diameter at the highest point of single tooth contact
+        (HPSTC) of the nominal pair, "long relief" (the relief spans the whole
+        double-contact zone at the tooth tip, so that the relief matched to a design
+        load hands the load over gradually across it: Harris 1958, Munro; see
+        docs/gears.md).
 
     Notes
     -----
     ``model(samples)`` takes ``{"tooth_stiffness": (B,), "contact_stiffness": (B,),
     "torque": (B,)}``; ``pinion_tooth_stiffness`` / ``wheel_tooth_stiffness``
-    override ``tooth_stiffness`` for one gear. Returns ``{"ste": (B, P)}`` [m]
-    (dynamic mode: ``{"dte": (B, N), "dte_spectrum": (B, H)}``) plus ``failed``
-    and ``failure_reason`` (B,).
+    override ``tooth_stiffness`` for one gear; the manufacturing tolerances
+    ``center_distance_deviation`` (a_w - a [m], a the pair's ``center_distance``)
+    and ``tip_relief`` (C_a [m], both gears) default to 0. Returns
+    ``{"ste": (B, P)}`` [m] (dynamic mode: ``{"dte": (B, N), "dte_spectrum": (B,
+    H)}``) plus ``failed`` and ``failure_reason`` (B,). Mesh position 0 is the start
+    of contact A at each sample's own centre distance.
     """
 
     def __init__(
@@ -137,6 +167,8 @@ class MubocoPR:
         wheel_tooth_stiffness: float | None = None,
         dynamic: Any = None,
         reference: bool = True,
+        pinion_relief_start_diameter: float | None = None,
+        wheel_relief_start_diameter: float | None = None,
     ) -> None:
         if not isinstance(pair, GearPair):
             raise InvalidParameterError("pair must be a GearPair")
@@ -162,7 +194,15 @@ class MubocoPR:
         self.contact_exponent = m1
         self.damping = float(damping)
         self.damping_exponents = (m2, m3)
-        self.geometry = pack_geometry(pair)
+        default_starts = hpstc_radii(pair)
+        self.relief_start_given = (pinion_relief_start_diameter, wheel_relief_start_diameter)
+        starts = tuple(
+            default if given is None else 0.5 * float(given)
+            for default, given in zip(default_starts, self.relief_start_given, strict=True)
+        )
+        #: Diameters [m] where the tip relief starts on the pinion and the wheel.
+        self.relief_start_diameters = (2.0 * starts[0], 2.0 * starts[1])
+        self.geometry = pack_geometry(pair, starts)
         self.pairs = pair_indices(pair)
         self.identified = identify(pair, torque, contact_exponent=m1)
         self.defaults = {
@@ -261,6 +301,8 @@ class MubocoPR:
             self.damping_exponents,
             sorted(self.defaults.items()),
         )
+        if self.relief_start_given != (None, None):
+            settings = (*settings, ("relief_start", self.relief_start_diameters))
         digest.update(repr(settings).encode())
         if self.mode == "static":
             digest.update(np.ascontiguousarray(self.positions, dtype="<f8").tobytes())
@@ -273,7 +315,8 @@ class MubocoPR:
 
     # ---- sample handling ---------------------------------------------------------------
     def stiffness_columns(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
-        """Per-sample torque, contact stiffness and both tooth stiffnesses, defaults filled."""
+        """Per-sample torque, contact stiffness, both tooth stiffnesses and the
+        tolerances (``center_distance_deviation``, ``tip_relief``), defaults filled."""
         unknown = set(samples) - set(SAMPLE_PARAMETERS)
         if unknown:
             raise InvalidParameterError(
@@ -302,6 +345,51 @@ class MubocoPR:
             "contact_stiffness": pick("contact_stiffness", None),
             "pinion_tooth_stiffness": pick("pinion_tooth_stiffness", common),
             "wheel_tooth_stiffness": pick("wheel_tooth_stiffness", common),
+            "center_distance_deviation": pick("center_distance_deviation", np.zeros(size)),
+            "tip_relief": pick("tip_relief", np.zeros(size)),
+        }
+
+    def batch_pairs(self, center_deviation: np.ndarray) -> np.ndarray:
+        """Tooth-pair indices for a batch: enough for its largest contact ratio.
+
+        A negative centre-distance deviation raises the contact ratio; the batch's
+        shortest valid centre distance (not below the zero-backlash one) sets it.
+        """
+        deviation = np.asarray(center_deviation, dtype=float)
+        if deviation.size == 0 or deviation.min() >= 0.0:
+            return self.pairs
+        a = self.pair.center_distance
+        shortest = max(a + deviation.min(), self.pair.zero_backlash_center_distance)
+        ratio = operating_geometry_batch(self.geometry, np.array([shortest - a]))[3][0]
+        return pair_indices(self.pair, float(ratio))
+
+    def operating_geometry(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """Each sample's operating geometry (its ``center_distance_deviation``).
+
+        Returns
+        -------
+        dict of (B,) arrays
+            ``center_distance`` a_w [m]; ``operating_pressure_angle`` alpha_w [rad],
+            cos(alpha_w) = (r_b1 + r_b2) / a_w; ``contact_ratio`` eps_alpha;
+            ``backlash``: circumferential backlash on the operating pitch circle
+            j_wt [m] (negative: jammed); ``normal_backlash`` j_n = j_wt cos(alpha_w)
+            [m]; ``wheel_backlash_angle`` j_n / r_b2 [rad], the wheel's free rotation
+            with the pinion held; ``status`` (0 or the geometry failure code) and
+            ``failure_reason``.
+        """
+        cols = self.stiffness_columns(samples)
+        status, a_w, alpha_w, ratio, backlash = operating_geometry_batch(
+            self.geometry, cols["center_distance_deviation"]
+        )
+        return {
+            "center_distance": a_w,
+            "operating_pressure_angle": alpha_w,
+            "contact_ratio": ratio,
+            "backlash": backlash / np.cos(alpha_w),
+            "normal_backlash": backlash,
+            "wheel_backlash_angle": backlash / self.pair.wheel.base_radius,
+            "status": status,
+            "failure_reason": np.array([STATUS_TEXT.get(int(c), "") for c in status], dtype=str),
         }
 
     # ---- evaluation ----------------------------------------------------------------------
@@ -312,26 +400,32 @@ class MubocoPR:
         -------
         dict
             ``ste`` (B, P) [m]; ``wheel_torque`` (B, P) [N m], the torque that holds
-            the wheel (T2 > 0); ``pair_force`` (B, P, K) [N]; ``pair_kind`` (B, P, K)
-            (0 none, 1 conjugate, 2 pinion tip corner, 3 wheel tip corner);
-            ``status`` (B,).
+            the wheel (T2 > 0); ``pair_force`` (B, P, K) [N] of the tooth pairs
+            ``pairs`` (K,) (pair k starts contact at position -k; K grows when a
+            negative centre-distance deviation raises the contact ratio);
+            ``pair_kind`` (B, P, K) (0 none, 1 conjugate, 2 pinion tip corner, 3 wheel
+            tip corner); ``status`` (B,) (0 ok, else a key of ``STATUS_TEXT``).
         """
         cols = self.stiffness_columns(samples)
-        ste, wheel_moment, pair_force, pair_kind, status, _, _ = solve_static_batch(
+        pairs = self.batch_pairs(cols["center_distance_deviation"])
+        ste, wheel_moment, pair_force, pair_kind, status, _, _ = solve_static_batch_tolerances(
             self.geometry,
             self.positions,
-            self.pairs,
+            pairs,
             cols["torque"],
             cols["contact_stiffness"],
             self.contact_exponent,
             cols["pinion_tooth_stiffness"],
             cols["wheel_tooth_stiffness"],
+            cols["center_distance_deviation"],
+            cols["tip_relief"],
         )
         return {
             "ste": ste,
             "wheel_torque": -wheel_moment,
             "pair_force": pair_force,
             "pair_kind": pair_kind,
+            "pairs": pairs,
             "status": status,
         }
 
@@ -343,15 +437,17 @@ class MubocoPR:
         samples : mapping of str to (B,) array
             Any of ``tooth_stiffness`` [N m/rad], ``pinion_tooth_stiffness``,
             ``wheel_tooth_stiffness`` [N m/rad] (inf: rigid teeth),
-            ``contact_stiffness`` [N/m^m1] and ``torque`` [N m]; missing ones take
-            the model's defaults.
+            ``contact_stiffness`` [N/m^m1], ``torque`` [N m],
+            ``center_distance_deviation`` [m] and ``tip_relief`` [m]; missing ones
+            take the model's defaults (the tolerances 0).
 
         Returns
         -------
         dict
             Static mode: ``ste`` (B, P) [m] over ``coords["position"]``; dynamic mode:
             ``dte`` (B, N) [m] and ``dte_spectrum`` (B, H) [m]. Both: ``failed`` (B,)
-            bool and ``failure_reason`` (B,) str (non-converged or no contact).
+            bool and ``failure_reason`` (B,) str (non-converged, no contact, or a
+            centre distance at which the pair cannot run: jammed, interference, ...).
         """
         if self.mode == "dynamic":
             return simulate(self, samples)

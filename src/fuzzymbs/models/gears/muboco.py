@@ -14,6 +14,12 @@ follows from the penetrations). STE = r_b1 (theta1 - theta1_kinematic) [m],
 positive when the pinion leads (the loaded wheel lags), i.e. theta1 r_b1 +
 theta2 r_b2 with both angles counter-clockwise.
 
+Manufacturing tolerances act per sample inside the batch kernel: each sample's
+geometry vector (centre-distance deviation, tip relief) is made by
+:func:`~fuzzymbs.models.gears.flank_contact.sample_geometry` in the sample loop, so a
+batch may mix deviations without recompiling; a sample whose pair cannot run
+(jammed, interference, contact ratio < 1, ...) gets its status and NaN outputs.
+
 This module holds the compiled quasi-static solver (Numba kernels); the batched
 model built on it, :class:`~fuzzymbs.models.gears.model.MubocoPR`, is in
 :mod:`fuzzymbs.models.gears.model`, its dynamic mode in
@@ -28,12 +34,15 @@ import numba
 import numpy as np
 
 from fuzzymbs.models.gears.flank_contact import (
+    GEOMETRY_SIZE,
+    GEOMETRY_TEXT,
     PHI_REF2,
     PITCH1,
     PITCH2,
     RB1,
     THETA_REF1,
     pair_moments,
+    sample_geometry,
 )
 from fuzzymbs.models.gears.geometry import GearPair
 
@@ -41,16 +50,21 @@ STATUS_OK, STATUS_NOT_CONVERGED, STATUS_NO_CONTACT = 0, 1, 2
 STATUS_TEXT = {
     STATUS_NOT_CONVERGED: "Newton iteration did not converge",
     STATUS_NO_CONTACT: "no tooth pair in contact (cannot carry the torque)",
+    **GEOMETRY_TEXT,
 }
 
 
-def pair_indices(pair: GearPair) -> np.ndarray:
+def pair_indices(pair: GearPair, contact_ratio: float | None = None) -> np.ndarray:
     """Tooth pairs that can touch during one mesh period (pair 0 starts at point A).
 
     Pair k is at s_A + (p + k) p_b on the line of action for mesh position p in
     [0, 1); one extra pair on each side catches extended (corner) contact.
+    ``contact_ratio`` (default the pair's) may be larger, for a batch whose
+    centre-distance deviations raise it (the largest over the batch); a pair that
+    never touches changes no result.
     """
-    return np.arange(-1, math.floor(pair.contact_ratio) + 2, dtype=np.int64)
+    ratio = pair.contact_ratio if contact_ratio is None else max(contact_ratio, pair.contact_ratio)
+    return np.arange(-1, math.floor(ratio) + 2, dtype=np.int64)
 
 
 @numba.njit(cache=True)
@@ -199,25 +213,70 @@ def _solve_position(lag, theta_kin, theta2, beta1, beta2, pairs, g, torque, k_co
     return lag, 1, 80
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
+def _march(lag, start, end, beta1, beta2, saved, pairs, g, torque, k_con, m1, kt1, kt2):
+    """Retry a failed mesh position in sub-steps from the previous one (4, 16, 64).
+
+    A tooth pair leaving contact mid-flank (tip relief) can stall the line search
+    when started from the previous position's hinge deflections; marching there in
+    smaller steps keeps each start close. ``saved`` (2, K) holds the previous hinge
+    angles, ``lag`` its pinion lag. Returns (lag, status); updates beta1/beta2.
+    """
+    flag = 1
+    for refine in (4, 16, 64):
+        now = lag
+        for i in range(pairs.shape[0]):
+            beta1[i] = saved[0, i]
+            beta2[i] = saved[1, i]
+        for sub in range(1, refine + 1):
+            frac = start + (end - start) * sub / refine
+            now, flag, _ = _solve_position(
+                now, frac * g[PITCH1], -frac * g[PITCH2], beta1, beta2, pairs, g, torque,
+                k_con, m1, kt1, kt2,
+            )  # fmt: skip
+            if flag != 0:
+                break
+        if flag == 0:
+            return now, 0
+    return now, flag
+
+
 def solve_static_batch(g, positions, pairs, torque, k_con, m1, kt1, kt2):
+    """Quasi-static STE of a batch of nominal samples (no tolerances).
+
+    :func:`solve_static_batch_tolerances` with zero centre-distance deviation and
+    zero tip relief (same arguments without those two, same returns).
+    """
+    zeros = np.zeros(np.shape(torque)[0])
+    return solve_static_batch_tolerances(
+        g, positions, pairs, torque, k_con, m1, kt1, kt2, zeros, zeros
+    )
+
+
+@numba.njit(cache=True, parallel=True)
+def solve_static_batch_tolerances(
+    g, positions, pairs, torque, k_con, m1, kt1, kt2, center_deviation, tip_relief
+):
     """Quasi-static STE of a batch of samples over the mesh positions.
 
     Parameters
     ----------
-    g : (G,) geometry vector (``pack_geometry``)
+    g : (G,) nominal geometry vector (``pack_geometry``)
     positions : (P,) mesh positions as fractions of the mesh period, increasing
     pairs : (K,) tooth-pair indices
     torque, k_con, kt1, kt2 : (B,) pinion torque [N m], contact stiffness
         [N/m^m1], pinion and wheel tooth stiffness [N m/rad] (inf = rigid)
     m1 : contact exponent
+    center_deviation, tip_relief : (B,) centre-distance deviation a_w - a [m] and
+        linear tip relief C_a of both gears [m] (``sample_geometry``)
 
     Returns
     -------
     ste (B, P) [m], wheel_moment (B, P) [N m] (contact moment on the wheel about
     its centre, counter-clockwise), pair_force (B, P, K) [N], pair_kind (B, P, K),
-    status (B,) 0 ok / 1 not converged / 2 no contact, and the hinge angles
-    (B, K) of both gears' teeth at the last position.
+    status (B,) 0 ok / 1 not converged / 2 no contact / a geometry status
+    (``GEOMETRY_TEXT``), and the hinge angles (B, K) of both gears' teeth at the
+    last position.
     """
     n_samples = torque.shape[0]
     n_pos = positions.shape[0]
@@ -230,17 +289,35 @@ def solve_static_batch(g, positions, pairs, torque, k_con, m1, kt1, kt2):
     last1 = np.zeros((n_samples, n_pairs))
     last2 = np.zeros((n_samples, n_pairs))
     rb1 = g[RB1]
+    # each sample's geometry, made before the parallel loop (an array allocated inside
+    # the prange loop and passed down costs ~10 % in reference counting; a row does not)
+    geometry = np.empty((n_samples, GEOMETRY_SIZE))
+    for b in range(n_samples):
+        status[b] = sample_geometry(g, center_deviation[b], tip_relief[b], geometry[b])
+    saved = np.zeros((n_samples, 2, n_pairs))  # hinge angles of the last converged position
     for b in numba.prange(n_samples):
+        if status[b] != 0:
+            continue
+        gb = geometry[b]
         beta1 = np.zeros(n_pairs)
         beta2 = np.zeros(n_pairs)
         lag = 0.0
         for j in range(n_pos):
-            theta_kin = positions[j] * g[PITCH1]
-            theta2 = -positions[j] * g[PITCH2]
+            theta_kin = positions[j] * gb[PITCH1]
+            theta2 = -positions[j] * gb[PITCH2]
+            saved_lag = lag
+            for i in range(n_pairs):
+                saved[b, 0, i] = beta1[i]
+                saved[b, 1, i] = beta2[i]
             lag, flag, _ = _solve_position(
-                lag, theta_kin, theta2, beta1, beta2, pairs, g, torque[b], k_con[b], m1,
+                lag, theta_kin, theta2, beta1, beta2, pairs, gb, torque[b], k_con[b], m1,
                 kt1[b], kt2[b],
             )  # fmt: skip
+            if flag != 0 and j > 0:
+                lag, flag = _march(
+                    saved_lag, positions[j - 1], positions[j], beta1, beta2, saved[b], pairs,
+                    gb, torque[b], k_con[b], m1, kt1[b], kt2[b],
+                )  # fmt: skip
             if flag != 0:
                 status[b] = flag
                 break
@@ -248,10 +325,10 @@ def solve_static_batch(g, positions, pairs, torque, k_con, m1, kt1, kt2):
             total = 0.0
             for i in range(n_pairs):
                 k = pairs[i]
-                theta = theta_kin + lag + g[THETA_REF1] + k * g[PITCH1]
-                phi = theta2 + g[PHI_REF2] - k * g[PITCH2]
+                theta = theta_kin + lag + gb[THETA_REF1] + k * gb[PITCH1]
+                phi = theta2 + gb[PHI_REF2] - k * gb[PITCH2]
                 kind, _, force, _, m_w, _, _ = pair_moments(
-                    theta, beta1[i], phi, beta2[i], g, k_con[b], m1
+                    theta, beta1[i], phi, beta2[i], gb, k_con[b], m1
                 )
                 pair_force[b, j, i] = force
                 pair_kind[b, j, i] = kind
