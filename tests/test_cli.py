@@ -5,6 +5,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tracemalloc
 from importlib import resources
 from pathlib import Path
 
@@ -220,3 +221,106 @@ def test_console_script_runs_a_shipped_study(tmp_path):
         assert ds["z_upper"].values[0] == 33.0  # (3 - 0)(11 - 0)
     assert (tmp_path / "out" / "z_membership.png").stat().st_size > 1000
     assert "Status: complete" in (tmp_path / "out" / "summary.txt").read_text()
+
+
+# --------------------------------------------- plans too large to run (issue #15: max_runs)
+WIDE_MODEL = """
+def build():
+    def total(samples):
+        return {"y": sum(samples.values())}
+    return total
+"""
+
+
+def _wide_study(folder: Path, method: str, levels: int) -> Path:
+    """A study file of a 12-parameter model (a module of the test, hence --allow-code)."""
+    (folder / "fuzzymbs_test_wide_model.py").write_text(WIDE_MODEL)
+    parameters = "".join(
+        f'x{i} = {{ type = "triangular", modal = {1.0 + i}, spread = 0.1 }}\n' for i in range(12)
+    )
+    path = folder / f"wide-{method}-{levels}.toml"
+    path.write_text(
+        f'[study]\nmethod = "{method}"\nlevels = {levels}\n\n'
+        f'[model]\nname = "fuzzymbs_test_wide_model:build"\n\n[parameters]\n{parameters}'
+    )
+    return path
+
+
+class _BoundedMemory:
+    """Trace allocations, and cap the address space so that a regression fails, not the machine."""
+
+    def __enter__(self):
+        import resource
+
+        self.resource = resource
+        self.limits = resource.getrlimit(resource.RLIMIT_AS)
+        size = 0
+        status = Path("/proc/self/status")
+        if status.exists():
+            line = next(x for x in status.read_text().splitlines() if x.startswith("VmSize"))
+            size = int(line.split()[1]) * 1024
+        if size:  # Linux: 2 GiB above what the process maps now
+            soft = size + 2 * 2**30
+            hard = self.limits[1]
+            if hard == resource.RLIM_INFINITY or soft < hard:
+                resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+        tracemalloc.start()
+        return self
+
+    def __exit__(self, *exc_info):
+        _, self.peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        self.resource.setrlimit(self.resource.RLIMIT_AS, self.limits)
+        return False
+
+
+def test_plans_too_large_to_run_are_one_line_errors_before_any_allocation(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(tmp_path))
+    general = _wide_study(tmp_path, "general", 4)  # ~2.6e8 runs: 24 GB, then killed by the OS
+    absurd = _wide_study(tmp_path, "reduced", 1_000_000)  # "Unable to allocate 1.82 TiB"
+    product = tmp_path / "product-levels.toml"  # a registered model, no --allow-code
+    product.write_text(
+        '[study]\nlevels = 1000000\n[model]\nname = "product"\n[parameters]\n'
+        'x1 = { type = "triangular", modal = 2.0, spread = 0.1 }\n'
+        'x2 = { type = "triangular", modal = 10.0, spread = 0.1 }\n'
+    )
+    arguments = ["run", "--allow-code", "-q", "--out"]
+    # warm-up: the imports of the run command are not what is measured
+    runner.invoke(app, [*arguments, str(tmp_path / "w"), str(product)])
+    for path, fragments in (
+        (general, ["up to 261,453,379 model runs (2.6e+08)", "'reduced' 16,385"]),
+        (absurd, ["4,096,000,001 model runs", "with levels = 10: 'reduced' 40,961"]),
+        (product, ["4,000,001 model runs", "with levels = 10: 'reduced' 41"]),
+    ):
+        with _BoundedMemory() as memory:
+            result = runner.invoke(app, [*arguments, str(tmp_path / path.stem), str(path)])
+        assert result.exit_code == 1, result.output
+        assert isinstance(result.exception, SystemExit)  # _fail, not an escaped error
+        assert "Traceback" not in result.output
+        lines = result.output.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"error: {path}: [study]: The ")
+        for fragment in (*fragments, "more than max_runs = 1,000,000", "'sparse'"):
+            assert fragment in lines[0], fragment
+        assert memory.peak < 16 * 2**20, memory.peak  # no sample table: a few MB of Python
+        assert not (tmp_path / path.stem).exists()  # refused before the output folder
+
+
+def test_max_runs_option_overrides_the_study_file(tmp_path):
+    study = tmp_path / "limited.toml"
+    study.write_text(
+        '[study]\nlevels = 4\nmax_runs = 10\n[model]\nname = "product"\n[parameters]\n'
+        'x1 = { type = "triangular", modal = 2.0, spread = 0.1 }\n'
+        'x2 = { type = "triangular", modal = 10.0, spread = 0.1 }\n'
+    )
+    result = runner.invoke(app, ["run", str(study), "--out", str(tmp_path / "a"), "-q"])
+    assert result.exit_code == 1 and "17 model runs" in result.output
+    assert "more than max_runs = 10." in result.output
+    result = runner.invoke(
+        app, ["run", str(study), "--out", str(tmp_path / "b"), "-q", "--max-runs", "17"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "Status: complete" in (tmp_path / "b" / "summary.txt").read_text()
+    result = runner.invoke(
+        app, ["run", str(study), "--out", str(tmp_path / "c"), "-q", "--max-runs", "0"]
+    )
+    assert result.exit_code == 2 and "--max-runs" in result.output

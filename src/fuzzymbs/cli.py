@@ -85,6 +85,15 @@ def run(
             "a program. Only for files you trust.",
         ),
     ] = False,
+    max_runs: Annotated[
+        int | None,
+        typer.Option(
+            "--max-runs",
+            min=1,
+            help="Refuse a plan needing more model runs than this, before it is built "
+            "(default: the file's [study] max_runs, else 1000000).",
+        ),
+    ] = None,
     quiet: QuietOption = False,
     verbose: VerboseOption = False,
 ) -> None:
@@ -108,6 +117,7 @@ def run(
         progress=not quiet,
         plots=not no_plots,
         allow_code=allow_code,
+        max_runs=max_runs,
     )
 
 

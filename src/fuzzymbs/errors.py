@@ -24,6 +24,20 @@ class InvalidPlanError(FuzzymbsError, ValueError):
     """A transformation-method plan was requested with invalid settings."""
 
 
+class PlanTooLargeError(InvalidPlanError):
+    """A plan needs more model runs (or level bookkeeping) than ``max_runs`` allows; nothing built.
+
+    ``runs`` is its run count (an upper bound for the general method), ``max_runs``
+    the limit, ``needed`` the smallest ``max_runs`` that would accept it.
+    """
+
+    def __init__(self, message: str, *, runs: int, max_runs: int, needed: int) -> None:
+        super().__init__(message)
+        self.runs = runs
+        self.max_runs = max_runs
+        self.needed = needed
+
+
 class UnsupportedOperationError(FuzzymbsError, TypeError):
     """An operation is not defined for this method or object (e.g. influence of a grid plan)."""
 

@@ -14,9 +14,10 @@ from fuzzymbs.fuzzy.screening import (
     screening_samples,
 )
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid, sparse_grid
-from fuzzymbs.fuzzy.transform import METHODS, Plan, plan
+from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, METHODS, Plan, plan, run_count
 
 __all__ = [
+    "DEFAULT_MAX_RUNS",
     "METHODS",
     "FuzzyNumber",
     "FuzzyResult",
@@ -32,6 +33,7 @@ __all__ = [
     "Triangular",
     "nonmonotonic_parameters",
     "plan",
+    "run_count",
     "screening_samples",
     "sparse_grid",
 ]

@@ -29,6 +29,13 @@ Construction (Barthelmann, Novak & Ritter, Adv. Comput. Math. 12 (2000)
 ``level`` below is ``q - n`` (spinterp's level; level 0 is the single midpoint).
 Node counts for n = 2: 1, 5, 13, 29, 65; n = 3: 1, 7, 25, 69, 177 for levels
 0..4 (tests compare them with a brute-force union of tensor grids).
+
+Node count in closed form (:func:`node_count`, derived): 1-D level ``i`` adds
+1, 2, 2, 4, 8, ..., ``2^(i-2)`` new nodes for i = 1, 2, 3, 4, ...; with the
+increment ``r = i - 1`` their generating function is
+``1 + 2z + 2z^2 + 4z^3 + ... = (1 - 2z^2) / (1 - 2z)``. Every node of ``H(q, n)``
+is new in exactly one tensor product of increments with ``sum r_j <= level``,
+so ``|H(q, n)| = [z^level] (1 - 2z^2)^n / ((1 - 2z)^n (1 - z))``.
 """
 
 from __future__ import annotations
@@ -41,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 
-__all__ = ["SparseGrid", "sparse_grid"]
+__all__ = ["SparseGrid", "node_count", "nodes_1d", "sparse_grid"]
 
 #: memory bound of one block of interpolation weights / interpolated values (float64 elements)
 _BLOCK_ELEMENTS = 2_000_000
@@ -277,6 +284,59 @@ class SparseGrid:
             stop = min(start + block, len(x))
             result[start:stop] = self.weights(x[start:stop]) @ flat
         return result.reshape((len(x), *data.shape[1:]))
+
+
+def node_count(dimension: int, level: int) -> int:
+    """Number of nodes of the Clenshaw-Curtis Smolyak grid, without building it.
+
+    ``[z^level] (1 - 2z^2)^n / ((1 - 2z)^n (1 - z))`` (module docstring), exact
+    in integer arithmetic; O(level^2) operations.
+
+    Parameters
+    ----------
+    dimension : int
+        Number of variables n >= 0 (n = 0: the single point of a 0-D grid).
+    level : int
+        Sparse-grid level ``q - n >= 0``.
+
+    Examples
+    --------
+    >>> [node_count(3, level) for level in range(5)]
+    [1, 7, 25, 69, 177]
+    """
+    n = _check_int(dimension, "dimension", 0)
+    k = _check_int(level, "level", 0)
+    # coefficients of (1 - 2z)^(-n) up to z^k: binom(n + b - 1, b) 2^b
+    inverse = [1] * (k + 1)
+    for b in range(1, k + 1):
+        inverse[b] = inverse[b - 1] * 2 * (n + b - 1) // b
+    total = 0
+    for s in range(k + 1):  # coefficient of z^s of (1 - 2z^2)^n (1 - 2z)^(-n), summed
+        total += sum(comb(n, a) * (-2) ** a * inverse[s - 2 * a] for a in range(s // 2 + 1))
+    return total
+
+
+def nodes_1d(level: int) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The 1-D nodes a grid of ``level`` uses (bit-identical to its nodes) and their 1-D levels.
+
+    Returns
+    -------
+    values : ndarray, shape (K,)
+        Nodes in [0, 1], increasing; ``K = 1`` for level 0, else ``2^level + 1``.
+    levels : ndarray of int, shape (K,)
+        The 1-D level ``i`` (1 = the midpoint, 2 = the ends, ...) that first holds each node.
+    """
+    k = _check_int(level, "level", 0)
+    denominator = 2 ** max(k, 1)
+    positions = np.arange(denominator + 1, dtype=np.int64)
+    # 1-D level of position p: the midpoint is level 1, the ends level 2, an odd multiple of
+    # denominator / 2^(i-1) level i
+    lowest_bit = positions & -positions
+    first = np.where(positions == 0, 2, k + 1 - np.log2(np.maximum(lowest_bit, 1)).astype(np.int64))
+    first[positions == denominator] = 2
+    first[positions == denominator // 2] = 1
+    keep = first <= k + 1
+    return _node_values(positions[keep], denominator), first[keep]
 
 
 def sparse_grid(n: int, level: int) -> NDArray[np.float64]:

@@ -50,10 +50,19 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidPlanError, ModelOutputError, UnsupportedOperationError
 from fuzzymbs.fuzzy.grids import cartesian, unique_rows
 from fuzzymbs.fuzzy.numbers import FuzzyNumber, real_array
+from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_run_limit, run_count
 from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning, retransform
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
-__all__ = ["METHODS", "NonMonotonicWarning", "Plan", "make_levels", "plan"]
+__all__ = [
+    "DEFAULT_MAX_RUNS",
+    "METHODS",
+    "NonMonotonicWarning",
+    "Plan",
+    "make_levels",
+    "plan",
+    "run_count",
+]
 
 #: sampling schemes understood by :func:`plan`
 METHODS: tuple[str, ...] = ("general", "reduced", "extended", "grid", "sparse")
@@ -169,6 +178,11 @@ class Plan:
         ``"sparse"`` only: points of the tensor search grid per cut box,
         ``k = floor(search_points^(1/n))`` per parameter (default
         ``max(20000, 3^n)``; at least ``3^n``).
+    max_runs : int or None, optional
+        Refuse the plan, before anything is built, if it needs more model runs
+        than this (:func:`run_count`) or its level bookkeeping (levels x runs)
+        more than 10 x this; default :data:`DEFAULT_MAX_RUNS` (1,000,000), None:
+        no limit. See :func:`~fuzzymbs.fuzzy.plan_size.check_run_limit`.
 
     Attributes
     ----------
@@ -196,6 +210,9 @@ class Plan:
         Unknown method, bad levels, unknown or misplaced nonmonotonic names,
         sparse options that are invalid or given with another method,
         parameters that are not fuzzy numbers.
+    PlanTooLargeError
+        (an InvalidPlanError) More runs than ``max_runs``; the message gives the
+        runs of the reduced, extended and sparse methods and how to raise the limit.
 
     Examples
     --------
@@ -214,13 +231,13 @@ class Plan:
         *,
         sparse_level: int | None = None,
         search_points: int | None = None,
+        max_runs: int | None = DEFAULT_MAX_RUNS,
     ) -> None:
         if not isinstance(method, str) or method not in METHODS:
             raise InvalidPlanError(f"unknown method {method!r}; valid methods: {list(METHODS)}")
         self.parameters: dict[str, FuzzyNumber] = checked_parameters(parameters)
         self.names: tuple[str, ...] = tuple(self.parameters)
         self.method = method
-        self.levels = make_levels(levels)
         if nonmonotonic is None:
             nonmonotonic = ()
         if isinstance(nonmonotonic, str):
@@ -241,6 +258,16 @@ class Plan:
         self.sparse_level, self.search_points = _sparse_options(
             method, len(self.names), sparse_level, search_points
         )
+        # the size first, from closed forms: nothing below may allocate a plan too large to run
+        check_run_limit(
+            self.parameters,
+            method,
+            levels,
+            self.nonmonotonic,
+            self.sparse_level,
+            max_runs=max_runs,
+        )
+        self.levels = make_levels(levels)
 
         cuts = np.stack([number.cuts(self.levels) for number in self.parameters.values()], axis=1)
         self.cut_lower: NDArray[np.float64] = cuts[:, :, 0]  # (L, n)
@@ -586,8 +613,12 @@ class Plan:
         return description
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Plan:
-        """Rebuild a plan from :meth:`to_dict` output."""
+    def from_dict(cls, data: Mapping[str, Any], *, max_runs: int | None = None) -> Plan:
+        """Rebuild a plan from :meth:`to_dict` output.
+
+        ``max_runs`` as for :class:`Plan`; None (no limit) by default, since a
+        described plan was accepted when it was made.
+        """
         try:
             parameters = {
                 name: FuzzyNumber.from_dict(value) for name, value in data["parameters"].items()
@@ -599,6 +630,7 @@ class Plan:
                 nonmonotonic=data.get("nonmonotonic"),
                 sparse_level=data.get("sparse_level"),
                 search_points=data.get("search_points"),
+                max_runs=max_runs,
             )
         except (KeyError, AttributeError, TypeError) as error:
             raise InvalidPlanError(

@@ -43,17 +43,19 @@ def run_study_file(
     progress: bool = True,
     plots: bool = True,
     allow_code: bool = False,
+    max_runs: int | None = None,
 ) -> StudyOutput:
     """Load a study file, run it with ``out/chunks`` as store, and write the results.
 
-    Settings given here override the file's ``[run]`` table. ``allow_code``
-    lets the file run code its author named (a module reference, an FMU, a
-    program; :mod:`fuzzymbs.study.trust`).
+    Settings given here override the file's ``[run]`` table, ``max_runs`` its
+    ``[study] max_runs``. ``allow_code`` lets the file run code its author
+    named (a module reference, an FMU, a program; :mod:`fuzzymbs.study.trust`).
 
     Raises
     ------
     StudyFileError
-        The study file is invalid.
+        The study file is invalid, or its plan needs more runs than ``max_runs``
+        (refused before anything is built).
     IncompleteResultError
         Samples failed (and on_failure is not "partial"); ``summary.txt`` then
         lists the failures and the stored chunks are kept for a rerun.
@@ -62,7 +64,7 @@ def run_study_file(
     """
     from fuzzymbs.study.studyfile import load_study_file
 
-    definition = load_study_file(path, allow_code=allow_code)
+    definition = load_study_file(path, allow_code=allow_code, max_runs=max_runs)
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InvalidParameterError(f"output folder {out} exists and is not a directory")

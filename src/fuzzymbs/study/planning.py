@@ -22,6 +22,7 @@ import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError, InvalidPlanError
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
+from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_screening_run_limit
 from fuzzymbs.fuzzy.screening import DEFAULT_RTOL, Screening, check_tolerance
 from fuzzymbs.fuzzy.screening import screening_samples as make_screening_samples
 from fuzzymbs.fuzzy.transform import Plan
@@ -220,12 +221,15 @@ def build_plan(
     screening_rtol: float | None,
     sparse_level: int | None,
     search_points: int | None,
+    max_runs: int | None = DEFAULT_MAX_RUNS,
 ) -> tuple[Plan | None, Screening | None, float | None]:
     """``(plan, screening samples, screening tolerance)`` of a study.
 
     With ``nonmonotonic="auto"`` the plan is None (built after the screening)
     and the screening samples and tolerance are set; otherwise the plan is
-    built now and the other two are None.
+    built now and the other two are None. ``max_runs`` limits the plan's runs
+    (:class:`~fuzzymbs.fuzzy.transform.Plan`); for ``"auto"`` the screening
+    runs plus the reduced corners the extended plan holds at least.
 
     Raises
     ------
@@ -233,6 +237,9 @@ def build_plan(
         Options that do not go together (``"auto"`` with a method other than
         "extended", sparse options with "auto", a screening tolerance without
         "auto") or invalid plan settings.
+    PlanTooLargeError
+        (an InvalidPlanError) More runs than ``max_runs``, refused before any
+        sample is built.
     """
     if isinstance(nonmonotonic, str) and nonmonotonic == AUTO:
         if method != "extended":
@@ -245,6 +252,7 @@ def build_plan(
             )
         rtol = DEFAULT_RTOL if screening_rtol is None else screening_rtol
         check_tolerance("screening_rtol", rtol)
+        check_screening_run_limit(fuzzy, levels, max_runs=max_runs)
         return None, make_screening_samples(fuzzy, levels), rtol
     if screening_rtol is not None:
         raise InvalidPlanError(
@@ -258,5 +266,6 @@ def build_plan(
         nonmonotonic=nonmonotonic,
         sparse_level=sparse_level,
         search_points=search_points,
+        max_runs=max_runs,
     )
     return plan, None, None

@@ -140,6 +140,11 @@ class Study:
         Widen the cuts to the validation outputs (each point's level and the
         levels below). Default False: the validation outputs are reported
         (``o_validation``) and never merged silently.
+    max_runs : int or None
+        Refuse a plan needing more model runs than this before anything is
+        built (:class:`~fuzzymbs.errors.PlanTooLargeError`, an InvalidPlanError,
+        naming the runs of cheaper methods); default
+        :data:`fuzzymbs.fuzzy.transform.DEFAULT_MAX_RUNS` (1,000,000), None: no limit.
     name, description : str, optional
         Labels used in results, summaries and output folders.
 
@@ -169,6 +174,7 @@ class Study:
         validation_runs: int | None = None,
         method_tolerance: float = DEFAULT_METHOD_TOLERANCE,
         widen_with_validation: bool = False,
+        max_runs: int | None = 1_000_000,  # fuzzymbs.fuzzy.transform.DEFAULT_MAX_RUNS
         name: str | None = None,
         description: str = "",
     ) -> None:
@@ -213,7 +219,14 @@ class Study:
         self.screening: dict[str, Any] | None = None
         self.auto_nonmonotonic = isinstance(nonmonotonic, str) and nonmonotonic == AUTO
         self._plan, self._screening_samples, self.screening_rtol = build_plan(
-            fuzzy, method, levels, nonmonotonic, screening_rtol, sparse_level, search_points
+            fuzzy,
+            method,
+            levels,
+            nonmonotonic,
+            screening_rtol,
+            sparse_level,
+            search_points,
+            max_runs=max_runs,
         )
         known_outputs = self._declared_outputs()
         self.outputs = checked_outputs(outputs, known_outputs, self.model_name)

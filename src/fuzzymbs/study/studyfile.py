@@ -6,7 +6,8 @@ Layout (see docs/studies.md)::
                  screening_rtol, sparse_level, search_points (method "sparse"),
                  integration_tolerance (time-integrated models; default 0.005),
                  validation_runs (default: a fifth of the runs, at least n + 1; 0: off),
-                 method_tolerance (default 0.01), widen_with_validation (default false)
+                 method_tolerance (default 0.01), widen_with_validation (default false),
+                 max_runs (default 1,000,000: a larger plan is refused before it is built)
     [model]      name ("registry-name", "fmu", "command" or "package.module:callable"),
                  [model.options] (fmu, command and references need --allow-code)
     [parameters] one table (fuzzy) or number (crisp) per model parameter
@@ -35,6 +36,7 @@ from fuzzymbs.errors import (
     InvalidPlanError,
     StudyFileError,
 )
+from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS
 from fuzzymbs.study.integration_check import DEFAULT_TOLERANCE
 from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE
 from fuzzymbs.study.parameters import FUZZY_TYPES
@@ -60,6 +62,7 @@ class StudySection(_Section):
     validation_runs: int | None = Field(default=None, ge=0)
     method_tolerance: float = Field(default=DEFAULT_METHOD_TOLERANCE, gt=0.0, allow_inf_nan=False)
     widen_with_validation: bool = False
+    max_runs: int = Field(default=DEFAULT_MAX_RUNS, ge=1)
 
     @field_validator("nonmonotonic", mode="before")
     @classmethod
@@ -249,7 +252,9 @@ def _model_options(path: Path, model: str, options: dict[str, Any]) -> dict[str,
     return options
 
 
-def load_study_file(path: str | Path, allow_code: bool = False) -> StudyDefinition:
+def load_study_file(
+    path: str | Path, allow_code: bool = False, max_runs: int | None = None
+) -> StudyDefinition:
     """Read, validate and resolve a study file.
 
     Parameters
@@ -260,6 +265,8 @@ def load_study_file(path: str | Path, allow_code: bool = False) -> StudyDefiniti
         Let the file run code its author named: a ``"package.module:callable"``
         model, an FMU or a program (``fuzzymbs run --allow-code``; see
         :mod:`fuzzymbs.study.trust`). Registered models never need it.
+    max_runs : int, optional
+        Overrides the file's ``[study] max_runs`` (``fuzzymbs run --max-runs``).
 
     Returns
     -------
@@ -323,6 +330,7 @@ def load_study_file(path: str | Path, allow_code: bool = False) -> StudyDefiniti
             validation_runs=parsed.study.validation_runs,
             method_tolerance=parsed.study.method_tolerance,
             widen_with_validation=parsed.study.widen_with_validation,
+            max_runs=parsed.study.max_runs if max_runs is None else max_runs,
             name=name,
             description=parsed.study.description,
         )
