@@ -39,7 +39,7 @@ from fuzzymbs.errors import (
     UnsupportedOperationError,
 )
 from fuzzymbs.fuzzy.screening import nonmonotonic_parameters
-from fuzzymbs.fuzzy.transform import Plan, make_levels
+from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, Plan, make_levels
 from fuzzymbs.fuzzy.validation import (
     ValidationPoints,
     default_validation_count,
@@ -174,7 +174,7 @@ class Study:
         validation_runs: int | None = None,
         method_tolerance: float = DEFAULT_METHOD_TOLERANCE,
         widen_with_validation: bool = False,
-        max_runs: int | None = 1_000_000,  # fuzzymbs.fuzzy.transform.DEFAULT_MAX_RUNS
+        max_runs: int | None = DEFAULT_MAX_RUNS,
         name: str | None = None,
         description: str = "",
     ) -> None:
@@ -215,6 +215,7 @@ class Study:
         self.constants = crisp
         self._fuzzy = fuzzy
         self._levels = levels
+        self._max_runs = max_runs  # also for the extended plan built after a screening
         #: the screening report of a ``nonmonotonic="auto"`` study once screened, else None
         self.screening: dict[str, Any] | None = None
         self.auto_nonmonotonic = isinstance(nonmonotonic, str) and nonmonotonic == AUTO
@@ -749,7 +750,11 @@ class Study:
         report["evaluated"] = int(evaluated)
         report["reused_from_store"] = int(reused)
         self._plan = Plan(
-            self._fuzzy, method="extended", levels=self._levels, nonmonotonic=report["nonmonotonic"]
+            self._fuzzy,
+            method="extended",
+            levels=self._levels,
+            nonmonotonic=report["nonmonotonic"],
+            max_runs=self._max_runs,
         )
         self.screening = report
         logger.info(
