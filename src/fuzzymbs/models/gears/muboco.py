@@ -214,31 +214,120 @@ def _solve_position(lag, theta_kin, theta2, beta1, beta2, pairs, g, torque, k_co
 
 
 @numba.njit(cache=True)
-def _march(lag, start, end, beta1, beta2, saved, pairs, g, torque, k_con, m1, kt1, kt2):
-    """Retry a failed mesh position in sub-steps from the previous one (4, 16, 64).
+def _pair_equilibrium(lag, theta_kin, theta2, i, beta1, beta2, pairs, g, k_con, m1, kt1, kt2, tol):
+    """Hinge equilibrium of tooth pair i at a fixed pinion lag; returns its pinion moment.
 
-    A tooth pair leaving contact mid-flank (tip relief) can stall the line search
-    when started from the previous position's hinge deflections; marching there in
-    smaller steps keeps each start close. ``saved`` (2, K) holds the previous hinge
-    angles, ``lag`` its pinion lag. Returns (lag, status); updates beta1/beta2.
+    Starts from unbent teeth: if they do not touch there, they do not touch bent either
+    (the load bends both teeth away from each other), so both hinge angles are 0;
+    otherwise the solution lies strictly inside contact, where the 2x2 Newton iteration
+    (with line search) is smooth. Updates beta1[i], beta2[i].
     """
-    flag = 1
-    for refine in (4, 16, 64):
-        now = lag
-        for i in range(pairs.shape[0]):
-            beta1[i] = saved[0, i]
-            beta2[i] = saved[1, i]
-        for sub in range(1, refine + 1):
-            frac = start + (end - start) * sub / refine
-            now, flag, _ = _solve_position(
-                now, frac * g[PITCH1], -frac * g[PITCH2], beta1, beta2, pairs, g, torque,
-                k_con, m1, kt1, kt2,
-            )  # fmt: skip
-            if flag != 0:
+    k = pairs[i]
+    theta = theta_kin + lag + g[THETA_REF1] + k * g[PITCH1]
+    phi = theta2 + g[PHI_REF2] - k * g[PITCH2]
+    rigid1 = not math.isfinite(kt1)
+    rigid2 = not math.isfinite(kt2)
+    b1 = 0.0
+    b2 = 0.0
+    jac = np.empty((3, 3))
+    kind, delta, _, m_p, _, m_h1, m_h2 = pair_moments(theta, b1, phi, b2, g, k_con, m1)
+    if kind != 0 and delta > 0.0 and not (rigid1 and rigid2):
+        for _ in range(60):
+            r1 = b1 if rigid1 else m_h1 - kt1 * b1
+            r2 = b2 if rigid2 else m_h2 - kt2 * b2
+            norm = max(abs(r1), abs(r2))
+            if norm < tol:
                 break
-        if flag == 0:
-            return now, 0
-    return now, flag
+            _pair_jacobian(lag, theta_kin, theta2, b1, b2, k, g, k_con, m1, kt1, kt2, jac)
+            det = jac[1, 1] * jac[2, 2] - jac[1, 2] * jac[2, 1]
+            d1 = -(jac[2, 2] * r1 - jac[1, 2] * r2) / det
+            d2 = -(-jac[2, 1] * r1 + jac[1, 1] * r2) / det
+            scale = 1.0
+            accepted = False
+            for _ in range(30):
+                t1, t2 = b1 + scale * d1, b2 + scale * d2
+                _, _, _, tm_p, _, tm_h1, tm_h2 = pair_moments(theta, t1, phi, t2, g, k_con, m1)
+                q1 = t1 if rigid1 else tm_h1 - kt1 * t1
+                q2 = t2 if rigid2 else tm_h2 - kt2 * t2
+                if max(abs(q1), abs(q2)) < norm:
+                    accepted = True
+                    break
+                scale *= 0.5
+            if not accepted:
+                break
+            b1, b2, m_p, m_h1, m_h2 = t1, t2, tm_p, tm_h1, tm_h2
+    beta1[i] = b1
+    beta2[i] = b2
+    return m_p
+
+
+@numba.njit(cache=True)
+def _net_moment(lag, theta_kin, theta2, beta1, beta2, pairs, g, torque, k_con, m1, kt1, kt2, tol):
+    """Pinion torque plus the contact moments with every pair's hinges in equilibrium."""
+    total = torque
+    for i in range(pairs.shape[0]):
+        total += _pair_equilibrium(
+            lag, theta_kin, theta2, i, beta1, beta2, pairs, g, k_con, m1, kt1, kt2, tol
+        )
+    return total
+
+
+@numba.njit(cache=True)
+def _solve_nested(lag, theta_kin, theta2, beta1, beta2, pairs, g, torque, k_con, m1, kt1, kt2):
+    """Fallback for a mesh position where Newton stalls: nested solution.
+
+    Newton's line search can stall where the solution sits on a contact kink, e.g. a
+    tooth pair that just touches (the entering pair of a tip relief matched to the load
+    touches at the start of contact with zero force) or one leaving contact mid-flank.
+    Here every pair's hinges are solved for a fixed pinion lag (a smooth 2x2 problem,
+    :func:`_pair_equilibrium`) and the lag by bracketing and the Illinois method: the
+    net moment falls monotonically as the pinion turns into the wheel. Same tolerance
+    as Newton. Returns (lag, status); updates beta1/beta2.
+    """
+    tol = 1e-9 * max(abs(torque), 1e-6)
+    rb1 = g[RB1]
+    step = max((abs(torque) / (rb1 * k_con)) ** (1.0 / m1), 1e-9) / rb1
+    low = lag
+    f_low = _net_moment(low, theta_kin, theta2, beta1, beta2, pairs, g, torque, k_con, m1,
+                        kt1, kt2, tol)  # fmt: skip
+    if abs(f_low) < tol:
+        return low, 0
+    # bracket the root: net moment > 0 at `low`, < 0 at `high`
+    direction = 1.0 if f_low > 0.0 else -1.0
+    high, f_high = low, f_low
+    for _ in range(60):
+        high = low + direction * step
+        f_high = _net_moment(high, theta_kin, theta2, beta1, beta2, pairs, g, torque, k_con,
+                             m1, kt1, kt2, tol)  # fmt: skip
+        if (f_high > 0.0) != (f_low > 0.0):
+            break
+        low, f_low = high, f_high
+        step *= 2.0
+        if step > 0.5 * g[PITCH1]:
+            return lag, 2  # no pair comes into contact
+    else:
+        return lag, 1
+    if f_low < 0.0:
+        low, high, f_low, f_high = high, low, f_high, f_low
+    # Illinois (regula falsi with halving of a stuck end)
+    side = 0
+    for _ in range(200):
+        trial = (low * f_high - high * f_low) / (f_high - f_low)
+        f_trial = _net_moment(trial, theta_kin, theta2, beta1, beta2, pairs, g, torque, k_con,
+                              m1, kt1, kt2, tol)  # fmt: skip
+        if abs(f_trial) < tol or abs(high - low) <= 1e-15 * abs(trial):
+            return trial, 0
+        if f_trial > 0.0:
+            low, f_low = trial, f_trial
+            if side == 1:
+                f_high *= 0.5
+            side = 1
+        else:
+            high, f_high = trial, f_trial
+            if side == -1:
+                f_low *= 0.5
+            side = -1
+    return lag, 1
 
 
 def solve_static_batch(g, positions, pairs, torque, k_con, m1, kt1, kt2):
@@ -294,7 +383,6 @@ def solve_static_batch_tolerances(
     geometry = np.empty((n_samples, GEOMETRY_SIZE))
     for b in range(n_samples):
         status[b] = sample_geometry(g, center_deviation[b], tip_relief[b], geometry[b])
-    saved = np.zeros((n_samples, 2, n_pairs))  # hinge angles of the last converged position
     for b in numba.prange(n_samples):
         if status[b] != 0:
             continue
@@ -306,17 +394,15 @@ def solve_static_batch_tolerances(
             theta_kin = positions[j] * gb[PITCH1]
             theta2 = -positions[j] * gb[PITCH2]
             saved_lag = lag
-            for i in range(n_pairs):
-                saved[b, 0, i] = beta1[i]
-                saved[b, 1, i] = beta2[i]
             lag, flag, _ = _solve_position(
                 lag, theta_kin, theta2, beta1, beta2, pairs, gb, torque[b], k_con[b], m1,
                 kt1[b], kt2[b],
             )  # fmt: skip
-            if flag != 0 and j > 0:
-                lag, flag = _march(
-                    saved_lag, positions[j - 1], positions[j], beta1, beta2, saved[b], pairs,
-                    gb, torque[b], k_con[b], m1, kt1[b], kt2[b],
+            if flag == 1:  # Newton stalled: nested solution from the last converged state
+                guess = saved_lag if j > 0 else lag
+                lag, flag = _solve_nested(
+                    guess, theta_kin, theta2, beta1, beta2, pairs, gb, torque[b], k_con[b],
+                    m1, kt1[b], kt2[b],
                 )  # fmt: skip
             if flag != 0:
                 status[b] = flag
