@@ -185,9 +185,13 @@ class SteFeatureModel:
     source exactly; the registered gear-pair model defaults to 60, which gives a
     1 % lower peak-to-peak value). ``model(samples)`` takes the
     gear-pair sample columns (``tooth_stiffness``, ``pinion_tooth_stiffness``,
-    ``wheel_tooth_stiffness``, ``contact_stiffness``, ``torque``; missing ones take
-    the defaults) and returns ``{feature: (B,)}`` [m] plus ``failed`` and
-    ``failure_reason`` (B,) from MUBOCO-PR; features of failed samples are NaN.
+    ``wheel_tooth_stiffness``, ``contact_stiffness``, ``torque`` and the
+    manufacturing tolerances ``center_distance_deviation``, ``tip_relief``; missing
+    ones take the defaults) and returns ``{feature: (B,)}`` [m] plus ``failed`` and
+    ``failure_reason`` (B,) from MUBOCO-PR; features of failed samples are NaN. The
+    zones are those of the nominal pair: a centre-distance deviation moves the zone
+    changes (contact ratio -0.21 per mm for the default pair), so beyond about the
+    margin's worth (0.35 mm there) the zone means mix single and double contact.
 
     Attributes
     ----------
