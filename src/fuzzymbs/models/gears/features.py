@@ -189,9 +189,10 @@ class SteFeatureModel:
     manufacturing tolerances ``center_distance_deviation``, ``tip_relief``; missing
     ones take the defaults) and returns ``{feature: (B,)}`` [m] plus ``failed`` and
     ``failure_reason`` (B,) from MUBOCO-PR; features of failed samples are NaN. The
-    zones are those of the nominal pair: a centre-distance deviation moves the zone
-    changes (contact ratio -0.21 per mm for the default pair), so beyond about the
-    margin's worth (0.35 mm there) the zone means mix single and double contact.
+    zones are those of the nominal pair: a centre-distance deviation moves the end of
+    the double-contact zone (contact ratio -0.21 per mm for the default pair); at
+    T1 = 100 N m the loaded pairs still match the nominal zones up to +0.6 mm (400
+    positions), from +0.8 mm single contact reaches into the nominal double zone.
 
     Attributes
     ----------
