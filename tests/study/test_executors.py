@@ -71,3 +71,35 @@ def test_unpicklable_model_is_reported_before_starting_workers():
     study = Study(lambda s: {"z": s["x"]}, {"x": Triangular(0, 1, 2)}, levels=1)
     with pytest.raises(InvalidParameterError, match=r"cannot be pickled.*inline executor"):
         study.run(executor="processes:1", progress=False)
+
+
+def test_workers_limit_the_kernel_threads_and_restore_them():
+    # a worker's chunk runs with the Numba threads it was given (per thread), and the
+    # thread's own setting comes back afterwards; without Numba the call is unchanged
+    numba = pytest.importorskip("numba")
+    from fuzzymbs.study.evaluation import evaluate_chunk_on_worker
+
+    seen = []
+
+    def model(p):
+        seen.append(numba.get_num_threads())
+        return {"z": 2.0 * p["x"]}
+
+    before = numba.get_num_threads()
+    chunk = evaluate_chunk_on_worker(1, model, {"x": np.arange(3.0)}, 0)
+    np.testing.assert_array_equal(chunk.outputs["z"], [0.0, 2.0, 4.0])
+    assert seen == [1] and numba.get_num_threads() == before
+    evaluate_chunk_on_worker(None, model, {"x": np.arange(3.0)}, 0)
+    assert seen[-1] == before
+
+
+def test_process_pool_shares_the_cores():
+    import os
+
+    from fuzzymbs.study.executors import resolve_executor
+
+    resolved = resolve_executor("processes:2")
+    try:
+        assert resolved.task_threads == max(1, (os.cpu_count() or 1) // 2)
+    finally:
+        resolved.close()

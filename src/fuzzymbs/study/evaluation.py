@@ -6,6 +6,7 @@ function of picklable arguments.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -217,3 +218,31 @@ def evaluate_chunk(
         data[name] = merged
     coords = merged_coords(singles)
     return ChunkResult(start, start + size, data, failed, reasons, coords)
+
+
+def evaluate_chunk_on_worker(
+    threads: int | None,
+    model: Any,
+    columns: Mapping[str, np.ndarray],
+    start: int,
+    outputs: Sequence[str] | None = None,
+) -> ChunkResult:
+    """:func:`evaluate_chunk` with the compiled kernels limited to ``threads`` threads.
+
+    A worker of a process pool or a Dask cluster shares the machine's cores with
+    the other workers: Numba's default (every core) in each of them oversubscribes
+    the machine (measured: 2 single-thread Dask workers 1.65 times one inline core
+    with Numba's default, 1.83 with one thread each; docs/benchmarks.md). The
+    limit is set in the worker thread that runs the chunk (Numba's thread count is
+    per thread) and restored afterwards; the kernels parallelise over samples, so
+    the result does not depend on it. ``None``, or a model without Numba: as is.
+    """
+    numba = sys.modules.get("numba")
+    if threads is None or numba is None:
+        return evaluate_chunk(model, columns, start, outputs)
+    previous = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    try:
+        return evaluate_chunk(model, columns, start, outputs)
+    finally:
+        numba.set_num_threads(previous)

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.study.evaluation import ChunkResult, evaluate_chunk
+from fuzzymbs.study.evaluation import ChunkResult, evaluate_chunk_on_worker
 from fuzzymbs.study.executors import resolve_executor
 
 __all__ = [
@@ -144,7 +144,12 @@ def evaluate_chunks(
                 index = queue.pop(0)
                 start, stop = index * size, min((index + 1) * size, count)
                 future = resolved.executor.submit(
-                    evaluate_chunk, model, columns(start, stop), start, outputs
+                    evaluate_chunk_on_worker,
+                    resolved.task_threads,
+                    model,
+                    columns(start, stop),
+                    start,
+                    outputs,
                 )
                 pending[future] = index
             done, _ = wait(list(pending), return_when=FIRST_COMPLETED)

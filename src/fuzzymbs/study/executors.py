@@ -37,6 +37,9 @@ class ResolvedExecutor:
     label: str
     in_flight: int  # chunks kept submitted at a time
     close: Callable[[], None]
+    #: compiled-kernel threads per task (Numba), so that the workers together use the
+    #: machine's cores without oversubscribing them; None: Numba's default (inline)
+    task_threads: int | None = None
 
 
 def _nothing() -> None:
@@ -86,6 +89,7 @@ def resolve_executor(spec: Any = None) -> ResolvedExecutor:
                 f"processes:{workers}",
                 2 * workers,
                 lambda: pool.shutdown(cancel_futures=True),
+                task_threads=max(1, (os.cpu_count() or 1) // workers),
             )
         if spec.startswith(("dask://", "tcp://")):
             from distributed import Client
@@ -107,12 +111,34 @@ def resolve_executor(spec: Any = None) -> ResolvedExecutor:
     )
 
 
+def _task_threads(client: Any, workers: dict[str, Any]) -> int | None:
+    """Kernel threads per task: each host's cores shared by the task threads it runs."""
+    try:
+        cores = client.run(os.cpu_count)  # {worker address: cores of its host}
+    except Exception:  # an unreachable worker: leave Numba's default
+        return None
+    per_host: dict[str, int] = {}
+    for info in workers.values():
+        host = str(info.get("host", ""))
+        per_host[host] = per_host.get(host, 0) + int(info.get("nthreads", 1))
+    shares = [
+        max(1, int(cores.get(address) or 1) // max(per_host[str(info.get("host", ""))], 1))
+        for address, info in workers.items()
+    ]
+    return min(shares) if shares else None
+
+
 def _from_client(client: Any, label: str, owned: bool) -> ResolvedExecutor:
     try:
-        threads = sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values())
+        workers = dict(client.scheduler_info()["workers"])
+        threads = sum(w.get("nthreads", 1) for w in workers.values())
     except Exception:  # scheduler_info layout differs across versions; a guess is fine here
-        threads = 2
+        workers, threads = {}, 2
     executor = client.get_executor(pure=False)
     return ResolvedExecutor(
-        executor, label, max(2, 2 * threads), client.close if owned else _nothing
+        executor,
+        label,
+        max(2, 2 * threads),
+        client.close if owned else _nothing,
+        task_threads=_task_threads(client, workers) if workers else None,
     )
