@@ -209,3 +209,13 @@ def test_memory_scaling_quick_reports_both_cases():
     assert row["runs"] == 125 and row["keep_raw"] is False
     assert not row["result_has_samples"]  # keep_raw=False: no raw outputs in the result
     assert row["peak_mb"] >= row["baseline_peak_mb"] > 0
+
+
+def test_dask_scaling_quick_runs():
+    # 3^5 = 243 gear runs inline and on small local clusters: structure and bit-identity
+    pytest.importorskip("distributed")
+    import dask_scaling
+
+    figures = dask_scaling.main(quick=True, diagnostics=False)
+    assert figures["study"]["runs"] == 3**5
+    assert all(r["identical_to_inline_1_thread"] for r in figures["variants"].values())
