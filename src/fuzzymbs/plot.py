@@ -34,6 +34,14 @@ def _figure(width: float = 6.4, height: float = 4.0) -> Figure:
     return Figure(figsize=(width, height), layout="constrained")
 
 
+def _panels(count: int) -> tuple[Figure, np.ndarray]:
+    """A figure with ``count`` small panels, three per row (axes flattened)."""
+    columns = min(3, count)
+    rows = int(np.ceil(count / columns))
+    figure = _figure(3.2 * columns, 2.6 * rows)
+    return figure, np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
+
+
 def _band_color(mu: float) -> Any:
     from matplotlib import colormaps
 
@@ -90,10 +98,7 @@ def plot_input_memberships(dataset: xarray.Dataset) -> Figure:
     """Membership functions of the fuzzy parameters (through their alpha-cuts)."""
     names = [str(n) for n in dataset["parameter"].values]
     units = json.loads(dataset.attrs.get("parameter_units", "{}"))
-    columns = min(3, len(names))
-    rows = int(np.ceil(len(names) / columns))
-    figure = _figure(3.2 * columns, 2.6 * rows)
-    axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
+    figure, axes = _panels(len(names))
     levels = dataset["level"].values
     for i, name in enumerate(names):
         ax = axes[i]
@@ -118,10 +123,7 @@ def plot_inverse_outputs(dataset: xarray.Dataset) -> Figure:
     parameters (line) of an inverse fuzzy-arithmetic result
     (:meth:`fuzzymbs.fuzzy.inverse.InverseResult.to_dataset`)."""
     names = [str(n) for n in dataset["output"].values]
-    columns = min(3, len(names))
-    rows = int(np.ceil(len(names) / columns))
-    figure = _figure(3.2 * columns, 2.6 * rows)
-    axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
+    figure, axes = _panels(len(names))
     levels = dataset["level"].values
     for i, name in enumerate(names):
         ax = axes[i]
