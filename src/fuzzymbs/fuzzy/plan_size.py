@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike
 
 from fuzzymbs.errors import InvalidPlanError, PlanTooLargeError
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
+from fuzzymbs.fuzzy.plan_options import METHODS, checked_parameters, make_levels, sparse_options
 from fuzzymbs.fuzzy.sparse_grid import node_count, nodes_1d
 
 __all__ = [
@@ -119,7 +120,6 @@ def _level_steps(levels: int | ArrayLike) -> int:
         if levels < 1:
             raise InvalidPlanError(f"levels must be an int >= 1 (number of steps), got {levels!r}")
         return int(levels)
-    from fuzzymbs.fuzzy.transform import make_levels
 
     return len(make_levels(levels)) - 1
 
@@ -276,7 +276,6 @@ def _request(
     sparse_level: int | None,
 ) -> _Request:
     """Validate like :class:`~fuzzymbs.fuzzy.transform.Plan` (same errors), without building."""
-    from fuzzymbs.fuzzy.transform import METHODS, _sparse_options, checked_parameters
 
     if not isinstance(method, str) or method not in METHODS:
         raise InvalidPlanError(f"unknown method {method!r}; valid methods: {list(METHODS)}")
@@ -298,7 +297,7 @@ def _request(
             f"nonmonotonic={list(named)} is only used by method='extended', not {method!r}"
         )
     # the sparse options exactly as a plan checks them (search_points only matters there)
-    sparse_level, _ = _sparse_options(method, len(names), sparse_level, None)
+    sparse_level, _ = sparse_options(method, len(names), sparse_level, None)
     shapes = [_shape(number) for number in numbers.values()]
     return _Request(
         names, shapes, method, steps, tuple(n for n in names if n in named), sparse_level

@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import IncompleteResultError, InvalidPlanError, ModelOutputError
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
-from fuzzymbs.fuzzy.transform import checked_parameters, make_levels
+from fuzzymbs.fuzzy.plan_options import checked_parameters, make_levels
 
 __all__ = [
     "DEFAULT_ROUNDOFF",

@@ -49,7 +49,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidPlanError, ModelOutputError, UnsupportedOperationError
 from fuzzymbs.fuzzy.grids import cartesian, unique_rows
-from fuzzymbs.fuzzy.numbers import FuzzyNumber, real_array
+from fuzzymbs.fuzzy.numbers import FuzzyNumber
+from fuzzymbs.fuzzy.plan_options import METHODS, checked_parameters, make_levels
+from fuzzymbs.fuzzy.plan_options import sparse_options as _sparse_options
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_run_limit, run_count
 from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning, retransform
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid
@@ -63,56 +65,6 @@ __all__ = [
     "plan",
     "run_count",
 ]
-
-#: sampling schemes understood by :func:`plan`
-METHODS: tuple[str, ...] = ("general", "reduced", "extended", "grid", "sparse")
-
-#: default ``sparse_level`` (Smolyak's q = n + 3: exact for polynomials of total degree 3)
-DEFAULT_SPARSE_LEVEL = 3
-#: default number of search points per cut box of a sparse plan (at least 3^n are used)
-DEFAULT_SEARCH_POINTS = 20_000
-
-
-def make_levels(levels: int | ArrayLike) -> NDArray[np.float64]:
-    """Membership levels ``mu_0 = 0 < ... < mu_m = 1`` from ``m`` or an explicit list.
-
-    Parameters
-    ----------
-    levels : int or array_like
-        ``m >= 1`` for the uniform levels ``j / m``, or an increasing sequence
-        starting at 0 and ending at 1.
-
-    Raises
-    ------
-    InvalidPlanError
-        For m < 1, non-increasing, non-finite or wrongly bounded level lists.
-    """
-    if isinstance(levels, bool):
-        raise InvalidPlanError(f"levels must be an int >= 1 or a list from 0 to 1, got {levels!r}")
-    if isinstance(levels, int | np.integer):
-        if levels < 1:
-            raise InvalidPlanError(f"levels must be an int >= 1 (number of steps), got {levels!r}")
-        return np.arange(int(levels) + 1, dtype=float) / int(levels)
-    mus = real_array(
-        levels, "levels must be an int >= 1 or a list of numbers from 0 to 1", InvalidPlanError
-    )
-    if mus.ndim == 0:
-        raise InvalidPlanError(
-            f"levels must be an int >= 1 (number of steps) or a list from 0 to 1, got "
-            f"{levels!r} of type {type(levels).__name__}"
-        )
-    if (
-        mus.ndim != 1
-        or mus.size < 2
-        or not np.all(np.isfinite(mus))
-        or mus[0] != 0.0
-        or mus[-1] != 1.0
-        or np.any(np.diff(mus) <= 0.0)
-    ):
-        raise InvalidPlanError(
-            f"levels must increase strictly from 0 to 1 (e.g. [0, 0.5, 1]), got {levels!r}"
-        )
-    return mus
 
 
 def _general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]:
@@ -129,30 +81,6 @@ def _general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]
 
 def _corner_values(lower: NDArray, upper: NDArray, j: int) -> NDArray[np.float64]:
     return np.array([lower[j], upper[j]])
-
-
-def checked_parameters(parameters: Mapping[str, FuzzyNumber]) -> dict[str, FuzzyNumber]:
-    """``parameters`` as a dict after checking it is a non-empty name -> FuzzyNumber mapping.
-
-    Raises
-    ------
-    InvalidPlanError
-        Not a mapping, empty, a name that is not a non-empty string, or a value
-        that is not a :class:`~fuzzymbs.fuzzy.numbers.FuzzyNumber`.
-    """
-    if not isinstance(parameters, Mapping) or len(parameters) == 0:
-        raise InvalidPlanError(
-            f"parameters must be a non-empty mapping of name -> FuzzyNumber, got {parameters!r}"
-        )
-    for name, number in parameters.items():
-        if not isinstance(name, str) or not name:
-            raise InvalidPlanError(f"parameter names must be non-empty strings, got {name!r}")
-        if not isinstance(number, FuzzyNumber):
-            raise InvalidPlanError(
-                f"parameter {name!r} must be a FuzzyNumber (e.g. Triangular), "
-                f"got {type(number).__name__}"
-            )
-    return dict(parameters)
 
 
 class Plan:
@@ -685,47 +613,6 @@ def _check_model_output(
                 f"model output {key!r} changed trailing shape between chunks: "
                 f"{seen[key][0].shape[1:]} then {value.shape[1:]}"
             )
-
-
-def _sparse_options(
-    method: str, count_parameters: int, sparse_level: Any, search_points: Any
-) -> tuple[int | None, int | None]:
-    """Checked ``(sparse_level, search_points)`` with defaults for "sparse", (None, None) else."""
-    if method != "sparse":
-        given = [
-            f"{key}={value!r}"
-            for key, value in (("sparse_level", sparse_level), ("search_points", search_points))
-            if value is not None
-        ]
-        if given:
-            raise InvalidPlanError(
-                f"{', '.join(given)} only apply to method='sparse', not {method!r}"
-            )
-        return None, None
-    if sparse_level is None:
-        sparse_level = DEFAULT_SPARSE_LEVEL
-    if (
-        isinstance(sparse_level, bool)
-        or not isinstance(sparse_level, int | np.integer)
-        or sparse_level < 1
-    ):
-        raise InvalidPlanError(
-            f"sparse_level must be an int >= 1 (Smolyak level q - n; {DEFAULT_SPARSE_LEVEL} "
-            f"by default), got {sparse_level!r}"
-        )
-    minimum = 3**count_parameters
-    if search_points is None:
-        search_points = max(DEFAULT_SEARCH_POINTS, minimum)
-    if (
-        isinstance(search_points, bool)
-        or not isinstance(search_points, int | np.integer)
-        or search_points < minimum
-    ):
-        raise InvalidPlanError(
-            f"search_points must be an int >= 3^n = {minimum} for n = {count_parameters} "
-            f"parameters (at least 3 points per parameter in each cut box), got {search_points!r}"
-        )
-    return int(sparse_level), int(search_points)
 
 
 #: build a sampling plan: ``plan(...)`` is ``Plan(...)``, one signature documented on :class:`Plan`

@@ -1,0 +1,142 @@
+"""What a plan is asked for, checked: the methods, the membership levels, the fuzzy
+parameters and the sparse-grid options.
+
+Both :mod:`fuzzymbs.fuzzy.transform` (which builds plans) and
+:mod:`fuzzymbs.fuzzy.plan_size` (which counts their runs before anything is
+built) read these, so they live below both.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fuzzymbs.errors import InvalidPlanError
+from fuzzymbs.fuzzy.numbers import FuzzyNumber, real_array
+
+__all__ = [
+    "DEFAULT_SEARCH_POINTS",
+    "DEFAULT_SPARSE_LEVEL",
+    "METHODS",
+    "checked_parameters",
+    "make_levels",
+    "sparse_options",
+]
+
+#: sampling schemes understood by :func:`plan`
+METHODS: tuple[str, ...] = ("general", "reduced", "extended", "grid", "sparse")
+
+#: default ``sparse_level`` (Smolyak's q = n + 3: exact for polynomials of total degree 3)
+DEFAULT_SPARSE_LEVEL = 3
+#: default number of search points per cut box of a sparse plan (at least 3^n are used)
+DEFAULT_SEARCH_POINTS = 20_000
+
+
+def make_levels(levels: int | ArrayLike) -> NDArray[np.float64]:
+    """Membership levels ``mu_0 = 0 < ... < mu_m = 1`` from ``m`` or an explicit list.
+
+    Parameters
+    ----------
+    levels : int or array_like
+        ``m >= 1`` for the uniform levels ``j / m``, or an increasing sequence
+        starting at 0 and ending at 1.
+
+    Raises
+    ------
+    InvalidPlanError
+        For m < 1, non-increasing, non-finite or wrongly bounded level lists.
+    """
+    if isinstance(levels, bool):
+        raise InvalidPlanError(f"levels must be an int >= 1 or a list from 0 to 1, got {levels!r}")
+    if isinstance(levels, int | np.integer):
+        if levels < 1:
+            raise InvalidPlanError(f"levels must be an int >= 1 (number of steps), got {levels!r}")
+        return np.arange(int(levels) + 1, dtype=float) / int(levels)
+    mus = real_array(
+        levels, "levels must be an int >= 1 or a list of numbers from 0 to 1", InvalidPlanError
+    )
+    if mus.ndim == 0:
+        raise InvalidPlanError(
+            f"levels must be an int >= 1 (number of steps) or a list from 0 to 1, got "
+            f"{levels!r} of type {type(levels).__name__}"
+        )
+    if (
+        mus.ndim != 1
+        or mus.size < 2
+        or not np.all(np.isfinite(mus))
+        or mus[0] != 0.0
+        or mus[-1] != 1.0
+        or np.any(np.diff(mus) <= 0.0)
+    ):
+        raise InvalidPlanError(
+            f"levels must increase strictly from 0 to 1 (e.g. [0, 0.5, 1]), got {levels!r}"
+        )
+    return mus
+
+
+def checked_parameters(parameters: Mapping[str, FuzzyNumber]) -> dict[str, FuzzyNumber]:
+    """``parameters`` as a dict after checking it is a non-empty name -> FuzzyNumber mapping.
+
+    Raises
+    ------
+    InvalidPlanError
+        Not a mapping, empty, a name that is not a non-empty string, or a value
+        that is not a :class:`~fuzzymbs.fuzzy.numbers.FuzzyNumber`.
+    """
+    if not isinstance(parameters, Mapping) or len(parameters) == 0:
+        raise InvalidPlanError(
+            f"parameters must be a non-empty mapping of name -> FuzzyNumber, got {parameters!r}"
+        )
+    for name, number in parameters.items():
+        if not isinstance(name, str) or not name:
+            raise InvalidPlanError(f"parameter names must be non-empty strings, got {name!r}")
+        if not isinstance(number, FuzzyNumber):
+            raise InvalidPlanError(
+                f"parameter {name!r} must be a FuzzyNumber (e.g. Triangular), "
+                f"got {type(number).__name__}"
+            )
+    return dict(parameters)
+
+
+def sparse_options(
+    method: str, count_parameters: int, sparse_level: Any, search_points: Any
+) -> tuple[int | None, int | None]:
+    """Checked ``(sparse_level, search_points)`` with defaults for "sparse", (None, None) else."""
+    if method != "sparse":
+        given = [
+            f"{key}={value!r}"
+            for key, value in (("sparse_level", sparse_level), ("search_points", search_points))
+            if value is not None
+        ]
+        if given:
+            raise InvalidPlanError(
+                f"{', '.join(given)} only apply to method='sparse', not {method!r}"
+            )
+        return None, None
+    if sparse_level is None:
+        sparse_level = DEFAULT_SPARSE_LEVEL
+    if (
+        isinstance(sparse_level, bool)
+        or not isinstance(sparse_level, int | np.integer)
+        or sparse_level < 1
+    ):
+        raise InvalidPlanError(
+            f"sparse_level must be an int >= 1 (Smolyak level q - n; {DEFAULT_SPARSE_LEVEL} "
+            f"by default), got {sparse_level!r}"
+        )
+    minimum = 3**count_parameters
+    if search_points is None:
+        search_points = max(DEFAULT_SEARCH_POINTS, minimum)
+    if (
+        isinstance(search_points, bool)
+        or not isinstance(search_points, int | np.integer)
+        or search_points < minimum
+    ):
+        raise InvalidPlanError(
+            f"search_points must be an int >= 3^n = {minimum} for n = {count_parameters} "
+            f"parameters (at least 3 points per parameter in each cut box), got {search_points!r}"
+        )
+    return int(sparse_level), int(search_points)
