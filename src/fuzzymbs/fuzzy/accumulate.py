@@ -88,8 +88,13 @@ class StreamLayout:
         # guard: reduced and extended only (a grid's bounds use every grid point)
         self.corners = plan.method in ("reduced", "extended", "grid")
         self.guard = plan.method in ("reduced", "extended")
-        if not self.corners:
-            return
+        if self.guard:
+            self._guard_layout(plan)
+        if self.corners:
+            self._corner_layout(plan)
+
+    def _guard_layout(self, plan: PlanBookkeeping) -> None:
+        """Groups of equal non-monotonic coordinates and each level's inner points."""
         columns = [plan.names.index(parameter) for parameter in plan.nonmonotonic]
         if columns:
             _, group = unique_rows(np.asarray(plan.samples)[:, columns])
@@ -106,7 +111,9 @@ class StreamLayout:
             present[self.group[self.usage[j]]] = True
             self.candidate[j] = inner & ~self.usage[j] & present[self.group]
             inner |= self.usage[j]
-        # corner occurrences in sample order: (sample, level, slot), for the gain sums
+
+    def _corner_layout(self, plan: PlanBookkeeping) -> None:
+        """Corner occurrences in sample order: (sample, level, slot), for the gain sums."""
         corners = np.asarray(plan.corner_index)  # (L, 2^n)
         order = np.argsort(corners.ravel(), kind="stable")
         self.occurrence_sample = corners.ravel()[order]
@@ -141,18 +148,16 @@ class OutputAccumulator:
         self.scale = 0.0  # largest finite magnitude (the guard's round-off floor)
         self.fed = 0  # samples fed so far (chunks arrive in sample order)
         self.pair_sum: NDArray[np.float64] | None = None
+        self.bad_level = np.zeros(levels, dtype=bool)  # levels with a failed corner
         if layout.corners:
-            n = layout.sign.shape[0]
-            self.pair_sum = np.zeros((n, levels, size))
-            self.bad_level = np.zeros(levels, dtype=bool)
+            self.pair_sum = np.zeros((layout.sign.shape[0], levels, size))
+        if layout.guard:
             # guard ranges per (level, group): the level's own points and its candidates
             if layout.groups > 1:
                 self.group_min = np.full((levels, layout.groups, size), np.inf)
                 self.group_max = np.full((levels, layout.groups, size), -np.inf)
             self.inner_min = np.full((levels, layout.groups, size), np.inf)
             self.inner_max = np.full((levels, layout.groups, size), -np.inf)
-        else:
-            self.bad_level = np.zeros(levels, dtype=bool)
 
     def update(self, start: int, values: NDArray[np.float64], failed: NDArray[np.bool_]) -> None:
         """Feed samples ``start .. start + B - 1``: outputs (B, *shape), failed (B,).
@@ -208,13 +213,14 @@ class OutputAccumulator:
             )
             self.own_max[j] = np.where(better, value, self.own_max[j])
             self.arg_max[j] = np.where(better, index, self.arg_max[j])
+        if layout.guard:
+            self._update_guard(start, flat, ok)
         if layout.corners:
-            self._update_corners(start, flat, ok)
+            self._update_sums(start, flat, ok)
 
-    def _update_corners(self, start: int, flat: NDArray[np.float64], ok: NDArray) -> None:
+    def _update_guard(self, start: int, flat: NDArray[np.float64], ok: NDArray) -> None:
         layout = self.layout
-        size = len(flat)
-        stop = start + size
+        stop = start + len(flat)
         for j in range(layout.levels - 1):
             # guard ranges: own points per group (groups > 1; else own_min/own_max) and
             # candidates (inner points) per group
@@ -226,7 +232,11 @@ class OutputAccumulator:
             if inner.size:
                 np.minimum.at(self.inner_min[j], layout.group[inner + start], flat[inner])
                 np.maximum.at(self.inner_max[j], layout.group[inner + start], flat[inner])
-        # gain sums, one corner occurrence after the other in sample order
+
+    def _update_sums(self, start: int, flat: NDArray[np.float64], ok: NDArray) -> None:
+        """Gain sums, one corner occurrence after the other in sample order."""
+        layout = self.layout
+        stop = start + len(flat)
         first, last = np.searchsorted(layout.occurrence_sample, [start, stop])
         assert self.pair_sum is not None
         for k in range(first, last):
