@@ -42,6 +42,11 @@ class ChunkResult:
     def size(self) -> int:
         return self.stop - self.start
 
+    def without_outputs(self) -> ChunkResult:
+        """The chunk's extent, failures and coordinates, without its outputs (what a
+        streaming runner keeps once the outputs were reduced)."""
+        return ChunkResult(self.start, self.stop, {}, self.failed, self.reasons, self.coords)
+
 
 def _checked_coords(raw: Mapping[str, Any]) -> dict[str, np.ndarray]:
     """The coordinate values a model returned under :data:`COORDS_KEY` (1-D float arrays)."""

@@ -160,9 +160,7 @@ def evaluate_chunks(
                     chunk_store.write(index, chunk)
                 if on_chunk is not None:
                     on_chunk(index, chunk)
-                    chunk = ChunkResult(
-                        chunk.start, chunk.stop, {}, chunk.failed, chunk.reasons, chunk.coords
-                    )
+                    chunk = chunk.without_outputs()
                 results[index] = chunk
                 evaluated += chunk.size
                 advance(chunk.size)

@@ -332,16 +332,7 @@ def stored_chunks(
             if index < chunk_count:
                 stored = chunk_store.read(index)
                 if stored is not None:
-                    if not load:
-                        stored = ChunkResult(
-                            stored.start,
-                            stored.stop,
-                            {},
-                            stored.failed,
-                            stored.reasons,
-                            stored.coords,
-                        )
-                    results[index] = stored
+                    results[index] = stored if load else stored.without_outputs()
     return results
 
 

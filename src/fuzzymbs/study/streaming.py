@@ -25,7 +25,7 @@ from fuzzymbs.fuzzy.accumulate import OutputAccumulator, StreamLayout
 from fuzzymbs.fuzzy.retransform import FuzzyResult, from_accumulated
 from fuzzymbs.study.evaluation import ChunkResult
 
-__all__ = ["RAW_LIMIT_BYTES", "ChunkFeed", "slim"]
+__all__ = ["RAW_LIMIT_BYTES", "ChunkFeed"]
 
 logger = logging.getLogger(__name__)
 
@@ -33,11 +33,6 @@ logger = logging.getLogger(__name__)
 RAW_LIMIT_BYTES = 64 * 2**20
 #: chunks that may wait for an earlier one before the runner stops submitting new ones
 BACKLOG_CHUNKS = 16
-
-
-def slim(chunk: ChunkResult) -> ChunkResult:
-    """The chunk without its outputs (what the runner keeps: failures and coordinates)."""
-    return ChunkResult(chunk.start, chunk.stop, {}, chunk.failed, chunk.reasons, chunk.coords)
 
 
 class ChunkFeed:

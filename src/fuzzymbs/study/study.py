@@ -516,15 +516,20 @@ class Study:
         return StudyResult(dataset)
 
     def validation_points(
-        self, outputs: Mapping[str, np.ndarray] | None = None, failed: np.ndarray | None = None
+        self,
+        outputs: Mapping[str, np.ndarray] | None = None,
+        failed: np.ndarray | None = None,
+        *,
+        tally: Callable[[int], np.ndarray] | None = None,
     ) -> ValidationPoints:
         """The validation points of the study (:mod:`fuzzymbs.fuzzy.validation`), given
-        the method's outputs and failed runs (without them: Halton points only)."""
+        the method's outputs (or, from a run, ``tally``: how often each sample bounds a
+        level) and failed runs (without either: Halton points only)."""
         plan = self.plan
         count = self.validation_runs
         if count is None:
             count = default_validation_count(len(plan), len(plan.names))
-        return validation_points(plan, count, outputs, failed)
+        return validation_points(plan, count, outputs, failed, tally=tally)
 
     def _validate(
         self,
@@ -539,14 +544,10 @@ class Study:
     ) -> ValidationRuns | None:
         """Evaluate the validation points (chunks into
         ``STORE/validation-<count>-<fingerprint>``); None if off."""
-        plan = self.plan
-        count = self.validation_runs
-        if count is None:
-            count = default_validation_count(len(plan), len(plan.names))
         if feed.layout is None:  # sparse: the outputs are all there
-            points = validation_points(plan, count, feed.raw, method_failed)
+            points = self.validation_points(feed.raw, method_failed)
         else:
-            points = validation_points(plan, count, None, method_failed, tally=feed.bound_tally)
+            points = self.validation_points(failed=method_failed, tally=feed.bound_tally)
         count = len(points)
         if count == 0:
             return None
