@@ -62,7 +62,6 @@ class ChunkFeed:
     ) -> None:
         self.plan = plan
         self.count = count
-        self.size = size
         self.chunk_count = math.ceil(count / size) if count else 0
         self.stored = set(stored)
         self.chunk_store = chunk_store
@@ -75,14 +74,12 @@ class ChunkFeed:
         self._pending_failed: list[tuple[int, int]] = []  # all-failed chunks before any shape
         self._buffer: dict[int, ChunkResult] = {}
         self._next = 0
-        self.peak_backlog = 0
 
     # ----------------------------------------------------------------- feeding
     def add(self, index: int, chunk: ChunkResult) -> None:
         """A finished chunk (any order); it is reduced once every earlier one was."""
         self._buffer[index] = chunk
-        self.peak_backlog = max(self.peak_backlog, len(self._buffer))
-        self._drain()
+        self.drain()
 
     def backlog(self) -> int:
         """Chunks waiting for an earlier one."""
@@ -92,11 +89,8 @@ class ChunkFeed:
         """False while too many chunks wait for an earlier one (bounds the memory)."""
         return len(self._buffer) < BACKLOG_CHUNKS
 
-    def drain_stored(self) -> None:
-        """Reduce the stored chunks that are next in line (before or after evaluating)."""
-        self._drain()
-
-    def _drain(self) -> None:
+    def drain(self) -> None:
+        """Reduce every chunk that is next in line: buffered, or in the store."""
         while self._next < self.chunk_count:
             index = self._next
             if index in self._buffer:
@@ -116,10 +110,7 @@ class ChunkFeed:
         self.reasons[start:stop] = np.asarray(chunk.reasons, dtype=object)
         if not chunk.outputs:  # every sample failed before the outputs had a shape
             if self.accumulators or self.raw is not None:
-                for accumulator in self.accumulators.values():
-                    accumulator.update(
-                        start, np.zeros((stop - start, *accumulator.shape)), chunk.failed
-                    )
+                self._skip_failed(start, stop)
             else:
                 self._pending_failed.append((start, stop))
             return
@@ -143,10 +134,7 @@ class ChunkFeed:
                 name: OutputAccumulator(self.layout, shape) for name, shape in shapes.items()
             }
         for start, stop in self._pending_failed:
-            for accumulator in self.accumulators.values():
-                accumulator.update(
-                    start, np.zeros((stop - start, *accumulator.shape)), np.ones(stop - start, bool)
-                )
+            self._skip_failed(start, stop)
         self._pending_failed.clear()
         logger.debug(
             "study outputs %s: raw outputs %.1f MB, %s",
@@ -154,6 +142,13 @@ class ChunkFeed:
             raw_bytes / 1e6,
             "kept" if self.raw is not None else "left in the chunk store",
         )
+
+    def _skip_failed(self, start: int, stop: int) -> None:
+        """Feed a range of failed samples (they only advance the accumulators)."""
+        for accumulator in self.accumulators.values():
+            accumulator.update(
+                start, np.zeros((stop - start, *accumulator.shape)), np.ones(stop - start, bool)
+            )
 
     # --------------------------------------------------------------- results
     @property

@@ -447,7 +447,7 @@ class Study:
             )
             # outputs are reduced chunk by chunk in sample order and then dropped
             feed = ChunkFeed(self.plan, count, size, results, chunk_store, keep_raw)
-            feed.drain_stored()
+            feed.drain()
             logger.info(
                 "study %s: %d samples in %d chunks of %d; %d chunks from the store, %d to evaluate",
                 self.name,
@@ -478,7 +478,7 @@ class Study:
                 on_chunk=feed.add,
                 may_submit=feed.may_submit,
             )
-            feed.drain_stored()
+            feed.drain()
             self._adopt_coords([results[i] for i in range(chunk_count)])
             failed, reasons = feed.failed, feed.reasons_array()
             validation = None
