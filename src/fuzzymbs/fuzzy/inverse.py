@@ -41,7 +41,6 @@ residual, never in a silently wrong answer.
 
 from __future__ import annotations
 
-import itertools
 import math
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -53,6 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares, lsq_linear
 
 from fuzzymbs.errors import InverseMismatchError, InverseProblemError
+from fuzzymbs.fuzzy.grids import cartesian
 from fuzzymbs.fuzzy.numbers import FuzzyNumber, PiecewiseLinear
 from fuzzymbs.fuzzy.screening import nonmonotonic_parameters, screening_samples
 from fuzzymbs.fuzzy.transform import make_levels
@@ -384,16 +384,15 @@ class _LevelSolver:
         self,
         evaluate: _Evaluator,
         modal: NDArray[np.float64],
-        modal_outputs: NDArray[np.float64],
+        count_outputs: int,
         nonmonotonic: NDArray[np.bool_],
         probe: NDArray[np.float64],
     ) -> None:
         self.evaluate = evaluate
         self.modal = modal
-        self.modal_outputs = modal_outputs
         self.nonmonotonic = nonmonotonic
         self.probe = probe
-        n, r = len(modal), len(modal_outputs)
+        n, r = len(modal), count_outputs
         # gain factors of the left and right halves, (r, n); probed before the first cut
         self.gain_left = np.zeros((r, n))
         self.gain_right = np.zeros((r, n))
@@ -432,7 +431,7 @@ class _LevelSolver:
             axes.append(axis)
             members.append(np.isin(axis, own))
             positions.append((0, int(np.searchsorted(axis, self.modal[i])), len(axis) - 1))
-        grid = np.array(list(itertools.product(*axes)))
+        grid = cartesian(axes)  # the last parameter fastest: reshapes to the axes
         values = self.evaluate(grid).reshape(*(len(a) for a in axes), -1)
         own_values = values[np.ix_(*members)].reshape(-1, values.shape[-1])
         forward = np.stack([own_values.min(axis=0), own_values.max(axis=0)], axis=1)
@@ -500,7 +499,7 @@ def _identify_levels(
     """Half-widths (L, 2, n), forward cuts (L, r, 2) and Newton steps (L,) per level."""
     levels_count, n = cuts.shape[1], len(modal)
     probe = PROBE * np.where(modal != 0.0, np.abs(modal), 1.0)
-    solver = _LevelSolver(evaluate, modal, modal_outputs, nonmonotonic, probe)
+    solver = _LevelSolver(evaluate, modal, len(modal_outputs), nonmonotonic, probe)
     most = np.vstack([modal - lower, upper - modal])  # admissible half-widths
     solver.probe_gains(most)
     widths_all = np.zeros((levels_count, 2, n))
