@@ -219,3 +219,29 @@ def test_dask_scaling_quick_runs():
     figures = dask_scaling.main(quick=True, diagnostics=False)
     assert figures["study"]["runs"] == 3**5
     assert all(r["identical_to_inline_1_thread"] for r in figures["variants"].values())
+
+
+def test_external_models_quick_reproduces_the_cvode_table():
+    # the convergence table behind the FMU default rtol 1e-6 (docs/studies.md, "FMU models"):
+    # the model-exchange error falls with the tolerance, 3.9e-5 of the peak at the default
+    import shutil
+
+    if shutil.which("cc") is None:
+        pytest.skip("no C compiler to build the example FMU")
+    import external_models
+
+    figures = external_models.main(["--quick"])
+    errors = figures["cvode_error_by_rtol"]
+    assert errors["1e-06"] == pytest.approx(3.9e-5, rel=0.5)
+    assert errors["0.0001"] > errors["1e-06"] > errors["1e-08"]
+    assert figures["fmi2_reuse_factor"] > 1.0 and figures["command_run_ms"] > 0.0
+
+
+def test_tolerance_study_quick_is_identical_on_dask():
+    pytest.importorskip("distributed")
+    import tolerance_study
+
+    figures = tolerance_study.main(["--quick"])
+    assert [row["runs"] for row in figures["rows"]] == [729, 729]
+    assert figures["dask_identical_to_inline"]
+    assert all(row["failed"] == 0 for row in figures["rows"])
