@@ -160,3 +160,70 @@ def test_brake_model_option_kernel():
     assert brake_model(kernel="samples", t_end=1e-5).simulation.settings["kernel"] == "samples"
     with pytest.raises(InvalidParameterError, match="kernel must be one of"):
         brake_model(kernel="gpu", t_end=1e-5)
+
+
+# ROS34PW2: each lane keeps its own clock (step, error control, Jacobian age), so a
+# sample's outputs are bit for bit those of the sample alone, whatever shares its block
+ROS = {"integrator": "ros34pw2", "rtol": 1e-3}
+
+
+def _ros_run(brake, samples, order, kernel="lanes", chunk_size=64):
+    picked = {name: values[order] for name, values in samples.items()}
+    return simulate(
+        brake,
+        picked,
+        t_end=3e-4,
+        dt=1e-6,
+        outputs=OUTPUTS,
+        kernel=kernel,
+        chunk_size=chunk_size,
+        **ROS,
+    )
+
+
+def test_ros34pw2_sample_is_independent_of_its_block(brake):
+    # 9 samples that differ in every parameter, with frictionless lanes and disc speeds
+    # 1 and 400 rad/s side by side (the per-lane contact path); the reference is each
+    # sample in a block of its own
+    samples = _brake_samples(9, seed=7)
+    order = np.arange(9)
+    alone = _ros_run(brake, samples, order, kernel="samples")
+    assert not alone.failed.any()
+    permutation = np.random.default_rng(2).permutation(9)
+    variants = {
+        "lanes": (order, _ros_run(brake, samples, order)),
+        "permuted": (permutation, _ros_run(brake, samples, permutation)),
+        "chunks of 2": (order[::-1], _ros_run(brake, samples, order[::-1], chunk_size=2)),
+    }
+    for label, (rows, run) in variants.items():
+        for name in OUTPUTS:
+            np.testing.assert_array_equal(
+                run.outputs[name], alone.outputs[name][rows], err_msg=f"{label}: {name}"
+            )
+        np.testing.assert_array_equal(run.step_counts, alone.step_counts[rows], err_msg=label)
+    # premise: the samples take different step sequences (a shared step would hide them)
+    assert len(set(alone.step_counts[:, 0].tolist())) > 3
+
+
+def test_ros34pw2_duplicates_in_one_block_are_identical(brake):
+    # one parameter point four times, between other points: every copy equal
+    samples = _brake_samples(6, seed=11)
+    order = np.array([0, 3, 1, 3, 3, 2, 3, 5])
+    run = _ros_run(brake, samples, order)
+    copies = run.outputs["y_lpad"][order == 3]
+    for copy in copies[1:]:
+        np.testing.assert_array_equal(copy, copies[0])
+
+
+def test_ros34pw2_failed_lane_leaves_the_others_bit_identical(brake):
+    samples = _brake_samples(4, seed=5)
+    samples["nodal_force"][1] = 1.6e9  # pushes the pad beyond the 1 mm bound at once
+    alone = _ros_run(brake, samples, np.arange(4), kernel="samples")
+    lanes = _ros_run(brake, samples, np.arange(4))
+    assert alone.failed.tolist() == [False, True, False, False]
+    assert lanes.failed.tolist() == alone.failed.tolist()
+    np.testing.assert_array_equal(lanes.failure_time, alone.failure_time)
+    healthy = [0, 2, 3]
+    np.testing.assert_array_equal(
+        lanes.outputs["y_lpad"][healthy], alone.outputs["y_lpad"][healthy]
+    )

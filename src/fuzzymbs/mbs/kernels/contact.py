@@ -96,6 +96,40 @@ def cells_per_lane(u_vec, v_vec, ugrid, vgrid, periodic, scales, scratch, cells)
     return shared, any_on
 
 
+@nb.njit(cache=True)
+def uniform_chart(u_vec, v_vec, u_first, u_scale, v_first, v_scale, periodic):
+    """Chart coordinates in cells, ``((u - u_0) s_u, (v - v_0) s_v)``, v wrapped into the
+    turn first: the arithmetic of the scalar :func:`~fuzzymbs.mbs.kernels.charts.locate`
+    (no fast-math contraction), so that the vector and per-lane paths agree bit for bit."""
+    fu = (u_vec - u_first) * u_scale
+    if periodic:
+        above = V.where_le(V.splat(v_first + TWO_PI), v_vec, v_vec - TWO_PI, v_vec)
+        v_vec = V.where_lt(v_vec, V.splat(v_first), v_vec + TWO_PI, above)
+    return fu, (v_vec - v_first) * v_scale
+
+
+@nb.njit(cache=True)
+def cell_offset(f, index):
+    """``f - index``: the local coordinate in a cell, rounded as in ``locate``."""
+    return f - index
+
+
+@nb.njit(cache=True)
+def bilinear(wa, wb, wc, wd, values, a, b, c, d):
+    """``wa x_a + wb x_b + wc x_c + wd x_d`` of the lane vectors at a, b, c, d in
+    ``values``, as a fixed chain of fused multiply-adds: compiled without fast-math
+    reassociation, so every lane gets the same rounding whether its corners were
+    loaded as vectors or gathered lane by lane."""
+    value = V.fma(wb, V.load(values, b), wa * V.load(values, a))
+    return V.fma(wd, V.load(values, d), V.fma(wc, V.load(values, c), value))
+
+
+@nb.njit(cache=True)
+def react(forces, at, w, f):
+    """``forces[at:at + L] -= w f`` with one rounding (as :func:`bilinear`, no fast-math)."""
+    V.store(forces, at, V.fma(V.splat(0.0) - w, f, V.load(forces, at)))
+
+
 #: vectors per slave in the Jacobian record: d f / d x_rel (3 x 3, row-major),
 #: d f / d v_rel (3 x 3), the four master weights
 JREC = 22
@@ -234,11 +268,7 @@ def contact_pass(c, x, p, sysdata, work):
         # it (the usual case), else per lane
         fast = False
         if u_uniform and v_uniform:
-            fu = (u_vec - u_first) * u_scale
-            if periodic:
-                v_vec = V.where_lt(v_vec, V.splat(v_first), v_vec + TWO_PI, v_vec)
-                v_vec = V.where_le(V.splat(v_first + TWO_PI), v_vec, v_vec - TWO_PI, v_vec)
-            fv = (v_vec - v_first) * v_scale
+            fu, fv = uniform_chart(u_vec, v_vec, u_first, u_scale, v_first, v_scale, periodic)
             on = V.where_le(fu, V.splat(nu - 1.0), one, zero)
             on = V.where_le(zero, fu, on, zero)
             on = V.where_le(fv, V.splat(float(v_cells)), on, zero)
@@ -255,8 +285,8 @@ def contact_pass(c, x, p, sysdata, work):
         if fast:
             if V.get(on, 0) + V.get(on, 1) + V.get(on, 2) + V.get(on, 3) == 0.0:
                 continue
-            xi = fu - i_f
-            eta = fv - j_f
+            xi = cell_offset(fu, i_f)
+            eta = cell_offset(fv, j_f)
             i = int(V.get(i_f, 0))
             j = int(V.get(j_f, 0))
             shared = True
@@ -285,20 +315,15 @@ def contact_pass(c, x, p, sysdata, work):
             m0 = V.splat(normals[k3])
             m1 = V.splat(normals[k3 + 1])
             m2 = V.splat(normals[k3 + 2])
-            xm0 = wa * V.load(node_x, na) + wb * V.load(node_x, nb_)
-            xm0 = xm0 + wc * V.load(node_x, nc) + wd * V.load(node_x, nd)
-            xm1 = wa * V.load(node_x, na + L) + wb * V.load(node_x, nb_ + L)
-            xm1 = xm1 + wc * V.load(node_x, nc + L) + wd * V.load(node_x, nd + L)
-            xm2 = wa * V.load(node_x, na + 2 * L) + wb * V.load(node_x, nb_ + 2 * L)
-            xm2 = xm2 + wc * V.load(node_x, nc + 2 * L) + wd * V.load(node_x, nd + 2 * L)
-            vm0 = wa * V.load(node_v, na) + wb * V.load(node_v, nb_)
-            vm0 = vm0 + wc * V.load(node_v, nc) + wd * V.load(node_v, nd)
-            vm1 = wa * V.load(node_v, na + L) + wb * V.load(node_v, nb_ + L)
-            vm1 = vm1 + wc * V.load(node_v, nc + L) + wd * V.load(node_v, nd + L)
-            vm2 = wa * V.load(node_v, na + 2 * L) + wb * V.load(node_v, nb_ + 2 * L)
-            vm2 = vm2 + wc * V.load(node_v, nc + 2 * L) + wd * V.load(node_v, nd + 2 * L)
+            xm0 = bilinear(wa, wb, wc, wd, node_x, na, nb_, nc, nd)
+            xm1 = bilinear(wa, wb, wc, wd, node_x, na + L, nb_ + L, nc + L, nd + L)
+            xm2 = bilinear(wa, wb, wc, wd, node_x, na + 2 * L, nb_ + 2 * L, nc + 2 * L, nd + 2 * L)
+            vm0 = bilinear(wa, wb, wc, wd, node_v, na, nb_, nc, nd)
+            vm1 = bilinear(wa, wb, wc, wd, node_v, na + L, nb_ + L, nc + L, nd + L)
+            vm2 = bilinear(wa, wb, wc, wd, node_v, na + 2 * L, nb_ + 2 * L, nc + 2 * L, nd + 2 * L)
         else:
-            xm = scratch[L * S_XM : L * (S_XM + 6)]
+            # the corners gathered lane by lane into scratch rows, then the same vector
+            # arithmetic as above: a lane's result does not depend on the path taken
             nrm = scratch[L * S_NRM : L * (S_NRM + 3)]
             for lane in range(L):
                 i = cells[L * I_U + lane]
@@ -318,34 +343,29 @@ def contact_pass(c, x, p, sysdata, work):
                 cells[L * (I_NODES + 1) + lane] = gb
                 cells[L * (I_NODES + 2) + lane] = gc
                 cells[L * (I_NODES + 3) + lane] = gd
-                wal = V.get(wa, lane)
-                wbl = V.get(wb, lane)
-                wcl = V.get(wc, lane)
-                wdl = V.get(wd, lane)
+                for q in range(4):
+                    node = cells[L * (I_NODES + q) + lane]
+                    for d in range(3):
+                        scratch[L * (S_XM + 6 * q + d) + lane] = node_x[node + d * L]
+                        scratch[L * (S_XM + 6 * q + 3 + d) + lane] = node_v[node + d * L]
                 for d in range(3):
-                    o = d * L
-                    xm[o + lane] = (
-                        wal * node_x[ga + o]
-                        + wbl * node_x[gb + o]
-                        + wcl * node_x[gc + o]
-                        + wdl * node_x[gd + o]
-                    )
-                    xm[3 * L + o + lane] = (
-                        wal * node_v[ga + o]
-                        + wbl * node_v[gb + o]
-                        + wcl * node_v[gc + o]
-                        + wdl * node_v[gd + o]
-                    )
-                    nrm[o + lane] = normals[3 * (i * ncv + j) + d]
+                    nrm[d * L + lane] = normals[3 * (i * ncv + j) + d]
             m0 = V.load(nrm, 0)
             m1 = V.load(nrm, L)
             m2 = V.load(nrm, 2 * L)
-            xm0 = V.load(xm, 0)
-            xm1 = V.load(xm, L)
-            xm2 = V.load(xm, 2 * L)
-            vm0 = V.load(xm, 3 * L)
-            vm1 = V.load(xm, 4 * L)
-            vm2 = V.load(xm, 5 * L)
+            c0 = L * S_XM
+            step = 6 * L
+            xm0 = bilinear(wa, wb, wc, wd, scratch, c0, c0 + step, c0 + 2 * step, c0 + 3 * step)
+            c0 += L
+            xm1 = bilinear(wa, wb, wc, wd, scratch, c0, c0 + step, c0 + 2 * step, c0 + 3 * step)
+            c0 += L
+            xm2 = bilinear(wa, wb, wc, wd, scratch, c0, c0 + step, c0 + 2 * step, c0 + 3 * step)
+            c0 += L
+            vm0 = bilinear(wa, wb, wc, wd, scratch, c0, c0 + step, c0 + 2 * step, c0 + 3 * step)
+            c0 += L
+            vm1 = bilinear(wa, wb, wc, wd, scratch, c0, c0 + step, c0 + 2 * step, c0 + 3 * step)
+            c0 += L
+            vm2 = bilinear(wa, wb, wc, wd, scratch, c0, c0 + step, c0 + 2 * step, c0 + 3 * step)
             na = nb_ = nc = nd = 0
         if rotating:
             n0 = a00 * m0 + a01 * m1 + a02 * m2
@@ -419,19 +439,17 @@ def contact_pass(c, x, p, sysdata, work):
         V.store(node_f, ms + 2 * L, V.load(node_f, ms + 2 * L) + f2)
         if shared:
             for node, w in ((na, wa), (nb_, wb), (nc, wc), (nd, wd)):
-                V.store(node_f, node, V.load(node_f, node) - w * f0)
-                V.store(node_f, node + L, V.load(node_f, node + L) - w * f1)
-                V.store(node_f, node + 2 * L, V.load(node_f, node + 2 * L) - w * f2)
+                react(node_f, node, w, f0)
+                react(node_f, node + L, w, f1)
+                react(node_f, node + 2 * L, w, f2)
         else:
-            for lane in range(L):
-                g0 = V.get(f0, lane)
-                g1 = V.get(f1, lane)
-                g2 = V.get(f2, lane)
-                if g0 == 0.0 and g1 == 0.0 and g2 == 0.0:
-                    continue
-                for q in range(4):
-                    node = cells[L * (I_NODES + q) + lane]
-                    w = V.get((wa, wb, wc, wd)[q], lane)
-                    node_f[node] -= w * g0
-                    node_f[node + L] -= w * g1
-                    node_f[node + 2 * L] -= w * g2
+            # gathered, reduced with the same vector arithmetic, scattered back
+            for q in range(4):
+                w = (wa, wb, wc, wd)[q]
+                for d in range(3):
+                    row = L * (S_XM + 3 * q + d)
+                    for lane in range(L):
+                        scratch[row + lane] = node_f[cells[L * (I_NODES + q) + lane] + d * L]
+                    react(scratch, row, w, (f0, f1, f2)[d])
+                    for lane in range(L):
+                        node_f[cells[L * (I_NODES + q) + lane] + d * L] = scratch[row + lane]

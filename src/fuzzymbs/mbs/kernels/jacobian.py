@@ -111,14 +111,11 @@ def _add(jac, n, i, j, value):
 def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
     """Add every recorded contact point's ``W^T (K W + C W_q)`` to jq and ``W^T C W`` to jv."""
     jrec, jnodes = work[10], work[11]
-    w = np.zeros((3, n))  # relative position per coordinate (only two bodies' columns used)
-    wq = np.zeros((3, n))  # relative velocity per modal coordinate of a rotating body
-    kw = np.zeros((3, n))
     wl = np.zeros(3 * n * L)  # the same, four lanes per vector: [L (n r + col) + lane]
     wql = np.zeros(3 * n * L)
     kwl = np.zeros(3 * n * L)
-    nodes = np.empty(5, dtype=np.int64)
-    sigma = np.empty(5)
+    masked = np.zeros(JREC * L)  # one lane's record, the others zero
+    masters = np.empty(4, dtype=np.int64)
     row0 = 0
     for c in range(ci.shape[0]):
         nslave = ci[c, C_NSLAVE]
@@ -156,33 +153,39 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
                         jv,
                     )
                 continue
+            # lanes with master nodes of their own: each lane alone through the same
+            # vector arithmetic (the other lanes' record zeroed), so that a lane's
+            # Jacobian does not depend on the path its neighbours force
             for lane in range(L):
                 active = False
                 for e in range(18):
                     active = active or jrec[base + L * e + lane] != 0.0
                 if not active:
                     continue
-                nodes[0] = slaves[k]
-                sigma[0] = 1.0
+                for e in range(JREC * L):
+                    masked[e] = jrec[base + e] if e % L == lane else 0.0
                 for q in range(4):
-                    nodes[1 + q] = jnodes[L * 4 * (row0 + k) + L * q + lane]
-                    sigma[1 + q] = -jrec[base + L * (18 + q) + lane]
-                for r in range(3):
-                    for col in range(cols0, cols1):
-                        w[r, col] = 0.0
-                        wq[r, col] = 0.0
-                    for col in range(cols2, cols3):
-                        w[r, col] = 0.0
-                        wq[r, col] = 0.0
-                for a in range(5):
-                    body = sb if a == 0 else mb
-                    _node_map(bi, bf, fpool, rot, rot_a, body, nodes[a], sigma[a], lane, w, wq)
-                # jq += w^T (K w + C wq), jv += w^T C w (3 x cols products per body range)
-                _local_product(jrec, base, lane, w, kw, ranges, False)
-                _local_product(jrec, base + 9 * L, lane, wq, kw, ranges, True)
-                _accumulate(jq, n, w, kw, cols0, cols1, cols2, cols3, lane)
-                _local_product(jrec, base + 9 * L, lane, w, kw, ranges, False)
-                _accumulate(jv, n, w, kw, cols0, cols1, cols2, cols3, lane)
+                    masters[q] = jnodes[L * 4 * (row0 + k) + L * q + lane]
+                _contact_point_lanes(
+                    n,
+                    bi,
+                    bf,
+                    fpool,
+                    rot,
+                    rot_a,
+                    masked,
+                    0,
+                    slaves[k],
+                    masters,
+                    sb,
+                    mb,
+                    ranges,
+                    wl,
+                    wql,
+                    kwl,
+                    jq,
+                    jv,
+                )
         row0 += nslave
 
 
@@ -230,7 +233,8 @@ def _contact_point_lanes(
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def _node_map_lanes(bi, bf, fpool, rot, rot_a, b, node, sigma, n, wl, wql):
-    """:func:`_node_map` for four lanes: ``sigma`` (a vector) times the node's maps."""
+    """The node's maps ``sigma dx/dq`` (``sigma`` a vector) added to ``wl`` and, for a
+    rotating body, its relative-velocity maps ``sigma A (Omega e x Psi)`` to ``wql``."""
     kind, dof0, ntr, nm, n0, _ = body_row(bi, b)
     for a in range(ntr):
         for r in range(3):
@@ -322,7 +326,8 @@ def _add_row(wl, wql, at, sigma, c0, c1, c2, u0, u1, u2, z0, z1, z2):
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def _local_product_lanes(jrec, at, n, wl, kwl, ranges, add):
-    """:func:`_local_product` for four lanes."""
+    """``kwl`` (+)= the contact point's 3 x 3 block of the record at ``at`` times ``wl``
+    (four lanes)."""
     for half in range(2):
         for col in range(ranges[2 * half], ranges[2 * half + 1]):
             for r in range(3):
@@ -336,7 +341,7 @@ def _local_product_lanes(jrec, at, n, wl, kwl, ranges, add):
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def _accumulate_lanes(jac, n, wl, kwl, ranges):
-    """:func:`_accumulate` for four lanes."""
+    """``jac += wl^T kwl`` over the two bodies' column ranges (four lanes)."""
     for half_i in range(2):
         for i in range(ranges[2 * half_i], ranges[2 * half_i + 1]):
             w0 = V.load(wl, L * i)
@@ -350,74 +355,11 @@ def _accumulate_lanes(jac, n, wl, kwl, ranges):
                     V.store(jac, at, V.load(jac, at) + acc)
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
-def _local_product(jrec, at, lane, w, kw, ranges, add):
-    """``kw (+)= M w`` over the two column ranges, M the 3 x 3 block of the record at ``at``."""
-    for half in range(2):
-        for col in range(ranges[2 * half], ranges[2 * half + 1]):
-            for r in range(3):
-                acc = 0.0
-                for q in range(3):
-                    acc += jrec[at + L * (3 * r + q) + lane] * w[q, col]
-                kw[r, col] = kw[r, col] + acc if add else acc
-
-
 @nb.njit(cache=True)
 def _body_columns(bi, b):
     """First and end coordinate of body b."""
     _, dof0, ntr, nm, _, _ = body_row(bi, b)
     return dof0, dof0 + ntr + nm
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def _accumulate(jac, n, w, kw, c0, c1, c2, c3, lane):
-    """``jac[rows, cols] += w^T kw`` over the two bodies' column ranges (disjoint; the
-    second is empty when slave and master are one body)."""
-    for half_i in range(2):
-        lo_i = c0 if half_i == 0 else c2
-        hi_i = c1 if half_i == 0 else c3
-        for i in range(lo_i, hi_i):
-            for half_j in range(2):
-                lo_j = c0 if half_j == 0 else c2
-                hi_j = c1 if half_j == 0 else c3
-                for j in range(lo_j, hi_j):
-                    acc = w[0, i] * kw[0, j] + w[1, i] * kw[1, j] + w[2, i] * kw[2, j]
-                    jac[L * (n * i + j) + lane] += acc
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def _node_map(bi, bf, fpool, rot, rot_a, b, node, sigma, lane, w, wq):
-    """Add ``sigma dx_node/d(coordinates of body b)`` to w and, for a rotating body,
-    ``sigma dv_node/dq`` (``A Omega [e x] Psi``) to wq (one lane)."""
-    kind, dof0, ntr, nm, n0, _ = body_row(bi, b)
-    for a in range(ntr):  # frame translations along the body's axes
-        for r in range(3):
-            w[r, dof0 + a] += sigma * bf[b, 3 + 3 * a + r]
-    if nm == 0:
-        return
-    qd0 = dof0 + ntr
-    row = bi[b, B_PSI0] + (node - n0) * 3 * nm  # (xyz, mode) block of this node
-    if kind == KIND_ROTATING:
-        r9 = L * 9 * b
-        om = rot[L * (3 * b + 1) + lane]
-        e0, e1, e2 = bf[b, 12], bf[b, 13], bf[b, 14]
-        for j in range(nm):
-            u0 = fpool[row + j]
-            u1 = fpool[row + nm + j]
-            u2 = fpool[row + 2 * nm + j]
-            z0 = om * (e1 * u2 - e2 * u1)  # Omega e x u
-            z1 = om * (e2 * u0 - e0 * u2)
-            z2 = om * (e0 * u1 - e1 * u0)
-            for r in range(3):
-                a0 = rot_a[r9 + L * (3 * r) + lane]
-                a1 = rot_a[r9 + L * (3 * r + 1) + lane]
-                a2 = rot_a[r9 + L * (3 * r + 2) + lane]
-                w[r, qd0 + j] += sigma * (a0 * u0 + a1 * u1 + a2 * u2)
-                wq[r, qd0 + j] += sigma * (a0 * z0 + a1 * z1 + a2 * z2)
-    else:
-        for j in range(nm):
-            for r in range(3):
-                w[r, qd0 + j] += sigma * fpool[row + r * nm + j]
 
 
 @nb.njit(cache=True, fastmath=V.FAST)

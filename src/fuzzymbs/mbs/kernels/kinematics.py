@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numba as nb
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.layout import (
@@ -44,6 +46,38 @@ def profile_value(fpool, ptab, k, t):
     value, integral, slope = segment(ts, vs, cs, t)
     _, integral0, _ = segment(ts, vs, cs, 0.0)
     return value, integral - integral0, slope
+
+
+def profile_lanes(fpool, ptab, k, t):
+    """Value, integral from t = 0 and slope of profile k as lane vectors.
+
+    ``t`` is one time for every lane (a float) or a time per lane (an ``(L,)``
+    array): the adaptive integrator advances each lane on its own clock, so that
+    a sample's steps never depend on the samples beside it. Compiled code only.
+    """
+    raise NotImplementedError("profile_lanes is compiled by Numba only")
+
+
+@overload(profile_lanes)
+def _profile_lanes(fpool, ptab, k, t):
+    if isinstance(t, types.Float):
+
+        def one_time(fpool, ptab, k, t):
+            value, integral, slope = profile_value(fpool, ptab, k, t)
+            return V.splat(value), V.splat(integral), V.splat(slope)
+
+        return one_time
+    if isinstance(t, types.Array):
+
+        def lane_times(fpool, ptab, k, t):
+            v0, i0, s0 = profile_value(fpool, ptab, k, t[0])
+            v1, i1, s1 = profile_value(fpool, ptab, k, t[1])
+            v2, i2, s2 = profile_value(fpool, ptab, k, t[2])
+            v3, i3, s3 = profile_value(fpool, ptab, k, t[3])
+            return V.make(v0, v1, v2, v3), V.make(i0, i1, i2, i3), V.make(s0, s1, s2, s3)
+
+        return lane_times
+    return None
 
 
 @nb.njit(cache=True)
@@ -84,11 +118,12 @@ def rotation_matrix(axis, angle, out):
 def frame_rotations(t, p, bi, bf, fpool, ptab, rot, rot_a, rot3):
     """Angle, speed, acceleration (``rot``, bodies 3 L) and A(t) (``rot_a``, bodies 9 L)
     of every rotating body at time t, per lane (the speed is a parameter, so A
-    differs by lane); ``rot3`` (3, 3) is scratch."""
+    differs by lane); t is one time or a time per lane (:func:`profile_lanes`);
+    ``rot3`` (3, 3) is scratch."""
     for b in range(bi.shape[0]):
         if bi[b, B_KIND] == KIND_ROTATING:
             speed = V.load(p, L * bi[b, B_SPEED])
-            value, integral, slope = profile_value(fpool, ptab, bi[b, B_PROF], t)
+            value, integral, slope = profile_lanes(fpool, ptab, bi[b, B_PROF], t)
             V.store(rot, L * (3 * b), speed * integral)
             V.store(rot, L * (3 * b + 1), speed * value)
             V.store(rot, L * (3 * b + 2), speed * slope)
@@ -242,9 +277,10 @@ def map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
     """Generalised forces of the tracked nodes' forces, four lanes per vector.
 
     ``node_f`` (tracked 3 L) is rotated to the body frames in place; the results
-    are added to ``q_gen`` (n L). A node without force in any lane is skipped
-    (one axpy over the modes per loaded node); a body with more than a quarter
-    of its nodes loaded takes the dense transposed product instead.
+    are added to ``q_gen`` (n L): one axpy over the modes per node loaded in some
+    lane. A node unloaded in one lane adds exact zeros there, so a lane's sum does
+    not depend on the other lanes (a dense product chosen when many nodes are
+    loaded in any lane would give a lane other roundings beside other samples).
     """
     zero = V.splat(0.0)
     for b in range(bi.shape[0]):
@@ -282,53 +318,6 @@ def map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
                 V.store(node_f, m + L, a01 * f0 + a11 * f1 + a21 * f2)
                 V.store(node_f, m + 2 * L, a02 * f0 + a12 * f1 + a22 * f2)
         if nm == 0:
-            continue
-        width = 3 * (n1 - n0)
-        base = L * 3 * n0
-        if 4 * loaded > n1 - n0:
-            psit = bi[b, B_PSIT0]
-            # four modes per sweep over the entries, even and odd entries apart: eight
-            # independent FMA chains (modes beyond nm are clamped and added once only)
-            j = 0
-            while j < nm:
-                j1 = min(j + 1, nm - 1)
-                j2 = min(j + 2, nm - 1)
-                j3 = min(j + 3, nm - 1)
-                e0 = zero
-                e1 = zero
-                e2 = zero
-                e3 = zero
-                d0 = zero
-                d1 = zero
-                d2 = zero
-                d3 = zero
-                k = 0
-                while k + 1 < width:
-                    f = V.load(node_f, base + L * k)
-                    g = V.load(node_f, base + L * (k + 1))
-                    e0 = V.fma(V.broadcast(fpool, psit + j * width + k), f, e0)
-                    e1 = V.fma(V.broadcast(fpool, psit + j1 * width + k), f, e1)
-                    e2 = V.fma(V.broadcast(fpool, psit + j2 * width + k), f, e2)
-                    e3 = V.fma(V.broadcast(fpool, psit + j3 * width + k), f, e3)
-                    d0 = V.fma(V.broadcast(fpool, psit + j * width + k + 1), g, d0)
-                    d1 = V.fma(V.broadcast(fpool, psit + j1 * width + k + 1), g, d1)
-                    d2 = V.fma(V.broadcast(fpool, psit + j2 * width + k + 1), g, d2)
-                    d3 = V.fma(V.broadcast(fpool, psit + j3 * width + k + 1), g, d3)
-                    k += 2
-                if k < width:
-                    f = V.load(node_f, base + L * k)
-                    e0 = V.fma(V.broadcast(fpool, psit + j * width + k), f, e0)
-                    e1 = V.fma(V.broadcast(fpool, psit + j1 * width + k), f, e1)
-                    e2 = V.fma(V.broadcast(fpool, psit + j2 * width + k), f, e2)
-                    e3 = V.fma(V.broadcast(fpool, psit + j3 * width + k), f, e3)
-                V.store(q_gen, L * (qd0 + j), V.load(q_gen, L * (qd0 + j)) + (e0 + d0))
-                if j1 > j:
-                    V.store(q_gen, L * (qd0 + j1), V.load(q_gen, L * (qd0 + j1)) + (e1 + d1))
-                if j2 > j1:
-                    V.store(q_gen, L * (qd0 + j2), V.load(q_gen, L * (qd0 + j2)) + (e2 + d2))
-                if j3 > j2:
-                    V.store(q_gen, L * (qd0 + j3), V.load(q_gen, L * (qd0 + j3)) + (e3 + d3))
-                j += 4
             continue
         psi0 = bi[b, B_PSI0]
         for i in range(n0, n1):

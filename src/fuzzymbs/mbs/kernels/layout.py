@@ -41,10 +41,11 @@ FAILURE_REASONS = {
 }
 # rows of the float scratch array of the work tuple (each LANES wide): Schur right-hand
 # sides / cos, sin of the rotation angle; per-lane cell coordinates and on-patch flags;
-# gathered master points and normals
+# the four master nodes' positions and velocities gathered per lane (row S_XM + 6 q + d:
+# corner q, component d: x0..x2 then v0..v2); the cells' normals
 S_SCHUR, S_COS, S_SIN = 0, 0, 1
-S_XI, S_ETA, S_ON, S_XM, S_NRM = 3, 4, 5, 6, 12
-SCRATCH = 15
+S_XI, S_ETA, S_ON, S_XM, S_NRM = 3, 4, 5, 6, 30
+SCRATCH = 33
 # rows of the integer cell table of the work tuple: cell id, i, j, then the four master
 # nodes' offsets
 I_CELL, I_U, I_V, I_NODES = 0, 1, 2, 3

@@ -28,7 +28,7 @@ from fuzzymbs.mbs.kernels.kinematics import (
     frame_rotations,
     map_node_forces,
     node_kinematics,
-    profile_value,
+    profile_lanes,
 )
 from fuzzymbs.mbs.kernels.layout import (
     B_DOF0,
@@ -99,7 +99,8 @@ def get_lane(lanes, lane, values):
 
 @nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
 def rhs(t, x, dx, p, sysdata, work):
-    """Time derivatives ``dx (2n L)`` of the lane states ``x (2n L)`` at time t.
+    """Time derivatives ``dx (2n L)`` of the lane states ``x (2n L)`` at time t (one
+    float for every lane, or an ``(L,)`` array: a time per lane).
 
     ``p (slots L)``: the lanes' parameter rows, lane-minor; ``work``: from
     :func:`make_work`. Generalised forces of springs, nodal forces and contact
@@ -163,7 +164,7 @@ def rhs(t, x, dx, p, sysdata, work):
         v0 = nfi[f, 1]
         magnitude = V.load(p, L * nfi[f, 3])
         if nfi[f, 2] >= 0:
-            value, _, _ = profile_value(fpool, ptab, nfi[f, 2], t)
+            value, _, _ = profile_lanes(fpool, ptab, nfi[f, 2], t)
             magnitude = magnitude * value
         dof0 = bi[b, B_DOF0]
         if nfi[f, 4] == 0:

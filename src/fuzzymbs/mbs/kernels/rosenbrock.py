@@ -19,8 +19,11 @@ r_v + gamma h A_q r_q``, ``u_q = gamma h (r_q + u_v)``: one n x n LU per lane an
 (docs/theory.md). ``f_t`` is a forward difference in time (the prescribed rotations
 and force profiles).
 
-The four lanes share the step: the error norm ``max over lanes of
-RMS(e_i / (atol + rtol max(|y_i|, |y_new,i|)))`` decides acceptance. The next
+Each of the four lanes is a sample with its own clock: its own step, error
+norm ``RMS(e_i / (atol + rtol max(|y_i|, |y_new,i|)))``, acceptance, Jacobian
+age and records, so that a sample's outputs are bit for bit the same whatever
+samples share its block (a shared step would make every sample's error depend
+on its neighbours). The lanes still share every vector instruction. The next
 step follows Gustafsson's PI controller (Hairer & Wanner, Solving ODEs II,
 Sec. IV.8), ``h_new = h min(5, max(0.2, 0.9 err^(-0.7/3) err_prev^(0.4/3)))``
 after an accepted step (no growth right after a rejection) and
@@ -40,7 +43,7 @@ import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.jacobian import jacobian
-from fuzzymbs.mbs.kernels.layout import NONFINITE, OK, STEP_TOO_SMALL
+from fuzzymbs.mbs.kernels.layout import NONFINITE, OUT_OF_BOUND, STEP_TOO_SMALL
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
 from fuzzymbs.mbs.kernels.rhs import rhs
 from fuzzymbs.mbs.kernels.rk4 import record, retire_failed, start_block
@@ -95,30 +98,45 @@ MAX_GROWTH = 5.0
 _EXPONENT = 1.0 / 3.0
 
 
-#: control scalars of a block between slices (:func:`start_block_ros`)
-(_H, _ERR_PREV, _LU_STEP, _JAC_AGE, _NEED_JAC) = range(5)
-(_F_KNOWN, _AFTER_REJECT, _ACCEPTED, _REJECTED, _NEXT_REC, _T) = range(5, 11)
+#: control rows of a block between slices, one column per lane (:func:`start_block_ros`)
+(_H, _ERR_PREV, _LU_STEP, _JAC_AGE, _NEED_JAC, _F_KNOWN) = range(6)
+(_AFTER_REJECT, _ACCEPTED, _REJECTED, _NEXT_REC, _T, _STEP) = range(6, 12)
+_CONTROL_ROWS = 12
 
 
 @nb.njit(cache=True, nogil=True)
 def start_block_ros(sysdata, params, x0, recording, first, count, h0):
     """State of a block of samples ``first .. first + count - 1`` (count <= 4) at the start:
     ``(x, p, alive, work, vectors, matrices, piv, control)``, advanced by
-    :func:`advance_block_ros`."""
+    :func:`advance_block_ros`. ``control`` holds one column per lane: every lane
+    keeps its own time, step, error history and Jacobian age."""
     x, p, alive, _, work = start_block(sysdata, params, x0, recording, first, count)
     size = x.shape[0]
     n = size // (2 * L)
-    # f0, f_t, stage f, stage state, stage right-hand side, u_1..u_4, new state, solve
-    vectors = np.empty((11, size))
-    # da/dq, da/dv, the stage matrix I / (gamma h) - B_v - gamma h A_q per lane, then its LU
-    matrices = np.empty((3, n * n * L))
-    piv = np.empty(n * L, dtype=np.int64)
-    control = np.zeros(11)
-    control[_H] = h0
-    control[_ERR_PREV] = 1.0  # the last accepted step's error (PI control)
-    control[_LU_STEP] = -1.0  # the step the LU factors were made for
-    control[_NEED_JAC] = 1.0  # J and f_t are re-evaluated every JACOBIAN_AGE steps
+    # f0, f_t, stage f, stage state, stage right-hand side, u_1..u_4, new state, solve,
+    # then scratch for the right-hand side and f(t + delta) of lanes that renew f0 or J
+    vectors = np.zeros((13, size))
+    # da/dq, da/dv, the stage matrix I / (gamma h) - B_v - gamma h A_q per lane then its
+    # LU, and da/dq, da/dv fresh for the lanes that renew their Jacobian
+    matrices = np.zeros((5, n * n * L))
+    piv = np.zeros(n * L, dtype=np.int64)
+    control = np.zeros((_CONTROL_ROWS, L))
+    for lane in range(L):
+        control[_H, lane] = h0
+        control[_STEP, lane] = h0
+        control[_ERR_PREV, lane] = 1.0  # the last accepted step's error (PI control)
+        control[_LU_STEP, lane] = -1.0  # the step the LU factors were made for
+        control[_NEED_JAC, lane] = 1.0  # J and f_t are renewed every JACOBIAN_AGE steps
     return x, p, alive, work, vectors, matrices, piv, control
+
+
+@nb.njit(cache=True)
+def _copy_lanes(src, dst, lanes):
+    """``dst`` <- ``src`` in the lanes where ``lanes`` is True (lane-minor arrays)."""
+    for lane in range(L):
+        if lanes[lane]:
+            for i in range(src.shape[0] // L):
+                dst[L * i + lane] = src[L * i + lane]
 
 
 @nb.njit(cache=True, nogil=True, fastmath=V.FAST)
@@ -128,6 +146,14 @@ def advance_block_ros(
     """Advances a block until records ``.. rec_end - 1`` are written (a step that passes
     ``rec_end`` also writes the records it covers). Returns False when the block is
     done (its last record written, or no healthy lane left).
+
+    Every lane is a sample of its own: its own time, step size, error control,
+    Jacobian age and recording, so that its outputs are bit for bit those of the
+    sample run alone, whatever the other lanes hold. The lanes still share each
+    vector instruction; a lane that has reached the slice's end (or failed) is
+    masked out, and its arithmetic is discarded. A Jacobian (or f0) evaluation
+    is made for all lanes when any stepping lane needs one and is kept only by
+    the lanes that asked for it.
 
     Steps are chosen by the error control alone; the outputs at the recording
     times come from the cubic Hermite interpolant of the step that covers them
@@ -145,58 +171,114 @@ def advance_block_ros(
     x, p, alive, work, vectors, matrices, piv, control = state
     f0, ft, fy, y, r = vectors[0], vectors[1], vectors[2], vectors[3], vectors[4]
     u = vectors[5:9]
-    x_new, rhs_v = vectors[9], vectors[10]
-    jq, jv, mat = matrices[0], matrices[1], matrices[2]
+    x_new, rhs_v, f_fresh, ft_fresh = vectors[9], vectors[10], vectors[11], vectors[12]
+    jq, jv, mat, jq_fresh, jv_fresh = (
+        matrices[0],
+        matrices[1],
+        matrices[2],
+        matrices[3],
+        matrices[4],
+    )
     size = x.shape[0]
     nstate = size // L
     n = nstate // 2
+    t_final = t0 + (n_records - 1) * interval
+    tiny = 1e-12 * interval
     h = control[_H]
     err_prev = control[_ERR_PREV]
     lu_step = control[_LU_STEP]
-    jac_age = int(control[_JAC_AGE])
-    need_jac = control[_NEED_JAC] != 0.0
-    f_known = control[_F_KNOWN] != 0.0  # f(t, x) evaluated for the current (t, x)
-    after_reject = control[_AFTER_REJECT] != 0.0  # no growth right after a rejected step
-    accepted = int(control[_ACCEPTED])
-    rejected = int(control[_REJECTED])
-    next_rec = int(control[_NEXT_REC])  # the first record not written yet
-    t = control[_T] if next_rec > 0 else t0
-    t_final = t0 + (n_records - 1) * interval
-    tiny = 1e-12 * interval
+    jac_age = control[_JAC_AGE]
+    need_jac = control[_NEED_JAC]
+    f_known = control[_F_KNOWN]  # f(t, x) of the lane known
+    after_reject = control[_AFTER_REJECT]  # no growth right after a rejected step
+    accepted = control[_ACCEPTED]
+    rejected = control[_REJECTED]
+    next_rec = control[_NEXT_REC]  # the lane's first record not written yet
+    t = control[_T]
+    steps = control[_STEP]
+    stepping = np.zeros(L, dtype=np.bool_)
+    renew = np.zeros(L, dtype=np.bool_)
+    last = np.zeros(L, dtype=np.bool_)
+    took = np.zeros(L, dtype=np.bool_)
+    covered = np.zeros(L, dtype=np.bool_)  # an accepted step that covers a record
+    pending = np.zeros(L, dtype=np.bool_)
+    t_lane = np.empty(L)
+    delta = np.empty(L)
+    theta = np.empty(L)
+    records = np.zeros(L, dtype=np.int64)
+    rec_times = np.empty(L)
     going = True
-    if next_rec == 0:
+    if next_rec[0] == 0.0:  # the block's first call: record the initial state
+        for lane in range(L):
+            t[lane] = t0
+            next_rec[lane] = 1.0
         record(x, recording, first, count, alive, 0, t0)
-        next_rec = 1
         if retire_failed(first, count, status, alive, out, x, p) or n_records == 1:
             going = False
-    while going and next_rec < rec_end:
-        step = min(h, t_final - t)
-        last = step >= t_final - t - tiny
-        if last:
-            step = t_final - t
-        if need_jac:
-            jacobian(t, x, p, sysdata, work, f0, jq, jv)
+    while going:
+        # the lanes that step now: healthy, and short of the slice's last record
+        any_stepping = False
+        for lane in range(L):
+            stepping[lane] = lane < count and alive[lane] and next_rec[lane] < rec_end
+            stepping[lane] = stepping[lane] and next_rec[lane] < n_records
+            t_lane[lane] = t[lane]
+            if stepping[lane]:
+                any_stepping = True
+                step = min(h[lane], t_final - t[lane])
+                last[lane] = step >= t_final - t[lane] - tiny
+                steps[lane] = t_final - t[lane] if last[lane] else step
+        if not any_stepping:
+            break
+        any_renew = False
+        for lane in range(L):
+            renew[lane] = stepping[lane] and need_jac[lane] != 0.0
+            any_renew = any_renew or renew[lane]
+        if any_renew:
+            jacobian(t_lane, x, p, sysdata, work, f_fresh, jq_fresh, jv_fresh)
             # explicit time dependence (prescribed rotations, force profiles)
-            delta = max(1e-9, 1e-7 * abs(t))
-            rhs(t + delta, x, ft, p, sysdata, work)
-            for k in range(size):
-                ft[k] = (ft[k] - f0[k]) / delta
-            need_jac = False
-            jac_age = 0
-            f_known = True
-            lu_step = -1.0
-        elif not f_known:
-            rhs(t, x, f0, p, sysdata, work)
-            f_known = True
-        gh = GAMMA * step
-        if step != lu_step:
+            for lane in range(L):
+                delta[lane] = max(1e-9, 1e-7 * abs(t[lane]))
+                theta[lane] = t[lane] + delta[lane]
+            rhs(theta, x, ft_fresh, p, sysdata, work)
+            for lane in range(L):
+                if renew[lane]:
+                    for k in range(nstate):
+                        e = L * k + lane
+                        ft[e] = (ft_fresh[e] - f_fresh[e]) / delta[lane]
+                        f0[e] = f_fresh[e]
+                    need_jac[lane] = 0.0
+                    jac_age[lane] = 0.0
+                    f_known[lane] = 1.0
+                    lu_step[lane] = -1.0
+            _copy_lanes(jq_fresh, jq, renew)
+            _copy_lanes(jv_fresh, jv, renew)
+        any_renew = False
+        for lane in range(L):
+            renew[lane] = stepping[lane] and f_known[lane] == 0.0
+            any_renew = any_renew or renew[lane]
+        if any_renew:
+            rhs(t_lane, x, f_fresh, p, sysdata, work)
+            _copy_lanes(f_fresh, f0, renew)
+            for lane in range(L):
+                if renew[lane]:
+                    f_known[lane] = 1.0
+        refactor = False
+        for lane in range(L):
+            refactor = refactor or (stepping[lane] and steps[lane] != lu_step[lane])
+        step_v = V.load(steps, 0)
+        gh = GAMMA * step_v
+        if refactor:
+            # every lane's matrix is a function of its own J and step alone: a lane
+            # refactorised with an unchanged step gets the same factors
+            inv_gh = 1.0 / gh
             for e in range(n * n):
                 V.store(mat, L * e, -(V.load(jv, L * e) + gh * V.load(jq, L * e)))
             for i in range(n):
                 at_ii = L * (n * i + i)
-                V.store(mat, at_ii, V.load(mat, at_ii) + 1.0 / gh)
+                V.store(mat, at_ii, V.load(mat, at_ii) + inv_gh)
             lu_factor_lanes(mat, n, piv)
-            lu_step = step
+            for lane in range(L):
+                lu_step[lane] = steps[lane]
         for s in range(4):
             if s == 0:
                 stage_f = f0
@@ -206,12 +288,15 @@ def advance_block_ros(
                     for j in range(s):
                         acc = acc + at[s, j] * V.load(u[j], L * i)
                     V.store(y, L * i, acc)
-                rhs(t + alpha[s] * step, y, fy, p, sysdata, work)
+                for lane in range(L):
+                    theta[lane] = t[lane] + alpha[s] * steps[lane]
+                rhs(theta, y, fy, p, sysdata, work)
                 stage_f = fy
+            ft_factor = gsum[s] * step_v
             for i in range(nstate):
-                acc = V.load(stage_f, L * i) + (gsum[s] * step) * V.load(ft, L * i)
+                acc = V.load(stage_f, L * i) + ft_factor * V.load(ft, L * i)
                 for j in range(s):
-                    acc = acc + (cc[s, j] / step) * V.load(u[j], L * i)
+                    acc = acc + (cc[s, j] / step_v) * V.load(u[j], L * i)
                 V.store(r, L * i, acc)
             # velocity-reduced solve: (I/(g h) - B - g h A) u_v = r_v + g h A r_q
             for i in range(n):
@@ -225,8 +310,7 @@ def advance_block_ros(
                 solved = V.load(rhs_v, L * i)
                 V.store(us, L * (n + i), solved)
                 V.store(us, L * i, gh * (V.load(r, L * i) + solved))
-        # new state and the error norm (largest over the healthy lanes); a lane whose
-        # error is not finite fails alone
+        # new state and each lane's error norm; a lane whose error is not finite fails
         squares = V.splat(0.0)
         for i in range(nstate):
             xi = V.load(x, L * i)
@@ -241,85 +325,93 @@ def advance_block_ros(
             an = V.vabs(xn)
             scaled = e / (atol + rtol * V.where_lt(ax, an, an, ax))
             squares = squares + scaled * scaled
-        err = 0.0
         newly_failed = False
+        any_record = False
         for lane in range(L):
-            source = lane if lane < count else count - 1
-            if not alive[source]:
+            took[lane] = False
+            covered[lane] = False
+            if not stepping[lane]:
                 continue
-            norm = np.sqrt(V.get(squares, lane) / nstate)
-            if not np.isfinite(norm):
-                if lane < count and status[first + lane] == OK:
-                    status[first + lane] = NONFINITE
-                    fail_t[first + lane] = t
+            err = np.sqrt(V.get(squares, lane) / nstate)
+            if not np.isfinite(err):
+                status[first + lane] = NONFINITE
+                fail_t[first + lane] = t[lane]
+                newly_failed = True
+            elif err <= 1.0:
+                took[lane] = True
+                theta[lane] = t_final if last[lane] else t[lane] + steps[lane]
+                accepted[lane] += 1.0
+                jac_age[lane] += 1.0
+                need_jac[lane] = 1.0 if jac_age[lane] >= JACOBIAN_AGE else 0.0
+                factor = MAX_GROWTH
+                if err > 0.0:
+                    pi = 0.9 * err ** (-0.7 * _EXPONENT) * err_prev[lane] ** (0.4 * _EXPONENT)
+                    factor = min(MAX_GROWTH, max(0.2, pi))
+                err_prev[lane] = max(err, 1e-4)
+                if after_reject[lane] != 0.0:
+                    factor = min(factor, 1.0)
+                after_reject[lane] = 0.0
+                h[lane] = steps[lane] * factor
+                f_known[lane] = 0.0
+                covered[lane] = t0 + next_rec[lane] * interval <= theta[lane] + tiny
+                any_record = any_record or covered[lane]
+            else:
+                rejected[lane] += 1.0
+                after_reject[lane] = 1.0
+                h[lane] = steps[lane] * max(0.2, 0.9 * err**-_EXPONENT)
+                # an aged Jacobian may be the cause
+                if jac_age[lane] >= RENEW_AFTER_REJECT:
+                    need_jac[lane] = 1.0
+                if h[lane] < h_min:
+                    status[first + lane] = STEP_TOO_SMALL
+                    fail_t[first + lane] = t[lane]
                     newly_failed = True
-            elif norm > err:
-                err = norm
-        if err <= 1.0:
-            t_new = t_final if last else t + step
-            f_known = False
-            if t0 + next_rec * interval <= t_new + tiny:
-                # the records this step covers, from the Hermite interpolant; f at the
-                # step's end is the next step's f0
-                rhs(t_new, x_new, fy, p, sysdata, work)
-                while next_rec < n_records and t0 + next_rec * interval <= t_new + tiny:
-                    t_rec = t0 + next_rec * interval
-                    hermite(x, f0, x_new, fy, step, min(1.0, (t_rec - t) / step), y)
-                    record(y, recording, first, count, alive, next_rec, t_rec)
-                    next_rec += 1
-                for k in range(size):
-                    f0[k] = fy[k]
-                f_known = True
-                newly_failed = True  # a record may have flagged a lane out of bound
-            for k in range(size):
-                x[k] = x_new[k]
-            t = t_new
-            accepted += 1
-            jac_age += 1
-            need_jac = jac_age >= JACOBIAN_AGE
-            factor = MAX_GROWTH
-            if err > 0.0:
-                pi = 0.9 * err ** (-0.7 * _EXPONENT) * err_prev ** (0.4 * _EXPONENT)
-                factor = min(MAX_GROWTH, max(0.2, pi))
-            err_prev = max(err, 1e-4)
-            if after_reject:
-                factor = min(factor, 1.0)
-            after_reject = False
-            h = step * factor
-        else:
-            rejected += 1
-            after_reject = True
-            h = step * max(0.2, 0.9 * err**-_EXPONENT)
-            need_jac = jac_age >= RENEW_AFTER_REJECT  # an aged Jacobian may be the cause
+            if not took[lane]:
+                theta[lane] = t[lane]
+        if any_record:
+            # the records the accepted steps cover, from each lane's Hermite interpolant;
+            # f at a step's end is that lane's next f0
+            rhs(theta, x_new, fy, p, sysdata, work)
+            while True:
+                any_pending = False
+                for lane in range(L):
+                    rec_times[lane] = t0 + next_rec[lane] * interval
+                    pending[lane] = covered[lane] and next_rec[lane] < n_records
+                    pending[lane] = pending[lane] and rec_times[lane] <= theta[lane] + tiny
+                    records[lane] = int(next_rec[lane])
+                    delta[lane] = min(1.0, (rec_times[lane] - t[lane]) / steps[lane])
+                    any_pending = any_pending or pending[lane]
+                if not any_pending:
+                    break
+                hermite(x, f0, x_new, fy, step_v, V.load(delta, 0), y)
+                record_lanes(y, recording, first, pending, records, rec_times)
+                for lane in range(L):
+                    if pending[lane]:
+                        next_rec[lane] += 1.0
+            newly_failed = True  # a record may have flagged a lane out of bound
+        for lane in range(L):
+            if took[lane]:
+                for k in range(nstate):
+                    e = L * k + lane
+                    x[e] = x_new[e]
+                    if covered[lane]:
+                        f0[e] = fy[e]
+                if covered[lane]:
+                    f_known[lane] = 1.0
+                t[lane] = theta[lane]
         if newly_failed and retire_failed(first, count, status, alive, out, x, p):
             going = False
-        elif next_rec >= n_records:
-            going = False
-        elif err > 1.0 and h < h_min:
-            for lane in range(count):
-                if alive[lane]:
-                    status[first + lane] = STEP_TOO_SMALL
-                    fail_t[first + lane] = t
-            retire_failed(first, count, status, alive, out, x, p)
-            going = False
-    control[_H] = h
-    control[_ERR_PREV] = err_prev
-    control[_LU_STEP] = lu_step
-    control[_JAC_AGE] = jac_age
-    control[_NEED_JAC] = 1.0 if need_jac else 0.0
-    control[_F_KNOWN] = 1.0 if f_known else 0.0
-    control[_AFTER_REJECT] = 1.0 if after_reject else 0.0
-    control[_ACCEPTED] = accepted
-    control[_REJECTED] = rejected
-    control[_NEXT_REC] = next_rec
-    control[_T] = t
-    return going
+    more = False
+    for lane in range(count):
+        more = more or (alive[lane] and next_rec[lane] < n_records)
+    return more
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def hermite(xa, fa, xb, fb, h, theta, dst):
     """``dst`` <- the cubic Hermite interpolant at ``t_a + theta h`` of a step of length h
-    from (x_a, f_a) to (x_b, f_b), all lanes."""
+    from (x_a, f_a) to (x_b, f_b); ``h`` and ``theta`` are lane vectors (a step and a
+    point in it per lane)."""
     t2 = theta * theta
     t3 = t2 * theta
     h00 = 2.0 * t3 - 3.0 * t2 + 1.0
@@ -331,6 +423,28 @@ def hermite(xa, fa, xb, fb, h, theta, dst):
         value = h00 * V.load(xa, at) + h10 * V.load(fa, at)
         value = value + h01 * V.load(xb, at) + h11 * V.load(fb, at)
         V.store(dst, at, value)
+
+
+@nb.njit(cache=True)
+def record_lanes(x, recording, first, lanes, records, times):
+    """Outputs of the lanes marked in ``lanes`` into their own record ``records[lane]``
+    at ``times[lane]``; a lane whose output leaves its bound (or is not finite) is
+    flagged (``recording`` as for :func:`fuzzymbs.mbs.kernels.rk4.rk4`)."""
+    out_w, bound, out, status, fail_t = recording
+    nstate = x.shape[0] // L
+    for o in range(out_w.shape[0]):
+        y = V.splat(0.0)
+        for i in range(nstate):
+            w = out_w[o, i]
+            if w != 0.0:
+                y = V.fma(V.splat(w), V.load(x, L * i), y)
+        for lane in range(L):
+            if lanes[lane]:
+                yl = V.get(y, lane)
+                out[first + lane, o, records[lane]] = yl
+                if not abs(yl) <= bound[o]:  # also catches NaN
+                    status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
+                    fail_t[first + lane] = times[lane]
 
 
 #: slices (in recording intervals) a block's run is cut into when blocks share threads
@@ -364,8 +478,9 @@ def ros34pw2(sysdata, params, x0, timing, recording, tolerances, per_block, coun
         )
         if not going or end >= n_records:
             control = state[-1]
-            counts[first : first + count, 0] = int(control[_ACCEPTED])
-            counts[first : first + count, 1] = int(control[_REJECTED])
+            for lane in range(count):
+                counts[first + lane, 0] = int(control[_ACCEPTED, lane])
+                counts[first + lane, 1] = int(control[_REJECTED, lane])
         return going
 
     round_robin(n_blocks, n_records, max(1, -(-n_records // SLICES)), start, advance)
