@@ -1,4 +1,5 @@
-"""Every time-integrated study reports its own time-integration error (issue #14)."""
+"""Every time-integrated study reports its own time-integration error, on the scale of
+its cut widths."""
 
 from __future__ import annotations
 
@@ -56,31 +57,65 @@ def study(model, tolerance: float = 0.005) -> Study:
     return Study(model, fuzzy, levels=2, integration_tolerance=tolerance)
 
 
-def test_study_stores_and_summarises_the_modal_samples_deviation():
-    # closed form: the modal sample (a = 2, peak 2 at t = 0) and its tightened re-run differ
-    # by 0.9 * error * sin(pi t), at most 0.9 * 0.004 = 0.0036, i.e. 0.18 % of the peak
+def decay_band_error(error: float) -> float:
+    """Closed form of the band-relative check for :class:`Decay` with a = 2 +- 0.2 at the
+    levels 0, 0.5, 1: each bound moves by 0.9 error sin(pi t) between the model and its
+    tightened re-run; the cut at level mu is 0.4 (1 - mu) e^-t wide (widest at t = 0, the
+    floor a tenth of that); the core has no width and is left out. The narrower mu = 0.5
+    cut gives the largest ratio."""
+    ratios = [
+        0.9 * error * np.sin(np.pi * TIME) / np.maximum(w * np.exp(-TIME), 0.1 * w)
+        for w in (0.4, 0.2)
+    ]
+    return float(np.max(ratios))
+
+
+def test_study_stores_and_summarises_the_band_relative_deviation():
+    # 0.9 * 0.001 sin(pi t) against the mu = 0.5 cut 0.2 e^-t wide: 0.78 % of the cut
+    # width at t = 0.6, 0.045 % of the peak
+    expected = decay_band_error(0.001)
+    assert 0.005 < expected < 0.01
     with warnings.catch_warnings():
         warnings.simplefilter("error", TimeIntegrationWarning)
-        result = study(Decay(0.004)).run(progress=False)
+        result = study(Decay(0.001), tolerance=0.01).run(progress=False)
     attrs = result.dataset.attrs
-    assert attrs["time_integration_error"] == pytest.approx(0.9 * 0.004 / 2.0, rel=1e-12)
-    assert attrs["time_integration_tolerance"] == 0.005
+    assert attrs["time_integration_error"] == pytest.approx(expected, rel=1e-9)
+    assert attrs["time_integration_error_peak"] == pytest.approx(0.9 * 0.001 / 2.0, rel=1e-9)
+    assert attrs["time_integration_runs"] == 5  # modal, both corners of both cuts
+    assert attrs["time_integration_tolerance"] == 0.01
     assert attrs["time_integration"] == "closed form with a made-up error"
+    assert "level 0.5" in attrs["time_integration_worst"]
     text = summarize(result.dataset)
-    assert "Time integration: closed form with a made-up error; error 0.18 % of the peak" in text
-    assert "within the study's tolerance 0.5 %" in text
+    assert "Time integration: closed form with a made-up error; error 0.78 % of the cut" in text
+    assert "within the study's tolerance 1 %" in text
 
 
 def test_error_above_the_tolerance_warns_and_is_marked():
-    # 0.9 * 0.02 / 2 = 0.9 % > 0.5 %
-    with pytest.warns(TimeIntegrationWarning, match="exceeds the study's tolerance"):
-        result = study(Decay(0.02)).run(progress=False)
-    assert result.dataset.attrs["time_integration_error"] == pytest.approx(0.009, rel=1e-12)
-    assert "EXCEEDS the study's tolerance 0.5 %" in summarize(result.dataset)
-    # the same study with a tolerance of 1 % accepts it silently
+    # 20 times the error above: 16 % of the cut width > 1 % (0.9 % of the peak, which
+    # a peak-relative check at 1 % would have let through)
+    with pytest.warns(TimeIntegrationWarning, match="of the cut width exceeds"):
+        result = study(Decay(0.02), tolerance=0.01).run(progress=False)
+    expected = decay_band_error(0.02)
+    assert result.dataset.attrs["time_integration_error"] == pytest.approx(expected, rel=1e-9)
+    assert "EXCEEDS the study's tolerance 1 %" in summarize(result.dataset)
+    # the same study with a tolerance of 20 % accepts it silently
     with warnings.catch_warnings():
         warnings.simplefilter("error", TimeIntegrationWarning)
-        study(Decay(0.02), tolerance=0.01).run(progress=False)
+        study(Decay(0.02), tolerance=0.2).run(progress=False)
+
+
+def test_only_the_chosen_samples_are_re_run():
+    # integration_runs = 1: the modal sample alone; it gives no bound of the mu = 0 cut,
+    # so no element can be judged and the check says so instead of reporting 0
+    model = Decay(0.02)
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    one = Study(model, fuzzy, levels=2, integration_runs=1)
+    with pytest.warns(TimeIntegrationWarning, match="not checked"):
+        result = one.run(progress=False)
+    assert result.dataset.attrs["time_integration_runs"] == 1
+    assert np.isnan(result.dataset.attrs["time_integration_error"])
+    with pytest.raises(InvalidParameterError, match="integration_runs"):
+        Study(model, fuzzy, levels=2, integration_runs=0)
 
 
 def test_failed_tightened_run_is_reported_not_hidden():
@@ -144,7 +179,9 @@ def test_the_check_estimates_the_true_error_of_the_engine(settings):
     exact = 1e-3 * np.exp(-z * w * t) * (np.cos(wd * t) + z / np.sqrt(1 - z**2) * np.sin(wd * t))
     own = model({})["q"][0]
     true_error = peak_relative_deviation(own, exact)
-    check = check_time_integration(model, {}, {"q": own}, ["q"], tolerance=1.0)
-    assert check is not None and check.note == ""
-    assert 0.5 * true_error < check.error < 1.5 * true_error
+    check = check_time_integration(
+        model, lambda rows: {}, [0], {"q": None}, {"q": own}, 0, np.array([0.0, 1.0]), 1.0
+    )
+    assert check is not None
+    assert 0.5 * true_error < check.peak_error < 1.5 * true_error
     assert true_error > 1e-9  # a real error to estimate, not rounding

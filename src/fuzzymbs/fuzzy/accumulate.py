@@ -279,6 +279,31 @@ class OutputAccumulator:
             self.bad_level.copy(),
         )
 
+    def nested_extremes(
+        self,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+        """``(lower, upper, lower_sample, upper_sample)``, each (L, size): the nested bounds
+        of the samples fed so far and the sample that gives each (-1: none).
+
+        Level j's cut holds the points of levels j and above, so its bound is the
+        extreme over them (as in :meth:`finish`); on a tie the inner level's sample
+        is kept.
+        """
+        found = []
+        for own, arg, better in (
+            (self.own_min, self.arg_min, np.less),
+            (self.own_max, self.arg_max, np.greater),
+        ):
+            values = own.copy()
+            samples = arg.copy()
+            for j in range(self.layout.levels - 2, -1, -1):
+                keep = ~better(own[j], values[j + 1])
+                values[j] = np.where(keep, values[j + 1], own[j])
+                samples[j] = np.where(keep, samples[j + 1], arg[j])
+            found.append((values, samples))
+        (lower, lower_sample), (upper, upper_sample) = found
+        return lower, upper, lower_sample, upper_sample
+
     def bound_tally(self, level: int) -> NDArray[np.int64]:
         """(N,) how many output elements each sample bounds (smallest or largest) at ``level``."""
         tally = np.zeros(self.layout.count, dtype=np.int64)

@@ -16,9 +16,12 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
     parameter_lower, parameter_upper (level, parameter)  input alpha-cuts
     attrs: study_name, model, method, status ("complete" | "partial"), outputs (JSON),
            provenance (JSON: versions, plan, options, wall time, evaluations, ...);
-           time-integrated models: time_integration_error (largest deviation of the
-           modal sample from a tenfold tighter re-run, relative to each output's
-           peak), time_integration_tolerance, time_integration, time_integration_note;
+           time-integrated models: time_integration_error (largest deviation of a
+           bound from a tenfold tighter re-run of the samples that give the bounds,
+           relative to the cut width), time_integration_error_peak (the modal
+           sample's, relative to each output's peak), time_integration_runs,
+           time_integration_worst, time_integration_tolerance, time_integration,
+           time_integration_note;
            with validation runs: method_error (largest excursion of a validation run
            beyond its level's cut, relative to the cut's width), method_tolerance,
            validation_runs

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -24,6 +24,7 @@ import numpy as np
 from fuzzymbs.fuzzy.accumulate import OutputAccumulator, StreamLayout
 from fuzzymbs.fuzzy.retransform import FuzzyResult, from_accumulated
 from fuzzymbs.study.evaluation import ChunkResult
+from fuzzymbs.study.integration_check import CutBounds, choose_samples
 
 __all__ = ["RAW_LIMIT_BYTES", "ChunkFeed"]
 
@@ -196,3 +197,23 @@ class ChunkFeed:
     def reasons_array(self) -> np.ndarray:
         """(N,) failure reasons as str ("" where the sample succeeded)."""
         return self.reasons.astype(str)
+
+
+def integration_inputs(
+    feed: ChunkFeed, names: Sequence[str], failed: np.ndarray, runs: int
+) -> tuple[list[int], dict[str, CutBounds | None]]:
+    """What the time-integration check needs from a finished feed: the samples to re-run
+    (:func:`~fuzzymbs.study.integration_check.choose_samples`) and each output's nested
+    bounds with the samples that give them (None for a sparse plan, whose bounds come
+    from an interpolant: its check falls back to the modal sample)."""
+    nominal = feed.plan.nominal_index
+    if feed.layout is None:
+        return ([] if failed[nominal] else [nominal]), {name: None for name in names}
+    levels = len(feed.plan.levels)
+    tallies = [feed.bound_tally(level) for level in range(levels)]
+    samples = choose_samples(tallies, nominal, np.asarray(failed, dtype=bool), runs)
+    bounds = {}
+    for name in names:
+        lower, upper, lower_sample, upper_sample = feed.accumulators[name].nested_extremes()
+        bounds[name] = CutBounds(lower, upper, lower_sample, upper_sample)
+    return samples, bounds

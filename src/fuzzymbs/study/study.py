@@ -56,6 +56,7 @@ from fuzzymbs.study.execution import (
     evaluate_chunks,
 )
 from fuzzymbs.study.integration_check import (
+    DEFAULT_RUNS,
     DEFAULT_TOLERANCE,
     IntegrationCheck,
     check_time_integration,
@@ -72,7 +73,7 @@ from fuzzymbs.study.planning import (
 from fuzzymbs.study.registry import ParameterInfo
 from fuzzymbs.study.result import StudyResult, build_dataset, check_output_names
 from fuzzymbs.study.store import open_chunks
-from fuzzymbs.study.streaming import ChunkFeed
+from fuzzymbs.study.streaming import ChunkFeed, integration_inputs
 
 __all__ = ["DEFAULT_CHUNK_SIZE", "ON_FAILURE", "Study", "StudyResult"]
 
@@ -119,12 +120,16 @@ class Study:
         Method "sparse" only: sparse-grid level and search points per cut box
         (see :func:`fuzzymbs.fuzzy.transform.plan`).
     integration_tolerance : float
-        Largest time-integration error (relative to each output's peak) the study
-        accepts without a :class:`~fuzzymbs.study.integration_check.TimeIntegrationWarning`:
-        after its runs, a time-integrated model's modal sample is re-run with a
-        tenfold tighter tolerance (RK4: half the step) and the difference stored
-        as ``time_integration_error`` (:mod:`fuzzymbs.study.integration_check`).
-        Default 0.5 %.
+        Largest time-integration error the study accepts without a
+        :class:`~fuzzymbs.study.integration_check.TimeIntegrationWarning`, as a
+        fraction of the cut width: after its runs, a time-integrated model re-runs
+        the samples that give the cuts' bounds with a tenfold tighter tolerance
+        (RK4: half the step) and stores the bounds' largest deviation as
+        ``time_integration_error`` (:mod:`fuzzymbs.study.integration_check`).
+        Default 1 %.
+    integration_runs : int
+        How many samples that check re-runs (the modal one and those that give the
+        most bounds; default 8).
     validation_runs : int, optional
         Extra runs that check the method (:mod:`fuzzymbs.study.method_check`):
         points inside the cut boxes that no run of the method covers, compared
@@ -171,6 +176,7 @@ class Study:
         sparse_level: int | None = None,
         search_points: int | None = None,
         integration_tolerance: float = DEFAULT_TOLERANCE,
+        integration_runs: int = DEFAULT_RUNS,
         validation_runs: int | None = None,
         method_tolerance: float = DEFAULT_METHOD_TOLERANCE,
         widen_with_validation: bool = False,
@@ -184,6 +190,12 @@ class Study:
         ):
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise InvalidParameterError(f"{label} must be a positive number, got {value!r}")
+        if isinstance(integration_runs, bool) or not (
+            isinstance(integration_runs, (int, np.integer)) and integration_runs >= 1
+        ):
+            raise InvalidParameterError(
+                f"integration_runs must be a whole number >= 1, got {integration_runs!r}"
+            )
         if validation_runs is not None and (
             isinstance(validation_runs, bool)
             or not isinstance(validation_runs, (int, np.integer))
@@ -194,6 +206,7 @@ class Study:
                 f"got {validation_runs!r}"
             )
         self.integration_tolerance = float(integration_tolerance)
+        self.integration_runs = int(integration_runs)
         self.validation_runs = None if validation_runs is None else int(validation_runs)
         self.method_tolerance = float(method_tolerance)
         self.widen_with_validation = bool(widen_with_validation)
@@ -496,7 +509,7 @@ class Study:
         touched = self.plan.levels_touched(failed)
         if failed.any() and (on_failure != "partial" or touched.all()):
             raise IncompleteResultError(self._failure_message(failed, reasons, touched))
-        integration = self._check_time_integration(feed.nominal(), failed)
+        integration = self._check_time_integration(feed, failed)
         wall_time = time.perf_counter() - started
         dataset = build_dataset(
             self,
@@ -602,18 +615,22 @@ class Study:
         )
 
     def _check_time_integration(
-        self, nominal: Mapping[str, np.ndarray], failed: np.ndarray
+        self, feed: ChunkFeed, failed: np.ndarray
     ) -> IntegrationCheck | None:
-        """The modal sample re-run by a time-integrated model at a tighter tolerance
-        (``nominal``: the study's outputs at the modal sample)."""
-        index = self.plan.nominal_index
+        """The samples that give the bounds re-run by a time-integrated model at a tighter
+        tolerance (:mod:`fuzzymbs.study.integration_check`)."""
+        if not callable(getattr(self.model, "tightened", None)):
+            return None
+        samples, bounds = integration_inputs(feed, self.output_names, failed, self.integration_runs)
         return check_time_integration(
             self.model,
-            self.columns(index, index + 1),
-            {name: nominal[name] for name in self.output_names},
-            self.output_names,
+            lambda rows: self._columns(self.plan.samples[rows], 0, len(rows)),
+            samples,
+            bounds,
+            feed.nominal(),
+            self.plan.nominal_index,
+            self.plan.levels,
             self.integration_tolerance,
-            sample_failed=bool(failed[index]),
         )
 
     def screen(

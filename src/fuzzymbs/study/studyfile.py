@@ -4,7 +4,8 @@ Layout (see docs/studies.md)::
 
     [study]      name, description, method, levels, outputs, nonmonotonic (list or "auto"),
                  screening_rtol, sparse_level, search_points (method "sparse"),
-                 integration_tolerance (time-integrated models; default 0.005),
+                 integration_tolerance (time-integrated models: of the cut width; default 0.01),
+                 integration_runs (samples its check re-runs; default 8),
                  validation_runs (default: a fifth of the runs, at least n + 1; 0: off),
                  method_tolerance (default 0.01), widen_with_validation (default false),
                  max_runs (default 1,000,000: a larger plan is refused before it is built)
@@ -37,7 +38,7 @@ from fuzzymbs.errors import (
     StudyFileError,
 )
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS
-from fuzzymbs.study.integration_check import DEFAULT_TOLERANCE
+from fuzzymbs.study.integration_check import DEFAULT_RUNS, DEFAULT_TOLERANCE
 from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE
 from fuzzymbs.study.parameters import FUZZY_TYPES
 
@@ -59,6 +60,7 @@ class StudySection(_Section):
     sparse_level: int | None = Field(default=None, ge=1)
     search_points: int | None = Field(default=None, ge=1)
     integration_tolerance: float = Field(default=DEFAULT_TOLERANCE, gt=0.0, allow_inf_nan=False)
+    integration_runs: int = Field(default=DEFAULT_RUNS, ge=1)
     validation_runs: int | None = Field(default=None, ge=0)
     method_tolerance: float = Field(default=DEFAULT_METHOD_TOLERANCE, gt=0.0, allow_inf_nan=False)
     widen_with_validation: bool = False
@@ -327,6 +329,7 @@ def load_study_file(
             sparse_level=parsed.study.sparse_level,
             search_points=parsed.study.search_points,
             integration_tolerance=parsed.study.integration_tolerance,
+            integration_runs=parsed.study.integration_runs,
             validation_runs=parsed.study.validation_runs,
             method_tolerance=parsed.study.method_tolerance,
             widen_with_validation=parsed.study.widen_with_validation,

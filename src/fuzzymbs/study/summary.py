@@ -87,10 +87,13 @@ def summarize(dataset: xarray.Dataset) -> str:
         tolerance = float(attrs["time_integration_tolerance"])
         if np.isfinite(error):
             verdict = "within" if error <= tolerance else "EXCEEDS"
+            runs = int(attrs.get("time_integration_runs", 1))
+            peak = float(attrs.get("time_integration_error_peak", np.nan))
             lines.append(
                 f"Time integration: {attrs['time_integration']}; error {100 * error:.3g} % of "
-                f"the peak (modal sample re-run with a tenfold tighter tolerance), {verdict} "
-                f"the study's tolerance {100 * tolerance:.3g} %"
+                f"the cut width ({runs} samples that give the bounds re-run with a tenfold "
+                f"tighter tolerance; {100 * peak:.2g} % of the peak at the modal sample), "
+                f"{verdict} the study's tolerance {100 * tolerance:.3g} %"
             )
         else:
             lines.append(
