@@ -42,8 +42,8 @@ class SimulationResult:
     time : (T,) recording times [s].
     outputs : {name: (B, T)} recorded outputs (NaN rows for failed samples).
     failed : (B,) bool; failure_reason : (B,) str; failure_time : (B,) [s] (NaN if ok).
-    step_counts : (B, 2) accepted and rejected steps per sample (ROS34PW2; shared by a
-        block's samples), None for RK4 (``t_end / dt`` steps).
+    step_counts : (B, 2) accepted and rejected steps per sample (ROS34PW2), None for RK4
+        (``t_end / dt`` steps).
     """
 
     time: NDArray[np.float64]
@@ -113,22 +113,20 @@ def simulate(
         four samples per quantity, :mod:`fuzzymbs.mbs.kernels`). ``"auto"`` and
         ``"lanes"``: blocks of four samples, a last, partial block padded with
         copies of its last sample. ``"samples"``: a block per sample, its four
-        lanes repeating it, so that no sample's result depends on another's
-        (about 1.4 times the cost per sample, docs/benchmarks.md). Both evaluate
-        the same code; results agree to rounding (about 1e-13 of a signal's
-        range after hundreds of steps): a sample's last digits may depend on the
-        samples it shares a block with (which contact path a block takes).
+        lanes repeating it (about 1.4 times the cost per sample,
+        docs/benchmarks.md). Both give every sample the same arithmetic, so its
+        outputs are bit for bit the same whichever samples share its block.
     integrator : {"rk4", "ros34pw2"}
         ``"rk4"``: classic RK4 at the fixed step dt (the brake paper's method;
         stable only for ``|lambda dt| < 2.785`` on the real axis). ``"ros34pw2"``:
-        the linearly implicit ROS34PW2 with error control, steps ending at the
-        recording times (docs/theory.md, "ROS34PW2"); opt-in: its cost is
-        still being brought down (issue #14).
+        the linearly implicit ROS34PW2 with error control, each sample on its own
+        step sequence, so that its outputs do not depend on the samples beside it
+        (docs/theory.md, "ROS34PW2").
     rtol, atol : float
-        ROS34PW2's tolerances: a step is accepted when the RMS over the state of
-        ``error / (atol + rtol |x|)`` is at most 1 in every sample of its block;
-        atol defaults to ``1e-5 rtol`` (positions in m, velocities in m/s; 1e-4 rtol left
-        the brake caliper's 0.7 nm signal 14 % off, docs/brake.md).
+        ROS34PW2's tolerances: a sample's step is accepted when the RMS over its state
+        of ``error / (atol + rtol |x|)`` is at most 1; atol defaults to ``1e-5 rtol``
+        (positions in m, velocities in m/s; 1e-4 rtol left the brake caliper's 0.7 nm
+        signal 14 % off, docs/brake.md).
     """
     _check_kernel(kernel)
     tolerances = _check_integrator(integrator, rtol, atol)
