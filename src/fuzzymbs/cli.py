@@ -24,6 +24,26 @@ app = typer.Typer(
 EXIT_ERROR = 1
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        from fuzzymbs import __version__
+
+        typer.echo(f"fuzzymbs {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_print_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
+    """Fuzzy-arithmetical uncertainty analysis of multibody contact models."""
+
+
 def _setup_logging(quiet: bool, verbose: bool) -> None:
     from rich.console import Console
     from rich.logging import RichHandler

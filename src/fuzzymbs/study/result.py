@@ -14,7 +14,8 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
     level_usage                    (level, sample)
     level_complete                 (level)
     parameter_lower, parameter_upper (level, parameter)  input alpha-cuts
-    attrs: study_name, model, method, status ("complete" | "partial"), outputs (JSON),
+    attrs: fuzzymbs_version, study_name, model, method, status ("complete" | "partial"),
+           outputs (JSON),
            provenance (JSON: versions, plan, options, wall time, evaluations, ...);
            time-integrated models: time_integration_error (largest deviation of the
            modal sample from a tenfold tighter re-run, relative to each output's
@@ -361,6 +362,7 @@ def build_dataset(
     dataset.attrs.update(
         {
             "title": f"fuzzymbs study {study.name}",
+            "fuzzymbs_version": str(code.get("fuzzymbs_version", "")),
             "study_name": study.name,
             "description": study.description,
             "model": study.model_name,
