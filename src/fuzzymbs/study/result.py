@@ -6,6 +6,7 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
     o_lower, o_upper               (level, *dims)   alpha-cut bounds (NaN: level incomplete)
     o_nominal                      (*dims)          output at the all-modal point
     o_reference                    (*dims)          the model's reference curve, if any
+                                                    (long_name: the model's reference_labels)
     o_gain                         (parameter, level, *dims)  eta_i^(j)  [reduced/extended]
     o_mean_gain, o_absolute_influence, o_relative_influence  (parameter, *dims)
     o_samples                      (sample, *dims)  raw outputs (keep_raw)
@@ -257,6 +258,7 @@ def build_dataset(
     units = study.units()
     reference = getattr(study.model, "reference", None) or {}
     coord_units = getattr(study.model, "coord_units", None) or {}
+    reference_labels = getattr(study.model, "reference_labels", None) or {}
 
     coords: dict[str, Any] = {
         "level": ("level", plan.levels, {"long_name": "membership level mu"}),
@@ -289,7 +291,12 @@ def build_dataset(
         nominal = result.nominal if result.nominal is not None else np.full(result.shape, np.nan)
         data[f"{name}_nominal"] = (dims, nominal, attrs)
         if name in reference and np.shape(reference[name]) == result.shape:
-            data[f"{name}_reference"] = (dims, np.asarray(reference[name], dtype=float), attrs)
+            label = reference_labels.get(name)
+            data[f"{name}_reference"] = (
+                dims,
+                np.asarray(reference[name], dtype=float),
+                {**attrs, "long_name": label} if label else attrs,
+            )
         if raw is not None:
             data[f"{name}_samples"] = (("sample", *dims), raw[name], attrs)
         if failed.any():
