@@ -168,7 +168,7 @@ def test_narrow_bands_get_relative_view_and_zoomed_windows():
 
 
 def test_engineering_units_from_the_data():
-    from fuzzymbs.units import engineering_scale, format_quantity
+    from fuzzymbs.units import Scale, engineering_scale, format_quantity
 
     assert engineering_scale([1.2e-5, 3e-6], "m").unit == "µm"
     assert engineering_scale([0.0, 0.01], "s").unit == "ms"
@@ -178,8 +178,13 @@ def test_engineering_units_from_the_data():
     assert engineering_scale([3.5e4], "Hz").unit == "kHz"
     # units that take no prefix: already prefixed, powers, free text, dimensionless
     for unit in ("kg", "m^2", "periods", "1", ""):
-        assert engineering_scale([1e-5, 2e4], unit).factor == 1.0
+        assert engineering_scale([1e-5, 2e3], unit).factor == 1.0
     assert engineering_scale([np.nan, 0.0], "m").factor == 1.0
+    # a unit without prefix takes a power of ten outside [0.01, 1e4), so axes need no offset
+    assert engineering_scale([-5.5e-5], "1/s") == Scale(1e-6, "10⁻⁶ 1/s")
+    assert engineering_scale([0.5], "periods") == Scale(1.0, "periods")
+    assert engineering_scale([-5.5e-5], "1/s", powers=False).factor == 1.0
+    assert format_quantity(-5.5e-5, "1/s") == "-5.5e-05 1/s"
     assert format_quantity(1.2345e-5, "m") == "12.35 µm"
     assert format_quantity(np.nan, "m") == "n/a"
 

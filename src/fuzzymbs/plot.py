@@ -92,7 +92,7 @@ def _coordinate(dataset: xarray.Dataset, dim: str, size: int) -> tuple[np.ndarra
         return np.arange(size, dtype=float), Scale(1.0, ""), f"{dim} (index)"
     coordinate = dataset[dim]
     scale = engineering_scale(coordinate.values, coordinate.attrs.get("units"))
-    name = coordinate.attrs.get("long_name") or COORDINATE_NAMES.get(dim, dim)
+    name = coordinate.attrs.get("long_name") or COORDINATE_NAMES.get(dim, dim.replace("_", " "))
     return scale(coordinate.values), scale, str(name)
 
 
@@ -332,9 +332,10 @@ def plot_fuzzy_signal(dataset: xarray.Dataset, output: str) -> Figure:
         and np.nanmax(width) < NARROW_BANDS * signal_range
     )
     windows = _zoom_windows(width, nominal) if narrow else []
-    figure = _figure(7.0, 8.4 if narrow else 4.4)
+    rows = 1 + narrow + bool(windows)
+    figure = _figure(7.0, 1.2 + 3.0 * rows)
     if narrow:
-        grid = figure.add_gridspec(3, max(1, len(windows)))
+        grid = figure.add_gridspec(rows, max(1, len(windows)))
         ax = figure.add_subplot(grid[0, :])
         relative_ax = figure.add_subplot(grid[1, :], sharex=ax)
         zoom_axes = [figure.add_subplot(grid[2, k]) for k in range(len(windows))]

@@ -157,7 +157,7 @@ def _inputs_section(dataset: xarray.Dataset) -> str:
     rows = []
     for i, name in enumerate(str(n) for n in dataset["parameter"].values):
         values = [lower[0, i], lower[-1, i], upper[-1, i], upper[0, i]]
-        scale = engineering_scale(values, units.get(name))  # one prefix per row
+        scale = engineering_scale(values, units.get(name), powers=False)  # one prefix per row
         rows.append([name, *(f"{scale(v).item():.5g} {scale.unit}".strip() for v in values)])
     table = _table(
         ["parameter", "support lower", "core lower", "core upper", "support upper"], rows, 4
@@ -167,7 +167,7 @@ def _inputs_section(dataset: xarray.Dataset) -> str:
 
 
 def _cut_rows(dataset: xarray.Dataset, lower: np.ndarray, upper: np.ndarray, unit: str) -> list:
-    scale = engineering_scale(np.concatenate([lower, upper]), unit)
+    scale = engineering_scale(np.concatenate([lower, upper]), unit, powers=False)
     complete = dataset["level_complete"].values.astype(bool)
     return [
         [
@@ -188,8 +188,10 @@ def _signal_table(
     dims = dataset[f"{name}_lower"].dims[1:]
     width = upper - lower
     finite = np.isfinite(width).reshape(width.shape[0], -1).any(axis=1)
-    scale = engineering_scale(np.concatenate([lower.ravel(), upper.ravel()]), unit)
-    width_scale = engineering_scale(width[finite], unit) if finite.any() else Scale(1.0, unit)
+    scale = engineering_scale(np.concatenate([lower.ravel(), upper.ravel()]), unit, powers=False)
+    width_scale = (
+        engineering_scale(width[finite], unit, powers=False) if finite.any() else Scale(1.0, unit)
+    )
     rows = []
     for j, mu in enumerate(dataset["level"].values):
         if not finite[j]:

@@ -59,8 +59,15 @@ def prefixable(unit: str | None) -> bool:
     return symbol in _SYMBOLS and not rest.startswith("^")
 
 
-def engineering_scale(values: ArrayLike, unit: str | None) -> Scale:
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def engineering_scale(values: ArrayLike, unit: str | None, powers: bool = True) -> Scale:
     """The SI prefix that puts the largest magnitude of ``values`` in [1, 1000).
+
+    A unit that takes no prefix (``1/s``, ``1``, ``periods``) gets a power of ten
+    instead (``10⁻⁶ 1/s``) when ``powers`` is true and the largest magnitude is
+    below 0.01 or from 10,000 up; axis labels then need no offset text.
 
     Parameters
     ----------
@@ -75,23 +82,25 @@ def engineering_scale(values: ArrayLike, unit: str | None) -> Scale:
         Factor 1 and the unit unchanged when the unit takes no prefix or the
         data are all zero or not finite.
     """
-    unit = unit or ""
-    if not prefixable(unit):
-        return Scale(1.0, unit)
+    unit = (unit or "").strip()
     array = np.abs(np.asarray(values, dtype=float))
     array = array[np.isfinite(array)]
     largest = float(array.max()) if array.size else 0.0
     if largest == 0.0:
         return Scale(1.0, unit)
     exponent = 3 * math.floor(math.log10(largest) / 3)
+    if not prefixable(unit):
+        if not powers or 1e-2 <= largest < 1e4:
+            return Scale(1.0, unit)
+        return Scale(10.0**exponent, f"10{str(exponent).translate(_SUPERSCRIPT)} {unit}".strip())
     exponent = min(max(exponent, min(PREFIXES)), max(PREFIXES))
-    return Scale(10.0**exponent, PREFIXES[exponent] + unit.strip())
+    return Scale(10.0**exponent, PREFIXES[exponent] + unit)
 
 
 def format_quantity(value: float, unit: str | None, digits: int = 4) -> str:
     """``value`` with its own prefix and ``digits`` significant digits, e.g. "12.35 µm"."""
     if not np.isfinite(value):
         return "n/a"
-    scale = engineering_scale([value], unit)
+    scale = engineering_scale([value], unit, powers=False)
     text = f"{scale(value).item():.{digits}g}"
     return f"{text} {scale.unit}" if scale.unit else text
