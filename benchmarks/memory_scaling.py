@@ -1,4 +1,4 @@
-"""Peak memory of a study against its run count (issue #15: constant in the number of runs).
+"""Peak memory of a study against its run count (constant in the number of runs).
 
 Each case runs in a fresh interpreter (``python memory_scaling.py --case LEVELS KEEP_RAW``)
 and reports its peak resident set size (``ru_maxrss``) after the study, and the same

@@ -1,4 +1,4 @@
-"""ROS34PW2 against RK4 on the disc brake: error and cost (issue #14).
+"""ROS34PW2 against RK4 on the disc brake: error and cost.
 
     python benchmarks/ros_accuracy.py [--quick] [--rtol 1e-2 3e-3 ...]
 

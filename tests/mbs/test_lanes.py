@@ -9,9 +9,8 @@ closed forms and a NumPy implementation of the right-hand side elsewhere
 (tests/mbs, tests/test_benchmarks_smoke.py). Blocks decide per block which
 contact path and whether friction runs, so results agree to rounding growth.
 
-Until session 4 the per-sample reference here was a second, scalar
-implementation of the right-hand side (kernels.py); it was removed when the
-physics was written once (docs/embs.md, "The kernels").
+The physics exists once, in the four-lane form (docs/embs.md, "The kernels"):
+the per-sample reference is the same code run one sample per block.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Every time-integrated study reports its own time-integration error (issue #14)."""
+"""Every time-integrated study reports its own time-integration error."""
 
 from __future__ import annotations
 

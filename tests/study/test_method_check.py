@@ -1,4 +1,4 @@
-"""Every study checks its own fuzzy method: validation runs and method_error (issue #18).
+"""Every study checks its own fuzzy method: validation runs and method_error.
 
 References: models whose exact alpha-cuts are known in closed form or by dense search
 (a tensor grid of 81 points per parameter over each cut box).
