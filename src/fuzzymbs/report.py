@@ -279,10 +279,13 @@ def _output_section(dataset: xarray.Dataset, name: str, memberships: Sequence[di
         for spec in memberships:
             if spec.get("output") != name:
                 continue
-            figure = plot_output_membership(dataset, name, spec.get("coord"), spec.get("value"))
-            parts.append(
-                _figure_html(figure, f"Membership of {name} at {spec['coord']} = {spec['value']}.")
-            )
+            coord, value = spec.get("coord"), spec.get("value")
+            figure = plot_output_membership(dataset, name, coord, value)
+            where = ""
+            if coord is not None:
+                unit = dataset[coord].attrs.get("units") if coord in dataset.coords else None
+                where = f" at {coord} = {format_quantity(float(value), unit)}"
+            parts.append(_figure_html(figure, f"Membership function of {name}{where}."))
     if name in json.loads(dataset.attrs.get("influence_outputs", "[]")):
         parts.append(_influence_html(dataset, name))
     return "".join(parts)
