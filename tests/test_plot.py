@@ -205,3 +205,35 @@ def test_gear_figures_name_the_mesh_position_and_the_reference(tmp_path):
     assert figure.axes[0].get_ylabel() == "ste [µm]"
     labels = [text.get_text() for text in figure.legends[0].get_texts()]
     assert "reference: potential-energy method" in labels
+
+
+def test_identify_figures_use_the_output_units():
+    import json
+
+    import xarray as xr
+
+    from fuzzymbs.plot import plot_inverse_outputs
+
+    levels = np.array([0.0, 0.5, 1.0])
+    measured = (
+        np.array([[6.31e-6], [6.34e-6], [6.37e-6]]),
+        np.array([[6.95e-6], [6.66e-6], [6.37e-6]]),
+    )
+    forward = measured[0] + 1e-8, measured[1] - 1e-8
+    dataset = xr.Dataset(
+        {
+            "measured_lower": (("level", "output"), measured[0]),
+            "measured_upper": (("level", "output"), measured[1]),
+            "forward_lower": (("level", "output"), forward[0]),
+            "forward_upper": (("level", "output"), forward[1]),
+        },
+        coords={"level": levels, "output": ["ste_mean"]},
+        attrs={"study_name": "id", "output_units": json.dumps({"ste_mean": "m"})},
+    )
+    figure = plot_inverse_outputs(dataset)
+    assert figure.axes[0].get_xlabel() == "ste mean [µm]"
+    # the measured membership is drawn in um: its support is [6.31, 6.95]
+    x, _ = figure.axes[0].get_lines()[0].get_data()
+    assert min(x) == pytest.approx(6.31) and max(x) == pytest.approx(6.95)
+    labels = [text.get_text() for text in figure.legends[0].get_texts()]
+    assert labels == ["measured", "identified, propagated"]
