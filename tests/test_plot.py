@@ -237,3 +237,17 @@ def test_identify_figures_use_the_output_units():
     assert min(x) == pytest.approx(6.31) and max(x) == pytest.approx(6.95)
     labels = [text.get_text() for text in figure.legends[0].get_texts()]
     assert labels == ["measured", "identified, propagated"]
+
+
+def test_a_signal_without_any_bounded_level_is_drawn_empty_without_warnings():
+    import warnings
+
+    dataset = _narrow_ringing_dataset(size=50)
+    for name in ("y_lower", "y_upper", "y_nominal"):
+        dataset[name].values[...] = np.nan
+    dataset["level_complete"].values[:] = False
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        figure = plot_fuzzy_signal(dataset, "y")
+    assert len(figure.axes) == 1 and not figure.axes[0].collections
+    assert "PARTIAL" in figure._suptitle.get_text()

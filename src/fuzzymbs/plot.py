@@ -323,14 +323,12 @@ def plot_fuzzy_signal(dataset: xarray.Dataset, output: str) -> Figure:
     )
     known = np.flatnonzero(np.isfinite(lower).any(axis=1))
     width = upper[known[0]] - lower[known[0]] if known.size else np.full(x.shape, np.nan)
-    signal_range = np.nanmax(np.concatenate([upper.ravel(), nominal])) - np.nanmin(
-        np.concatenate([lower.ravel(), nominal])
-    )
-    narrow = bool(
-        np.isfinite(nominal).all()
-        and np.isfinite(width).any()
-        and np.nanmax(width) < NARROW_BANDS * signal_range
-    )
+    narrow = False
+    if np.isfinite(nominal).all() and np.isfinite(width).any():  # else nothing to zoom on
+        signal_range = max(np.nanmax(upper[known]), nominal.max()) - min(
+            np.nanmin(lower[known]), nominal.min()
+        )
+        narrow = bool(np.nanmax(width) < NARROW_BANDS * signal_range)
     windows = _zoom_windows(width, nominal) if narrow else []
     rows = 1 + narrow + bool(windows)
     figure = _figure(7.0, 1.2 + 3.0 * rows)
