@@ -429,8 +429,10 @@ def plot_influence(dataset: xarray.Dataset, output: str) -> Figure:
     else:
         dim = absolute.dims[1]
         x, coord_scale, coord_name = _coordinate(dataset, dim, absolute.shape[1])
-        left.stackplot(x, np.nan_to_num(scale(absolute.values)), labels=names, colors=colors)
-        right.stackplot(x, np.nan_to_num(relative.values), colors=colors)
+        # no edge lines: on a fast-oscillating signal they wash the areas out
+        areas = {"colors": colors, "linewidth": 0}
+        left.stackplot(x, np.nan_to_num(scale(absolute.values)), labels=names, **areas)
+        right.stackplot(x, np.nan_to_num(relative.values), **areas)
         for ax in (left, right):
             ax.set_xlabel(coord_scale.label(coord_name))
         right.set_ylim(0, 1)
