@@ -368,8 +368,6 @@ def render_report(dataset: xarray.Dataset, directory: str | Path | None = None) 
     str
         A complete HTML document without external resources.
     """
-    from fuzzymbs.study.summary import summarize
-
     attrs = dataset.attrs
     title = str(attrs.get("description") or attrs.get("study_name", "fuzzymbs study"))
     outputs = json.loads(attrs["outputs"])
@@ -404,10 +402,6 @@ def render_report(dataset: xarray.Dataset, directory: str | Path | None = None) 
     parts += [_output_section(dataset, name, memberships) for name in outputs]
     parts.append(_failures_section(dataset))
     parts.append(_provenance_section(dataset, command))
-    parts.append(
-        "<h2>Summary (summary.txt)</h2>"
-        f"<details><summary>plain text</summary><pre>{_e(summarize(dataset))}</pre></details>"
-    )
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"
 
