@@ -13,7 +13,7 @@ compiles or loads the Numba kernels and imports what building a result needs):
   validation runs, docs/studies.md; both studies make them), whose result is
   ``study1_default_time_integration_error``; ``study1_rk4_1us_warm_s``: the same
   study with the paper's RK4 at dt = 1 us (its check: dt = 0.5 us), and
-  ``study1_default_over_rk4_1us`` the ratio (issue #14: at most 4);
+  ``study1_default_over_rk4_1us`` the ratio (target: at most 4);
   ``study1_rk4_samples_kernel_warm_s``: the RK4 study with ``kernel="samples"``
   (a block per sample, its lanes repeating it). ``--quick``: 1 ms instead of
   10 ms (``study1_rk4_1us_warm_s_per_10ms`` extrapolates);

@@ -1,4 +1,4 @@
-"""Work-precision diagram of the disc brake's time integrators (issue #14); one JSON line.
+"""Work-precision diagram of the disc brake's time integrators; one JSON line.
 
     python benchmarks/brake_work_precision.py [--quick] [--figure PATH] [--scipy-budget S]
 

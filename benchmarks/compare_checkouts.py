@@ -11,7 +11,7 @@ the path; the two checkouts alternate, ``--rounds`` times. Prints one JSON line:
 * ``cold`` (with ``--cold``): the first call of a 20 us brake with an empty Numba
   cache directory (``benchmarks/startup.py``'s child), i.e. the cold compile.
 
-docs/benchmarks.md's before/after tables of session 4 were measured this way.
+docs/benchmarks.md's before/after tables are measured this way.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 
 from bench_common import REPO, run_json_subprocess
 
-# the paper's RK4 on both sides (checkouts before #14 have no integrator option)
+# the paper's RK4 on both sides (checkouts without the integrator option run RK4 anyway)
 _RK4 = """
 import inspect
 from fuzzymbs.models.brake import DiscBrake

@@ -1,4 +1,4 @@
-"""Dask scaling of a large gear study (issue #15): two single-thread workers against one core.
+"""Dask scaling of a large gear study: two single-thread workers against one core.
 
     python benchmarks/dask_scaling.py [--quick] [--repeat N] [--chunk-sizes 64,256,1024,4096]
                                       [--no-diagnostics] [--only PREFIX,...]

@@ -1,4 +1,4 @@
-"""Cost per run of the external models (issue #16): FMU (FMPy) and command models.
+"""Cost per run of the external models: FMU (FMPy) and command models.
 
 Builds the example damped-oscillator FMU (examples/fmu, FMI 2.0 and 3.0, needs a C
 compiler) and times, warm, per sample: co-simulation and model exchange (CVODE,

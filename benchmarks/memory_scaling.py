@@ -1,4 +1,4 @@
-"""Peak memory of a study against its run count (issue #15: constant in the number of runs).
+"""Peak memory of a study against its run count (constant in the number of runs).
 
 Each case runs in a fresh interpreter (``python memory_scaling.py --case LEVELS KEEP_RAW``)
 and reports its peak resident set size (``ru_maxrss``) after the study, and the same
@@ -6,8 +6,8 @@ interpreter's peak after imports and a warm-up study of 27 runs (the baseline
 of the same run: what Python, NumPy, xarray and the model cost before the study).
 The study: the registered ``damped-oscillator`` (2001-point displacement signal) on the
 full alpha-bound grid with three triangular parameters, levels m: (2m + 1)^3 runs --
-11^3 = 1,331 (m = 5) and 25^3 = 15,625 (m = 12), the cases of the issue (258 MB and
-1.36 GB peak before the online retransformation). ``keep_raw=True`` puts every
+11^3 = 1,331 (m = 5) and 25^3 = 15,625 (m = 12) (258 MB and 1.36 GB peak for a
+retransformation that keeps every raw output). ``keep_raw=True`` puts every
 sample's outputs into the result again (for comparison).
 
 Usage::
@@ -99,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
         rows.append(measure(large, True))
     figures = {
         "rows": rows,
-        # the issue's goal: the large case within 1.25 times the small one (streaming)
+        # the target: the large case within 1.25 times the small one (streaming)
         "peak_ratio_large_to_small": round(rows[1]["peak_mb"] / rows[0]["peak_mb"], 3),
         "study_memory_ratio_large_to_small": round(
             (rows[1]["peak_mb"] - rows[1]["baseline_peak_mb"])

@@ -1,4 +1,4 @@
-"""Memory of building a plan, per run, near the default run limit (issue #15: max_runs).
+"""Memory of building a plan, per run, near the default run limit (max_runs).
 
 For each plan: the closed-form run count (``run_count``, no arrays), the peak of
 traced allocations while ``plan(...)`` builds it (tracemalloc: NumPy reports its

@@ -1,8 +1,8 @@
-"""ROS34PW2 against RK4 on the disc brake: error and cost (issue #14).
+"""ROS34PW2 against RK4 on the disc brake: error and cost.
 
     python benchmarks/ros_accuracy.py [--quick] [--rtol 1e-2 3e-3 ...]
 
-Prints one JSON line. For the nominal brake and the corner sample of the issue
+Prints one JSON line. For the nominal brake and the corner sample
 (k -10 %, k_c +10 %, F_n +1 %) over 10 ms (``--quick``: 1 ms), recorded every
 10 us: the largest deviation over time of y_lpad / y_upad from RK4 at
 dt = 1 us / 64 (15.6 ns, the converged reference of docs/brake.md), relative to
@@ -30,7 +30,7 @@ OUTPUTS = {
     "y_upad": Coordinate("upper_pad", 0),
     "y_cali": Coordinate("caliper", 0),
 }
-PADS = 2  # the issue's criterion: y_lpad and y_upad; y_cali reported apart
+PADS = 2  # the accuracy criterion: y_lpad and y_upad; y_cali reported apart
 RECORD = 1e-5  # s
 SAMPLES = {
     "nominal": {},

@@ -30,7 +30,7 @@ sys.path.insert(1, str(Path(__file__).resolve().parent.parent / "src"))
 
 from bench_common import load_average, log, machine  # noqa: E402
 
-#: (JSON key, comparison, target) of the issue's targets on the 2-core machine.
+#: (JSON key, comparison, target) of the performance targets on the 2-core machine.
 TARGETS = (
     ("brake_study_seconds", "<=", 5.0),
     ("brake_speedup_vs_numpy_loop", ">=", 50.0),

@@ -1,4 +1,4 @@
-"""The 117,649-run gear tolerance study (issue #15): inline and on a local Dask cluster.
+"""The 117,649-run gear tolerance study: inline and on a local Dask cluster.
 
 Runs ``examples/gear_tolerances_117649.toml`` (full grid, levels 3 over six
 parameters) in a fresh interpreter per executor -- inline (Numba's default

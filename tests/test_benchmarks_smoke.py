@@ -156,7 +156,7 @@ def test_lane_sharing_counts_shared_and_split_cells(brake):
 
 
 def test_ros_accuracy_table_runs():
-    # the script behind the ROS34PW2 figures of the issue note and docs/theory.md, on a
+    # the script behind the ROS34PW2 figures of docs/theory.md, on a
     # 50 us window: every integrator close to the fine RK4 reference there
     import ros_accuracy
 

@@ -223,7 +223,7 @@ def test_console_script_runs_a_shipped_study(tmp_path):
     assert "Status: complete" in (tmp_path / "out" / "summary.txt").read_text()
 
 
-# --------------------------------------------- plans too large to run (issue #15: max_runs)
+# ------------------------------------------------------ plans too large to run (max_runs)
 WIDE_MODEL = """
 def build():
     def total(samples):

@@ -19,3 +19,12 @@ def test_unknown_attribute_raises():
 def test_errors_are_builtin_subclasses():
     assert issubclass(errors.InvalidFuzzyNumberError, ValueError)
     assert issubclass(errors.UnsupportedOperationError, TypeError)
+
+
+def test_version_is_the_changelogs_latest():
+    # the CHANGELOG's first "## [x.y.z]" heading is the version the package reports
+    from pathlib import Path
+
+    changelog = Path(__file__).parents[1] / "CHANGELOG.md"
+    headings = [line for line in changelog.read_text().splitlines() if line.startswith("## [")]
+    assert headings and headings[0].startswith(f"## [{fuzzymbs.__version__}]")

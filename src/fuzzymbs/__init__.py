@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from fuzzymbs._lazy import lazy_exports
 
-__version__ = "0.1.0.dev0"
+__version__ = "0.2.0"
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {

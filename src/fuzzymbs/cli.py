@@ -1,4 +1,4 @@
-"""Command line: ``fuzzymbs run | demo | plot | info``.
+"""Command line: ``fuzzymbs run | demo | plot | report | identify | info``.
 
 Heavy modules (NumPy, xarray, matplotlib, models) are imported inside the
 commands so that ``fuzzymbs --help`` and ``fuzzymbs info`` start quickly.
@@ -22,6 +22,26 @@ app = typer.Typer(
 )
 
 EXIT_ERROR = 1
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        from fuzzymbs import __version__
+
+        typer.echo(f"fuzzymbs {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_print_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
+    """Fuzzy-arithmetical uncertainty analysis of multibody contact models."""
 
 
 def _setup_logging(quiet: bool, verbose: bool) -> None:
@@ -48,9 +68,25 @@ def _run_one(study_file: Path, out: Path, **options: object) -> None:
         written = run_study_file(study_file, out, **options)  # type: ignore[arg-type]
     except FuzzymbsError as exc:
         raise _fail(str(exc)) from None
+    report = f", report: {written.report_path}" if written.report_path else ""
     typer.echo(
-        f"{written.result_path}  ({len(written.plots)} plots, summary: {written.summary_path})"
+        f"{written.result_path}  ({len(written.plots)} plots, summary: {written.summary_path}"
+        f"{report})"
     )
+
+
+def _command(*arguments: str, **options: object) -> str:
+    """The fuzzymbs command line of the given arguments and the options that were set."""
+    import shlex
+
+    words = ["fuzzymbs", *arguments]
+    for name, value in options.items():
+        flag = "--" + name.replace("_", "-")
+        if value is True:
+            words.append(flag)
+        elif value is not None and value is not False:
+            words += [flag, str(value)]
+    return shlex.join(words)
 
 
 QuietOption = Annotated[
@@ -77,6 +113,9 @@ def run(
         bool, typer.Option("--fresh", help="Discard stored chunks of this study; do not resume.")
     ] = False,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the plots.")] = False,
+    no_report: Annotated[
+        bool, typer.Option("--no-report", help="Skip OUT/report.html (the HTML report).")
+    ] = False,
     allow_code: Annotated[
         bool,
         typer.Option(
@@ -97,7 +136,8 @@ def run(
     quiet: QuietOption = False,
     verbose: VerboseOption = False,
 ) -> None:
-    """Run STUDY_FILE; write OUT/result.nc, plots and OUT/summary.txt (rerun resumes).
+    """Run STUDY_FILE; write OUT/result.nc, plots, OUT/summary.txt and OUT/report.html
+    (rerun resumes).
 
     A study file is data: one that names code to run (a module reference, an FMU, a
     program) is refused unless --allow-code is given or the code is in your trust file.
@@ -118,6 +158,18 @@ def run(
         plots=not no_plots,
         allow_code=allow_code,
         max_runs=max_runs,
+        report=not no_report,
+        command=_command(
+            "run",
+            str(study_file),
+            "--out",
+            str(out),
+            executor=executor,
+            chunk_size=chunk_size,
+            on_failure=on_failure,
+            allow_code=allow_code,
+            max_runs=max_runs,
+        ),
     )
 
 
@@ -161,6 +213,7 @@ def demo(
                     executor=executor,
                     resume=not fresh,
                     progress=not quiet,
+                    command=_command("demo", name, "--out", str(out), executor=executor),
                 )
 
 
@@ -193,6 +246,33 @@ def plot(
     written = write_plots(result.dataset, out or result_file.parent, formats=formats)
     for path in written:
         typer.echo(str(path))
+
+
+@app.command()
+def report(
+    result: Annotated[
+        Path, typer.Argument(help="A study's output folder (holding result.nc) or a result file.")
+    ],
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", "-o", help="The HTML file (default: report.html beside the result)."),
+    ] = None,
+) -> None:
+    """Write the study's report: one self-contained HTML file (figures embedded)."""
+    from fuzzymbs.report import REPORT_FILE, write_report
+    from fuzzymbs.study.pipeline import RESULT_FILE
+    from fuzzymbs.study.result import StudyResult
+
+    result_file = result / RESULT_FILE if result.is_dir() else result
+    if not result_file.exists():
+        raise _fail(f"{result_file}: no such file")
+    try:
+        dataset = StudyResult.open(result_file).dataset
+    except (OSError, ValueError) as exc:
+        raise _fail(f"{result_file}: not a readable result file ({exc})") from None
+    if "outputs" not in dataset.attrs or "provenance" not in dataset.attrs:
+        raise _fail(f"{result_file}: not a fuzzymbs study result (no 'outputs' attribute)")
+    typer.echo(str(write_report(dataset, out or result_file.parent / REPORT_FILE)))
 
 
 @app.command()

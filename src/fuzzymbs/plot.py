@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.units import Scale, engineering_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray
@@ -24,8 +25,13 @@ if TYPE_CHECKING:  # pragma: no cover
 
 logger = logging.getLogger(__name__)
 
-#: Colour map of the alpha-level bands: light at mu = 0, dark at mu = 1.
+#: Colour map of the alpha-level bands: light at mu = 0, dark at mu = 1 (every figure).
 BAND_COLORMAP = "Blues"
+#: Bands narrower than this fraction of their signal's range get the extra views.
+NARROW_BANDS = 0.1
+#: Readable names of the coordinates the built-in models use.
+COORDINATE_NAMES = {"time": "time", "position": "mesh position", "harmonic": "mesh harmonic"}
+REFERENCE_COLOR = "tab:red"
 
 
 def _figure(width: float = 6.4, height: float = 4.0) -> Figure:
@@ -38,8 +44,11 @@ def _panels(count: int) -> tuple[Figure, np.ndarray]:
     """A figure with ``count`` small panels, three per row (axes flattened)."""
     columns = min(3, count)
     rows = int(np.ceil(count / columns))
-    figure = _figure(3.2 * columns, 2.6 * rows)
-    return figure, np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
+    figure = _figure(3.2 * columns, 2.8 * rows + 0.4)
+    axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
+    for ax in axes[count:]:
+        ax.set_visible(False)
+    return figure, axes
 
 
 def _band_color(mu: float) -> Any:
@@ -48,14 +57,49 @@ def _band_color(mu: float) -> Any:
     return colormaps[BAND_COLORMAP](0.15 + 0.75 * float(mu))
 
 
-def _label(dataset: xarray.Dataset, name: str, variable: str | None = None) -> str:
-    units = dataset[variable or f"{name}_lower"].attrs.get("units")
-    return f"{name} [{units}]" if units else name
+def _level_name(mu: float) -> str:
+    name = f"μ = {mu:.3g}"
+    return name + (" (support)" if mu == 0 else " (core)" if mu == 1 else "")
 
 
-def _coord_label(dataset: xarray.Dataset, dim: str) -> str:
-    units = dataset[dim].attrs.get("units") if dim in dataset.coords else None
-    return f"{dim} [{units}]" if units else dim
+def _level_handles(levels: Sequence[float]) -> list[Any]:
+    """Legend entries of the level colours (every level up to six, else the ends)."""
+    from matplotlib.patches import Patch
+
+    shown = [m for j, m in enumerate(levels) if len(levels) <= 6 or j in (0, len(levels) - 1)]
+    return [Patch(color=_band_color(m), label=_level_name(m)) for m in shown]
+
+
+def _title(figure: Figure, dataset: xarray.Dataset, partial: bool = False) -> None:
+    """The study's description (its name if it has none) as the figure's title."""
+    import textwrap
+
+    text = str(dataset.attrs.get("description") or dataset.attrs.get("study_name", ""))
+    if partial:
+        text += " (PARTIAL: incomplete levels omitted)"
+    # about 13 characters per inch of figure width at the medium font size
+    width = int(13 * figure.get_figwidth())
+    figure.suptitle("\n".join(textwrap.wrap(text, width)), fontsize="medium")
+
+
+def _units(dataset: xarray.Dataset, output: str) -> str:
+    return str(dataset[f"{output}_lower"].attrs.get("units", ""))
+
+
+def _coordinate(dataset: xarray.Dataset, dim: str, size: int) -> tuple[np.ndarray, Scale, str]:
+    """Values of coordinate ``dim`` in engineering units, their scale and readable name."""
+    if dim not in dataset.coords:
+        return np.arange(size, dtype=float), Scale(1.0, ""), f"{dim} (index)"
+    coordinate = dataset[dim]
+    scale = engineering_scale(coordinate.values, coordinate.attrs.get("units"))
+    name = coordinate.attrs.get("long_name") or COORDINATE_NAMES.get(dim, dim.replace("_", " "))
+    return scale(coordinate.values), scale, str(name)
+
+
+def _reference_label(dataset: xarray.Dataset, output: str) -> str:
+    """The reference's name as the model gives it (``long_name`` of ``{output}_reference``)."""
+    name = dataset[f"{output}_reference"].attrs.get("long_name")
+    return f"reference: {name}" if name else "reference (model's own)"
 
 
 def _variable(dataset: xarray.Dataset, output: str, suffix: str) -> xarray.DataArray:
@@ -94,27 +138,36 @@ def _membership_polygon(
     return x, mu
 
 
+def _draw_membership(
+    ax: Any, levels: np.ndarray, lower: np.ndarray, upper: np.ndarray, label: str | None = None
+) -> None:
+    """A membership function: light fill, dark outline through the cuts, and each cut as
+    a bar in its level's colour (the colours of the bands)."""
+    x, mu = _membership_polygon(levels, lower, upper)
+    ax.fill(x, mu, color=_band_color(0.0), linewidth=0)
+    ax.plot(x, mu, color=_band_color(1.0), marker="o", markersize=3, label=label)
+    for mu_j, lo, hi in zip(levels, lower, upper, strict=True):
+        if np.isfinite(lo) and np.isfinite(hi):
+            ax.plot([lo, hi], [mu_j, mu_j], color=_band_color(mu_j), linewidth=2.5)
+    ax.set_ylabel("membership μ")
+    ax.set_ylim(0, 1.05)
+    ax.ticklabel_format(axis="x", useOffset=False)
+
+
 def plot_input_memberships(dataset: xarray.Dataset) -> Figure:
-    """Membership functions of the fuzzy parameters (through their alpha-cuts)."""
+    """Membership functions of the fuzzy parameters (through their alpha-cuts), each in
+    engineering units of its parameter."""
     names = [str(n) for n in dataset["parameter"].values]
     units = json.loads(dataset.attrs.get("parameter_units", "{}"))
     figure, axes = _panels(len(names))
     levels = dataset["level"].values
     for i, name in enumerate(names):
-        ax = axes[i]
-        x, mu = _membership_polygon(
-            levels,
-            dataset["parameter_lower"].values[:, i],
-            dataset["parameter_upper"].values[:, i],
-        )
-        ax.fill(x, mu, color=_band_color(0.3), alpha=0.6, linewidth=0)
-        ax.plot(x, mu, color=_band_color(1.0))
-        ax.set_xlabel(f"{name} [{units[name]}]" if name in units else name)
-        ax.set_ylabel("membership mu")
-        ax.set_ylim(0, 1.05)
-    for ax in axes[len(names) :]:
-        ax.set_visible(False)
-    figure.suptitle(f"{dataset.attrs.get('study_name', '')}: fuzzy parameters")
+        lower = dataset["parameter_lower"].values[:, i]
+        upper = dataset["parameter_upper"].values[:, i]
+        scale = engineering_scale(np.concatenate([lower, upper]), units.get(name))
+        _draw_membership(axes[i], levels, scale(lower), scale(upper))
+        axes[i].set_xlabel(scale.label(name.replace("_", " ")))
+    _title(figure, dataset)
     return figure
 
 
@@ -123,25 +176,22 @@ def plot_inverse_outputs(dataset: xarray.Dataset) -> Figure:
     parameters (line) of an inverse fuzzy-arithmetic result
     (:meth:`fuzzymbs.fuzzy.inverse.InverseResult.to_dataset`)."""
     names = [str(n) for n in dataset["output"].values]
+    units = json.loads(dataset.attrs.get("output_units", "{}"))
     figure, axes = _panels(len(names))
     levels = dataset["level"].values
     for i, name in enumerate(names):
         ax = axes[i]
-        x, mu = _membership_polygon(
-            levels, dataset["measured_lower"].values[:, i], dataset["measured_upper"].values[:, i]
-        )
-        ax.fill(x, mu, color=_band_color(0.3), alpha=0.6, linewidth=0, label="measured")
-        x, mu = _membership_polygon(
-            levels, dataset["forward_lower"].values[:, i], dataset["forward_upper"].values[:, i]
-        )
-        ax.plot(x, mu, color="black", linestyle="--", label="forward (identified)")
-        ax.set_xlabel(name)
-        ax.set_ylabel("membership mu")
-        ax.set_ylim(0, 1.05)
-    axes[0].legend(fontsize="small")
-    for ax in axes[len(names) :]:
-        ax.set_visible(False)
-    figure.suptitle(f"{dataset.attrs.get('study_name', '')}: measured and reproduced outputs")
+        measured = dataset["measured_lower"].values[:, i], dataset["measured_upper"].values[:, i]
+        forward = dataset["forward_lower"].values[:, i], dataset["forward_upper"].values[:, i]
+        scale = engineering_scale(np.concatenate([*measured, *forward]), units.get(name))
+        _draw_membership(ax, levels, scale(measured[0]), scale(measured[1]), label="measured")
+        x, mu = _membership_polygon(levels, scale(forward[0]), scale(forward[1]))
+        ax.plot(x, mu, color="black", linestyle="--", label="identified, propagated")
+        ax.set_xlabel(scale.label(name.replace("_", " ")))
+    figure.legend(
+        *axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=2, fontsize="small"
+    )
+    _title(figure, dataset)
     return figure
 
 
@@ -157,81 +207,199 @@ def plot_output_membership(
     """
     lower = _variable(dataset, output, "lower")
     upper = _variable(dataset, output, "upper")
-    title = f"{dataset.attrs.get('study_name', '')}: membership of {output}"
+    nominal = dataset[f"{output}_nominal"]
+    reference = dataset.get(f"{output}_reference")
+    title = f"membership of {output}"
     if coord is not None:
         lower = _at(lower, coord, value)
         upper = _at(upper, coord, value)
-        title += f" at {coord} = {float(lower[coord]):.6g}"
+        nominal = nominal.sel({coord: value}, method="nearest")
+        if reference is not None:
+            reference = reference.sel({coord: value}, method="nearest")
+        at = float(lower[coord])
+        _, coord_scale, coord_name = _coordinate(dataset, coord, 1)
+        where = f"{coord_scale(at).item():.4g} {coord_scale.unit}".strip()
+        title += f" at {coord_name} = {where}"
     if lower.ndim != 1:
         raise InvalidParameterError(
             f"output {output!r} has dims {lower.dims[1:]}; choose coord and value to plot "
             "a membership function"
         )
-    figure = _figure()
+    scale = engineering_scale(np.concatenate([lower.values, upper.values]), _units(dataset, output))
+    figure = _figure(6.4, 4.0)
     ax = figure.subplots()
-    x, mu = _membership_polygon(dataset["level"].values, lower.values, upper.values)
-    ax.fill(x, mu, color=_band_color(0.3), alpha=0.6, linewidth=0)
-    ax.plot(x, mu, color=_band_color(1.0), marker="o", markersize=3)
-    nominal = dataset[f"{output}_nominal"]
-    if coord is not None:
-        nominal = nominal.sel({coord: value}, method="nearest")
+    levels = dataset["level"].values
+    _draw_membership(ax, levels, scale(lower.values), scale(upper.values), label="fuzzy result")
     if np.isfinite(nominal.values):
-        ax.axvline(float(nominal.values), color="black", linewidth=0.8, linestyle=":")
+        ax.axvline(scale(nominal.values).item(), color="black", linewidth=0.9, label="nominal")
+    if reference is not None and reference.ndim == 0 and np.isfinite(reference.values):
+        ax.axvline(
+            scale(reference.values).item(),
+            color=REFERENCE_COLOR,
+            linestyle="--",
+            linewidth=0.9,
+            label=_reference_label(dataset, output),
+        )
     complete = dataset["level_complete"].values.astype(bool)
-    if not complete.all():
-        title += " (PARTIAL: incomplete levels omitted)"
-    ax.set_xlabel(_label(dataset, output))
-    ax.set_ylabel("membership mu")
-    ax.set_ylim(0, 1.05)
-    ax.set_title(title)
+    ax.set_xlabel(scale.label(output))
+    ax.set_title(title, fontsize="medium")
+    ax.legend(loc="upper left", fontsize="small")
+    _title(figure, dataset, partial=not complete.all())
     return figure
+
+
+def _draw_bands(
+    ax: Any, x: np.ndarray, lower: np.ndarray, upper: np.ndarray, levels: np.ndarray
+) -> int:
+    """One filled band per level with known bounds, light to dark; returns how many."""
+    drawn = 0
+    for j, mu in enumerate(levels):
+        if np.isfinite(lower[j]).any():
+            ax.fill_between(x, lower[j], upper[j], color=_band_color(mu), linewidth=0)
+            drawn += 1
+    return drawn
+
+
+def _zoom_windows(width: np.ndarray, nominal: np.ndarray) -> list[tuple[slice, bool]]:
+    """Up to two windows in which the bands can be seen, each with whether it shows them
+    relative to the nominal signal.
+
+    The first is around the widest band, grown while the nominal signal moves by no
+    more than a few band widths. Where it moves more within a few points (a ringing
+    signal sampled a few points per period), no absolute window can show the bands:
+    the window then spans a fiftieth of the coordinate and shows the bands relative
+    to the nominal signal. The second is the end of the signal (for a transient:
+    where it has settled). Windows span at most a tenth of the coordinate and do not
+    overlap.
+    """
+    size = width.size
+    if size < 20 or not np.isfinite(width).any():
+        return []
+    longest = max(5, size // 10)
+    centre = int(np.nanargmax(width))
+    start, stop = max(centre - 2, 0), min(centre + 3, size)
+    while stop - start < longest:
+        grown = slice(max(start - 1, 0), min(stop + 1, size))
+        moved = np.ptp(nominal[grown])
+        if moved > 4.0 * np.nanmax(width[grown]) or (grown.start, grown.stop) == (start, stop):
+            break
+        start, stop = grown.start, grown.stop
+    relative = stop - start < 10
+    if relative:
+        half = max(5, size // 100)
+        start, stop = max(centre - half, 0), min(centre + half, size)
+    windows = [(slice(start, stop), relative)]
+    if stop <= size - longest:
+        windows.append((slice(size - longest, size), False))
+    elif start >= longest:
+        windows.insert(0, (slice(0, longest), False))
+    return windows
 
 
 def plot_fuzzy_signal(dataset: xarray.Dataset, output: str) -> Figure:
     """A fuzzy signal as alpha-level bands over its coordinate (light mu = 0 to dark mu = 1).
 
-    The nominal signal is drawn on top, and the model's reference curve (if
-    the result holds ``{output}_reference``) on top of that.
+    The nominal signal is drawn on top, and the model's reference curve (if the
+    result holds ``{output}_reference``) on top of that, named in the legend.
+    Where the widest band is narrower than :data:`NARROW_BANDS` of the signal's
+    range, two more views show it: the bands relative to the nominal signal, and
+    zoomed windows (around the widest band and at the end of the signal) whose
+    axes fit the bands. The windows are shaded on the full view.
     """
-    lower = _variable(dataset, output, "lower")
-    upper = _variable(dataset, output, "upper")
-    if lower.ndim != 2:
+    lower_array = _variable(dataset, output, "lower")
+    upper = _variable(dataset, output, "upper").values
+    if lower_array.ndim != 2:
         raise InvalidParameterError(f"output {output!r} is not a signal over one coordinate")
-    dim = lower.dims[1]
-    x = dataset[dim].values if dim in dataset.coords else np.arange(lower.shape[1])
-    figure = _figure(7.0, 4.0)
-    ax = figure.subplots()
+    lower = lower_array.values
+    dim = lower_array.dims[1]
+    x, _, coord_name = _coordinate(dataset, dim, lower.shape[1])
+    coord_label = _coordinate(dataset, dim, lower.shape[1])[1].label(coord_name)
     levels = dataset["level"].values
-    for j, mu in enumerate(levels):
-        if not np.isfinite(lower.values[j]).any():
-            continue
-        ax.fill_between(
-            x,
-            lower.values[j],
-            upper.values[j],
-            color=_band_color(mu),
-            linewidth=0,
-            label=f"mu = {mu:.3g}" if len(levels) <= 6 or j in (0, len(levels) - 1) else None,
-        )
     nominal = dataset[f"{output}_nominal"].values
-    if np.isfinite(nominal).any():
-        ax.plot(x, nominal, color="black", linewidth=0.9, label="nominal")
-    if f"{output}_reference" in dataset:
-        ax.plot(
-            x,
-            dataset[f"{output}_reference"].values,
-            color="tab:red",
-            linewidth=0.9,
-            linestyle="--",
-            label="reference",
+    reference = dataset[f"{output}_reference"].values if f"{output}_reference" in dataset else None
+    curves = [lower, upper, nominal] + ([reference] if reference is not None else [])
+    scale = engineering_scale(
+        np.concatenate([np.ravel(c) for c in curves]), _units(dataset, output)
+    )
+    known = np.flatnonzero(np.isfinite(lower).any(axis=1))
+    width = upper[known[0]] - lower[known[0]] if known.size else np.full(x.shape, np.nan)
+    narrow = False
+    if np.isfinite(nominal).all() and np.isfinite(width).any():  # else nothing to zoom on
+        signal_range = max(np.nanmax(upper[known]), nominal.max()) - min(
+            np.nanmin(lower[known]), nominal.min()
         )
-    ax.set_xlabel(_coord_label(dataset, dim))
-    ax.set_ylabel(_label(dataset, output))
-    title = f"{dataset.attrs.get('study_name', '')}: fuzzy {output}"
-    if not dataset["level_complete"].values.all():
-        title += " (PARTIAL)"
-    ax.set_title(title)
-    ax.legend(loc="best", fontsize="small")
+        narrow = bool(np.nanmax(width) < NARROW_BANDS * signal_range)
+    windows = _zoom_windows(width, nominal) if narrow else []
+    rows = 1 + narrow + bool(windows)
+    figure = _figure(7.0, 1.2 + 3.0 * rows)
+    if narrow:
+        grid = figure.add_gridspec(rows, max(1, len(windows)))
+        ax = figure.add_subplot(grid[0, :])
+        relative_ax = figure.add_subplot(grid[1, :], sharex=ax)
+        zoom_axes = [figure.add_subplot(grid[2, k]) for k in range(len(windows))]
+    else:
+        ax, relative_ax, zoom_axes = figure.subplots(), None, []
+
+    def draw(axis: Any, part: slice) -> None:
+        _draw_bands(axis, x[part], scale(lower[:, part]), scale(upper[:, part]), levels)
+        if np.isfinite(nominal).any():
+            axis.plot(x[part], scale(nominal[part]), color="black", linewidth=0.9)
+        if reference is not None:
+            axis.plot(
+                x[part], scale(reference[part]), color=REFERENCE_COLOR, linewidth=0.9, ls="--"
+            )
+        axis.ticklabel_format(axis="y", useOffset=False)
+
+    draw(ax, slice(None))
+    ax.set_ylabel(scale.label(output))
+    ax.set_title(f"{output}: alpha-level bands", fontsize="medium")
+    deviation_lower, deviation_upper = lower - nominal, upper - nominal
+    relative_scale = engineering_scale(
+        np.concatenate([deviation_lower.ravel(), deviation_upper.ravel()]), _units(dataset, output)
+    )
+    if relative_ax is not None:
+        _draw_bands(
+            relative_ax, x, relative_scale(deviation_lower), relative_scale(deviation_upper), levels
+        )
+        relative_ax.axhline(0.0, color="black", linewidth=0.9)
+        relative_ax.set_ylabel(relative_scale.label(f"{output} − nominal"))
+        relative_ax.set_title("the bands relative to the nominal signal", fontsize="medium")
+        relative_ax.set_xlabel(coord_label)
+    for letter, (part, relative), zoom in zip("ABCD", windows, zoom_axes, strict=False):
+        if relative:
+            _draw_bands(
+                zoom,
+                x[part],
+                relative_scale(deviation_lower[:, part]),
+                relative_scale(deviation_upper[:, part]),
+                levels,
+            )
+            zoom.axhline(0.0, color="black", linewidth=0.9)
+            zoom.set_ylabel(relative_scale.label(f"{output} − nominal"))
+            zoom.set_title(f"window {letter}, relative to the nominal", fontsize="medium")
+        else:
+            draw(zoom, part)
+            band = scale(np.concatenate([lower[known, part].ravel(), upper[known, part].ravel()]))
+            low, high = np.nanmin(band), np.nanmax(band)
+            zoom.set_ylim(low - 0.15 * (high - low), high + 0.15 * (high - low))
+            zoom.set_ylabel(scale.label(output))
+            zoom.set_title(f"window {letter}", fontsize="medium")
+        zoom.set_xlim(x[part][0], x[part][-1])
+        zoom.set_xlabel(coord_label)
+        ax.axvspan(x[part][0], x[part][-1], color="0.85", zorder=0)
+        ax.text(x[part][0], 1.0, f" {letter}", transform=ax.get_xaxis_transform(), va="top")
+    ax.set_xlabel(coord_label)
+    handles = _level_handles(levels[known])
+    from matplotlib.lines import Line2D
+
+    if np.isfinite(nominal).any():
+        handles.append(Line2D([], [], color="black", linewidth=0.9, label="nominal"))
+    if reference is not None:
+        handles.append(
+            Line2D([], [], color=REFERENCE_COLOR, ls="--", label=_reference_label(dataset, output))
+        )
+    figure.legend(handles=handles, loc="outside lower center", ncol=3, fontsize="small")
+    _title(figure, dataset, partial=not dataset["level_complete"].values.all())
     return figure
 
 
@@ -241,32 +409,39 @@ def plot_influence(dataset: xarray.Dataset, output: str) -> Figure:
     absolute = _variable(dataset, output, "absolute_influence")
     relative = _variable(dataset, output, "relative_influence")
     names = [str(n) for n in dataset["parameter"].values]
-    figure = _figure(9.0, 3.6)
-    left, right = figure.subplots(1, 2)
-    colors = [f"C{i}" for i in range(len(names))]
-    if absolute.ndim == 1:
-        left.bar(names, absolute.values, color=colors)
-        right.bar(names, relative.values, color=colors)
-        right.set_ylim(0, 1)
-    elif absolute.ndim == 2:
-        dim = absolute.dims[1]
-        x = dataset[dim].values if dim in dataset.coords else np.arange(absolute.shape[1])
-        left.stackplot(x, np.nan_to_num(absolute.values), labels=names, colors=colors)
-        right.stackplot(x, np.nan_to_num(relative.values), labels=names, colors=colors)
-        left.set_xlabel(_coord_label(dataset, dim))
-        right.set_xlabel(_coord_label(dataset, dim))
-        right.set_ylim(0, 1)
-        right.legend(loc="upper right", fontsize="small")
-    else:
+    if absolute.ndim > 2:
         raise InvalidParameterError(
             f"influence of {output!r} has more than one coordinate; not plotted"
         )
-    units = dataset[f"{output}_lower"].attrs.get("units")
-    left.set_title("absolute influence kappa")
-    left.set_ylabel(f"kappa [{units}]" if units else "kappa")
-    right.set_title("relative influence rho")
-    right.set_ylabel("rho")
-    figure.suptitle(f"{dataset.attrs.get('study_name', '')}: influence on {output}")
+    scale = engineering_scale(absolute.values, _units(dataset, output))
+    colors = [f"C{i}" for i in range(len(names))]
+    figure = _figure(7.0, 3.4 + 0.2 * len(names) if absolute.ndim == 1 else 4.0)
+    left, right = figure.subplots(1, 2)
+    if absolute.ndim == 1:
+        left.barh(names, scale(absolute.values), color=colors)
+        right.barh(names, relative.values, color=colors)
+        right.set_xlim(0, 1)
+        right.set_yticklabels([])
+        left.invert_yaxis()
+        right.invert_yaxis()
+        left.set_xlabel(scale.label("absolute influence κ"))
+        right.set_xlabel("relative influence ρ")
+    else:
+        dim = absolute.dims[1]
+        x, coord_scale, coord_name = _coordinate(dataset, dim, absolute.shape[1])
+        # no edge lines: on a fast-oscillating signal they wash the areas out
+        areas = {"colors": colors, "linewidth": 0}
+        left.stackplot(x, np.nan_to_num(scale(absolute.values)), labels=names, **areas)
+        right.stackplot(x, np.nan_to_num(relative.values), **areas)
+        for ax in (left, right):
+            ax.set_xlabel(coord_scale.label(coord_name))
+        right.set_ylim(0, 1)
+        left.set_ylabel(scale.label("absolute influence κ"))
+        right.set_ylabel("relative influence ρ")
+        figure.legend(loc="outside lower center", ncol=min(3, len(names)), fontsize="small")
+    left.set_title(f"absolute influence on {output}", fontsize="medium")
+    right.set_title("relative influence", fontsize="medium")
+    _title(figure, dataset)
     return figure
 
 

@@ -317,7 +317,7 @@ def test_level_bookkeeping_limit_refuses_absurdly_fine_levels():
     assert "with levels = 10: 'grid' 21" in message
     assert caught.value.needed == math.ceil(51 * 101 / LEVEL_TABLE_FACTOR)
     assert len(plan(one, "grid", 50, max_runs=caught.value.needed)) == 101
-    # the absurd levels on one parameter
+    # absurd levels on one parameter
     outcome, peak = _traced_peak(lambda: plan(one, "reduced", 100_000))
     assert isinstance(outcome, PlanTooLargeError) and peak < 2**20
     assert "200,001 model runs on 100,001 membership levels" in str(outcome)

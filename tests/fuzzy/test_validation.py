@@ -17,7 +17,7 @@ def valley(samples):
 
 
 def test_default_count_is_a_fifth_or_n_plus_one():
-    # the rule: a fifth of the runs for studies of 30 runs or more, else n + 1
+    # the rule: a fifth of the runs for studies of 30 runs or more, else n + 1
     assert default_validation_count(33, 3) == 6
     assert default_validation_count(189, 3) == 37
     assert default_validation_count(17, 2) == 3

@@ -9,6 +9,9 @@ closed forms and a NumPy implementation of the right-hand side elsewhere
 (tests/mbs, tests/test_benchmarks_smoke.py). A block decides which contact path
 runs and whether friction is evaluated, but every path gives a lane the same
 arithmetic, so the results are bit-identical.
+
+The physics exists once, in the four-lane form (docs/embs.md, "The kernels"):
+the per-sample reference is the same code run one sample per block.
 """
 
 from __future__ import annotations

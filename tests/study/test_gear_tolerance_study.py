@@ -1,4 +1,4 @@
-"""The headline large study of issue #15 (examples/gear_tolerances_117649.toml).
+"""The headline large study (examples/gear_tolerances_117649.toml).
 
 Its full run (117,649 MUBOCO-PR runs, about 80 s on 2 cores) is measured in
 docs/benchmarks.md; here: the file gives exactly 7^6 runs (the closed form of the

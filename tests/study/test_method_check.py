@@ -1,4 +1,4 @@
-"""Every study checks its own fuzzy method: validation runs and method_error (issue #18).
+"""Every study checks its own fuzzy method: validation runs and method_error.
 
 References: models whose exact alpha-cuts are known in closed form or by dense search
 (a tensor grid of 81 points per parameter over each cut box).
@@ -88,7 +88,7 @@ def test_missed_range_is_found_and_warned(method):
 
 
 def test_reduced_method_misses_without_the_retransformation_noticing():
-    # the issue's case: the modal point stays inside the corners' envelope, so the only
+    # the modal point stays inside the corners' envelope, so the only
     # warning is the validation's
     result, caught = run(valley, NUMBERS, "reduced")
     retransformation = [t for t in result.provenance["warnings"] if "corner runs" in t]

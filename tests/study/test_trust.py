@@ -21,7 +21,7 @@ from fuzzymbs.study.trust import Trusted, trust_file
 
 COMMAND_EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "command"
 
-# the study file of the issue: with a bare module reference it ran os.system("touch SOMEFILE")
+# a hostile study file: a bare module reference would run os.system("touch SOMEFILE")
 HOSTILE = """
 [study]
 name = "innocent"

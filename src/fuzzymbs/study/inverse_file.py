@@ -21,6 +21,7 @@ membership plots.
 
 from __future__ import annotations
 
+import json
 import math
 import tomllib
 from collections.abc import Mapping
@@ -305,6 +306,11 @@ def run_identification_file(
         result = exc.result  # type: ignore[assignment]
     dataset = result.to_dataset(definition.name, definition.units)
     dataset.attrs["description"] = definition.description
+    # the model's output units label the figures (engineering units, e.g. um for m)
+    output_units = getattr(definition.model.model, "outputs", None) or {}
+    dataset.attrs["output_units"] = json.dumps(
+        {o: str(u) for o, u in dict(output_units).items() if o in definition.measured}
+    )
     dataset.attrs["identification_file"] = str(definition.path)
     result_path = out / "identified.nc"
     dataset.to_netcdf(result_path, engine=netcdf_engine())

@@ -1,4 +1,4 @@
-"""Run a study file into an output folder: result.nc, plots, summary.txt.
+"""Run a study file into an output folder: result.nc, plots, summary.txt, report.html.
 
 ``DIR/chunks/`` is the chunk store, so rerunning the same study into the same
 folder resumes where an interrupted run stopped.
@@ -30,6 +30,7 @@ class StudyOutput:
     result_path: Path
     summary_path: Path
     plots: list[Path]
+    report_path: Path | None = None
 
 
 def run_study_file(
@@ -44,12 +45,16 @@ def run_study_file(
     plots: bool = True,
     allow_code: bool = False,
     max_runs: int | None = None,
+    report: bool = True,
+    command: str | None = None,
 ) -> StudyOutput:
     """Load a study file, run it with ``out/chunks`` as store, and write the results.
 
     Settings given here override the file's ``[run]`` table, ``max_runs`` its
     ``[study] max_runs``. ``allow_code`` lets the file run code its author
     named (a module reference, an FMU, a program; :mod:`fuzzymbs.study.trust`).
+    ``report`` writes ``out/report.html`` (:mod:`fuzzymbs.report`); ``command``, the
+    command line that ran the study, is recorded in the result for its reproduction.
 
     Raises
     ------
@@ -86,9 +91,16 @@ def run_study_file(
         raise
     result.dataset.attrs["plots"] = json.dumps({"membership": definition.membership_plots})
     result.dataset.attrs["study_file"] = str(Path(path).name)
+    if command:
+        result.dataset.attrs["command"] = command
     result_path = result.to_netcdf(out / RESULT_FILE)
     summary_path.write_text(result.summary())
     written = result.plot(out) if plots else []
+    report_path = None
+    if report:
+        from fuzzymbs.report import REPORT_FILE, write_report
+
+        report_path = write_report(result.dataset, out / REPORT_FILE)
     logger.info(
         "study %s: wrote %s, %s and %d plots",
         definition.name,
@@ -96,7 +108,7 @@ def run_study_file(
         summary_path,
         len(written),
     )
-    return StudyOutput(out, result, result_path, summary_path, written)
+    return StudyOutput(out, result, result_path, summary_path, written, report_path)
 
 
 def demo_names() -> list[str]:

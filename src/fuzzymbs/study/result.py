@@ -6,6 +6,7 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
     o_lower, o_upper               (level, *dims)   alpha-cut bounds (NaN: level incomplete)
     o_nominal                      (*dims)          output at the all-modal point
     o_reference                    (*dims)          the model's reference curve, if any
+                                                    (long_name: the model's reference_labels)
     o_gain                         (parameter, level, *dims)  eta_i^(j)  [reduced/extended]
     o_mean_gain, o_absolute_influence, o_relative_influence  (parameter, *dims)
     o_samples                      (sample, *dims)  raw outputs (keep_raw)
@@ -14,7 +15,8 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
     level_usage                    (level, sample)
     level_complete                 (level)
     parameter_lower, parameter_upper (level, parameter)  input alpha-cuts
-    attrs: study_name, model, method, status ("complete" | "partial"), outputs (JSON),
+    attrs: fuzzymbs_version, study_name, model, method, status ("complete" | "partial"),
+           outputs (JSON),
            provenance (JSON: versions, plan, options, wall time, evaluations, ...);
            time-integrated models: time_integration_error (largest deviation of a
            bound from a tenfold tighter re-run of the samples that give the bounds,
@@ -259,6 +261,7 @@ def build_dataset(
     units = study.units()
     reference = getattr(study.model, "reference", None) or {}
     coord_units = getattr(study.model, "coord_units", None) or {}
+    reference_labels = getattr(study.model, "reference_labels", None) or {}
 
     coords: dict[str, Any] = {
         "level": ("level", plan.levels, {"long_name": "membership level mu"}),
@@ -291,7 +294,12 @@ def build_dataset(
         nominal = result.nominal if result.nominal is not None else np.full(result.shape, np.nan)
         data[f"{name}_nominal"] = (dims, nominal, attrs)
         if name in reference and np.shape(reference[name]) == result.shape:
-            data[f"{name}_reference"] = (dims, np.asarray(reference[name], dtype=float), attrs)
+            label = reference_labels.get(name)
+            data[f"{name}_reference"] = (
+                dims,
+                np.asarray(reference[name], dtype=float),
+                {**attrs, "long_name": label} if label else attrs,
+            )
         if raw is not None:
             data[f"{name}_samples"] = (("sample", *dims), raw[name], attrs)
         if failed.any():
@@ -364,6 +372,7 @@ def build_dataset(
     dataset.attrs.update(
         {
             "title": f"fuzzymbs study {study.name}",
+            "fuzzymbs_version": str(code.get("fuzzymbs_version", "")),
             "study_name": study.name,
             "description": study.description,
             "model": study.model_name,

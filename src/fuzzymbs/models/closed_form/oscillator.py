@@ -133,6 +133,7 @@ class DampedOscillator:
         self.coord_units = {"time": "s"}
         self.output_dims = {"displacement": ("time",), "natural_frequency": ()}
         self.reference = {"displacement": self._numerical_reference()}
+        self.reference_labels = {"displacement": "solve_ivp at the default parameters"}
 
     def identity(self) -> dict[str, float]:
         """The settings that change the outputs (part of a result store's identity)."""

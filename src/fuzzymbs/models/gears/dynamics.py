@@ -36,7 +36,6 @@ import numpy as np
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.models.gears.flank_contact import (
     CENTER,
-    GEOMETRY_SIZE,
     PHI_REF2,
     PITCH1,
     PITCH2,
@@ -45,7 +44,7 @@ from fuzzymbs.models.gears.flank_contact import (
     THETA_REF1,
     contact_force,
     pair_contact,
-    sample_geometry,
+    sample_geometries,
 )
 from fuzzymbs.models.gears.geometry import GearPair
 from fuzzymbs.models.gears.identification import hinge_lever_arm
@@ -364,12 +363,7 @@ def simulate_batch(
     n_out = (n_steps - first) // every
     dte = np.full((n_samples, n_out), np.nan)
     status = np.zeros(n_samples, dtype=np.int64)
-    # each sample's geometry, made before the parallel loop: a row of an argument-owned
-    # array keeps the hot loop as fast as the shared nominal vector (an array allocated
-    # inside the prange loop costs ~10 % in reference counting)
-    geometry = np.empty((n_samples, GEOMETRY_SIZE))
-    for b in range(n_samples):
-        status[b] = sample_geometry(g, center_deviation[b], tip_relief[b], geometry[b])
+    geometry = sample_geometries(g, center_deviation, tip_relief, status)
     for b in numba.prange(n_samples):
         if status[b] != 0:
             continue

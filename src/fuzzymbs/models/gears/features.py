@@ -234,6 +234,7 @@ class SteFeatureModel:
         self.outputs = dict.fromkeys(FEATURES, "m")
         self.coords: dict[str, np.ndarray] = {}
         self.output_dims: dict[str, tuple[str, ...]] = {name: () for name in FEATURES}
+        self.reference_labels = dict.fromkeys(FEATURES, "potential-energy method")
         self.reference = {
             name: float(value)
             for name, value in ste_features(

@@ -238,6 +238,21 @@ def sample_geometry(g, deviation, relief, out):
     return GEOMETRY_OK
 
 
+@numba.njit(cache=True)
+def sample_geometries(g, deviation, relief, status):
+    """Geometry rows (B, GEOMETRY_SIZE) of a batch, made before a parallel loop over it.
+
+    A row of an array the kernel owns keeps the hot loop as fast as the shared
+    nominal vector (an array allocated inside a prange loop and passed down costs
+    about 10 % in reference counting). ``deviation``, ``relief`` (B,) [m];
+    ``status`` (B,) receives each sample's :func:`sample_geometry` status.
+    """
+    geometry = np.empty((deviation.shape[0], GEOMETRY_SIZE))
+    for b in range(deviation.shape[0]):
+        status[b] = sample_geometry(g, deviation[b], relief[b], geometry[b])
+    return geometry
+
+
 @numba.njit(cache=True, inline="always")
 def relief_depth(roll_length, start, tip, amount):
     """Linear tip relief [m] at roll length ``roll_length`` (0 below ``start``)."""

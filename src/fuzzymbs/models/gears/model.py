@@ -224,8 +224,10 @@ class MubocoPR:
         if mode == "static":
             self.positions = _positions(positions)
             self.coords = {"position": self.positions}
+            self.coord_units = {"position": "periods"}
             self.output_dims = {"ste": ("position",)}
             self.reference = {}
+            self.reference_labels = {"ste": "potential-energy method"}
             if reference:
                 # the PE reference is linear: its contact term is the linear secant
                 # (k_con of a nonlinear law is in N/m^m1 and cannot be used there)
@@ -256,6 +258,7 @@ class MubocoPR:
             self.dynamic_plan = make_plan(self)
             self.dynamic = dataclasses.replace(dynamic, torque_variation=None)
             self.coords = {"time": dynamic.time_grid(pair)}
+            self.coord_units = {"time": "s", "harmonic": "× mesh frequency"}
             self.output_dims = {"dte": ("time",), "dte_spectrum": ("harmonic",)}
             self.coords["harmonic"] = np.arange(1, dynamic.harmonics + 1, dtype=float)
             self.reference = {}

@@ -16,8 +16,8 @@ theta2 r_b2 with both angles counter-clockwise.
 
 Manufacturing tolerances act per sample inside the batch kernel: each sample's
 geometry vector (centre-distance deviation, tip relief) is made by
-:func:`~fuzzymbs.models.gears.flank_contact.sample_geometry` in the sample loop, so a
-batch may mix deviations without recompiling; a sample whose pair cannot run
+:func:`~fuzzymbs.models.gears.flank_contact.sample_geometries` before the sample loop,
+so a batch may mix deviations without recompiling; a sample whose pair cannot run
 (jammed, interference, contact ratio < 1, ...) gets its status and NaN outputs.
 
 This module holds the compiled quasi-static solver (Numba kernels); the batched
@@ -34,7 +34,6 @@ import numba
 import numpy as np
 
 from fuzzymbs.models.gears.flank_contact import (
-    GEOMETRY_SIZE,
     GEOMETRY_TEXT,
     PHI_REF2,
     PITCH1,
@@ -42,7 +41,7 @@ from fuzzymbs.models.gears.flank_contact import (
     RB1,
     THETA_REF1,
     pair_moments,
-    sample_geometry,
+    sample_geometries,
 )
 from fuzzymbs.models.gears.geometry import GearPair
 
@@ -378,11 +377,7 @@ def solve_static_batch_tolerances(
     last1 = np.zeros((n_samples, n_pairs))
     last2 = np.zeros((n_samples, n_pairs))
     rb1 = g[RB1]
-    # each sample's geometry, made before the parallel loop (an array allocated inside
-    # the prange loop and passed down costs ~10 % in reference counting; a row does not)
-    geometry = np.empty((n_samples, GEOMETRY_SIZE))
-    for b in range(n_samples):
-        status[b] = sample_geometry(g, center_deviation[b], tip_relief[b], geometry[b])
+    geometry = sample_geometries(g, center_deviation, tip_relief, status)
     for b in numba.prange(n_samples):
         if status[b] != 0:
             continue
