@@ -170,14 +170,14 @@ def compliance_key(gear: SpurGear, options: MeshOptions, analysis: str, support:
 
 
 def _lame(poisson: float, analysis: str) -> tuple[float, float]:
-    """Lame constants (lambda, mu) for E = 1; plane stress uses lambda* = 2 lambda mu/(lambda + 2 mu)."""
+    """Lame constants (lambda, mu) for E = 1 (plane stress: lambda* = 2 lambda mu/(lambda + 2 mu))."""
     mu = 1.0 / (2.0 * (1.0 + poisson))
     if analysis == "plane-strain":
         return poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson)), mu
     return poisson / (1.0 - poisson**2), mu
 
 
-def _support_map(basis, bore_facets: np.ndarray, support: str):  # noqa: ANN001
+def _support_map(basis, bore_facets: np.ndarray, support: str):
     """Sparse map T from the retained unknowns to all DOFs (u = T q)."""
     from scipy import sparse
 
@@ -205,9 +205,7 @@ def _support_map(basis, bore_facets: np.ndarray, support: str):  # noqa: ANN001
     )
 
 
-def _compute(
-    gear: SpurGear, options: MeshOptions, analysis: str, support: str
-) -> FlankCompliance:
+def _compute(gear: SpurGear, options: MeshOptions, analysis: str, support: str) -> FlankCompliance:
     from scipy.sparse.linalg import splu
     from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
     from skfem.models.elasticity import linear_elasticity

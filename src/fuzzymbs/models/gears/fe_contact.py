@@ -81,8 +81,10 @@ class ContactSettings:
 
 def _weights(grid: np.ndarray, roll: float) -> tuple[int, float]:
     """Linear interpolation index and weight of ``roll`` on ``grid`` (clamped)."""
-    index = int(np.clip(np.searchsorted(grid, roll) - 1, 0, grid.size - 2))
-    weight = (roll - grid[index]) / (grid[index + 1] - grid[index])
+    # uniform grid (fe_mesh): the index is arithmetic
+    spacing = (grid[-1] - grid[0]) / (grid.size - 1)
+    index = min(max(int((roll - grid[0]) // spacing), 0), grid.size - 2)
+    weight = (roll - grid[index]) / spacing
     return index, min(max(weight, 0.0), 1.0)
 
 
@@ -166,7 +168,9 @@ def _local_secant(force: float, state: _PairState, settings: ContactSettings) ->
     return total / force
 
 
-def _compliance(states: list[_PairState], pairs: np.ndarray, settings: ContactSettings) -> np.ndarray:
+def _compliance(
+    states: list[_PairState], pairs: np.ndarray, settings: ContactSettings
+) -> np.ndarray:
     """Structural compliance C [m/N] among the given pair states (both gears)."""
     n = len(states)
     matrix = np.zeros((n, n))
@@ -185,7 +189,7 @@ def _compliance(states: list[_PairState], pairs: np.ndarray, settings: ContactSe
     return matrix / settings.youngs_modulus
 
 
-def _solve_active(matrix, overlap, lever, torque, active):  # noqa: ANN001, ANN202
+def _solve_active(matrix, overlap, lever, torque, active):
     index = np.flatnonzero(active)
     n = index.size
     system = np.zeros((n + 1, n + 1))
@@ -315,7 +319,9 @@ def solve_position(
     secant = np.zeros(n)
     step = torque / (g[RB1] ** 2 * 1e9)  # a first turn into contact, if nothing touches
     for iteration in range(max_iterations):
-        states = [_pair_state(int(k), theta_kin, theta2, lag, g, settings.edge_radius) for k in pairs]
+        states = [
+            _pair_state(int(k), theta_kin, theta2, lag, g, settings.edge_radius) for k in pairs
+        ]
         live = [i for i, s in enumerate(states) if s.kind != NO_CONTACT]
         if not live:
             lag += step
@@ -326,7 +332,9 @@ def solve_position(
         sub = [states[i] for i in live]
         matrix = _compliance(sub, pairs[live], settings)
         for a, i in enumerate(live):
-            secant[i] = _local_secant(force[i] if force[i] > 0 else torque / g[RB1], states[i], settings)
+            secant[i] = _local_secant(
+                force[i] if force[i] > 0 else torque / g[RB1], states[i], settings
+            )
             matrix[a, a] += secant[i]
         overlap = np.array([s.overlap for s in sub])
         lever = np.array([s.lever for s in sub])

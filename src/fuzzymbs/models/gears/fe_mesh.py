@@ -18,6 +18,7 @@ tip corner.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -80,7 +81,7 @@ def _resample(curve: np.ndarray, spacing: float) -> np.ndarray:
     """Points along a polyline at about ``spacing`` (end points kept), by arc length."""
     steps = np.hypot(*np.diff(curve, axis=0).T)
     length = np.concatenate(([0.0], np.cumsum(steps)))
-    count = max(int(math.ceil(length[-1] / spacing)), 1)
+    count = max(math.ceil(length[-1] / spacing), 1)
     target = np.linspace(0.0, length[-1], count + 1)
     return np.column_stack(
         (np.interp(target, length, curve[:, 0]), np.interp(target, length, curve[:, 1]))
@@ -88,7 +89,7 @@ def _resample(curve: np.ndarray, spacing: float) -> np.ndarray:
 
 
 def _arc(radius: float, start: float, stop: float, spacing: float) -> np.ndarray:
-    count = max(int(math.ceil(radius * abs(stop - start) / spacing)), 1)
+    count = max(math.ceil(radius * abs(stop - start) / spacing), 1)
     angle = np.linspace(start, stop, count + 1)
     return radius * np.column_stack((np.cos(angle), np.sin(angle)))
 
@@ -109,9 +110,9 @@ def _tooth_outline(
     # drive flank: the grid points, each interval split to the spacing
     flank = [flank_point(gear, grid_roll[:1])[0]]
     grid_index = [0]
-    for lo, hi in zip(grid_roll[:-1], grid_roll[1:], strict=True):
+    for lo, hi in itertools.pairwise(grid_roll):
         chord = float(np.hypot(*np.diff(flank_point(gear, np.array([lo, hi]))[0], axis=0)[0]))
-        parts = max(int(math.ceil(chord / spacing)), 1)
+        parts = max(math.ceil(chord / spacing), 1)
         roll = np.linspace(lo, hi, parts + 1)[1:]
         flank.append(flank_point(gear, roll)[0])
         grid_index.append(grid_index[-1] + parts)
@@ -167,7 +168,9 @@ def mesh_gear(
     import triangle
 
     if int(loaded_teeth) != loaded_teeth or loaded_teeth < 1 or loaded_teeth % 2 == 0:
-        raise InvalidParameterError(f"loaded_teeth must be an odd integer >= 1, got {loaded_teeth!r}")
+        raise InvalidParameterError(
+            f"loaded_teeth must be an odd integer >= 1, got {loaded_teeth!r}"
+        )
     if loaded_teeth > gear.teeth:
         raise InvalidParameterError(
             f"loaded_teeth {loaded_teeth} exceeds the number of teeth {gear.teeth}"
@@ -182,7 +185,8 @@ def mesh_gear(
     bore = gear.rim_radius if bore_radius is None else float(bore_radius)
     if not 0.0 < bore < gear.root_radius:
         raise InvalidParameterError(
-            f"bore_radius {bore!r} m must lie between 0 and the root radius {gear.root_radius:.6g} m"
+            f"bore_radius {bore!r} m must lie between 0 and the root radius "
+            f"{gear.root_radius:.6g} m"
         )
     form_roll = math.sqrt(max(gear.form_radius**2 - gear.base_radius**2, 0.0))
     tip_roll = math.sqrt(gear.tip_radius**2 - gear.base_radius**2)
@@ -216,7 +220,7 @@ def mesh_gear(
         count += len(root)
     outer = np.vstack(pieces)
     n_outer = len(outer)
-    n_bore = max(int(math.ceil(2.0 * math.pi * bore / coarse_size)), 12)
+    n_bore = max(math.ceil(2.0 * math.pi * bore / coarse_size), 12)
     angle = np.arange(n_bore) * 2.0 * math.pi / n_bore
     inner = bore * np.column_stack((np.cos(angle), np.sin(angle)))
     vertices = np.vstack((outer, inner))

@@ -73,8 +73,12 @@ def depth_approach(
     shift = nu / (2.0 * (1.0 - nu)) if analysis == "plane-strain" else nu / 2.0
     compliance = _compliance(youngs_modulus, nu, analysis)
     force = np.asarray(force, dtype=float)
-    return 2.0 * force * compliance / (math.pi * face_width) * (
-        np.log(2.0 * depth / np.asarray(half_width)) - shift
+    return (
+        2.0
+        * force
+        * compliance
+        / (math.pi * face_width)
+        * (np.log(2.0 * depth / np.asarray(half_width)) - shift)
     )
 
 
@@ -99,7 +103,7 @@ def flamant_axis_approach(
     t = (np.arange(points) + 0.5) * math.pi / points - math.pi / 2.0
     xi = half_width * np.sin(t)
     weight = 2.0 * force / (math.pi * face_width) * np.cos(t) ** 2 * (math.pi / points)
-    kernel = (
-        c_log * np.log1p(depth**2 / xi**2) - (1.0 + nu) * depth**2 / (xi**2 + depth**2)
-    ) / (math.pi * youngs_modulus)
+    kernel = (c_log * np.log1p(depth**2 / xi**2) - (1.0 + nu) * depth**2 / (xi**2 + depth**2)) / (
+        math.pi * youngs_modulus
+    )
     return float(np.sum(weight * kernel))
