@@ -170,7 +170,7 @@ def compliance_key(gear: SpurGear, options: MeshOptions, analysis: str, support:
 
 
 def _lame(poisson: float, analysis: str) -> tuple[float, float]:
-    """Lame constants (lambda, mu) at E = 1 (plane stress: lambda* = 2 lambda mu/(lambda + 2 mu))."""
+    """Lame constants at E = 1; plane stress: lambda* = 2 lambda mu / (lambda + 2 mu)."""
     mu = 1.0 / (2.0 * (1.0 + poisson))
     if analysis == "plane-strain":
         return poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson)), mu
