@@ -83,9 +83,7 @@ def main() -> None:
                 ax.fill_between(x, band.lower[level] * 1e6, band.upper[level] * 1e6,
                                 color="C0", alpha=alpha, lw=0, label=label)  # fmt: skip
             inside = np.mean((fe_ste >= band.lower[0]) & (fe_ste <= band.upper[0]))
-            cuts = [
-                np.mean((fe_ste >= band.lower[i]) & (fe_ste <= band.upper[i])) for i in (1, 2)
-            ]
+            cuts = [np.mean((fe_ste >= band.lower[i]) & (fe_ste <= band.upper[i])) for i in (1, 2)]
             print(f"FE inside the fuzzy support on {100 * inside:.0f} % of the period, inside "
                   f"the mu = 1/3 cut on {100 * cuts[0]:.0f} %, the mu = 2/3 cut on "
                   f"{100 * cuts[1]:.0f} %; support width "
