@@ -264,3 +264,13 @@ def test_example_study_file_runs(tmp_path):
     lower, upper = ds["ste_lower"].values, ds["ste_upper"].values
     assert lower.shape == (3, 6) and np.all(np.isfinite(lower))
     assert np.all(lower[0] < lower[-1]) and np.all(upper[-1] < upper[0])  # nested cuts
+
+
+def test_flank_tables_share_the_fe_cache_directory(tmp_path, monkeypatch):
+    from fuzzymbs.fe.cache import cache_dir as fe_cache_dir
+    from fuzzymbs.models.gears.fe_compliance import cache_dir
+
+    monkeypatch.setenv("FUZZYMBS_CACHE_DIR", str(tmp_path))
+    assert cache_dir() == fe_cache_dir()
+    monkeypatch.delenv("FUZZYMBS_CACHE_DIR")
+    assert cache_dir() == fe_cache_dir()

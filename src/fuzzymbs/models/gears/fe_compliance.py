@@ -40,7 +40,6 @@ from pathlib import Path
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.fe.cache import cache_dir
 from fuzzymbs.models.gears.fe_mesh import flank_point, mesh_gear
 from fuzzymbs.models.gears.geometry import SpurGear
 
@@ -279,6 +278,16 @@ def _compute(gear: SpurGear, options: MeshOptions, analysis: str, support: str) 
 
 
 _FIELDS = ("grid_roll", "tooth_offsets", "surface", "reference", "centreline")
+
+
+def cache_dir() -> Path:
+    """The FE cache directory, ``$FUZZYMBS_CACHE_DIR/fe`` or ``~/.cache/fuzzymbs/fe``.
+
+    The directory of :func:`fuzzymbs.fe.cache.cache_dir`, without importing
+    ``fuzzymbs.fe`` (which loads scikit-fem: a warm model needs only NumPy).
+    """
+    root = os.environ.get("FUZZYMBS_CACHE_DIR")
+    return (Path(root) if root else Path.home() / ".cache" / "fuzzymbs") / "fe"
 
 
 def _path(key: str) -> Path:
