@@ -168,6 +168,23 @@ def test_mean_ste_and_equilibrium_against_iso(model):
     np.testing.assert_allclose(share.sum(axis=1), 1.0, rtol=1e-12)
 
 
+def test_single_contact_ste_between_iso_theoretical_and_measured_stiffness(model):
+    # ISO 6336-1 method B: c'_th, the theoretical single stiffness of solid gears (a fit
+    # to elastic calculations), and c' = c'_th C_M C_B with C_M = 0.8, the correction to
+    # measured stiffness. An elastic FE calculation of the real geometry with its bore
+    # lies between the two (measured: 8.22 um between 7.27 and 9.32 um).
+    from fuzzymbs.models.gears import iso_pair_stiffness
+    from fuzzymbs.models.gears.features import contact_zones
+
+    iso = iso_pair_stiffness(PAIR, 100.0)
+    force = 100.0 / PAIR.pinion.base_radius
+    width_um = PAIR.pinion.face_width * 1e9  # c [N/(mm um)] x b -> N/m
+    single, _ = contact_zones(PAIR, model.positions, 0.08)
+    ste_single = model({})["ste"][0][single].mean()
+    assert force / (iso.single_theoretical * width_um) < ste_single
+    assert ste_single < force / (iso.single * width_um)
+
+
 def test_doubling_modulus_and_torque_keeps_the_ste(model):
     # Similarity: the FE part scales with F/E, the Hertz half-width with sqrt(F/E*), so
     # the whole STE depends on E and T1 only through T1/E (rtol 1e-9: iteration tolerance)
