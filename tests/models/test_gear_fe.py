@@ -237,6 +237,15 @@ def test_a_batch_equals_one_sample_calls(model):
         np.testing.assert_array_equal(batch[b : b + 1], one)
 
 
+def test_a_pickled_model_is_small_and_reads_its_tables_from_the_cache(model):
+    import pickle
+
+    payload = pickle.dumps(model)
+    assert len(payload) < 20_000  # no table travels with the model
+    copy = pickle.loads(payload)
+    np.testing.assert_array_equal(copy({})["ste"], model({})["ste"])
+
+
 def test_bad_input_names_the_input():
     with pytest.raises(InvalidParameterError, match="analysis"):
         GearPairFE(PAIR, analysis="3d")

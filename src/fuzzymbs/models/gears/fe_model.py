@@ -349,7 +349,7 @@ def gear_pair_fe_model(
             "mesh, edge_radius, pinion_relief_start_diameter, wheel_relief_start_diameter"
         )
     pair = make_pair(**{**DEFAULT_PAIR_OPTIONS, **gear_options})
-    return GearPairFE(
+    model = GearPairFE(
         pair,
         torque=torque,
         positions=positions,
@@ -360,3 +360,6 @@ def gear_pair_fe_model(
         pinion_relief_start_diameter=pinion_relief_start_diameter,
         wheel_relief_start_diameter=wheel_relief_start_diameter,
     )
+    # fill the disk cache before a study sends the model to its workers, which read it
+    model.tables()
+    return model
