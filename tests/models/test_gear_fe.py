@@ -255,6 +255,8 @@ def test_bad_input_names_the_input():
         GearPairFE(PAIR, mesh={"size": 1.0})
     with pytest.raises(InvalidParameterError, match="loaded_teeth"):
         mesh_gear(PAIR.pinion, 1e-3, 2e-3, loaded_teeth=4)
+    with pytest.raises(InvalidParameterError, match="grid_points"):
+        GearPairFE(PAIR, mesh={"grid_points": 2})
     with pytest.raises(InvalidParameterError, match="reference_depth"):
         MeshOptions(fine_size=0.1, reference_depth=0.15)
     small = GearPairFE(PAIR, positions=4, mesh=COARSE)

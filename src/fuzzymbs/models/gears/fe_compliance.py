@@ -94,6 +94,16 @@ class MeshOptions:
             raise InvalidParameterError(
                 f"fine_size {self.fine_size} must not exceed coarse_size {self.coarse_size}"
             )
+        teeth = self.loaded_teeth
+        if isinstance(teeth, bool) or int(teeth) != teeth or teeth < 1 or teeth % 2 == 0:
+            raise InvalidParameterError(
+                f"mesh option loaded_teeth must be an odd integer >= 1, got {teeth!r}"
+            )
+        points = self.grid_points
+        if isinstance(points, bool) or int(points) != points or points < 4:
+            raise InvalidParameterError(
+                f"mesh option grid_points must be an integer >= 4, got {points!r}"
+            )
         if self.reference_depth < 2.0 * self.fine_size:
             raise InvalidParameterError(
                 f"reference_depth {self.reference_depth} must be at least twice fine_size "
