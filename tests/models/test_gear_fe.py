@@ -113,6 +113,21 @@ def test_tooth_compliance_against_beam_and_fillet_foundation(gear):
     assert ratio.max() - ratio.min() < 0.1
 
 
+@pytest.mark.parametrize("gear", ["pinion", "wheel"])
+def test_tooth_coupling_is_reciprocal(gear):
+    # Maxwell-Betti: the displacement of tooth d under a load on tooth 0 equals, transposed,
+    # that of tooth 0 under the same load on tooth d, i.e. of tooth -d under a load on 0
+    # by rotational symmetry. The FE matrix is symmetric, so what separates the two is
+    # only the mesh, which is the same on every loaded tooth but not between them:
+    # within 0.5 % of the largest coupling (measured 0.02-0.12 %).
+    table = flank_compliance(getattr(PAIR, gear))
+    half = (len(table.tooth_offsets) - 1) // 2
+    for d in range(1, half + 1):
+        ahead = table.surface[half + d]
+        behind = table.surface[half - d].transpose(1, 0, 3, 2)
+        assert np.max(np.abs(ahead - behind)) < 5e-3 * np.max(np.abs(ahead))
+
+
 def test_plane_strain_is_plane_stress_with_effective_constants():
     # Exact correspondence (Timoshenko & Goodier, Theory of Elasticity, section 16):
     # plane strain with (E, nu) = plane stress with E' = E/(1 - nu^2), nu' = nu/(1 - nu).
