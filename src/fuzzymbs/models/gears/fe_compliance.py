@@ -34,8 +34,10 @@ import os
 import tempfile
 import time
 import warnings
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -214,14 +216,56 @@ def _support_map(basis, bore_facets: np.ndarray, support: str):
     )
 
 
-def _compute(gear: SpurGear, options: MeshOptions, analysis: str, support: str) -> FlankCompliance:
-    from scipy.sparse.linalg import splu
+@dataclass
+class _Assembly:
+    """What a gear's FE model shares across Poisson's ratios and plane analyses.
+
+    The stiffness is linear in the Lame constants, K = b (lambda K_lambda + mu K_mu):
+    the mesh, the basis, the probe matrices and the two parts are reused, so a new
+    Poisson's ratio costs only the combination, the factorisation and the solves.
+    K_mu is assembled when a second (lambda, mu) is asked for; K_lambda then follows
+    from the first full matrix.
+    """
+
+    mesh_data: Any
+    basis: Any
+    bore_facets: np.ndarray
+    reference_probes: Any
+    centreline_probes: Any
+    first: tuple[float, float]
+    first_matrix: Any
+    mu_part: Any = None
+    lambda_part: Any = None
+
+    def stiffness(self, lam: float, mu: float) -> Any:
+        """K / b at the Lame constants (lam, mu) [E = 1]."""
+        from skfem import asm
+        from skfem.models.elasticity import linear_elasticity
+
+        if (lam, mu) == self.first:
+            return self.first_matrix
+        if self.mu_part is None:
+            self.mu_part = asm(linear_elasticity(0.0, 1.0), self.basis)
+            lam0, mu0 = self.first
+            self.lambda_part = (self.first_matrix - mu0 * self.mu_part) / lam0
+        return lam * self.lambda_part + mu * self.mu_part
+
+
+#: the last assemblies of this process, by gear geometry and mesh options (a few)
+_ASSEMBLIES: OrderedDict[str, _Assembly] = OrderedDict()
+_KEEP_ASSEMBLIES = 2
+
+
+def _assembly(gear: SpurGear, options: MeshOptions, lam: float, mu: float) -> _Assembly:
     from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
     from skfem.models.elasticity import linear_elasticity
 
-    start = time.perf_counter()
+    neutral = dataclasses.replace(gear, youngs_modulus=1.0, density=1.0, poisson_ratio=0.0)
+    key = repr((neutral, options))
+    if key in _ASSEMBLIES:
+        _ASSEMBLIES.move_to_end(key)
+        return _ASSEMBLIES[key]
     m = gear.module
-    depth = options.reference_depth * m
     mesh_data = mesh_gear(
         gear,
         fine_size=options.fine_size * m,
@@ -231,19 +275,43 @@ def _compute(gear: SpurGear, options: MeshOptions, analysis: str, support: str) 
     )
     mesh = MeshTri(mesh_data.points.T.copy(), mesh_data.triangles.T.copy())
     basis = Basis(mesh, ElementVector(ElementTriP2()))
-    lam, mu = _lame(gear.poisson_ratio, analysis)
-    stiffness = gear.face_width * asm(linear_elasticity(lam, mu), basis)
     bore = np.zeros(mesh.p.shape[1], dtype=bool)
     bore[mesh_data.bore_vertices] = True
     boundary = mesh.boundary_facets()
     bore_facets = boundary[bore[mesh.facets[0, boundary]] & bore[mesh.facets[1, boundary]]]
-    transform = _support_map(basis, bore_facets, support)
+    points, normals = flank_point(gear, mesh_data.grid_roll)
+    # reference points at depth d_ref; Weber's deflection points, where the flank
+    # normal through the grid point meets the tooth centreline
+    reach = points[:, 1] / normals[:, 1]
+    assembly = _Assembly(
+        mesh_data=mesh_data,
+        basis=basis,
+        bore_facets=bore_facets,
+        reference_probes=basis.probes((points - options.reference_depth * m * normals).T),
+        centreline_probes=basis.probes((points - reach[:, None] * normals).T),
+        first=(lam, mu),
+        first_matrix=asm(linear_elasticity(lam, mu), basis),
+    )
+    _ASSEMBLIES[key] = assembly
+    while len(_ASSEMBLIES) > _KEEP_ASSEMBLIES:
+        _ASSEMBLIES.popitem(last=False)
+    return assembly
+
+
+def _compute(gear: SpurGear, options: MeshOptions, analysis: str, support: str) -> FlankCompliance:
+    from scipy.sparse.linalg import splu
+
+    start = time.perf_counter()
+    lam, mu = _lame(gear.poisson_ratio, analysis)
+    assembly = _assembly(gear, options, lam, mu)
+    basis, mesh_data = assembly.basis, assembly.mesh_data
+    stiffness = gear.face_width * assembly.stiffness(lam, mu)
+    transform = _support_map(basis, assembly.bore_facets, support)
     reduced = (transform.T @ stiffness @ transform).tocsc()
     factor = splu(reduced, permc_spec="COLAMD")
 
     roll = mesh_data.grid_roll
     n_grid = roll.size
-    points, normals = flank_point(gear, roll)
     # unit forces (x, y) at the grid vertices of tooth 0
     loaded = mesh_data.grid_vertices[(len(mesh_data.tooth_offsets) - 1) // 2]
     rhs = np.zeros((basis.N, 2 * n_grid))
@@ -262,24 +330,19 @@ def _compute(gear: SpurGear, options: MeshOptions, analysis: str, support: str) 
         local = np.stack((c * disp[0] + s * disp[1], -s * disp[0] + c * disp[1]))
         surface[row] = local.transpose(1, 3, 0, 2)  # i, j, a, c
 
-    def own_load(probe_points: np.ndarray) -> np.ndarray:
+    def own_load(probes: Any) -> np.ndarray:
         """Displacement at probe point i under the load at grid point i: (S, 2, 2)."""
-        probes = basis.probes(probe_points.T)  # rows: x of all points, then y
         values = (probes @ solution.reshape(basis.N, -1)).reshape(2, n_grid, 2, n_grid)
         index = np.arange(n_grid)
         return values[:, index, :, index]  # (i, a, c)
 
-    reference = own_load(points - depth * normals)
-    # Weber's deflection point: the normal through the grid point meets the centreline
-    reach = points[:, 1] / normals[:, 1]
-    centreline = own_load(points - reach[:, None] * normals)
     return FlankCompliance(
         grid_roll=roll,
         tooth_offsets=mesh_data.tooth_offsets,
         surface=surface,
-        reference=reference,
-        centreline=centreline,
-        reference_depth=depth,
+        reference=own_load(assembly.reference_probes),
+        centreline=own_load(assembly.centreline_probes),
+        reference_depth=options.reference_depth * gear.module,
         analysis=analysis,
         support=support,
         dofs=int(reduced.shape[0]),
