@@ -23,17 +23,10 @@ from fuzzymbs.models.gears.half_plane import depth_approach, flamant_axis_approa
 from fuzzymbs.models.gears.potential_energy import tooth_compliance
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+pytestmark = pytest.mark.usefixtures("module_fe_cache")
 PAIR = make_pair()
 COARSE = MeshOptions(fine_size=1 / 8, coarse_size=1 / 2, loaded_teeth=3, grid_points=8,
                      reference_depth=0.3)  # fmt: skip
-
-
-@pytest.fixture(scope="module", autouse=True)
-def private_cache(tmp_path_factory):
-    """The module's FE tables go to its own cache directory (computed once per module)."""
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("FUZZYMBS_CACHE_DIR", str(tmp_path_factory.mktemp("fe-cache")))
-        yield
 
 
 @pytest.fixture(scope="module")

@@ -21,14 +21,7 @@ from fuzzymbs.study.inverse_file import load_identification_file
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
-pytestmark = pytest.mark.slow
-
-
-@pytest.fixture(scope="module", autouse=True)
-def private_cache(tmp_path_factory):
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("FUZZYMBS_CACHE_DIR", str(tmp_path_factory.mktemp("fe-cache")))
-        yield
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("module_fe_cache")]
 
 
 @pytest.fixture(scope="module")

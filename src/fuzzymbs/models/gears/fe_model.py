@@ -43,6 +43,7 @@ from fuzzymbs.models.gears.flank_contact import (
     sample_geometry,
 )
 from fuzzymbs.models.gears.geometry import GearPair
+from fuzzymbs.models.gears.model import mesh_positions
 from fuzzymbs.models.gears.muboco import pair_indices
 
 __all__ = ["FE_SAMPLE_PARAMETERS", "GearPairFE", "gear_pair_fe_model"]
@@ -63,20 +64,6 @@ STATUS_TEXT = {
     NO_CONTACT: "no tooth pair in contact (cannot carry the torque)",
     **GEOMETRY_TEXT,
 }
-
-
-def _positions(positions: int | Sequence[float] | np.ndarray) -> np.ndarray:
-    if np.ndim(positions) == 0:
-        count = int(positions)
-        if count < 2 or count != positions:
-            raise InvalidParameterError(f"positions must be an integer >= 2, got {positions!r}")
-        return np.arange(count) / count
-    values = np.asarray(positions, dtype=float)
-    if values.ndim != 1 or values.size < 1 or np.any(values < 0) or np.any(values >= 1):
-        raise InvalidParameterError("positions must be a count or fractions in [0, 1)")
-    if np.any(np.diff(values) <= 0):
-        raise InvalidParameterError("positions must be strictly increasing")
-    return values
 
 
 class GearPairFE:
@@ -152,7 +139,7 @@ class GearPairFE:
             raise InvalidParameterError(f"edge_radius must be positive [m], got {edge_radius!r}")
         self.pair = pair
         self.torque = torque
-        self.positions = _positions(positions)
+        self.positions = mesh_positions(positions)
         self.analysis = analysis
         self.support = support
         self.mesh = mesh
