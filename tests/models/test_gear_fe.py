@@ -250,6 +250,27 @@ def test_loaded_teeth_touch_outside_the_path_of_contact(model):
     assert np.any(result["pair_kind"][0] >= 2)
 
 
+def test_compiled_kernel_matches_the_python_reference(model):
+    # second method: the readable Python solver (fe_contact.solve_position), position by
+    # position; same algorithm, so round-off only (rtol 1e-10 of the curve's peak)
+    samples = {
+        "torque": np.array([1e-3, 50.0, 100.0, 300.0, 100.0]),
+        "tip_relief": np.array([1e-5, 0.0, 5e-6, 2e-5, 0.0]),
+        "center_distance_deviation": np.array([0.0, 2e-4, 0.0, 1e-4, -1e-4]),
+        "youngs_modulus": np.array([2.0e11, 2.1e11, 2.2e11, 2.1e11, 2.1e11]),
+    }
+    small = GearPairFE(PAIR, positions=30)
+    compiled = small.solve(samples)
+    reference = small.solve(samples, compiled=False)
+    np.testing.assert_array_equal(compiled["status"], reference["status"])
+    assert compiled["status"][-1] != 0  # the jammed sample fails in both
+    ok = compiled["status"] == 0
+    peak = np.abs(reference["ste"][ok]).max(axis=1, keepdims=True)
+    assert np.max(np.abs(compiled["ste"][ok] - reference["ste"][ok]) / peak) < 1e-10
+    np.testing.assert_allclose(compiled["pair_force"], reference["pair_force"], atol=1e-8)
+    np.testing.assert_array_equal(compiled["pair_kind"], reference["pair_kind"])
+
+
 def test_a_batch_equals_one_sample_calls(model):
     samples = {
         "torque": np.array([60.0, 100.0, 140.0]),

@@ -34,6 +34,7 @@ from fuzzymbs.models.gears.fe_compliance import (
     flank_compliance,
 )
 from fuzzymbs.models.gears.fe_contact import ContactSettings, solve_position
+from fuzzymbs.models.gears.fe_contact_kernel import solve_batch
 from fuzzymbs.models.gears.flank_contact import (
     GEOMETRY_SIZE,
     GEOMETRY_TEXT,
@@ -240,8 +241,17 @@ class GearPairFE:
             out[name] = column
         return out
 
-    def solve(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    def solve(self, samples: Mapping[str, Any], compiled: bool = True) -> dict[str, np.ndarray]:
         """STE, pair forces and contact kinds of a batch.
+
+        Parameters
+        ----------
+        samples : mapping of str to (B,) array
+            As for ``__call__``.
+        compiled : bool
+            Use the compiled batch kernel (:mod:`.fe_contact_kernel`, parallel over
+            the samples); False runs the Python reference
+            (:func:`.fe_contact.solve_position`) sample by sample.
 
         Returns
         -------
@@ -257,35 +267,53 @@ class GearPairFE:
         force = np.zeros((n_samples, n_pos, n_pairs))
         kind = np.zeros((n_samples, n_pos, n_pairs), dtype=np.int8)
         status = np.zeros(n_samples, dtype=np.int64)
-        g = np.empty(GEOMETRY_SIZE)
-        face_width = self.pair.pinion.face_width
+        geometry = np.empty((n_samples, GEOMETRY_SIZE))
         for b in range(n_samples):
             status[b] = sample_geometry(
-                self.geometry, cols["center_distance_deviation"][b], cols["tip_relief"][b], g
+                self.geometry,
+                cols["center_distance_deviation"][b],
+                cols["tip_relief"][b],
+                geometry[b],
             )
-            if status[b] != 0:
+        # one set of tables per Poisson's ratio: the samples that share it form one batch
+        for nu in np.unique(cols["poisson_ratio"]):
+            group = np.flatnonzero((cols["poisson_ratio"] == nu) & (status == 0))
+            if group.size == 0:
                 continue
-            pinion, wheel = self.tables(cols["poisson_ratio"][b])
-            settings = ContactSettings(
-                pinion=pinion,
-                wheel=wheel,
-                youngs_modulus=float(cols["youngs_modulus"][b]),
-                poisson_ratio=float(cols["poisson_ratio"][b]),
-                face_width=face_width,
-                edge_radius=self.edge_radius,
-                analysis=self.analysis,
-            )
-            lag = 0.0
-            for j, position in enumerate(self.positions):
-                lag, force[b, j], kind[b, j], flag = solve_position(
-                    float(position), g, self.pairs, float(cols["torque"][b]), settings, lag
+            pinion, wheel = self.tables(float(nu))
+            if compiled:
+                result = solve_batch(
+                    geometry[group], status[group], self.positions, self.pairs,
+                    cols["torque"][group], cols["youngs_modulus"][group], float(nu),
+                    self.pair.pinion.face_width, self.edge_radius,
+                    self.analysis == "plane-strain",
+                    pinion.grid_roll, pinion.surface, pinion.reference, pinion.reference_depth,
+                    wheel.grid_roll, wheel.surface, wheel.reference, wheel.reference_depth,
+                )  # fmt: skip
+                ste[group], force[group], kind[group], status[group] = result
+                continue
+            for b in group:
+                settings = ContactSettings(
+                    pinion=pinion,
+                    wheel=wheel,
+                    youngs_modulus=float(cols["youngs_modulus"][b]),
+                    poisson_ratio=float(nu),
+                    face_width=self.pair.pinion.face_width,
+                    edge_radius=self.edge_radius,
+                    analysis=self.analysis,
                 )
-                if flag != 0:
-                    status[b] = flag
-                    break
-                ste[b, j] = g[RB1] * lag
-            if status[b] != 0:
-                ste[b] = np.nan
+                lag = 0.0
+                for j, position in enumerate(self.positions):
+                    lag, force[b, j], kind[b, j], flag = solve_position(
+                        float(position), geometry[b], self.pairs, float(cols["torque"][b]),
+                        settings, lag,
+                    )  # fmt: skip
+                    if flag != 0:
+                        status[b] = flag
+                        break
+                    ste[b, j] = geometry[b, RB1] * lag
+                if status[b] != 0:
+                    ste[b] = np.nan
         return {"ste": ste, "pair_force": force, "pair_kind": kind, "status": status}
 
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, np.ndarray]:
