@@ -5,6 +5,7 @@
 Default pair, T1 = 100 N m, 60 positions. Prints wall times of one run on this
 machine and their ratios (the numbers in docs/benchmarks.md; nothing is asserted):
 
+* the first use after an install: Numba compiles the model's kernels (once);
 * cold in a fresh interpreter: import, meshing, assembly, factorisation and the
   unit-load solves of both gears (empty cache directory), then the contact analysis;
 * warm in a fresh interpreter: the same with the flank tables on disk;
@@ -34,9 +35,15 @@ print(imported - start, time.perf_counter() - start)
 """
 
 
-def fresh_interpreter(cache: str) -> tuple[float, float]:
-    """(import time, total time) [s] of one STE in a new interpreter."""
+def fresh_interpreter(cache: str, numba_cache: str | None = None) -> tuple[float, float]:
+    """(import time, total time) [s] of one STE in a new interpreter.
+
+    ``numba_cache``: an empty directory for Numba's cache, so that every kernel the
+    model uses is compiled (the first use after an install).
+    """
     env = {**os.environ, "FUZZYMBS_CACHE_DIR": cache}
+    if numba_cache is not None:
+        env["NUMBA_CACHE_DIR"] = numba_cache
     out = subprocess.run(
         [sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, check=True
     )
@@ -45,6 +52,9 @@ def fresh_interpreter(cache: str) -> tuple[float, float]:
 
 
 def main() -> None:
+    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as numba_cache:
+        _, first = fresh_interpreter(cache, numba_cache)
+        print(f"fresh interpreter, first use after install (Numba compiles): {first:.1f} s")
     with tempfile.TemporaryDirectory() as cache:
         cold_import, cold = fresh_interpreter(cache)
         warm_import, warm = fresh_interpreter(cache)
@@ -95,7 +105,7 @@ def main() -> None:
         print(f"one STE (tables in memory): {one:.3f} s")
         print(f"17 samples: {batch:.3f} s ({batch / 17:.3f} s per sample); "
               f"MUBOCO-PR, same torques and reliefs: {mb_batch:.4f} s "
-              f"(ratio {batch / mb_batch:.0f})")  # fmt: skip
+              f"(ratio {batch / mb_batch:.2f})")  # fmt: skip
         print(f"one sample at a new Poisson's ratio (new tables, cold): {new_nu:.2f} s")
 
 
