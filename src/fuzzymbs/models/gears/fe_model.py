@@ -6,7 +6,8 @@
 2D from the package's generated profiles (:mod:`.fe_mesh`), their flank
 compliances come from quadratic-triangle FE models (:mod:`.fe_compliance`,
 cached on disk), and each mesh position is a contact problem with
-non-penetration and no tension (:mod:`.fe_contact`).
+non-penetration and no tension (:mod:`.fe_contact`, the reference; the batch runs
+in its compiled twin :mod:`.fe_contact_kernel`).
 
 Sample parameters: ``youngs_modulus`` (scales the cached tables by 1/E, no new
 factorisation), ``poisson_ratio`` (a new table per distinct value, computed once
