@@ -95,6 +95,16 @@ def main() -> None:
         ax.set_title(f"T1 = {torque:g} N m")
         ax.set_xlabel("mesh position [period]")
         ax.grid(alpha=0.3)
+    # load shares at 100 N m: FE's load_share beside MUBOCO-PR's pair forces
+    fe_force = fe.solve({})["pair_force"][0]
+    mb_force = muboco.solve({})["pair_force"][0]
+    for position in (0, 30, 40, 41, 58):
+        fe_share, mb_share = (
+            np.round(force[position] / force[position].sum(), 3).tolist()
+            for force in (fe_force, mb_force)
+        )
+        print(f"load share at position {position / POSITIONS:.3f} (pairs {fe.pairs.tolist()}): "
+              f"FE {fe_share}, MUBOCO-PR {mb_share}")  # fmt: skip
     axes[0].set_ylabel("STE [um]")
     axes[1].legend(fontsize=8, loc="upper left")
     fig.tight_layout()
