@@ -1,7 +1,8 @@
 """MUBOCO-PR pseudo-rigid contact-based spur-gear pair.
 
-Registers the models ``"gear-pair"``, ``"gear-pair-dynamic"`` and
-``"gear-ste-features"`` with the study runner. Their stiffness defaults are the
+Registers the models ``"gear-pair"``, ``"gear-pair-dynamic"``,
+``"gear-ste-features"`` and the finite-element reference ``"gear-pair-fe"``
+with the study runner. Their stiffness defaults are the
 modal values identified for the default pair (z 20/40, m = 4.5 mm, b = 20 mm,
 steel, T1 = 100 N m); the manufacturing tolerances ``center_distance_deviation``
 and ``tip_relief`` default to 0; see docs/gears.md.
@@ -248,6 +249,43 @@ def _register() -> None:
             "damping": "contact damping c [N s/m] (viscous while in contact; default 3000)",
             "dynamic": "table: speed_rpm, mesh_periods, output_periods, points_per_mesh, "
             "harmonics, pinion_inertia, wheel_inertia, load_torque, hinge_damping_ratio",
+            **gear_options,
+        },
+    )
+    register_model(
+        "gear-pair-fe",
+        "fuzzymbs.models.gears.fe_model:gear_pair_fe_model",
+        parameters={
+            "youngs_modulus": ParameterInfo(
+                "Pa",
+                "Young's modulus E of both gears; compliance scales with 1/E (NaN: the "
+                "youngs_modulus option)",
+                math.nan,
+            ),
+            "poisson_ratio": ParameterInfo(
+                "-",
+                "Poisson's ratio nu of both gears; a new FE table per value, cached (NaN: "
+                "the poisson_ratio option)",
+                math.nan,
+            ),
+            "torque": parameters["torque"],
+            "center_distance_deviation": parameters["center_distance_deviation"],
+            "tip_relief": parameters["tip_relief"],
+        },
+        outputs={"ste": "m", "load_share": "-"},
+        description=(
+            "FE reference of the spur-gear pair: loaded tooth contact analysis of both whole "
+            "gears (2D quadratic triangles, Hertzian flattening, corner contact)"
+        ),
+        options={
+            "torque": "pinion torque T1 [N m] when a sample carries none (default 100)",
+            "positions": "number of mesh positions over one mesh period (default 60)",
+            "analysis": "plane-strain (default) or plane-stress",
+            "support": "bore boundary condition: clamped (default) or tangential",
+            "mesh": "table: fine_size, coarse_size (multiples of the module; default 1/24, "
+            "1/3), loaded_teeth (default 5), grid_points (default 24), reference_depth "
+            "(default 0.15)",
+            "edge_radius": "tip-corner rounding radius in corner contact [m] (default 0.05 m)",
             **gear_options,
         },
     )

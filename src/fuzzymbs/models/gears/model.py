@@ -86,7 +86,8 @@ def _column(samples: Mapping[str, Any], name: str, size: int | None) -> np.ndarr
     return values
 
 
-def _positions(positions: int | Sequence[float] | np.ndarray) -> np.ndarray:
+def mesh_positions(positions: int | Sequence[float] | np.ndarray) -> np.ndarray:
+    """Mesh positions [fraction of the mesh period] from a count or given fractions, checked."""
     if np.ndim(positions) == 0:
         count = int(positions)
         if count < 2 or count != positions:
@@ -222,7 +223,7 @@ class MubocoPR:
                     raise InvalidParameterError(f"{name} must be positive, got {value!r}")
                 self.defaults[name] = value
         if mode == "static":
-            self.positions = _positions(positions)
+            self.positions = mesh_positions(positions)
             self.coords = {"position": self.positions}
             self.coord_units = {"position": "periods"}
             self.output_dims = {"ste": ("position",)}
