@@ -66,7 +66,7 @@ def test_verdicts_against_the_tolerances(oscillator):
     assert found["status"].verdict == "pass"
     assert found["method error"].verdict == "pass" and "0.4 %" in found["method error"].text
     integration = found["time-integration error"]
-    assert integration.verdict == "fail" and "2 % of the peak" in integration.text
+    assert integration.verdict == "fail" and "2 % of the cut width" in integration.text
     assert "EXCEEDS the tolerance 1 %" in integration.text
     assert '<tr class="fail"><td>time-integration error</td>' in render_report(dataset)
     dataset.attrs["method_error"] = np.nan
