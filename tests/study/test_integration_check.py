@@ -185,3 +185,52 @@ def test_the_check_estimates_the_true_error_of_the_engine(settings):
     assert check is not None
     assert 0.5 * true_error < check.peak_error < 1.5 * true_error
     assert true_error > 1e-9  # a real error to estimate, not rounding
+
+
+class ScalableDecay(Decay):
+    """:class:`Decay` whose error falls as rtol^0.88 like the brake's ROS34PW2 (the pilot's
+    assumed order), so that the tolerance a study chooses has a closed form."""
+
+    scalable_tolerance = True
+
+    def __init__(self, rtol: float) -> None:
+        super().__init__(0.5 * rtol**0.88)
+        self.rtol = rtol
+        self.time_integration = f"closed form, rtol {rtol:g}"
+
+    def tightened(self, factor: float = 10.0) -> ScalableDecay:
+        return ScalableDecay(self.rtol / factor)
+
+
+def test_study_chooses_the_integrator_tolerance_for_its_cut_widths():
+    # at rtol 1e-2 the band-relative error is decay_band_error(0.5e-2^0.88) = 6 % of the
+    # cut width; the pilot (corners of the mu = 0.5 cut, modal at rtol and rtol / 10)
+    # sees the same cut widths, so the chosen rtol lands the study at 0.7 x 1 % (the
+    # target), which its own check confirms
+    model = ScalableDecay(1e-2)
+    assert decay_band_error(model.error) > 0.05
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TimeIntegrationWarning)
+        result = Study(model, fuzzy, levels=2, integration_tolerance=0.01).run(progress=False)
+    attrs = result.dataset.attrs
+    assert attrs["integration_pilot_runs"] == 2 + 1 + 1
+    # the pilot's estimate: 0.9 (1 - 10^-0.88) / 0.9 of the band error at rtol 1e-2
+    estimate = decay_band_error(model.error) * (1 - 10**-0.88) / 0.9
+    assert attrs["integration_pilot_error"] == pytest.approx(estimate, rel=1e-9)
+    factor = (estimate / 0.007) ** (1 / 0.88)
+    assert attrs["integration_tolerance_factor"] == pytest.approx(factor, rel=1e-9)
+    chosen = ScalableDecay(1e-2 / factor)
+    assert attrs["time_integration"] == chosen.time_integration
+    # the check measures what the pilot measured, at the chosen tolerance: the target
+    check = decay_band_error(chosen.error) * (1 - 10**-0.88) / 0.9
+    assert attrs["time_integration_error"] == pytest.approx(check, rel=1e-9)
+    assert attrs["time_integration_error"] == pytest.approx(0.7 * 0.01, rel=1e-9)
+    assert "Integrator tolerance chosen by a pilot of 4 runs" in summarize(result.dataset)
+    # a model already accurate enough keeps its tolerance (never loosened)
+    loose = Study(ScalableDecay(1e-6), fuzzy, levels=2).run(progress=False)
+    assert loose.dataset.attrs["integration_tolerance_factor"] == 1.0
+    # and the choice can be switched off
+    off = Study(ScalableDecay(1e-2), fuzzy, levels=2, choose_integration=False)
+    with pytest.warns(TimeIntegrationWarning, match="exceeds"):
+        assert "integration_pilot_runs" not in off.run(progress=False).dataset.attrs

@@ -371,17 +371,25 @@ class SimulationModel:
             return f"rk4, dt {settings['dt']:g} s"
         return f"{settings['integrator']}, rtol {settings['rtol']:g}"
 
-    def tightened(self) -> SimulationModel:
-        """The same model with a tenfold tighter tolerance (ROS34PW2; atol too) or half
-        the step (RK4): the study runner's check of the time integration
+    @property
+    def scalable_tolerance(self) -> bool:
+        """True for ROS34PW2: :meth:`tightened` divides its tolerance by any factor (a study
+        may then choose it, :func:`fuzzymbs.study.integration_check.choose_tolerance`)."""
+        return self.settings["integrator"] == "ros34pw2"
+
+    def tightened(self, factor: float = 10.0) -> SimulationModel:
+        """The same model with the tolerance divided by ``factor`` (ROS34PW2; atol too) or,
+        for RK4, half the step: the study runner's check of the time integration
         (:mod:`fuzzymbs.study.integration_check`)."""
+        if not (np.isfinite(factor) and factor > 0):
+            raise InvalidParameterError(f"factor must be > 0, got {factor!r}")
         settings = dict(self.settings)
         if settings["integrator"] == "rk4":
             settings["dt"] = settings["dt"] / 2
         else:
-            settings["rtol"] = settings["rtol"] / 10
+            settings["rtol"] = settings["rtol"] / factor
             if settings["atol"] is not None:
-                settings["atol"] = settings["atol"] / 10
+                settings["atol"] = settings["atol"] / factor
         return SimulationModel(
             self.compiled, outputs=self.outputs, initial_state=self.initial_state, **settings
         )

@@ -255,3 +255,115 @@ def _report(check: IntegrationCheck) -> IntegrationCheck:
             stacklevel=4,
         )
     return check
+
+
+#: the integration error is taken to fall as rtol^ORDER when the study chooses its
+#: tolerance (measured on the brake's studies against rtol 1e-6: slopes 0.82 to 0.94
+#: per decade from 1e-2 to 1e-5, docs/brake.md)
+ERROR_ORDER = 0.88
+#: the tolerance is chosen for this fraction of the study's integration tolerance
+TARGET_FRACTION = 0.7
+#: the pilot's parameters: at most this many (2^n corners)
+PILOT_MAX_PARAMETERS = 6
+
+
+@dataclass(frozen=True)
+class ToleranceChoice:
+    """What the pilot of :func:`choose_tolerance` found and chose.
+
+    Attributes
+    ----------
+    factor : the model's tolerance was divided by this (1: kept).
+    pilot_error : the estimated band-relative error at the model's own tolerance.
+    pilot_runs : runs of the pilot (corners of the innermost cut, modal, modal tightened).
+    method : the chosen time integration in words.
+    note : why no choice was made, or "".
+    """
+
+    factor: float
+    pilot_error: float
+    pilot_runs: int
+    method: str
+    note: str = ""
+
+    def to_attrs(self) -> dict[str, Any]:
+        return {
+            "integration_pilot_error": float(self.pilot_error),
+            "integration_pilot_runs": int(self.pilot_runs),
+            "integration_tolerance_factor": float(self.factor),
+            "integration_choice_note": self.note,
+        }
+
+
+def choose_tolerance(
+    model: Any,
+    columns: Callable[[np.ndarray], Mapping[str, np.ndarray]],
+    cut_lower: np.ndarray,
+    cut_upper: np.ndarray,
+    modal: np.ndarray,
+    names: Sequence[str],
+    tolerance: float = DEFAULT_TOLERANCE,
+) -> tuple[Any, ToleranceChoice | None]:
+    """The model with its integrator's tolerance chosen for the study's cut widths.
+
+    A pilot runs the corners of the innermost cut of non-zero width and the modal
+    point at the model's own tolerance, and the modal point once more at a tenth of
+    it. The corners' spread estimates the narrowest cut widths ``w``, the modal
+    point's two runs its integration error ``e``; with the normalisation of the
+    check, ``E = max e / max(w, 0.1 max w)``. If E exceeds ``TARGET_FRACTION x
+    tolerance``, the tolerance is divided by ``(E / (TARGET_FRACTION tolerance))^(1 /
+    ERROR_ORDER)``; it is never loosened. The study's own check afterwards measures
+    what the choice achieved.
+
+    Parameters
+    ----------
+    model : a model whose ``tightened(factor)`` divides its tolerance by any factor and
+        that says so with ``scalable_tolerance = True``; other models come back as
+        they are, with None.
+    columns : parameter columns of a table of fuzzy-parameter rows (k, n).
+    cut_lower, cut_upper : (L, n) the plan's cut boxes.
+    modal : (n,) the modal point.
+    names : the study's outputs.
+    tolerance : the study's integration tolerance (of the cut width).
+
+    Returns
+    -------
+    (model, ToleranceChoice or None)
+    """
+    if not getattr(model, "scalable_tolerance", False):
+        return model, None
+    widths = cut_upper - cut_lower
+    inner = [j for j in range(len(widths)) if np.any(widths[j] > 0)]
+    n = cut_lower.shape[1]
+    if not inner or n > PILOT_MAX_PARAMETERS:
+        note = "no cut of non-zero width" if not inner else f"more than {PILOT_MAX_PARAMETERS}"
+        return model, ToleranceChoice(1.0, np.nan, 0, model.time_integration, note)
+    j = inner[-1]
+    corners = np.array(
+        [
+            [cut_upper[j, i] if (k >> i) & 1 else cut_lower[j, i] for i in range(n)]
+            for k in range(2**n)
+        ]
+    )
+    table = np.vstack([corners, modal[None, :]])
+    coarse = model(dict(columns(table)))
+    fine = model.tightened(10.0)(dict(columns(modal[None, :])))
+    runs = len(table) + 1
+    failed = np.asarray(coarse.get("failed", np.zeros(len(table), bool)), dtype=bool)
+    fine_failed = np.asarray(fine.get("failed", [False]), dtype=bool)
+    if failed.any() or fine_failed.any():
+        note = "a pilot run failed; the model's tolerance is kept"
+        return model, ToleranceChoice(1.0, np.nan, runs, model.time_integration, note)
+    error = 0.0
+    for name in names:
+        values = np.asarray(coarse[name], dtype=float).reshape(len(table), -1)
+        width = values[:-1].max(axis=0) - values[:-1].min(axis=0)
+        widest = float(width.max())
+        if not widest > 0:
+            continue
+        deviation = np.abs(values[-1] - np.asarray(fine[name], dtype=float).reshape(-1))
+        error = max(error, float(np.max(deviation / np.maximum(width, WIDTH_FLOOR * widest))))
+    target = TARGET_FRACTION * tolerance
+    factor = 1.0 if error <= target else float((error / target) ** (1.0 / ERROR_ORDER))
+    chosen = model.tightened(factor) if factor > 1.0 else model
+    return chosen, ToleranceChoice(factor, error, runs, chosen.time_integration)

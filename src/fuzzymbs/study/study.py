@@ -59,7 +59,9 @@ from fuzzymbs.study.integration_check import (
     DEFAULT_RUNS,
     DEFAULT_TOLERANCE,
     IntegrationCheck,
+    ToleranceChoice,
     check_time_integration,
+    choose_tolerance,
 )
 from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE, ValidationRuns
 from fuzzymbs.study.planning import (
@@ -130,6 +132,12 @@ class Study:
     integration_runs : int
         How many samples that check re-runs (the modal one and those that give the
         most bounds; default 8).
+    choose_integration : bool
+        With a model whose integrator tolerance scales (``scalable_tolerance``, e.g.
+        the brake with ROS34PW2), first run a pilot (the corners of the innermost cut
+        and the modal point) and tighten the model's tolerance so that the
+        time-integration error is expected below the integration tolerance
+        (:func:`~fuzzymbs.study.integration_check.choose_tolerance`; default True).
     validation_runs : int, optional
         Extra runs that check the method (:mod:`fuzzymbs.study.method_check`):
         points inside the cut boxes that no run of the method covers, compared
@@ -177,6 +185,7 @@ class Study:
         search_points: int | None = None,
         integration_tolerance: float = DEFAULT_TOLERANCE,
         integration_runs: int = DEFAULT_RUNS,
+        choose_integration: bool = True,
         validation_runs: int | None = None,
         method_tolerance: float = DEFAULT_METHOD_TOLERANCE,
         widen_with_validation: bool = False,
@@ -207,6 +216,8 @@ class Study:
             )
         self.integration_tolerance = float(integration_tolerance)
         self.integration_runs = int(integration_runs)
+        self.choose_integration = bool(choose_integration)
+        self.integration_choice: ToleranceChoice | None = None
         self.validation_runs = None if validation_runs is None else int(validation_runs)
         self.method_tolerance = float(method_tolerance)
         self.widen_with_validation = bool(widen_with_validation)
@@ -335,6 +346,8 @@ class Study:
         model_identity = getattr(self.model, "identity", None)
         if callable(model_identity):
             identity["model_identity"] = model_identity()
+        if self.integration_choice is not None:
+            identity["integration_tolerance_factor"] = self.integration_choice.factor
         return identity
 
     def _screening_identity(self) -> dict[str, Any]:
@@ -455,6 +468,7 @@ class Study:
             if self._plan is None:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
             count = len(self.plan)
+            self._choose_integration()
             chunk_store, size, chunk_count, results, missing, reused = open_chunks(
                 store, self.identity(), count, requested_size, resume, code, load=False
             )
@@ -526,7 +540,24 @@ class Study:
             integration=integration,
             validation=validation,
         )
+        if self.integration_choice is not None:
+            dataset.attrs.update(self.integration_choice.to_attrs())
         return StudyResult(dataset)
+
+    def _choose_integration(self) -> None:
+        """Once per study: the model's integrator tolerance chosen for the cut widths."""
+        if not self.choose_integration or self.integration_choice is not None:
+            return
+        plan = self.plan
+        self.model, self.integration_choice = choose_tolerance(
+            self.model,
+            lambda table: self._columns(table, 0, len(table)),
+            plan.cut_lower,
+            plan.cut_upper,
+            plan.samples[plan.nominal_index],
+            self.output_names,
+            self.integration_tolerance,
+        )
 
     def validation_points(
         self,

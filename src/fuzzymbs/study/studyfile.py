@@ -6,6 +6,7 @@ Layout (see docs/studies.md)::
                  screening_rtol, sparse_level, search_points (method "sparse"),
                  integration_tolerance (time-integrated models: of the cut width; default 0.01),
                  integration_runs (samples its check re-runs; default 8),
+                 choose_integration (a pilot chooses the integrator tolerance; true),
                  validation_runs (default: a fifth of the runs, at least n + 1; 0: off),
                  method_tolerance (default 0.01), widen_with_validation (default false),
                  max_runs (default 1,000,000: a larger plan is refused before it is built)
@@ -61,6 +62,7 @@ class StudySection(_Section):
     search_points: int | None = Field(default=None, ge=1)
     integration_tolerance: float = Field(default=DEFAULT_TOLERANCE, gt=0.0, allow_inf_nan=False)
     integration_runs: int = Field(default=DEFAULT_RUNS, ge=1)
+    choose_integration: bool = True
     validation_runs: int | None = Field(default=None, ge=0)
     method_tolerance: float = Field(default=DEFAULT_METHOD_TOLERANCE, gt=0.0, allow_inf_nan=False)
     widen_with_validation: bool = False
@@ -330,6 +332,7 @@ def load_study_file(
             search_points=parsed.study.search_points,
             integration_tolerance=parsed.study.integration_tolerance,
             integration_runs=parsed.study.integration_runs,
+            choose_integration=parsed.study.choose_integration,
             validation_runs=parsed.study.validation_runs,
             method_tolerance=parsed.study.method_tolerance,
             widen_with_validation=parsed.study.widen_with_validation,

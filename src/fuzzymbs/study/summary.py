@@ -100,6 +100,15 @@ def summarize(dataset: xarray.Dataset) -> str:
                 f"Time integration: {attrs['time_integration']}; NOT CHECKED: "
                 f"{attrs['time_integration_note']}"
             )
+        factor = float(attrs.get("integration_tolerance_factor", 1.0))
+        if "integration_pilot_runs" in attrs and int(attrs["integration_pilot_runs"]) > 0:
+            pilot = float(attrs["integration_pilot_error"])
+            chosen = f"tightened {factor:.3g} times" if factor > 1 else "kept"
+            lines.append(
+                f"Integrator tolerance chosen by a pilot of {int(attrs['integration_pilot_runs'])}"
+                f" runs: {100 * pilot:.3g} % of the cut width expected at the model's own, "
+                f"so {chosen}"
+            )
     if "method_error" in attrs:
         lines.append(_method_line(attrs, provenance))
     if attrs["status"] == "complete":

@@ -327,11 +327,16 @@ class DiscBrake:
         """The time integration in words (for study summaries)."""
         return self.simulation.time_integration
 
-    def tightened(self) -> DiscBrake:
-        """The same brake with a tenfold tighter tolerance (RK4: half the step), for the
-        study runner's check of the time integration."""
+    @property
+    def scalable_tolerance(self) -> bool:
+        """True with ROS34PW2: a study may choose the tolerance for its cut widths."""
+        return self.simulation.scalable_tolerance
+
+    def tightened(self, factor: float = 10.0) -> DiscBrake:
+        """The same brake with the tolerance divided by ``factor`` (RK4: half the step), for
+        the study runner's choice and check of the time integration."""
         tight = copy.copy(self)
-        tight.simulation = self.simulation.tightened()
+        tight.simulation = self.simulation.tightened(factor)
         return tight
 
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
