@@ -245,3 +245,18 @@ def test_tolerance_study_quick_is_identical_on_dask():
     assert [row["runs"] for row in figures["rows"]] == [729, 729]
     assert figures["dask_identical_to_inline"]
     assert all(row["failed"] == 0 for row in figures["rows"])
+
+
+@pytest.mark.slow
+def test_brake_bands_quick_runs():
+    # 1 ms: a sample alone and beside others is bit-identical; the bands' error against
+    # rtol 1e-6 falls with the tolerance (ROS34PW2's error ~ rtol^0.88, docs/brake.md)
+    import brake_bands
+
+    figures = brake_bands.main(["--quick", "--rounds", "1"])
+    assert all(value == 0.0 for value in figures["noise"]["this"].values())
+    study = figures["bands"]["study1"]
+    coarse = max(max(v) for v in study["rtol 0.01"]["deviation"].values())
+    fine = max(max(v) for v in study["rtol 0.001"]["deviation"].values())
+    assert fine < coarse
+    assert figures["cost"]["best"]["default"]["time_integration_error"] < 0.01

@@ -121,12 +121,12 @@ def test_model_exchange_study_within_cvode_error(fmus, version):
     # CVODE at rtol 1e-6: measured 4e-5 of the peak (docs/studies.md, "FMU models");
     # the bound 2e-4 leaves room for other CVODE builds
     assert error < 2e-4
-    # the study's own estimate (rerun at rtol 1e-7) is of the same size as the true error
-    # of its modal sample: within a factor 3 either way
+    # the study's own peak-relative estimate (rerun at rtol 1e-7) is of the same size as
+    # the true error of its modal sample: within a factor 3 either way
     model = FmuModel(fmus[version], STOP, INTERVAL, interface="model-exchange")
     modal = {"k": np.array([100.0]), "c": np.array([0.4])}
     true_error = np.abs(model(modal)["x"][0] - ClosedFormOscillator(_grid())(modal)["x"][0]).max()
-    estimate = result.dataset.attrs["time_integration_error"]
+    estimate = result.dataset.attrs["time_integration_error_peak"]
     assert true_error / peak / 3.0 < estimate < 3.0 * true_error / peak
     assert "CVODE" in result.dataset.attrs["time_integration"]
 
@@ -135,7 +135,8 @@ def test_coarse_model_exchange_warns_about_its_error(fmus):
     study = _fmu_study(fmus[2], interface="model-exchange", solver_tolerance=1e-3)
     with pytest.warns(TimeIntegrationWarning):
         result = study.run(progress=False)
-    assert result.dataset.attrs["time_integration_error"] > 0.005
+    # on the scale of the cut width (the band-relative figure), well above 1 %
+    assert result.dataset.attrs["time_integration_error"] > 0.01
 
 
 def test_process_pool_gives_the_inline_result(fmus):

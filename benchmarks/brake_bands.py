@@ -1,0 +1,258 @@
+"""The brake's fuzzy bands against the numerical noise; prints one JSON line.
+
+    python benchmarks/brake_bands.py [--before PATH] [--quick] [--figure]
+
+* ``noise``: the nominal brake (10 ms) run alone and in one block with three other
+  study-1 samples: the largest difference relative to the peak per output, in this
+  checkout and (``--before``) in another one (e.g. ``git worktree add ../before
+  29decec``: the shared-step kernel);
+* ``bands``: the 33 samples of study 1 (k, k_c +-10 %, F_n +-1 %) and study 2 (k, k_c,
+  omega +-10 %), reduced method, levels 0, 0.25, 0.5, 0.75, 1, each integrated in one
+  call with ROS34PW2 at several rtol and with the paper's RK4 at 1 us; the bands'
+  deviation from those of the same plan at rtol 1e-6 (cached in benchmarks/.cache),
+  per output and level, as a fraction of max(local cut width, 0.1 x the level's widest
+  cut) (the normalisation of ``method_error`` and ``time_integration_error``); CPU
+  time of each call (all threads);
+* ``cost``: the whole default study 1 (``Study.run``: 33 runs, the method check's 6
+  validation runs and the time-integration check) in fresh interpreters, this
+  checkout's default, the ``--before`` checkout's default and this checkout with RK4
+  at 1 us, alternating, ``--rounds`` times; the smallest wall times, their ratios and
+  each study's own error estimates;
+* ``--figure``: docs/figures/brake_band_precision.png, band-relative error against
+  CPU time (the work-precision diagram on the scale of the bands).
+
+``--quick``: 1 ms signals, study 1 only, two tolerances, no reference cache (the
+smoke test's mode).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from bench_common import BENCH_DIR, REPO, load_average, run_json_subprocess
+
+import fuzzymbs
+from fuzzymbs.models.brake import DiscBrake
+
+OUTPUTS = ("y_lpad", "y_upad", "y_cali")
+LEVELS = [0.0, 0.25, 0.5, 0.75, 1.0]
+REFERENCE_RTOL = 1e-6
+
+
+def study_parameters(study: int) -> dict[str, fuzzymbs.Triangular]:
+    """The fuzzy parameters of the brake's study 1 or 2 (docs/brake.md)."""
+    third = (
+        ("nodal_force", fuzzymbs.Triangular.relative(16e3, 0.01))
+        if study == 1
+        else ("disc_speed", fuzzymbs.Triangular.relative(1.0, 0.1))
+    )
+    return {
+        "pad_spring_stiffness": fuzzymbs.Triangular.relative(200e3, 0.1),
+        "caliper_spring_stiffness": fuzzymbs.Triangular.relative(1e3, 0.1),
+        third[0]: third[1],
+    }
+
+
+def band_deviation(bands: dict, reference: dict) -> dict[str, list[float]]:
+    """Per output, per level with a cut of non-zero width: the largest deviation of either
+    bound from the reference's, over max(reference width, 0.1 x its widest cut)."""
+    found = {}
+    for name in OUTPUTS:
+        lower, upper = bands[name]
+        ref_lower, ref_upper = reference[name]
+        width = ref_upper - ref_lower
+        widest = width.max(axis=1, keepdims=True)
+        scale = np.maximum(width, 0.1 * widest)
+        deviation = np.maximum(np.abs(lower - ref_lower), np.abs(upper - ref_upper))
+        found[name] = [
+            round(float(np.max(deviation[j] / scale[j])), 5)
+            for j in range(len(width))
+            if widest[j, 0] > 0
+        ]
+    return found
+
+
+def evaluate_bands(study: int, t_end: float, settings: dict) -> tuple[dict, float, float]:
+    """The study's plan integrated in one call: ({output: (lower, upper)}, CPU s, wall s)."""
+    parameters = study_parameters(study)
+    plan = fuzzymbs.plan(parameters, method="reduced", levels=LEVELS)
+    model = DiscBrake(t_end=t_end, **settings)
+    samples = {name: plan.samples[:, i] for i, name in enumerate(parameters)}
+    model({name: values[:1] for name, values in samples.items()})  # compile / warm up
+    cpu, wall = time.process_time(), time.perf_counter()
+    out = model(samples)
+    cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+    if np.asarray(out["failed"]).any():
+        raise RuntimeError(f"study {study} {settings}: samples failed")
+    result = plan.retransform({name: out[name] for name in OUTPUTS}, check_monotonic=False)
+    return {name: (result[name].lower, result[name].upper) for name in OUTPUTS}, cpu, wall
+
+
+def reference_bands(study: int, t_end: float, cache: bool) -> dict:
+    path = BENCH_DIR / ".cache" / f"brake_bands_s{study}_t{t_end:g}_r{REFERENCE_RTOL:g}.npz"
+    if cache and path.exists():
+        data = np.load(path)
+        return {name: (data[f"{name}_lower"], data[f"{name}_upper"]) for name in OUTPUTS}
+    bands, _, _ = evaluate_bands(study, t_end, {"rtol": REFERENCE_RTOL})
+    if cache:
+        path.parent.mkdir(exist_ok=True)
+        arrays = {
+            f"{n}_{side}": bands[n][k] for n in OUTPUTS for k, side in enumerate(("lower", "upper"))
+        }
+        np.savez(path, **arrays)
+    return bands
+
+
+_NOISE = """
+import json, numpy as np, fuzzymbs
+from fuzzymbs.models.brake import DiscBrake
+p = {{"pad_spring_stiffness": fuzzymbs.Triangular.relative(200e3, 0.1),
+     "caliper_spring_stiffness": fuzzymbs.Triangular.relative(1e3, 0.1),
+     "nodal_force": fuzzymbs.Triangular.relative(16e3, 0.01)}}
+plan = fuzzymbs.plan(p, method="reduced", levels=[0.0, 0.25, 0.5, 0.75, 1.0])
+S, model = plan.samples, DiscBrake(t_end={t_end})
+def run(rows):
+    return model({{k: S[rows, i] for i, k in enumerate(p)}})
+nominal = plan.nominal_index
+alone, mixed = run([nominal]), run([5, nominal, 12, 20])
+print(json.dumps({{k: float(np.abs(mixed[k][1] - alone[k][0]).max() / np.abs(alone[k][0]).max())
+                  for k in ("y_lpad", "y_upad", "y_cali")}}))
+"""
+
+_STUDY = """
+import json, time, warnings
+import numpy as np
+from fuzzymbs.models.brake import DiscBrake
+from fuzzymbs.study.study import Study
+parameters = {{
+    "pad_spring_stiffness": {{"type": "triangular", "modal": 200e3, "spread": 0.1}},
+    "caliper_spring_stiffness": {{"type": "triangular", "modal": 1e3, "spread": 0.1}},
+    "nodal_force": {{"type": "triangular", "modal": 16e3, "spread": 0.01}},
+}}
+levels = [0.0, 0.25, 0.5, 0.75, 1.0]
+warnings.simplefilter("ignore")
+settings = {settings}
+Study(DiscBrake(t_end=2e-5, **settings), parameters, levels=levels).run(progress=False)
+wall, cpu = time.perf_counter(), time.process_time()
+result = Study(DiscBrake(t_end={t_end}, **settings), parameters, levels=levels).run(
+    chunk_size=33, progress=False
+)
+attrs = result.dataset.attrs
+if {save!r}:
+    np.savez({save!r}, **{{f"{{n}}_{{side}}": result.dataset[f"{{n}}_{{side}}"].values
+        for n in ("y_lpad", "y_upad", "y_cali") for side in ("lower", "upper")}})
+print(json.dumps({{"wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu,
+    "time_integration": str(attrs.get("time_integration", "")),
+    "time_integration_error": float(attrs.get("time_integration_error", float("nan"))),
+    "time_integration_error_peak": float(attrs.get("time_integration_error_peak", float("nan"))),
+    "method_error": float(attrs.get("method_error", float("nan")))}}))
+"""
+
+
+def _in_checkout(code: str, checkout: Path):
+    return run_json_subprocess(code, env={"PYTHONPATH": str(checkout / "src")}, timeout=7200)
+
+
+def measure_cost(before: Path | None, t_end: float, rounds: int, reference: dict) -> dict:
+    sides = {"default": (REPO, {}), "rk4_1us": (REPO, {"integrator": "rk4", "dt": 1e-6})}
+    if before is not None:
+        sides["before_default"] = (before.resolve(), {})
+    runs: dict[str, list[dict]] = {name: [] for name in sides}
+    saved = BENCH_DIR / ".cache" / "brake_bands_default_study.npz"
+    saved.parent.mkdir(exist_ok=True)
+    for _ in range(rounds):
+        for name, (checkout, settings) in sides.items():
+            save = str(saved) if name == "default" else ""
+            code = _STUDY.format(settings=repr(settings), t_end=t_end, save=save)
+            runs[name].append(_in_checkout(code, checkout))
+    cost = {name: min(runs[name], key=lambda r: r["wall_s"]) for name in sides}
+    figures = {"runs": runs, "best": cost}
+    data = np.load(saved)
+    bands = {n: (data[f"{n}_lower"], data[f"{n}_upper"]) for n in OUTPUTS}
+    figures["default_study_band_deviation"] = band_deviation(bands, reference)
+    figures["default_over_rk4_1us"] = cost["default"]["wall_s"] / cost["rk4_1us"]["wall_s"]
+    if before is not None:
+        figures["default_over_before_default"] = (
+            cost["default"]["wall_s"] / cost["before_default"]["wall_s"]
+        )
+        figures["default_over_before_default_cpu"] = (
+            cost["default"]["cpu_s"] / cost["before_default"]["cpu_s"]
+        )
+    return figures
+
+
+def plot(bands: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(8.0, 3.4), sharey=True)
+    for ax, (study, entries) in zip(axes, bands.items(), strict=False):
+        for label, entry in entries.items():
+            worst = max(max(v) for v in entry["deviation"].values())
+            marker = "s" if label.startswith("rk4") else "o"
+            ax.loglog(entry["cpu_s"], 100 * worst, marker, color="k" if marker == "s" else "C0")
+            ax.annotate(
+                label,
+                (entry["cpu_s"], 100 * worst),
+                fontsize=7,
+                xytext=(4, 2),
+                textcoords="offset points",
+            )
+        ax.axhline(2.0, color="C3", lw=0.8, ls="--")
+        ax.axhline(1.0, color="C2", lw=0.8, ls=":")
+        ax.set_title(f"brake study {study[-1]} (33 runs, 10 ms)", fontsize=9)
+        ax.set_xlabel("CPU time of the 33 runs [s]")
+        ax.grid(True, which="both", lw=0.3)
+    axes[0].set_ylabel("band error [% of the cut width]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--before", type=Path, help="another checkout for 'noise' and 'cost'")
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--figure", action="store_true")
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--skip-cost", action="store_true")
+    args = parser.parse_args(argv)
+    t_end = 1e-3 if args.quick else 1e-2
+    studies = (1,) if args.quick else (1, 2)
+    rtols = (1e-2, 1e-3) if args.quick else (1e-2, 1e-3, 1e-4, 3e-5, 1e-5)
+    figures: dict = {"load_average_start": load_average(), "t_end_s": t_end}
+    figures["noise"] = {"this": _in_checkout(_NOISE.format(t_end=t_end), REPO)}
+    if args.before is not None:
+        figures["noise"]["before"] = _in_checkout(_NOISE.format(t_end=t_end), args.before)
+    figures["bands"] = {}
+    references = {}
+    for study in studies:
+        reference = reference_bands(study, t_end, cache=not args.quick)
+        references[study] = reference
+        entries = {}
+        variants = [(f"rtol {r:g}", {"rtol": r}) for r in rtols]
+        variants.append(("rk4 1 us", {"integrator": "rk4", "dt": 1e-6}))
+        for label, settings in variants:
+            bands, cpu, wall = evaluate_bands(study, t_end, settings)
+            entries[label] = {
+                "cpu_s": round(cpu, 2),
+                "wall_s": round(wall, 2),
+                "deviation": band_deviation(bands, reference),
+            }
+        figures["bands"][f"study{study}"] = entries
+    if not args.skip_cost:
+        rounds = 1 if args.quick else args.rounds
+        figures["cost"] = measure_cost(args.before, t_end, rounds, references[1])
+    if args.figure:
+        plot(figures["bands"], REPO / "docs" / "figures" / "brake_band_precision.png")
+    figures["load_average_end"] = load_average()
+    return figures
+
+
+if __name__ == "__main__":
+    print(json.dumps(main()))
