@@ -247,15 +247,17 @@ class DiscBrake:
         Samples per call of the RK4 kernel (its blocks run over Numba's threads).
     kernel : {"auto", "lanes", "samples"}
         How samples share the kernel's lanes (see :func:`fuzzymbs.mbs.integrate.simulate`):
-        by default four samples in lockstep per SIMD vector; "samples": a block per
-        sample, so that no sample's result depends on another's.
+        by default four samples per SIMD vector; "samples": a block per sample. Both
+        give a sample bit-identical outputs whatever shares its block.
     integrator, rtol, atol
         ``"ros34pw2"`` (default): the linearly implicit ROS34PW2 with error control
         at rtol (default 1e-2), atol (default 1e-5 rtol); ``"rk4"``: the paper's
         fixed-step RK4 at dt, for reproducing the publication (see
         :func:`fuzzymbs.mbs.integrate.simulate`). Over 10 ms, ROS34PW2 at rtol 1e-2
         is 0.27 % of the peak off a converged reference, RK4 at 1 us 13.1 %
-        (docs/brake.md, "Accuracy of the time integration").
+        (docs/brake.md, "Accuracy of the time integration"). A fuzzy study reads the
+        cut width, not the peak: a study tightens rtol for its cut widths itself
+        (``scalable_tolerance``; docs/brake.md, "Bands above the numerical noise").
     """
 
     parameters = PARAMETERS
