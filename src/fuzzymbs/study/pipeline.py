@@ -64,7 +64,9 @@ def run_study_file(
     """
     from fuzzymbs.study.studyfile import load_study_file
 
-    definition = load_study_file(path, allow_code=allow_code, max_runs=max_runs)
+    definition = load_study_file(
+        path, allow_code=allow_code, max_runs=max_runs, file_executor=executor is None
+    )
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InvalidParameterError(f"output folder {out} exists and is not a directory")
@@ -123,6 +125,10 @@ def demo_files(name: str) -> list[Any]:
     """
     from importlib import resources
 
+    if name not in demo_names():  # never a path: only the shipped demos run
+        raise InvalidParameterError(
+            f"unknown demo {name!r}; shipped demos: {', '.join(demo_names()) or '(none)'}"
+        )
     folder = resources.files("fuzzymbs") / "demos" / name
     files = (
         sorted((f for f in folder.iterdir() if f.name.endswith(".toml")), key=lambda f: f.name)

@@ -21,9 +21,10 @@ from typing import Any
 
 import numpy as np
 
+from fuzzymbs.errors import StoreMismatchError
 from fuzzymbs.fuzzy.accumulate import OutputAccumulator, StreamLayout
 from fuzzymbs.fuzzy.retransform import FuzzyResult, from_accumulated
-from fuzzymbs.study.evaluation import ChunkResult
+from fuzzymbs.study.evaluation import ChunkResult, OutputCheck
 
 __all__ = ["RAW_LIMIT_BYTES", "ChunkFeed"]
 
@@ -74,6 +75,7 @@ class ChunkFeed:
         self._pending_failed: list[tuple[int, int]] = []  # all-failed chunks before any shape
         self._buffer: dict[int, ChunkResult] = {}
         self._next = 0
+        self._check = OutputCheck()
 
     # ----------------------------------------------------------------- feeding
     def add(self, index: int, chunk: ChunkResult) -> None:
@@ -98,17 +100,22 @@ class ChunkFeed:
             elif index in self.stored:
                 chunk = self.chunk_store.read(index)
                 if chunk is None:  # vanished or damaged since it was opened
-                    raise RuntimeError(f"stored chunk {index} is no longer readable")
+                    raise StoreMismatchError(
+                        f"stored chunk {index} of {self.chunk_store.path} changed or vanished "
+                        "while this run used it (another process writing into the same "
+                        "store?); rerun to evaluate it again"
+                    )
             else:
                 return
             self._consume(chunk)
             self._next += 1
 
     def _consume(self, chunk: ChunkResult) -> None:
+        self._check.check(chunk)  # same outputs and shapes as every chunk before
         start, stop = chunk.start, chunk.stop
         self.failed[start:stop] = np.asarray(chunk.failed, dtype=bool)
         self.reasons[start:stop] = np.asarray(chunk.reasons, dtype=object)
-        if not chunk.outputs:  # every sample failed before the outputs had a shape
+        if not chunk.outputs or chunk.failed.all():  # no value of it is used
             if self.accumulators or self.raw is not None:
                 self._skip_failed(start, stop)
             else:

@@ -387,6 +387,7 @@ class Study:
         progress: bool = True,
         on_failure: str = "raise",
         keep_raw: bool | None = None,
+        timeout: float | None = None,
     ) -> StudyResult:
         """Evaluate the plan's samples chunk by chunk and retransform.
 
@@ -421,6 +422,12 @@ class Study:
             memory does not grow with the number of runs. With a ``store`` the
             chunks keep every sample's outputs anyway
             (:func:`fuzzymbs.study.store.read_outputs` reads them back).
+        timeout : float, optional
+            Seconds a sample may take (a batch of B samples: B times as long);
+            a sample over it fails with reason "timed out after ... s". Enforced
+            for Python models on the inline and process executors (POSIX), where
+            a model's ``sys.exit``/``os._exit`` also fails its samples instead of
+            ending the run. Default: no limit.
 
         Raises
         ------
@@ -432,12 +439,12 @@ class Study:
             chunks computed by another fuzzymbs version or model source.
         """
 
-        check_run_settings(on_failure, chunk_size)
+        check_run_settings(on_failure, chunk_size, timeout)
         started = time.perf_counter()
         requested_size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
         code = self.code_version()  # recorded by the store and in the provenance
         # one executor for the screening and the plan, started only if something is evaluated
-        work = LazyExecutor(executor, self._check_picklable)
+        work = LazyExecutor(executor, self._check_picklable, timeout)
         try:
             if self._plan is None:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
@@ -624,6 +631,7 @@ class Study:
         resume: bool = True,
         progress: bool = False,
         on_failure: str = "raise",
+        timeout: float | None = None,
     ) -> dict[str, Any]:
         """Screen a ``nonmonotonic="auto"`` study and build its extended plan.
 
@@ -634,7 +642,7 @@ class Study:
         ``store``, the chunks go to ``STORE/screening/`` and a rerun reuses
         them. Failed screening samples are left out of the decision (listed
         in the report), except with ``on_failure="fail-fast"``, which raises.
-        A second call returns the first report.
+        A second call returns the first report. ``timeout``: as in :meth:`run`.
 
         Returns
         -------
@@ -660,10 +668,10 @@ class Study:
                 f"{self.plan.method!r}); only a study with nonmonotonic={AUTO!r} is screened"
             )
         if self.screening is None:
-            check_run_settings(on_failure, chunk_size)
+            check_run_settings(on_failure, chunk_size, timeout)
             size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
             code = self.code_version() if store is not None else None
-            work = LazyExecutor(executor, self._check_picklable)
+            work = LazyExecutor(executor, self._check_picklable, timeout)
             try:
                 self._screen(work, size, store, resume, progress, on_failure, code)
             finally:
