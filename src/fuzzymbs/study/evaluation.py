@@ -103,60 +103,57 @@ def _checked_coords(raw: Mapping[str, Any]) -> dict[str, np.ndarray]:
 
 
 class OutputCheck:
-    """Every chunk of one sample table returns the same outputs with the same trailing shapes.
+    """Every chunk of a study returns the same outputs with the same trailing shapes.
 
     The one place that compares chunks with each other (each chunk's own
-    values are checked where it is evaluated): the runner passes every chunk
-    of the plan, the screening and the validation runs through one, whether
-    it was just computed or read from the store, before its values are used.
+    values are checked where it is evaluated): a study run passes every chunk
+    of its screening, its plan and its validation runs through one instance,
+    whether the chunk was just computed or read from the store, before its
+    values are used.
     """
 
     def __init__(self) -> None:
         self.shapes: dict[str, tuple[int, ...]] | None = None
-        self._first = 0
+        self._first = ""
 
-    def check(self, chunk: ChunkResult) -> None:
-        """Raise :class:`ModelOutputError` if ``chunk`` disagrees with the chunks before it.
+    def check(self, chunk: ChunkResult, table: str = "the plan") -> None:
+        """Raise :class:`ModelOutputError` if ``chunk`` (of sample table ``table``)
+        disagrees with the chunks before it.
 
         A chunk whose samples all failed has no values to compare (none is used).
         """
-        if chunk.failed.all():  # no value of it is used (NaN rows)
+        if chunk.failed.all():
             return
+        where = f"samples {chunk.start} to {chunk.stop - 1} of {table}"
         shapes = {name: tuple(np.shape(values)[1:]) for name, values in chunk.outputs.items()}
         for name, values in chunk.outputs.items():
             if np.shape(values)[:1] != (chunk.size,) or np.asarray(values).dtype.kind != "f":
                 raise ModelOutputError(
-                    f"output {name!r} of samples {chunk.start} to {chunk.stop - 1} is not a "
-                    f"({chunk.size}, ...) array of numbers"
+                    f"output {name!r} of {where} is not a ({chunk.size}, ...) array of numbers"
                 )
         if not shapes:
-            raise ModelOutputError(
-                f"samples {chunk.start} to {chunk.stop - 1}: the model returned no outputs"
-            )
+            raise ModelOutputError(f"{where}: the model returned no outputs")
         if self.shapes is None:
-            self.shapes, self._first = shapes, chunk.start
+            self.shapes, self._first = shapes, where
             return
         if set(shapes) != set(self.shapes):
             added = sorted(set(shapes) - set(self.shapes))
             gone = sorted(set(self.shapes) - set(shapes))
+            change = "; ".join(
+                part
+                for part in (f"new {added}" if added else "", f"missing {gone}" if gone else "")
+                if part
+            )
             raise ModelOutputError(
-                f"the model's outputs differ between samples {self._first} and {chunk.start}: "
-                + "; ".join(
-                    part
-                    for part in (
-                        f"new {added}" if added else "",
-                        f"missing {gone}" if gone else "",
-                    )
-                    if part
-                )
-                + ". A model must return the same outputs for every sample"
+                f"the model's outputs differ between {self._first} and {where}: {change}. "
+                "A model must return the same outputs for every sample"
             )
         for name, shape in shapes.items():
             if shape != self.shapes[name]:
                 raise ModelOutputError(
-                    f"model output {name!r} has trailing shape {shape} for samples "
-                    f"{chunk.start} to {chunk.stop - 1} but {self.shapes[name]} for sample "
-                    f"{self._first}; a model must return the same shape for every sample"
+                    f"model output {name!r} has trailing shape {shape} for {where} but "
+                    f"{self.shapes[name]} for {self._first}; a model must return the same "
+                    "shape for every sample"
                 )
 
 
@@ -224,11 +221,6 @@ def _checked_outputs(
             raise ModelOutputError(
                 f"the model returned no output {name!r}; it returned: {', '.join(map(str, raw))}"
             )
-        if np.iscomplexobj(raw[name]):
-            raise ModelOutputError(
-                f"model output {name!r} is complex; return real quantities "
-                "(e.g. magnitude and phase as separate outputs)"
-            )
         try:
             given = np.asarray(raw[name])
         except (TypeError, ValueError) as exc:  # e.g. a ragged list
@@ -236,6 +228,11 @@ def _checked_outputs(
                 f"model output {name!r} is not a numeric array ({exc}); return a "
                 "(B, ...) array of numbers"
             ) from None
+        if np.iscomplexobj(given):
+            raise ModelOutputError(
+                f"model output {name!r} is complex; return real quantities "
+                "(e.g. magnitude and phase as separate outputs)"
+            )
         if given.dtype.kind not in "biuf":  # strings such as "13.5" are no numbers
             raise ModelOutputError(
                 f"model output {name!r} holds {given.dtype} values, not numbers; "
@@ -257,7 +254,7 @@ def _checked_outputs(
     return outputs, failed, reasons
 
 
-class SampleStopped(Exception):  # noqa: N818 - a sample's failure reason, not a bug
+class SampleStopped(Exception):
     """A model call ended by the runner: it exited or ran over its time limit."""
 
 
@@ -360,7 +357,9 @@ def evaluate_chunk(
                 start + 1,
                 {},
                 np.ones(1, dtype=bool),
-                np.array([str(exc) if isinstance(exc, SampleStopped) else f"{type(exc).__name__}: {exc}"]),
+                np.array(
+                    [str(exc) if isinstance(exc, SampleStopped) else f"{type(exc).__name__}: {exc}"]
+                ),
             )
     else:
         try:

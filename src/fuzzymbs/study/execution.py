@@ -11,13 +11,13 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, wait
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, wait
 from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 
-from fuzzymbs.errors import FuzzymbsError, IncompleteResultError, InvalidParameterError
+from fuzzymbs.errors import IncompleteResultError, InvalidParameterError
 from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, evaluate_chunk_on_worker
 from fuzzymbs.study.executors import resolve_executor
 
@@ -203,20 +203,27 @@ def evaluate_chunks(
     return evaluated
 
 
+#: Dask's errors for a task whose worker died (matched by name: Dask is optional)
+_LOST_WORKER = frozenset({"KilledWorker", "CommClosedError", "FutureCancelledError"})
+
+
 def _chunk_result(future: Future, index: int, size: int, count: int, label: str) -> ChunkResult:
     """The chunk a finished task computed; a lost worker becomes a one-line error."""
     try:
         return future.result()
-    except FuzzymbsError:  # the model broke its contract: the message says how
-        raise
-    except Exception as exc:  # the task never returned: its worker ended
-        start, stop = index * size, min((index + 1) * size, count)
-        raise IncompleteResultError(
-            f"a worker of executor {label!r} ended while evaluating samples {start} to "
-            f"{stop - 1} ({type(exc).__name__}: {exc}); the model may have crashed its "
-            "process (e.g. os._exit, a fatal signal, out of memory). The chunks finished "
-            "before are stored; run with the inline executor to see the model's own error"
-        ) from exc
+    except BrokenExecutor as exc:  # the task never returned: its worker process ended
+        lost: BaseException = exc
+    except Exception as exc:
+        if type(exc).__name__ not in _LOST_WORKER:
+            raise
+        lost = exc
+    start, stop = index * size, min((index + 1) * size, count)
+    raise IncompleteResultError(
+        f"a worker of executor {label!r} ended while evaluating samples {start} to "
+        f"{stop - 1} ({type(lost).__name__}: {lost}); the model may have crashed its "
+        "process (e.g. os._exit, a fatal signal, out of memory). The chunks finished "
+        "before are stored; run with the inline executor to see the model's own error"
+    ) from lost
 
 
 def _log_estimate(
@@ -244,15 +251,22 @@ def _log_estimate(
 
 
 def assemble_chunks(
-    chunks: Sequence[ChunkResult], count: int
+    chunks: Sequence[ChunkResult],
+    count: int,
+    check: OutputCheck | None = None,
+    table: str = "the sample table",
 ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     """Concatenate chunk results in sample order; NaN rows where a chunk had no data.
 
+    Every chunk passes ``check`` first (default: a new
+    :class:`~fuzzymbs.study.evaluation.OutputCheck`; a study passes its own, so
+    that its screening, plan and validation runs agree), ``table`` naming them.
+
     Returns ``(outputs {name: (count, ...)}, failed (count,) bool, reasons (count,) str)``.
     """
-    check = OutputCheck()
+    check = OutputCheck() if check is None else check
     for chunk in chunks:
-        check.check(chunk)
+        check.check(chunk, table)
     failed = np.concatenate([c.failed for c in chunks]).astype(bool)
     reasons = np.concatenate([np.asarray(c.reasons, dtype=object) for c in chunks]).astype(str)
     shapes: dict[str, tuple[int, ...]] = {}

@@ -120,6 +120,22 @@ def is_remote(spec: str) -> bool:
     return spec.startswith(("dask://", "tcp://"))
 
 
+def check_executor_spec(spec: Any) -> None:
+    """Check an executor specification without starting anything (see :func:`resolve_executor`).
+
+    Raises
+    ------
+    InvalidParameterError
+        An unknown specification string or a bad worker count.
+    """
+    if not isinstance(spec, str) or spec == "inline" or is_remote(spec):
+        return
+    if process_workers(spec) is None:
+        raise InvalidParameterError(
+            f"unknown executor {spec!r}; use 'inline', 'processes[:N]' or 'dask://host:port'"
+        )
+
+
 def resolve_executor(spec: Any = None) -> ResolvedExecutor:
     """Turn an executor specification into a :class:`ResolvedExecutor`.
 

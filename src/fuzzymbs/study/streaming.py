@@ -50,6 +50,9 @@ class ChunkFeed:
     keep_raw : bool or None
         Keep every sample's outputs: True, False, or None (only if they take
         at most :data:`RAW_LIMIT_BYTES`).
+    check : OutputCheck, optional
+        What every chunk passes before it is reduced (the study's own, shared
+        with its screening and validation runs; default: a new one).
     """
 
     def __init__(
@@ -60,6 +63,7 @@ class ChunkFeed:
         stored: Any,
         chunk_store: Any,
         keep_raw: bool | None = None,
+        check: OutputCheck | None = None,
     ) -> None:
         self.plan = plan
         self.count = count
@@ -75,7 +79,7 @@ class ChunkFeed:
         self._pending_failed: list[tuple[int, int]] = []  # all-failed chunks before any shape
         self._buffer: dict[int, ChunkResult] = {}
         self._next = 0
-        self._check = OutputCheck()
+        self._check = OutputCheck() if check is None else check
 
     # ----------------------------------------------------------------- feeding
     def add(self, index: int, chunk: ChunkResult) -> None:

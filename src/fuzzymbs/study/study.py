@@ -46,7 +46,7 @@ from fuzzymbs.fuzzy.validation import (
     validation_points,
 )
 from fuzzymbs.study.code_version import code_version
-from fuzzymbs.study.evaluation import ChunkResult, merged_coords
+from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, merged_coords
 from fuzzymbs.study.execution import (
     DEFAULT_CHUNK_SIZE,
     ON_FAILURE,
@@ -203,6 +203,8 @@ class Study:
         self.model_options = resolved.options
         self.spec = resolved.spec
         self._run_coords: dict[str, np.ndarray] = {}
+        #: every chunk of the screening, plan and validation runs agrees with the others
+        self._output_check = OutputCheck()
         self._factory = resolved.factory  # registered or referenced models: the source digest
         static = self.spec is not None and not self.spec.dynamic
         self.parameter_info: dict[str, ParameterInfo] | None = (
@@ -453,7 +455,9 @@ class Study:
                 store, self.identity(), count, requested_size, resume, code, load=False
             )
             # outputs are reduced chunk by chunk in sample order and then dropped
-            feed = ChunkFeed(self.plan, count, size, results, chunk_store, keep_raw)
+            feed = ChunkFeed(
+                self.plan, count, size, results, chunk_store, keep_raw, self._output_check
+            )
             feed.drain()
             logger.info(
                 "study %s: %d samples in %d chunks of %d; %d chunks from the store, %d to evaluate",
@@ -588,7 +592,9 @@ class Study:
             fail_fast=None,
         )
         ordered = [results[i] for i in range(chunk_count)]
-        outputs, failed, reasons = assemble_chunks(ordered, count)
+        outputs, failed, reasons = assemble_chunks(
+            ordered, count, self._output_check, "the validation runs"
+        )
         self._adopt_coords(ordered)
         logger.info(
             "study %s: %d validation runs (%d from the store, %d failed)",
@@ -732,7 +738,9 @@ class Study:
             fail_fast=fail_fast,
         )
         ordered = [results[i] for i in range(chunk_count)]
-        outputs, failed, reasons = assemble_chunks(ordered, count)
+        outputs, failed, reasons = assemble_chunks(
+            ordered, count, self._output_check, "the screening"
+        )
         self._adopt_coords(ordered)
         if failed.all():
             raise IncompleteResultError(

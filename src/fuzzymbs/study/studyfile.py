@@ -11,7 +11,7 @@ Layout (see docs/studies.md)::
     [model]      name ("registry-name", "fmu", "command" or "package.module:callable"),
                  [model.options] (fmu, command and references need --allow-code)
     [parameters] one table (fuzzy) or number (crisp) per model parameter
-    [run]        executor, chunk_size, on_failure
+    [run]        executor, chunk_size, on_failure, timeout (seconds per sample)
     [[plots.membership]]  output, coord, value
 
 Every mistake becomes a :class:`~fuzzymbs.errors.StudyFileError` naming the
@@ -121,6 +121,14 @@ class RunSection(_Section):
     executor: str = "inline"
     chunk_size: int | None = Field(default=None, gt=0)
     on_failure: Literal["raise", "fail-fast", "partial"] = "raise"
+    timeout: float | None = Field(default=None, gt=0.0, allow_inf_nan=False)
+
+    @field_validator("timeout", mode="before")
+    @classmethod
+    def _timeout_number(cls, value: Any) -> Any:
+        if isinstance(value, int) and not isinstance(value, bool):
+            return float(value)  # strict mode: an int is a valid number of seconds too
+        return value
 
     @field_validator("executor")
     @classmethod
@@ -179,6 +187,7 @@ class StudyDefinition:
     executor: str = "inline"
     chunk_size: int | None = None
     on_failure: str = "raise"
+    timeout: float | None = None
     membership_plots: list[dict[str, Any]] = field(default_factory=list)
 
 
@@ -293,11 +302,10 @@ def load_study_file(
         ``allow_code`` is False (and the user's trust file does not list the
         code); nothing has been imported, run or connected to.
     """
+    from fuzzymbs.study.executors import is_remote
     from fuzzymbs.study.registry import get_model
     from fuzzymbs.study.study import Study
     from fuzzymbs.study.trust import check_study_code
-
-    from fuzzymbs.study.executors import is_remote
 
     path = Path(path)
     try:
@@ -397,5 +405,6 @@ def load_study_file(
         executor=parsed.run.executor,
         chunk_size=parsed.run.chunk_size,
         on_failure=parsed.run.on_failure,
+        timeout=parsed.run.timeout,
         membership_plots=[plot.model_dump() for plot in parsed.plots.membership],
     )
