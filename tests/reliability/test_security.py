@@ -3,6 +3,7 @@
 import json
 import shutil
 from pathlib import Path
+from typing import ClassVar
 
 import pytest
 import xarray as xr
@@ -11,8 +12,8 @@ from typer.testing import CliRunner
 from fuzzymbs import Triangular
 from fuzzymbs.cli import app
 from fuzzymbs.errors import ModelOutputError, StudyFileError, UntrustedCodeError
-from fuzzymbs.study.studyfile import load_study_file
 from fuzzymbs.study.study import Study
+from fuzzymbs.study.studyfile import load_study_file
 
 runner = CliRunner()
 
@@ -38,7 +39,7 @@ def _study_file(tmp_path, executor):
 @pytest.mark.parametrize("address", ["dask://127.0.0.1:1", "tcp://127.0.0.1:1"])
 def test_dask_scheduler_in_a_study_file_needs_allow_code(tmp_path, address):
     path = _study_file(tmp_path, address)
-    with pytest.raises(UntrustedCodeError, match="connects to a Dask scheduler.*--allow-code"):
+    with pytest.raises(UntrustedCodeError, match=r"connects to a Dask scheduler.*--allow-code"):
         load_study_file(path)
     result = runner.invoke(app, ["run", str(path), "--out", str(tmp_path / "out"), "-q"])
     assert result.exit_code == 1 and "--allow-code" in result.output
@@ -52,7 +53,7 @@ def test_dask_scheduler_in_a_study_file_needs_allow_code(tmp_path, address):
 
 def test_worker_count_is_capped(tmp_path):
     path = _study_file(tmp_path, "processes:100000")
-    with pytest.raises(StudyFileError, match="at most .* workers on this machine"):
+    with pytest.raises(StudyFileError, match=r"at most .* workers on this machine"):
         load_study_file(path)
     path = _study_file(tmp_path, "inline")
     result = runner.invoke(
@@ -75,7 +76,7 @@ def test_demo_runs_only_shipped_demos(tmp_path, name, monkeypatch):
 
 def test_unsafe_declared_output_name_is_refused_before_any_sample():
     class Declared:
-        outputs = {"../escape": "m"}
+        outputs: ClassVar[dict[str, str]] = {"../escape": "m"}
         calls = 0
 
         def __call__(self, samples):
@@ -117,7 +118,7 @@ def test_plot_never_writes_outside_out(result_file, tmp_path, name):
 
     if "/" in name:  # NetCDF refuses "/" in variable names: only the attribute says so
 
-        def rename(dataset):  # noqa: F811
+        def rename(dataset):
             dataset.attrs["outputs"] = json.dumps([name])
             return dataset
 
