@@ -164,15 +164,18 @@ def evaluate_chunks(
             ):
                 index = queue.pop(0)
                 start, stop = index * size, min((index + 1) * size, count)
-                future = resolved.executor.submit(
-                    evaluate_chunk_on_worker,
-                    resolved.task_threads,
-                    model,
-                    columns(start, stop),
-                    start,
-                    outputs,
-                    work.timeout,
-                )
+                try:
+                    future = resolved.executor.submit(
+                        evaluate_chunk_on_worker,
+                        resolved.task_threads,
+                        model,
+                        columns(start, stop),
+                        start,
+                        outputs,
+                        work.timeout,
+                    )
+                except BrokenExecutor as exc:  # a worker died on an earlier chunk
+                    raise _lost_worker(exc, start, stop, resolved.label) from exc
                 pending[future] = index
             done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
             for future in done:
@@ -218,12 +221,17 @@ def _chunk_result(future: Future, index: int, size: int, count: int, label: str)
             raise
         lost = exc
     start, stop = index * size, min((index + 1) * size, count)
-    raise IncompleteResultError(
+    raise _lost_worker(lost, start, stop, label) from lost
+
+
+def _lost_worker(exc: BaseException, start: int, stop: int, label: str) -> IncompleteResultError:
+    """The one-line error for a worker that ended while (or before) running samples start:stop."""
+    return IncompleteResultError(
         f"a worker of executor {label!r} ended while evaluating samples {start} to "
-        f"{stop - 1} ({type(lost).__name__}: {lost}); the model may have crashed its "
-        "process (e.g. os._exit, a fatal signal, out of memory). The chunks finished "
+        f"{stop - 1} or an earlier chunk ({type(exc).__name__}: {exc}); the model may have "
+        "crashed its process (e.g. a fatal signal, out of memory). The chunks finished "
         "before are stored; run with the inline executor to see the model's own error"
-    ) from lost
+    )
 
 
 def _log_estimate(
