@@ -10,6 +10,7 @@ import pytest
 
 from fuzzymbs import Triangular
 from fuzzymbs.errors import InvalidFuzzyNumberError
+from fuzzymbs.fuzzy.transform import Plan, run_count
 from fuzzymbs.models.external.command import CommandModel
 from fuzzymbs.study.pipeline import run_study_file
 from fuzzymbs.study.study import Study
@@ -75,3 +76,19 @@ def test_command_file_arguments_are_part_of_the_identity(tmp_path):
     script.write_text("print('v2')\n")
     assert model.identity() != before
     assert "study_dir" not in model.parameters  # a path, not a parameter
+
+
+@pytest.mark.parametrize(("n", "m", "hanss"), [(2, 5, 61), (3, 10, 2331), (3, 4, 189)])
+def test_general_method_count_equals_hanss_formula(n, m, hanss):
+    # Hanss (2002): 1 + sum_{k=1..m} ((k+1)^n - (k-1)^n) runs for symmetric triangles
+    assert hanss == 1 + sum((k + 1) ** n - (k - 1) ** n for k in range(1, m + 1))
+    for numbers in (Triangular(1, 2, 3), Triangular(-1e-6, 0, 1e-6), Triangular(1e5, 2e5, 3e5)):
+        parameters = {f"x{i}": numbers for i in range(n)}
+        assert len(Plan(parameters, "general", m)) == hanss
+
+
+def test_general_method_keeps_distinct_points_of_asymmetric_numbers():
+    parameters = {"a": Triangular(1.0, 1.3, 2.1), "b": Triangular(-1, 0, 1)}
+    built = Plan(parameters, "general", 5)
+    assert len(built) == run_count(parameters, "general", 5)  # the asymmetric a separates levels
+    assert len(np.unique(built.samples, axis=0)) == len(built)
