@@ -1,6 +1,7 @@
 """The output folder: one run at a time, a result current or absent, unusable folders
 refused before any sample runs (``fuzzymbs run``)."""
 
+import errno
 import os
 import subprocess
 import sys
@@ -178,3 +179,35 @@ def test_read_only_output_folder_is_refused(tmp_path):
     finally:
         out.chmod(0o755)
     assert result.exit_code == 1 and "cannot be written" in result.output
+
+
+def test_full_disk_while_writing_the_result_leaves_no_result_and_no_temporary(
+    tmp_path, monkeypatch
+):
+    def full_disk(self, target, **kwargs):
+        Path(target).write_bytes(b"CDF partial")
+        raise OSError(errno.ENOSPC, "No space left on device", str(target))
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", full_disk)
+    out = tmp_path / "out"
+    result = _run(_file(tmp_path, "a.toml", PRODUCT.format(name="a", x2=3.0)), out)
+    assert result.exit_code == 1 and "No space left on device" in result.output
+    assert "Traceback" not in result.output
+    assert not (out / "result.nc").exists()
+    assert not [p.name for p in out.iterdir() if p.name.endswith(".tmp")]
+    assert "Status: FAILED" in (out / "summary.txt").read_text()
+
+
+def test_temporary_files_of_an_ended_run_are_removed(tmp_path):
+    ended = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    out = tmp_path / "out"
+    out.mkdir()
+    orphan = out / f".result.nc.{int(ended.stdout)}.x1y2z3.tmp"
+    orphan.write_bytes(b"partial")
+    assert _run(_file(tmp_path, "a.toml", PRODUCT.format(name="a", x2=3.0)), out).exit_code == 0
+    assert not orphan.exists()

@@ -221,7 +221,10 @@ def _run_locked(
     timeout: float | None,
 ) -> StudyOutput:
     """:func:`run_study_file` once the output folder is locked."""
+    from fuzzymbs.study.store import remove_orphans
+
     summary_path = out / SUMMARY_FILE
+    remove_orphans(out)  # temporary files of an ended run (a kill, a full disk)
     kept = _set_aside_earlier_result(out)
     earlier = (
         f"The earlier result of this folder is kept as {PREVIOUS_RESULT_FILE}.\n" if kept else ""
@@ -231,6 +234,7 @@ def _run_locked(
         f"Study: {definition.name}\nStatus: RUNNING - started {time.strftime('%Y-%m-%d %H:%M:%S')}"
         f" (process {os.getpid()}); no result yet\n{earlier}",
     )
+    result_path = out / RESULT_FILE
     try:
         result = definition.study.run(
             executor=executor if executor is not None else definition.executor,
@@ -241,25 +245,26 @@ def _run_locked(
             on_failure=on_failure or definition.on_failure,
             timeout=definition.timeout if timeout is None else timeout,
         )
-    except KeyboardInterrupt:
-        _write_text(
-            summary_path,
-            f"Study: {definition.name}\nStatus: INTERRUPTED - no result written; a rerun "
-            f"resumes from the stored chunks\n{earlier}",
+        result.dataset.attrs["plots"] = json.dumps({"membership": definition.membership_plots})
+        result.dataset.attrs["study_file"] = str(path.name)
+        result.to_netcdf(result_path)
+        written = result.plot(out) if plots else []
+        _write_text(out / PLOT_LIST, "".join(f"{p.name}\n" for p in written))
+        _write_text(summary_path, result.summary())
+    except BaseException as exc:
+        # whatever failed (the study, a full disk while writing), no result looks current
+        result_path.unlink(missing_ok=True)
+        interrupted = isinstance(exc, KeyboardInterrupt)
+        status = (
+            "INTERRUPTED - no result written; a rerun resumes from the stored chunks"
+            if interrupted
+            else f"FAILED - no result written\n{exc}"
         )
+        try:
+            _write_text(summary_path, f"Study: {definition.name}\nStatus: {status}\n{earlier}")
+        except OSError:  # e.g. the disk is full: the error below says what happened
+            pass
         raise
-    except Exception as exc:
-        _write_text(
-            summary_path,
-            f"Study: {definition.name}\nStatus: FAILED - no result written\n{exc}\n{earlier}",
-        )
-        raise
-    result.dataset.attrs["plots"] = json.dumps({"membership": definition.membership_plots})
-    result.dataset.attrs["study_file"] = str(path.name)
-    result_path = result.to_netcdf(out / RESULT_FILE)
-    _write_text(summary_path, result.summary())
-    written = result.plot(out) if plots else []
-    _write_text(out / PLOT_LIST, "".join(f"{p.name}\n" for p in written))
     (out / PREVIOUS_RESULT_FILE).unlink(missing_ok=True)
     logger.info(
         "study %s: wrote %s, %s and %d plots",

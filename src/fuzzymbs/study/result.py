@@ -518,11 +518,23 @@ class StudyResult:
 
     def to_netcdf(self, path: str | Path) -> Path:
         """Write the dataset as NetCDF (engine from :func:`netcdf_engine`); returns the path."""
+        import os
+        import tempfile
+
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_name(f".{path.name}.tmp")
-        self.dataset.to_netcdf(temporary, engine=netcdf_engine())
-        temporary.replace(path)
+        # a temporary name no other writer uses (process id: see store.remove_orphans)
+        handle, name = tempfile.mkstemp(
+            prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent
+        )
+        os.close(handle)
+        temporary = Path(name)
+        try:
+            self.dataset.to_netcdf(temporary, engine=netcdf_engine())
+            temporary.replace(path)
+        except BaseException:
+            temporary.unlink(missing_ok=True)
+            raise
         return path
 
     @classmethod
