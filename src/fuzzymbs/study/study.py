@@ -349,8 +349,9 @@ class Study:
         """What code computes the samples: fuzzymbs version and model source digest.
 
         A result store records it next to :meth:`identity` and refuses to resume
-        chunks computed by other code (see :mod:`fuzzymbs.study.code_version`;
-        the digest is None for models defined outside fuzzymbs).
+        chunks computed by other code (see :mod:`fuzzymbs.study.code_version`:
+        the digest covers the fuzzymbs source a model uses and the file, or the
+        compiled code, of a model defined outside fuzzymbs).
         """
         return code_version(self.model, self._factory)
 
