@@ -37,15 +37,16 @@ def test_model_that_kills_its_worker_is_one_error_naming_the_samples():
 
 @pytest.mark.parametrize("executor", [None, "processes:1"])
 def test_sample_over_its_timeout_fails_and_the_rest_is_kept(executor):
-    # levels=2 reduced: 9 samples, x1 = 3 (> 2.5) only at the mu = 0 upper corner points
+    # levels=2 reduced: 9 samples, x1 = 3 (> 2.5) only at the mu = 0 upper corner points;
+    # a chunk of 3 may take 3 x 0.2 s, then each of its samples 0.2 s
     result = _study(Faulty("hang")).run(
-        progress=False, chunk_size=9, executor=executor, on_failure="partial", timeout=0.5
+        progress=False, chunk_size=3, executor=executor, on_failure="partial", timeout=0.2
     )
     reasons = result.dataset["failure_reason"].values
     failed = result.dataset["sample_failed"].values.astype(bool)
     x1 = result.dataset["samples"].values[:, 0]
     assert failed.any() and np.array_equal(failed, x1 > 2.5)
-    assert all("timed out after 0.5 s" in str(r) for r in reasons[failed])
+    assert all("timed out after 0.2 s" in str(r) for r in reasons[failed])
     assert bool(result.dataset["level_complete"].values[-1])  # the core level stands
 
 
