@@ -167,3 +167,11 @@ def test_sparse_grid_depth_does_not_grow_with_the_dimension(monkeypatch):
         sys.setrecursionlimit(limit)
     assert len(grid) == node_count(300, 1) == 601
     assert np.all((grid.nodes == 0.5).sum(axis=1) >= 299)  # one coordinate off the centre
+
+
+def test_timeout_from_the_study_file(tmp_path):
+    study = tmp_path / "f.toml"
+    study.write_text(FAULTY.format(fault="hang", everywhere="false") + "timeout = 1\n")
+    _one_line_error(_run(study, tmp_path / "out", "--allow-code"), "timed out after 1 s")
+    study.write_text(FAULTY.format(fault="none", everywhere="false") + "timeout = 0\n")
+    _one_line_error(_run(study, tmp_path / "out", "--allow-code"), "run.timeout")
