@@ -292,10 +292,13 @@ def _guards(limit: float | None) -> Iterator[None]:
             signal.setitimer(signal.ITIMER_REAL, limit)
         yield
     finally:
-        if limit is not None:
-            signal.setitimer(signal.ITIMER_REAL, 0)
-            signal.signal(signal.SIGALRM, previous)
-        os._exit = _REAL_EXIT
+        try:  # an alarm firing just now still leaves the handler and os._exit restored
+            if limit is not None:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+        finally:
+            if limit is not None:
+                signal.signal(signal.SIGALRM, previous)
+            os._exit = _REAL_EXIT
 
 
 def _call_model(model: Any, columns: Mapping[str, np.ndarray], limit: float | None) -> Any:
