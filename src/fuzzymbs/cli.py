@@ -6,11 +6,15 @@ commands so that ``fuzzymbs --help`` and ``fuzzymbs info`` start quickly.
 
 from __future__ import annotations
 
+import functools
 import logging
+import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
+import click
 import typer
 
 app = typer.Typer(
@@ -22,6 +26,48 @@ app = typer.Typer(
 )
 
 EXIT_ERROR = 1
+#: environment variable that, set to a non-empty value other than 0, shows tracebacks
+DEBUG_ENV = "FUZZYMBS_DEBUG"
+_debug = {"on": False}
+
+
+def _debugging() -> bool:
+    return _debug["on"] or os.environ.get(DEBUG_ENV, "") not in ("", "0")
+
+
+def _describe(exc: BaseException) -> str:
+    """One line for an error: the message of fuzzymbs's own errors, the file of an OSError."""
+    from fuzzymbs.errors import FuzzymbsError
+
+    if isinstance(exc, FuzzymbsError):
+        text = str(exc)
+    elif isinstance(exc, OSError):
+        where = f"{exc.filename}: " if exc.filename else ""
+        text = f"{where}{exc.strerror or exc}"
+    else:
+        text = (
+            f"unexpected {type(exc).__name__}: {exc} (rerun with --debug for the traceback, "
+            "and please report it)"
+        )
+    return " ".join(text.split())  # one line
+
+
+def _one_line_errors(command: Callable[..., Any]) -> Callable[..., Any]:
+    """Every error of ``command`` ends it with one line on stderr and exit status 1
+    (``--debug`` or ``FUZZYMBS_DEBUG=1``: the traceback instead)."""
+
+    @functools.wraps(command)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return command(*args, **kwargs)
+        except (typer.Exit, typer.Abort, click.exceptions.Exit, click.ClickException):
+            raise
+        except Exception as exc:
+            if _debugging():
+                raise
+            raise _fail(_describe(exc)) from None
+
+    return wrapper
 
 
 def _print_version(value: bool) -> None:
@@ -40,8 +86,16 @@ def _main(
             "--version", callback=_print_version, is_eager=True, help="Print the version and exit."
         ),
     ] = False,
+    debug: Annotated[
+        bool,
+        typer.Option(
+            "--debug",
+            help=f"Show the traceback of an error instead of one line (also: {DEBUG_ENV}=1).",
+        ),
+    ] = False,
 ) -> None:
     """Fuzzy-arithmetical uncertainty analysis of multibody contact models."""
+    _debug["on"] = debug
 
 
 def _setup_logging(quiet: bool, verbose: bool) -> None:
@@ -61,13 +115,10 @@ def _fail(message: str) -> typer.Exit:
 
 
 def _run_one(study_file: Path, out: Path, **options: object) -> None:
-    from fuzzymbs.errors import FuzzymbsError
     from fuzzymbs.study.pipeline import run_study_file
 
-    try:
-        written = run_study_file(study_file, out, **options)  # type: ignore[arg-type]
-    except FuzzymbsError as exc:
-        raise _fail(str(exc)) from None
+    # errors: one line from _one_line_errors (the traceback with --debug)
+    written = run_study_file(study_file, out, **options)  # type: ignore[arg-type]
     report = f", report: {written.report_path}" if written.report_path else ""
     typer.echo(
         f"{written.result_path}  ({len(written.plots)} plots, summary: {written.summary_path}"
@@ -96,6 +147,7 @@ VerboseOption = Annotated[bool, typer.Option("--verbose", "-v", help="Debug logg
 
 
 @app.command()
+@_one_line_errors
 def run(
     study_file: Annotated[Path, typer.Argument(help="Study file (TOML).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (also the store).")],
@@ -124,6 +176,14 @@ def run(
             "a program. Only for files you trust.",
         ),
     ] = False,
+    timeout: Annotated[
+        float | None,
+        typer.Option(
+            "--timeout",
+            help="Seconds a sample of a Python model may take on the inline or process "
+            "executors; a slower sample fails (default: the file's [run] timeout, else none).",
+        ),
+    ] = None,
     max_runs: Annotated[
         int | None,
         typer.Option(
@@ -158,6 +218,7 @@ def run(
         plots=not no_plots,
         allow_code=allow_code,
         max_runs=max_runs,
+        timeout=timeout,
         report=not no_report,
         command=_command(
             "run",
@@ -174,6 +235,7 @@ def run(
 
 
 @app.command()
+@_one_line_errors
 def demo(
     name: Annotated[str, typer.Argument(help="Demo name, e.g. quickstart.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")],
@@ -218,6 +280,7 @@ def demo(
 
 
 @app.command()
+@_one_line_errors
 def plot(
     result_file: Annotated[Path, typer.Argument(help="A result.nc written by run or demo.")],
     out: Annotated[
@@ -228,27 +291,27 @@ def plot(
     ] = None,
 ) -> None:
     """(Re)draw the plots of a result file."""
+    from fuzzymbs.errors import FuzzymbsError
     from fuzzymbs.plot import write_plots
     from fuzzymbs.study.result import StudyResult
 
-    if not result_file.exists():
+    if not result_file.is_file():
         raise _fail(f"{result_file}: no such file")
     formats = tuple(fmt or ("png", "pdf"))
     unknown = [f for f in formats if f not in ("png", "pdf", "svg")]
     if unknown:
         raise _fail(f"--format {unknown}; allowed: png, pdf, svg")
-    try:
+    try:  # checks every name that becomes a file name (a result file is data from anywhere)
         result = StudyResult.open(result_file)
-    except (OSError, ValueError) as exc:
-        raise _fail(f"{result_file}: not a readable result file ({exc})") from None
-    if "outputs" not in result.dataset.attrs:
-        raise _fail(f"{result_file}: not a fuzzymbs result (no 'outputs' attribute)")
+    except FuzzymbsError as exc:
+        raise _fail(str(exc)) from None
     written = write_plots(result.dataset, out or result_file.parent, formats=formats)
     for path in written:
         typer.echo(str(path))
 
 
 @app.command()
+@_one_line_errors
 def report(
     result: Annotated[
         Path, typer.Argument(help="A study's output folder (holding result.nc) or a result file.")
@@ -276,6 +339,7 @@ def report(
 
 
 @app.command()
+@_one_line_errors
 def identify(
     identification_file: Annotated[Path, typer.Argument(help="Identification file (TOML).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")],
@@ -312,6 +376,7 @@ def identify(
 
 
 @app.command()
+@_one_line_errors
 def info(
     model: Annotated[
         str | None, typer.Argument(help="Show only this model, or an FMU file's variables.")

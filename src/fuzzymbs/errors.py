@@ -58,6 +58,14 @@ class StoreMismatchError(FuzzymbsError, ValueError):
     """A result store belongs to a different study and cannot be resumed."""
 
 
+class OutputFolderError(InvalidParameterError):
+    """An output folder cannot be used: not creatable, not writable, or in use by another run."""
+
+
+class ResultFileError(FuzzymbsError, ValueError):
+    """A result file is unreadable or not a complete fuzzymbs result (names what is wrong)."""
+
+
 class IncompleteResultError(FuzzymbsError, ValueError):
     """Samples failed, so some alpha levels cannot be bounded."""
 

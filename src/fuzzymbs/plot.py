@@ -449,6 +449,8 @@ def _save(figure: Figure, directory: Path, stem: str, formats: Sequence[str]) ->
     written = []
     for extension in formats:
         path = directory / f"{stem}.{extension}"
+        if path.parent != directory or path.name.startswith("."):  # never outside directory
+            raise ValueError(f"plot name {stem!r} is not a plain file name")
         figure.savefig(path, dpi=120)
         # the first save placed the axes; keep that layout instead of solving it again
         figure.set_layout_engine("none")

@@ -105,7 +105,14 @@ def test_unreadable_chunk_is_evaluated_again(tmp_path):
 def test_chunk_files_hold_data_only(tmp_path):
     _study(Counting()).run(store=tmp_path, chunk_size=10, progress=False)
     with np.load(tmp_path / "chunk-000000.npz", allow_pickle=False) as data:
-        assert set(data.files) == {"start", "stop", "failed", "failure_reason", "output__z"}
+        assert set(data.files) == {
+            "start",
+            "stop",
+            "failed",
+            "failure_reason",
+            "output__z",
+            "digest",
+        }
         assert all(data[key].dtype != object for key in data.files)
 
 

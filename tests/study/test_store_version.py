@@ -81,18 +81,39 @@ def test_changed_model_source_is_refused(tmp_path):
     assert "model source 000000000000" in message and f"model source {stored[:12]}" in message
 
 
-def test_model_outside_fuzzymbs_records_the_version_only(tmp_path):
+def test_model_outside_fuzzymbs_records_its_module_file(tmp_path):
     def product(samples):
         return {"z": samples["x1"] * samples["x2"]}
 
     _study(product).run(store=tmp_path, progress=False)
-    assert _manifest_code(tmp_path) == {
-        "fuzzymbs_version": fuzzymbs.__version__,
-        "model_source": None,
-    }
+    code = _manifest_code(tmp_path)
+    # this test file defines the model: its bytes are the model's source
+    assert code["model_source"] == code_version.user_source_digest(product)
+    assert code["model_source"] is not None
     _edit_manifest(tmp_path, fuzzymbs_version="9.9")
-    with pytest.raises(StoreMismatchError, match=r"fuzzymbs 9\.9, no model source digest"):
+    with pytest.raises(StoreMismatchError, match=r"fuzzymbs 9\.9, model source"):
         _study(product).run(store=tmp_path, progress=False)
+
+
+def test_user_module_edit_changes_the_digest(tmp_path, monkeypatch):
+    module = tmp_path / "edited_model.py"
+    module.write_text("def model(samples):\n    return {'z': samples['x1'] * samples['x2']}\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import importlib
+
+    loaded = importlib.import_module("edited_model")
+    before = code_version.code_version(loaded.model)["model_source"]
+    module.write_text(module.read_text() + "# edited\n")
+    assert code_version.code_version(loaded.model)["model_source"] != before
+
+
+def test_model_without_a_file_is_identified_by_its_code():
+    namespace: dict = {}
+    exec("def model(s):\n    return {'z': s['x1'] * 2}", namespace)  # no module file
+    other: dict = {}
+    exec("def model(s):\n    return {'z': s['x1'] * 3}", other)
+    first = code_version.user_source_digest(namespace["model"])
+    assert first is not None and first != code_version.user_source_digest(other["model"])
 
 
 def test_store_without_code_record_is_reopened_and_gets_one(tmp_path, caplog):

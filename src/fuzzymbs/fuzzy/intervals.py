@@ -78,7 +78,8 @@ def divide(x: Bounds, y: Bounds) -> Bounds:
     a2, b2 = y
     if a2[0] <= 0.0 <= b2[0]:
         raise InvalidFuzzyNumberError(
-            f"divisor's support [{a2[0]!r}, {b2[0]!r}] contains 0; division is undefined"
+            f"divisor's support [{float(a2[0])!r}, {float(b2[0])!r}] contains 0; "
+            "division is undefined"
         )
     return multiply(x, (1.0 / b2, 1.0 / a2))
 

@@ -83,7 +83,7 @@ def _finite(name: str, value: Any, owner: str) -> float:
             f"{owner}: {name} must be a finite real number, got {value!r}"
         ) from None
     if not math.isfinite(number):
-        raise InvalidFuzzyNumberError(f"{owner}: {name} must be finite, got {value!r}")
+        raise InvalidFuzzyNumberError(f"{owner}: {name} must be finite, got {number!r}")
     return number
 
 
@@ -268,8 +268,8 @@ class Triangular(FuzzyNumber):
         self.upper = _finite("upper", upper, owner)
         if not self.lower <= self._modal <= self.upper:
             raise InvalidFuzzyNumberError(
-                f"Triangular needs lower <= modal <= upper, got lower={lower!r}, "
-                f"modal={modal!r}, upper={upper!r}"
+                f"Triangular needs lower <= modal <= upper, got lower={self.lower!r}, "
+                f"modal={self._modal!r}, upper={self.upper!r}"
             )
 
     @classmethod
@@ -287,7 +287,7 @@ class Triangular(FuzzyNumber):
         centre = _finite("modal", modal, owner)
         relative_spread = _finite("spread", spread, owner)
         if relative_spread < 0.0:
-            raise InvalidFuzzyNumberError(f"{owner}: spread must be >= 0, got {spread!r}")
+            raise InvalidFuzzyNumberError(f"{owner}: spread must be >= 0, got {relative_spread!r}")
         half_width = abs(centre) * relative_spread
         return cls(centre - half_width, centre, centre + half_width)
 
@@ -326,8 +326,8 @@ class Trapezoidal(FuzzyNumber):
         if not self.lower <= self.core_lower <= self.core_upper <= self.upper:
             raise InvalidFuzzyNumberError(
                 "Trapezoidal needs lower <= core_lower <= core_upper <= upper, got "
-                f"lower={lower!r}, core_lower={core_lower!r}, core_upper={core_upper!r}, "
-                f"upper={upper!r}"
+                f"lower={self.lower!r}, core_lower={self.core_lower!r}, "
+                f"core_upper={self.core_upper!r}, upper={self.upper!r}"
             )
 
     def _cut(self, mu: float) -> tuple[float, float]:
@@ -402,9 +402,11 @@ class Gaussian(FuzzyNumber):
         self.std = _finite("std", std, owner)
         self.truncation = _finite("truncation", truncation, owner)
         if self.std <= 0.0:
-            raise InvalidFuzzyNumberError(f"Gaussian: std must be > 0, got {std!r}")
+            raise InvalidFuzzyNumberError(f"Gaussian: std must be > 0, got {self.std!r}")
         if self.truncation <= 0.0:
-            raise InvalidFuzzyNumberError(f"Gaussian: truncation must be > 0, got {truncation!r}")
+            raise InvalidFuzzyNumberError(
+                f"Gaussian: truncation must be > 0, got {self.truncation!r}"
+            )
         self._floor = math.exp(-0.5 * self.truncation**2)
 
     def _cut(self, mu: float) -> tuple[float, float]:
@@ -538,7 +540,7 @@ def _operand_bounds(operand: Any, levels: NDArray[np.float64], role: str) -> int
     if isinstance(operand, Real) and not isinstance(operand, bool):
         value = float(operand)
         if not math.isfinite(value):
-            raise InvalidFuzzyNumberError(f"{role} must be finite, got {operand!r}")
+            raise InvalidFuzzyNumberError(f"{role} must be finite, got {value!r}")
         return np.full(len(levels), value), np.full(len(levels), value)
     raise UnsupportedOperationError(
         f"{role} must be a FuzzyNumber or a real number, got {type(operand).__name__}"

@@ -52,6 +52,9 @@ SUGGESTED_LEVELS = 10
 _MANY_LEVELS = 100
 #: run counts above this cannot be run by any computer: no limit is suggested
 _IMPRACTICAL_RUNS = 10**12
+#: a refusal names the extended method's count with one non-monotonic parameter only for
+#: plans of at most this many distinct fuzzy numbers (it takes one count per number)
+_DISTINCT_SHAPES = 64
 #: the modal point's search over the 1-D sparse nodes stops at this sparse level (2^20 nodes)
 _MODAL_SEARCH_LEVEL = 20
 
@@ -414,10 +417,17 @@ def _alternatives(request: _Request, max_runs: int, fewer_levels: bool) -> str:
     if len(request.names) > 1 and not (
         request.method == "extended" and len(request.nonmonotonic) <= 1
     ):
-        worst = max(
-            request.count("extended", steps=steps, nonmonotonic=(name,)) for name in request.names
-        )
-        options.append(("'extended' with one non-monotonic parameter", worst))
+        # the count depends on the chosen parameter's shape only: one count per distinct
+        # shape (each count is linear in the parameters; per name it would be quadratic)
+        representatives = {
+            shape: name for name, shape in zip(request.names, request.shapes, strict=True)
+        }
+        if len(representatives) <= _DISTINCT_SHAPES:
+            worst = max(
+                request.count("extended", steps=steps, nonmonotonic=(name,))
+                for name in representatives.values()
+            )
+            options.append(("'extended' with one non-monotonic parameter", worst))
     sparse_levels = [3] if request.method != "sparse" else []
     if request.method == "sparse" and request.sparse_level and request.sparse_level > 1:
         sparse_levels = [min(request.sparse_level - 1, 3)]

@@ -40,6 +40,8 @@ so ``|H(q, n)| = [z^level] (1 - 2z^2)^n / ((1 - 2z)^n (1 - z))``.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Iterator
 from functools import cached_property
 from math import comb
 
@@ -173,24 +175,41 @@ class SparseGrid:
     def _multi_indices(self, low: int, high: int) -> list[tuple[int, ...]]:
         """All i in N^n (i_j >= 1) with low <= |i| <= high, by increasing |i|."""
         found: list[tuple[int, ...]] = []
+        dimension = self.dimension
 
-        def extend(prefix: tuple[int, ...], budget: int) -> None:
-            # budget: how much |i| may still grow above 1 per remaining entry
-            if len(prefix) == self.dimension:
-                if sum(prefix) >= low:
-                    found.append(prefix)
-                return
-            for extra in range(budget + 1):
-                extend((*prefix, 1 + extra), budget - extra)
+        def raised(start: int, budget: int) -> Iterator[list[tuple[int, int]]]:
+            # the entries above 1, as (position, extra) at positions >= start with extras
+            # summing to at most budget: recursion as deep as the level, never the dimension
+            yield []
+            for position in range(start, dimension):
+                for extra in range(1, budget + 1):
+                    for rest in raised(position + 1, budget - extra):
+                        yield [(position, extra), *rest]
 
-        extend((), high - self.dimension)
+        for entries in raised(0, high - dimension):
+            index = [1] * dimension
+            for position, extra in entries:
+                index[position] += extra
+            if dimension + sum(extra for _, extra in entries) >= low:
+                found.append(tuple(index))
         return sorted(found, key=lambda index: (sum(index), index))
 
     def _tensor_positions(self, index: tuple[int, ...]) -> NDArray[np.int64]:
         """Positions of the tensor grid X^(i_1) x ... x X^(i_n), last axis fastest."""
-        axes = [_positions_1d(i, self._denominator) for i in index]
-        grids = np.meshgrid(*axes, indexing="ij")
-        return np.stack([g.reshape(-1) for g in grids], axis=1)
+        distinct = {i: _positions_1d(i, self._denominator) for i in set(index)}
+        axes = [distinct[i] for i in index]
+        # built column by column (np.meshgrid allows at most 64 axes): column k repeats
+        # each value for the combinations of the axes after it, tiled over those before
+        sizes = [len(axis) for axis in axes]
+        total = math.prod(sizes)
+        positions = np.empty((total, len(axes)), dtype=np.int64)
+        positions[:] = [axis[0] for axis in axes]  # one-node axes (most, in high dimension)
+        after = total
+        for k, axis in enumerate(axes):
+            if sizes[k] > 1:
+                after //= sizes[k]
+                positions[:, k] = np.tile(np.repeat(axis, after), total // (after * sizes[k]))
+        return positions
 
     def __len__(self) -> int:
         return len(self.nodes)

@@ -72,9 +72,19 @@ def _general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]
     top = len(lower) - 1
     current = np.unique(np.array([lower[top], upper[top]]))
     points: list[NDArray[np.float64]] = [current]
+    built = current  # every value of the levels above, sorted
+    # a midpoint that equals a value of a level above up to rounding is that value: for
+    # a number symmetric about its core and evenly spaced levels, P_j's inner points are
+    # P_(j+2) (Hanss's count), which rounding at non-dyadic levels would otherwise split
+    scale = 8.0 * np.finfo(np.float64).eps * float(np.max(np.abs([lower, upper])))
     for j in range(top - 1, -1, -1):
         inner = 0.5 * (current[:-1] + current[1:])
+        nearest = np.clip(np.searchsorted(built, inner), 1, len(built)) - 1
+        for offset in (0, 1):
+            candidate = built[np.minimum(nearest + offset, len(built) - 1)]
+            inner = np.where(np.abs(candidate - inner) <= scale, candidate, inner)
         current = np.concatenate(([lower[j]], inner, [upper[j]]))
+        built = np.unique(np.concatenate((built, current)))
         points.append(current)
     return points[::-1]
 

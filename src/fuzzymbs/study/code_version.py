@@ -11,18 +11,28 @@ modules and of every fuzzymbs module they import, followed transitively
 through the ``import`` statements (read with :mod:`ast`, nothing is
 imported). Names a package re-exports lazily by string (``fuzzymbs.mbs``'s
 ``_LAZY`` table) are not followed, so model code imports the defining module
-itself. Any edit of those files, comments included, changes the digest. A
-model defined outside fuzzymbs gets no digest (None): its code is identified
-only by its name and its optional ``identity()`` method.
+itself. Any edit of those files, comments included, changes the digest.
+
+A model defined outside fuzzymbs (a function or class in the user's own
+module, a ``"my_models:factory"`` reference) is covered by the bytes of the
+file of the module that defines it (and of its factory); defined where there
+is no file (an interactive session), by its compiled code (bytecode, constants
+and names of its functions). The modules that file imports are not followed:
+a model whose physics lives in another module of the user's states it in
+``identity()``. FMUs and programs are covered by their models' ``identity()``
+(the digest of the FMU file, of the program and its input template).
 """
 
 from __future__ import annotations
 
 import ast
 import hashlib
+import inspect
 import logging
+import sys
 from collections.abc import Iterable
 from pathlib import Path
+from types import CodeType
 from typing import Any
 
 logger = logging.getLogger(__name__)
@@ -166,15 +176,75 @@ def model_modules(model: Any, factory: Any = None) -> list[str]:
     return sorted(set(modules))
 
 
+def _feed_code(code: CodeType, digest: Any) -> None:
+    """Bytecode, names and constants of ``code`` and of the code objects nested in it."""
+    digest.update(code.co_code)
+    digest.update(repr((code.co_names, code.co_varnames)).encode())
+    for constant in code.co_consts:
+        if isinstance(constant, CodeType):
+            _feed_code(constant, digest)
+        else:
+            digest.update(repr(constant).encode())
+
+
+def _feed_object_code(obj: Any, digest: Any) -> None:
+    """The compiled code of a function, or of every function of an object's class."""
+    target = obj if inspect.isfunction(obj) or inspect.ismethod(obj) else None
+    if target is not None:
+        _feed_code(target.__code__, digest)
+        return
+    kind = obj if inspect.isclass(obj) else type(obj)
+    for name, member in sorted(vars(kind).items()):
+        function = getattr(member, "__func__", member)
+        if inspect.isfunction(function):
+            digest.update(name.encode() + b"\0")
+            _feed_code(function.__code__, digest)
+
+
+def user_source_digest(model: Any, factory: Any = None) -> str | None:
+    """SHA-256 (hex) of the user code behind ``model`` (and ``factory``), or None.
+
+    For each object defined outside fuzzymbs: the bytes of its module's file,
+    or its compiled code where the module has no file. None if both are
+    defined inside fuzzymbs (see :func:`source_digest`).
+    """
+    digest = hashlib.sha256()
+    found = False
+    for obj in (model, factory):
+        if obj is None:
+            continue
+        kind = obj if hasattr(obj, "__qualname__") else type(obj)
+        module = getattr(kind, "__module__", None)
+        reference = getattr(obj, "reference", None)
+        if isinstance(reference, str) and ":" in reference:  # a LazyFactory of "module:callable"
+            module = reference.partition(":")[0]
+        if isinstance(module, str) and (module == _PACKAGE or module.startswith(_PACKAGE + ".")):
+            continue  # covered by source_digest
+        file = getattr(sys.modules.get(module or ""), "__file__", None)
+        path = Path(file) if isinstance(file, str) else None
+        digest.update(str(module).encode() + b"\0")
+        if path is not None and path.suffix == ".py" and path.is_file():
+            digest.update(path.read_bytes() + b"\0")
+        else:  # no source file (an interactive session, exec, a compiled module)
+            _feed_object_code(obj, digest)
+        found = True
+    return digest.hexdigest() if found else None
+
+
 def code_version(model: Any, factory: Any = None) -> dict[str, Any]:
     """What a chunk store records about the code: fuzzymbs version and model source digest.
 
     Returns
     -------
     dict
-        ``{"fuzzymbs_version": str, "model_source": str or None}``.
+        ``{"fuzzymbs_version": str, "model_source": str or None}``: the digest
+        of the fuzzymbs source the model uses (:func:`source_digest`), of the
+        user's code (:func:`user_source_digest`), or of both together.
     """
-    return {
-        "fuzzymbs_version": fuzzymbs_version(),
-        "model_source": source_digest(model_modules(model, factory)),
-    }
+    inside = source_digest(model_modules(model, factory))
+    outside = user_source_digest(model, factory)
+    if inside is not None and outside is not None:
+        source: str | None = hashlib.sha256(f"{inside}:{outside}".encode()).hexdigest()
+    else:
+        source = inside if outside is None else outside
+    return {"fuzzymbs_version": fuzzymbs_version(), "model_source": source}

@@ -6,8 +6,13 @@ function of picklable arguments.
 
 from __future__ import annotations
 
+import os
+import re
+import signal
 import sys
-from collections.abc import Mapping, Sequence
+import threading
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,6 +26,34 @@ REASON_KEY = "failure_reason"
 #: Optional model output giving coordinate values found while running (e.g. the time column
 #: of an external program's output file): ``{dim: (T,) array}``, not batched.
 COORDS_KEY = "coords"
+#: an output name becomes NetCDF variables (``<name>_lower``) and plot file names
+#: (``<name>_membership_time_0.5.png``): it starts with a letter, digit or "_", holds
+#: no path separator, control or reserved file-name character, and is at most 100 long
+MAX_OUTPUT_NAME = 100
+_SAFE_NAME = re.compile(r"[A-Za-z0-9_][^/\\\x00-\x1f\x7f<>:\"|?*]*")
+
+
+def check_output_name(name: object, where: str = "model output") -> str:
+    """``name`` if it can be a NetCDF variable and part of a file name, else raise.
+
+    Raises
+    ------
+    ModelOutputError
+        Not a string, empty, too long, or holding characters that a file name or a
+        NetCDF variable cannot hold (names the output and what is allowed).
+    """
+    if (
+        not isinstance(name, str)
+        or len(name) > MAX_OUTPUT_NAME
+        or not _SAFE_NAME.fullmatch(name)
+        or name != name.rstrip()
+    ):
+        raise ModelOutputError(
+            f"{where} name {name!r} cannot name a dataset variable and a plot file: "
+            f"use at most {MAX_OUTPUT_NAME} characters, starting with a letter, digit or "
+            '"_", without path separators, control characters or any of <>:"|?*'
+        )
+    return name
 
 
 @dataclass
@@ -67,6 +100,61 @@ def _checked_coords(raw: Mapping[str, Any]) -> dict[str, np.ndarray]:
             )
         coords[str(dim)] = array
     return coords
+
+
+class OutputCheck:
+    """Every chunk of a study returns the same outputs with the same trailing shapes.
+
+    The one place that compares chunks with each other (each chunk's own
+    values are checked where it is evaluated): a study run passes every chunk
+    of its screening, its plan and its validation runs through one instance,
+    whether the chunk was just computed or read from the store, before its
+    values are used.
+    """
+
+    def __init__(self) -> None:
+        self.shapes: dict[str, tuple[int, ...]] | None = None
+        self._first = ""
+
+    def check(self, chunk: ChunkResult, table: str = "the plan") -> None:
+        """Raise :class:`ModelOutputError` if ``chunk`` (of sample table ``table``)
+        disagrees with the chunks before it.
+
+        A chunk whose samples all failed has no values to compare (none is used).
+        """
+        if chunk.failed.all():
+            return
+        where = f"samples {chunk.start} to {chunk.stop - 1} of {table}"
+        shapes = {name: tuple(np.shape(values)[1:]) for name, values in chunk.outputs.items()}
+        for name, values in chunk.outputs.items():
+            if np.shape(values)[:1] != (chunk.size,) or np.asarray(values).dtype.kind != "f":
+                raise ModelOutputError(
+                    f"output {name!r} of {where} is not a ({chunk.size}, ...) array of numbers"
+                )
+        if not shapes:
+            raise ModelOutputError(f"{where}: the model returned no outputs")
+        if self.shapes is None:
+            self.shapes, self._first = shapes, where
+            return
+        if set(shapes) != set(self.shapes):
+            added = sorted(set(shapes) - set(self.shapes))
+            gone = sorted(set(self.shapes) - set(shapes))
+            change = "; ".join(
+                part
+                for part in (f"new {added}" if added else "", f"missing {gone}" if gone else "")
+                if part
+            )
+            raise ModelOutputError(
+                f"the model's outputs differ between {self._first} and {where}: {change}. "
+                "A model must return the same outputs for every sample"
+            )
+        for name, shape in shapes.items():
+            if shape != self.shapes[name]:
+                raise ModelOutputError(
+                    f"model output {name!r} has trailing shape {shape} for {where} but "
+                    f"{self.shapes[name]} for {self._first}; a model must return the same "
+                    "shape for every sample"
+                )
 
 
 def merged_coords(chunks: Sequence[ChunkResult]) -> dict[str, np.ndarray]:
@@ -118,23 +206,39 @@ def _checked_outputs(
             text = str(given[i]) if given is not None and given.shape == (size,) else ""
             reasons[i] = text or "the model flagged this sample as failed"
         failed |= flagged
+    if not names and not failed.all():
+        raise ModelOutputError(
+            "the model returned no outputs"
+            + (f" (only {', '.join(map(repr, raw))})" if raw else "")
+            + "; it must return at least one {output name: (B, ...) array}"
+        )
     outputs: dict[str, np.ndarray] = {}
     for name in names:
+        check_output_name(name)
         if name not in raw and failed.all():
             continue  # every sample failed: a model may return no outputs at all then
         if name not in raw:
             raise ModelOutputError(
                 f"the model returned no output {name!r}; it returned: {', '.join(map(str, raw))}"
             )
-        if np.iscomplexobj(raw[name]):
+        try:
+            given = np.asarray(raw[name])
+        except (TypeError, ValueError) as exc:  # e.g. a ragged list
+            raise ModelOutputError(
+                f"model output {name!r} is not a numeric array ({exc}); return a "
+                "(B, ...) array of numbers"
+            ) from None
+        if np.iscomplexobj(given):
             raise ModelOutputError(
                 f"model output {name!r} is complex; return real quantities "
                 "(e.g. magnitude and phase as separate outputs)"
             )
-        try:
-            values = np.array(raw[name], dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ModelOutputError(f"model output {name!r} is not numeric: {exc}") from exc
+        if given.dtype.kind not in "biuf":  # strings such as "13.5" are no numbers
+            raise ModelOutputError(
+                f"model output {name!r} holds {given.dtype} values, not numbers; "
+                "return a (B, ...) array of numbers"
+            )
+        values = np.array(given, dtype=np.float64)
         if values.ndim == 0 or values.shape[0] != size:
             raise ModelOutputError(
                 f"model output {name!r} has shape {values.shape}; its leading axis must be "
@@ -150,11 +254,68 @@ def _checked_outputs(
     return outputs, failed, reasons
 
 
+class SampleStopped(Exception):
+    """A model call ended by the runner: it exited or ran over its time limit."""
+
+
+#: the interpreter's own os._exit: a model's call is intercepted, the runner's is not
+_REAL_EXIT = os._exit
+
+
+def hard_exit(status: int) -> None:
+    """End this process at once (``os._exit``), also while a model's call is intercepted."""
+    _REAL_EXIT(status)
+
+
+def _guarded() -> bool:
+    """Exit and time-limit guards need signals and a global: only a process's main thread."""
+    return threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer")
+
+
+@contextmanager
+def _guards(limit: float | None) -> Iterator[None]:
+    """While a model runs: ``os._exit`` raises, and SIGALRM after ``limit`` seconds raises."""
+    if not _guarded():
+        yield
+        return
+
+    def refuse_exit(code: int) -> None:
+        raise SampleStopped(f"the model called os._exit({code})")
+
+    def time_up(_signum: int, _frame: Any) -> None:
+        raise SampleStopped(f"timed out after {limit:g} s")
+
+    os._exit = refuse_exit  # type: ignore[assignment]
+    previous = signal.signal(signal.SIGALRM, time_up) if limit is not None else None
+    try:
+        if limit is not None:
+            signal.setitimer(signal.ITIMER_REAL, limit)
+        yield
+    finally:
+        try:  # an alarm firing just now still leaves the handler and os._exit restored
+            if limit is not None:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+        finally:
+            if limit is not None:
+                signal.signal(signal.SIGALRM, previous)
+            os._exit = _REAL_EXIT
+
+
+def _call_model(model: Any, columns: Mapping[str, np.ndarray], limit: float | None) -> Any:
+    """``model(columns)``; an exit or a time-out of the model raises :class:`SampleStopped`."""
+    try:
+        with _guards(limit):
+            return model(dict(columns))
+    except SystemExit as exc:  # a model's sys.exit must not end the study (with status 0)
+        raise SampleStopped(f"the model called sys.exit({exc.code!r})") from None
+
+
 def evaluate_chunk(
     model: Any,
     columns: Mapping[str, np.ndarray],
     start: int,
     outputs: Sequence[str] | None = None,
+    timeout: float | None = None,
 ) -> ChunkResult:
     """Evaluate samples ``start : start + B`` with one model call.
 
@@ -174,6 +335,14 @@ def evaluate_chunk(
         Index of the chunk's first sample in the plan.
     outputs : sequence of str, optional
         Outputs to keep (default: all the model returns).
+    timeout : float, optional
+        Seconds a sample may take (a batch of B samples: B times as long); a
+        sample over it fails with reason "timed out". Enforced where the chunk
+        runs in a process's main thread (inline and process executors, on POSIX).
+
+    A model that calls ``sys.exit`` or ``os._exit`` (the latter where enforced
+    like the timeout) fails the affected samples with that reason instead of
+    ending the process.
 
     Raises
     ------
@@ -182,7 +351,8 @@ def evaluate_chunk(
     """
     size = len(next(iter(columns.values())))
     try:
-        raw = model(dict(columns))
+        # a batch may take ``timeout`` per sample; a single sample, ``timeout``
+        raw = _call_model(model, columns, None if timeout is None else timeout * size)
     except Exception as exc:
         if size == 1:
             return ChunkResult(
@@ -190,7 +360,9 @@ def evaluate_chunk(
                 start + 1,
                 {},
                 np.ones(1, dtype=bool),
-                np.array([f"{type(exc).__name__}: {exc}"]),
+                np.array(
+                    [str(exc) if isinstance(exc, SampleStopped) else f"{type(exc).__name__}: {exc}"]
+                ),
             )
     else:
         try:
@@ -203,7 +375,9 @@ def evaluate_chunk(
         return ChunkResult(start, start + size, data, failed, reasons.astype(str), coords)
     # Isolate the failing samples: one call per sample, only after a batched call raised.
     singles = [
-        evaluate_chunk(model, {k: v[i : i + 1] for k, v in columns.items()}, start + i, outputs)
+        evaluate_chunk(
+            model, {k: v[i : i + 1] for k, v in columns.items()}, start + i, outputs, timeout
+        )
         for i in range(size)
     ]
     failed = np.concatenate([s.failed for s in singles])
@@ -231,6 +405,7 @@ def evaluate_chunk_on_worker(
     columns: Mapping[str, np.ndarray],
     start: int,
     outputs: Sequence[str] | None = None,
+    timeout: float | None = None,
 ) -> ChunkResult:
     """:func:`evaluate_chunk` with the compiled kernels limited to ``threads`` threads.
 
@@ -244,10 +419,10 @@ def evaluate_chunk_on_worker(
     """
     numba = sys.modules.get("numba")
     if threads is None or numba is None:
-        return evaluate_chunk(model, columns, start, outputs)
+        return evaluate_chunk(model, columns, start, outputs, timeout)
     previous = numba.get_num_threads()
     numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     try:
-        return evaluate_chunk(model, columns, start, outputs)
+        return evaluate_chunk(model, columns, start, outputs, timeout)
     finally:
         numba.set_num_threads(previous)

@@ -11,14 +11,14 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, wait
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, wait
 from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 
-from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.study.evaluation import ChunkResult, evaluate_chunk_on_worker
+from fuzzymbs.errors import IncompleteResultError, InvalidParameterError
+from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, evaluate_chunk_on_worker
 from fuzzymbs.study.executors import resolve_executor
 
 __all__ = [
@@ -40,8 +40,17 @@ DEFAULT_CHUNK_SIZE = 256
 ON_FAILURE = ("raise", "fail-fast", "partial")
 
 
-def check_run_settings(on_failure: str, chunk_size: Any) -> None:
-    """Raise :class:`InvalidParameterError` for an unknown ``on_failure`` or a bad chunk size."""
+def check_run_settings(on_failure: str, chunk_size: Any, timeout: Any = None) -> None:
+    """Raise :class:`InvalidParameterError` for an unknown ``on_failure``, a bad chunk
+    size or a bad per-sample ``timeout``."""
+    if timeout is not None and (
+        isinstance(timeout, bool)
+        or not isinstance(timeout, int | float)
+        or not (np.isfinite(timeout) and timeout > 0)
+    ):
+        raise InvalidParameterError(
+            f"timeout must be a positive number of seconds per sample, got {timeout!r}"
+        )
     if on_failure not in ON_FAILURE:
         raise InvalidParameterError(f"on_failure={on_failure!r}; allowed: {', '.join(ON_FAILURE)}")
     if chunk_size is not None and (
@@ -62,11 +71,17 @@ class LazyExecutor:
     check : callable
         Called with a freshly started process pool (closes it and raises if the
         model cannot travel to worker processes).
+    timeout : float, optional
+        Seconds a sample may take (see
+        :func:`~fuzzymbs.study.evaluation.evaluate_chunk`); None: no limit.
     """
 
-    def __init__(self, spec: Any, check: Callable[[Any], None]) -> None:
+    def __init__(
+        self, spec: Any, check: Callable[[Any], None], timeout: float | None = None
+    ) -> None:
         self.spec = spec
         self._check = check
+        self.timeout = timeout
         self._resolved: Any = None
         self.label: str | None = None
 
@@ -126,6 +141,12 @@ def evaluate_chunks(
     -------
     int
         The number of samples evaluated.
+
+    Raises
+    ------
+    IncompleteResultError
+        A worker ended while evaluating a chunk (a model that crashed its
+        process, or a lost Dask worker); the chunks finished before are stored.
     """
     enabled, already, label = progress
     evaluated = 0
@@ -143,19 +164,23 @@ def evaluate_chunks(
             ):
                 index = queue.pop(0)
                 start, stop = index * size, min((index + 1) * size, count)
-                future = resolved.executor.submit(
-                    evaluate_chunk_on_worker,
-                    resolved.task_threads,
-                    model,
-                    columns(start, stop),
-                    start,
-                    outputs,
-                )
+                try:
+                    future = resolved.executor.submit(
+                        evaluate_chunk_on_worker,
+                        resolved.task_threads,
+                        model,
+                        columns(start, stop),
+                        start,
+                        outputs,
+                        work.timeout,
+                    )
+                except BrokenExecutor as exc:  # a worker died on an earlier chunk
+                    raise _lost_worker(exc, start, stop, resolved.label) from exc
                 pending[future] = index
             done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
             for future in done:
                 index = pending.pop(future)
-                chunk = future.result()
+                chunk = _chunk_result(future, index, size, count, resolved.label)
                 if chunk_store is not None:
                     chunk_store.write(index, chunk)
                 if on_chunk is not None:
@@ -179,6 +204,34 @@ def evaluate_chunks(
                             other.cancel()
                         fail_fast()
     return evaluated
+
+
+#: Dask's errors for a task whose worker died (matched by name: Dask is optional)
+_LOST_WORKER = frozenset({"KilledWorker", "CommClosedError", "FutureCancelledError"})
+
+
+def _chunk_result(future: Future, index: int, size: int, count: int, label: str) -> ChunkResult:
+    """The chunk a finished task computed; a lost worker becomes a one-line error."""
+    try:
+        return future.result()
+    except BrokenExecutor as exc:  # the task never returned: its worker process ended
+        lost: BaseException = exc
+    except Exception as exc:
+        if type(exc).__name__ not in _LOST_WORKER:
+            raise
+        lost = exc
+    start, stop = index * size, min((index + 1) * size, count)
+    raise _lost_worker(lost, start, stop, label) from lost
+
+
+def _lost_worker(exc: BaseException, start: int, stop: int, label: str) -> IncompleteResultError:
+    """The one-line error for a worker that ended while (or before) running samples start:stop."""
+    return IncompleteResultError(
+        f"a worker of executor {label!r} ended while evaluating samples {start} to "
+        f"{stop - 1} or an earlier chunk ({type(exc).__name__}: {exc}); the model may have "
+        "crashed its process (e.g. a fatal signal, out of memory). The chunks finished "
+        "before are stored; run with the inline executor to see the model's own error"
+    )
 
 
 def _log_estimate(
@@ -206,22 +259,33 @@ def _log_estimate(
 
 
 def assemble_chunks(
-    chunks: Sequence[ChunkResult], count: int
+    chunks: Sequence[ChunkResult],
+    count: int,
+    check: OutputCheck | None = None,
+    table: str = "the sample table",
 ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     """Concatenate chunk results in sample order; NaN rows where a chunk had no data.
 
+    Every chunk passes ``check`` first (default: a new
+    :class:`~fuzzymbs.study.evaluation.OutputCheck`; a study passes its own, so
+    that its screening, plan and validation runs agree), ``table`` naming them.
+
     Returns ``(outputs {name: (count, ...)}, failed (count,) bool, reasons (count,) str)``.
     """
+    check = OutputCheck() if check is None else check
+    for chunk in chunks:
+        check.check(chunk, table)
     failed = np.concatenate([c.failed for c in chunks]).astype(bool)
     reasons = np.concatenate([np.asarray(c.reasons, dtype=object) for c in chunks]).astype(str)
     shapes: dict[str, tuple[int, ...]] = {}
-    for chunk in chunks:
+    used = [chunk for chunk in chunks if not chunk.failed.all()]  # others: NaN rows
+    for chunk in used:
         for name, values in chunk.outputs.items():
             shapes.setdefault(name, values.shape[1:])
     outputs = {}
     for name, shape in shapes.items():
         merged = np.full((count, *shape), np.nan)
-        for chunk in chunks:
+        for chunk in used:
             if name in chunk.outputs:
                 merged[chunk.start : chunk.stop] = chunk.outputs[name]
         outputs[name] = merged

@@ -42,6 +42,30 @@ class ResolvedExecutor:
     task_threads: int | None = None
 
 
+#: seconds between a worker's checks that the process that started it still lives
+PARENT_POLL_S = 0.5
+
+
+def watch_parent(parent: int) -> None:
+    """In a pool worker: end the worker as soon as ``parent`` is gone.
+
+    A parent killed without a chance to shut its pool down (``kill -9``) would
+    otherwise leave its workers, and with them the multiprocessing resource
+    tracker whose pipe they hold, running for good.
+    """
+    import threading
+    import time
+
+    from fuzzymbs.study.evaluation import hard_exit
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        hard_exit(1)
+
+    threading.Thread(target=watch, name="fuzzymbs-watch-parent", daemon=True).start()
+
+
 def _nothing() -> None:
     return None
 
@@ -49,6 +73,67 @@ def _nothing() -> None:
 def _worker_count(executor: Any) -> int:
     workers = getattr(executor, "_max_workers", None)
     return int(workers) if workers else (os.cpu_count() or 1)
+
+
+#: a process pool may have at most this many workers per core: more only adds memory
+#: and start-up time, and a study file could otherwise ask for ``processes:100000``
+MAX_WORKERS_PER_CORE = 4
+#: executors a study file may name without ``--allow-code``: they run nothing but the model
+LOCAL_EXECUTORS = ("inline", "processes")
+
+
+def max_workers() -> int:
+    """The largest worker count of a process pool on this machine (4 per core)."""
+    return MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)
+
+
+def process_workers(spec: str) -> int | None:
+    """The worker count of a ``"processes[:N]"`` specification (None for other executors).
+
+    Raises
+    ------
+    InvalidParameterError
+        A count that is not a whole number, below 1 or above :func:`max_workers`.
+    """
+    if not (spec == "processes" or spec.startswith("processes:")):
+        return None
+    count_text = spec.partition(":")[2]
+    try:
+        workers = int(count_text) if count_text else (os.cpu_count() or 1)
+    except ValueError:
+        raise InvalidParameterError(
+            f"executor {spec!r}: the worker count after 'processes:' must be an integer"
+        ) from None
+    if workers < 1:
+        raise InvalidParameterError(f"executor {spec!r}: need at least one worker")
+    if workers > max_workers():
+        raise InvalidParameterError(
+            f"executor {spec!r}: at most {max_workers()} workers on this machine "
+            f"({MAX_WORKERS_PER_CORE} per core, {os.cpu_count() or 1} cores); "
+            "use a Dask cluster for more"
+        )
+    return workers
+
+
+def is_remote(spec: str) -> bool:
+    """True for a Dask scheduler address: connecting exchanges pickled data with it."""
+    return spec.startswith(("dask://", "tcp://"))
+
+
+def check_executor_spec(spec: Any) -> None:
+    """Check an executor specification without starting anything (see :func:`resolve_executor`).
+
+    Raises
+    ------
+    InvalidParameterError
+        An unknown specification string or a bad worker count.
+    """
+    if not isinstance(spec, str) or spec == "inline" or is_remote(spec):
+        return
+    if process_workers(spec) is None:
+        raise InvalidParameterError(
+            f"unknown executor {spec!r}; use 'inline', 'processes[:N]' or 'dask://host:port'"
+        )
 
 
 def resolve_executor(spec: Any = None) -> ResolvedExecutor:
@@ -62,7 +147,8 @@ def resolve_executor(spec: Any = None) -> ResolvedExecutor:
     Raises
     ------
     InvalidParameterError
-        For an unknown specification string.
+        For an unknown specification string, a worker count above
+        :func:`max_workers`, or a Dask scheduler that cannot be reached.
     """
     if spec is None or spec == "inline":
         return ResolvedExecutor(InlineExecutor(), "inline", 1, _nothing)
@@ -71,18 +157,14 @@ def resolve_executor(spec: Any = None) -> ResolvedExecutor:
             import multiprocessing
             from concurrent.futures import ProcessPoolExecutor
 
-            count_text = spec.partition(":")[2]
-            try:
-                workers = int(count_text) if count_text else (os.cpu_count() or 1)
-            except ValueError:
-                raise InvalidParameterError(
-                    f"executor {spec!r}: the worker count after 'processes:' must be an integer"
-                ) from None
-            if workers < 1:
-                raise InvalidParameterError(f"executor {spec!r}: need at least one worker")
+            workers = process_workers(spec)
+            assert workers is not None
             # spawn, not fork: the parent may run threads (progress bar, Dask, BLAS).
             pool = ProcessPoolExecutor(
-                max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+                max_workers=workers,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=watch_parent,
+                initargs=(os.getpid(),),
             )
             return ResolvedExecutor(
                 pool,
@@ -95,7 +177,13 @@ def resolve_executor(spec: Any = None) -> ResolvedExecutor:
             from distributed import Client
 
             address = "tcp://" + spec.split("://", 1)[1]
-            client = Client(address)
+            try:
+                client = Client(address, timeout="10s")
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise InvalidParameterError(
+                    f"executor {spec!r}: cannot connect to the Dask scheduler at {address} "
+                    f"({type(exc).__name__}: {exc}); check that it is running and reachable"
+                ) from None
             return _from_client(client, spec, owned=True)
         raise InvalidParameterError(
             f"unknown executor {spec!r}; use 'inline', 'processes[:N]', 'dask://host:port', "

@@ -2,23 +2,139 @@
 
 ``DIR/chunks/`` is the chunk store, so rerunning the same study into the same
 folder resumes where an interrupted run stopped.
+
+One run at a time writes into a folder: a run holds an exclusive lock on
+``DIR/.fuzzymbs.lock`` (POSIX ``flock``, released by the system however the
+run ends), and a second run into the busy folder stops at once with a one-line
+error. A result in the folder is current or absent: when a run starts, an
+earlier ``result.nc`` is moved to ``previous-result.nc`` and the plots the
+earlier run wrote (listed in ``DIR/.plots``) are removed, and ``summary.txt``
+says the run is under way; a run that fails says so in ``summary.txt`` and
+writes no ``result.nc``; a run that succeeds removes ``previous-result.nc``.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import os
+import tempfile
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fuzzymbs.errors import IncompleteResultError, InvalidParameterError
+from fuzzymbs.errors import InvalidParameterError, OutputFolderError
 
 logger = logging.getLogger(__name__)
 
 RESULT_FILE = "result.nc"
 SUMMARY_FILE = "summary.txt"
 STORE_FOLDER = "chunks"
+#: where an earlier result of the folder waits while a new run is under way or after it failed
+PREVIOUS_RESULT_FILE = "previous-result.nc"
+#: the plot files the last run wrote (one name a line), removed when the next run starts
+PLOT_LIST = ".plots"
+LOCK_FILE = ".fuzzymbs.lock"
+
+
+def prepare_output_folder(out: Path) -> None:
+    """Create ``out`` and check that files can be written into it, before any sample runs.
+
+    Raises
+    ------
+    OutputFolderError
+        ``out`` is a file, lies below a file, is a dangling link, or is not writable.
+    """
+    if out.is_symlink() and not out.exists():
+        raise OutputFolderError(
+            f"output folder {out} is a symbolic link to nothing ({os.readlink(out)}); "
+            "remove it or choose another --out"
+        )
+    if out.exists() and not out.is_dir():
+        raise OutputFolderError(
+            f"output folder {out} exists and is not a directory; choose another --out"
+        )
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as exc:
+        raise OutputFolderError(
+            f"output folder {out} cannot be written ({exc.strerror or exc}); choose a "
+            "writable --out"
+        ) from None
+
+
+@contextmanager
+def locked_output_folder(out: Path) -> Iterator[None]:
+    """Hold the exclusive lock of ``out`` (see the module docstring) while the block runs.
+
+    Raises
+    ------
+    OutputFolderError
+        Another run holds the lock.
+    """
+    try:
+        import fcntl
+    except ImportError:  # Windows: no advisory locks here; one run per folder is up to the user
+        yield
+        return
+    path = out / LOCK_FILE
+    with path.open("a+") as handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            holder = handle.read().strip() or "unknown"
+            raise OutputFolderError(
+                f"output folder {out} is in use by another fuzzymbs run (process {holder}); "
+                "wait for it to end or choose another --out"
+            ) from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(str(os.getpid()))
+        handle.flush()
+        try:
+            yield
+        finally:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+
+
+def _set_aside_earlier_result(out: Path) -> bool:
+    """Move an earlier result.nc aside and remove the plots of the earlier run.
+
+    Returns whether an earlier result was moved to ``previous-result.nc``.
+    """
+    listing = out / PLOT_LIST
+    if listing.is_file():
+        for name in listing.read_text(encoding="utf-8").splitlines():
+            plot = out / name
+            # only plain file names of this folder: the list is data, never a path elsewhere
+            if name and Path(name).name == name and not name.startswith("."):
+                plot.unlink(missing_ok=True)
+        listing.unlink()
+    result = out / RESULT_FILE
+    if result.exists():
+        os.replace(result, out / PREVIOUS_RESULT_FILE)
+        return True
+    return False
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write a small text file through a temporary file of its own (never half written)."""
+    handle, name = tempfile.mkstemp(
+        prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent
+    )
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as stream:
+            stream.write(text)
+        os.replace(name, path)
+    except BaseException:
+        Path(name).unlink(missing_ok=True)
+        raise
 
 
 @dataclass
@@ -45,16 +161,18 @@ def run_study_file(
     plots: bool = True,
     allow_code: bool = False,
     max_runs: int | None = None,
+    timeout: float | None = None,
     report: bool = True,
     command: str | None = None,
 ) -> StudyOutput:
     """Load a study file, run it with ``out/chunks`` as store, and write the results.
 
-    Settings given here override the file's ``[run]`` table, ``max_runs`` its
-    ``[study] max_runs``. ``allow_code`` lets the file run code its author
-    named (a module reference, an FMU, a program; :mod:`fuzzymbs.study.trust`).
-    ``report`` writes ``out/report.html`` (:mod:`fuzzymbs.report`); ``command``, the
-    command line that ran the study, is recorded in the result for its reproduction.
+    Settings given here override the file's ``[run]`` table (``timeout``: seconds
+    a sample may take), ``max_runs`` its ``[study] max_runs``. ``allow_code``
+    lets the file run code its author named (a module reference, an FMU, a
+    program; :mod:`fuzzymbs.study.trust`). ``report`` writes ``out/report.html``
+    (:mod:`fuzzymbs.report`); ``command``, the command line that ran the study, is
+    recorded in the result for its reproduction.
 
     Raises
     ------
@@ -66,15 +184,66 @@ def run_study_file(
         lists the failures and the stored chunks are kept for a rerun.
     StoreMismatchError
         ``out`` holds the store of a different study.
+    OutputFolderError
+        ``out`` cannot be created or written, or another run is writing into it
+        (checked before any sample runs).
     """
+    from fuzzymbs.study.executors import check_executor_spec
     from fuzzymbs.study.studyfile import load_study_file
 
-    definition = load_study_file(path, allow_code=allow_code, max_runs=max_runs)
+    check_executor_spec(executor)  # before the study is built or a folder touched
+
+    definition = load_study_file(
+        path, allow_code=allow_code, max_runs=max_runs, file_executor=executor is None
+    )
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InvalidParameterError(f"output folder {out} exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
+    prepare_output_folder(out)
+    with locked_output_folder(out):
+        return _run_locked(
+            definition,
+            Path(path),
+            out,
+            executor,
+            chunk_size,
+            on_failure,
+            resume,
+            progress,
+            plots,
+            timeout,
+            report,
+            command,
+        )
+
+
+def _run_locked(
+    definition: Any,
+    path: Path,
+    out: Path,
+    executor: Any,
+    chunk_size: int | None,
+    on_failure: str | None,
+    resume: bool,
+    progress: bool,
+    plots: bool,
+    timeout: float | None,
+    report: bool = True,
+    command: str | None = None,
+) -> StudyOutput:
+    """:func:`run_study_file` once the output folder is locked."""
+    from fuzzymbs.study.store import remove_orphans
+
     summary_path = out / SUMMARY_FILE
+    remove_orphans(out)  # temporary files of an ended run (a kill, a full disk)
+    kept = _set_aside_earlier_result(out)
+    earlier = (
+        f"The earlier result of this folder is kept as {PREVIOUS_RESULT_FILE}.\n" if kept else ""
+    )
+    _write_text(
+        summary_path,
+        f"Study: {definition.name}\nStatus: RUNNING - started {time.strftime('%Y-%m-%d %H:%M:%S')}"
+        f" (process {os.getpid()}); no result yet\n{earlier}",
+    )
+    result_path = out / RESULT_FILE
     try:
         result = definition.study.run(
             executor=executor if executor is not None else definition.executor,
@@ -83,24 +252,37 @@ def run_study_file(
             resume=resume,
             progress=progress,
             on_failure=on_failure or definition.on_failure,
+            timeout=definition.timeout if timeout is None else timeout,
         )
-    except IncompleteResultError as exc:
-        summary_path.write_text(
-            f"Study: {definition.name}\nStatus: FAILED - no result written\n{exc}\n"
-        )
-        raise
-    result.dataset.attrs["plots"] = json.dumps({"membership": definition.membership_plots})
-    result.dataset.attrs["study_file"] = str(Path(path).name)
-    if command:
-        result.dataset.attrs["command"] = command
-    result_path = result.to_netcdf(out / RESULT_FILE)
-    summary_path.write_text(result.summary())
-    written = result.plot(out) if plots else []
-    report_path = None
-    if report:
-        from fuzzymbs.report import REPORT_FILE, write_report
+        result.dataset.attrs["plots"] = json.dumps({"membership": definition.membership_plots})
+        result.dataset.attrs["study_file"] = str(path.name)
+        if command:
+            result.dataset.attrs["command"] = command
+        result.to_netcdf(result_path)
+        written = result.plot(out) if plots else []
+        report_path = None
+        if report:
+            from fuzzymbs.report import REPORT_FILE, write_report
 
-        report_path = write_report(result.dataset, out / REPORT_FILE)
+            report_path = write_report(result.dataset, out / REPORT_FILE)
+        listed = written + ([report_path] if report_path is not None else [])
+        _write_text(out / PLOT_LIST, "".join(f"{p.name}\n" for p in listed))
+        _write_text(summary_path, result.summary())
+    except BaseException as exc:
+        # whatever failed (the study, a full disk while writing), no result looks current
+        result_path.unlink(missing_ok=True)
+        interrupted = isinstance(exc, KeyboardInterrupt)
+        status = (
+            "INTERRUPTED - no result written; a rerun resumes from the stored chunks"
+            if interrupted
+            else f"FAILED - no result written\n{exc}"
+        )
+        try:
+            _write_text(summary_path, f"Study: {definition.name}\nStatus: {status}\n{earlier}")
+        except OSError:  # e.g. the disk is full: the error below says what happened
+            pass
+        raise
+    (out / PREVIOUS_RESULT_FILE).unlink(missing_ok=True)
     logger.info(
         "study %s: wrote %s, %s and %d plots",
         definition.name,
@@ -135,6 +317,10 @@ def demo_files(name: str) -> list[Any]:
     """
     from importlib import resources
 
+    if name not in demo_names():  # never a path: only the shipped demos run
+        raise InvalidParameterError(
+            f"unknown demo {name!r}; shipped demos: {', '.join(demo_names()) or '(none)'}"
+        )
     folder = resources.files("fuzzymbs") / "demos" / name
     files = (
         sorted((f for f in folder.iterdir() if f.name.endswith(".toml")), key=lambda f: f.name)

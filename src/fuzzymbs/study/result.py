@@ -51,8 +51,10 @@ from fuzzymbs.errors import (
     InvalidFuzzyNumberError,
     InvalidParameterError,
     ModelOutputError,
+    ResultFileError,
     UnsupportedOperationError,
 )
+from fuzzymbs.study.evaluation import check_output_name
 from fuzzymbs.study.integration_check import IntegrationCheck
 from fuzzymbs.study.method_check import ValidationRuns, check_method
 from fuzzymbs.study.store import json_safe
@@ -187,9 +189,12 @@ _OUTPUT_SUFFIXES = (
 
 
 def check_output_names(outputs: Mapping[str, Any]) -> None:
-    """Refuse output names whose variables would overwrite study variables or each other."""
+    """Refuse output names that are no safe variable and file names
+    (:func:`~fuzzymbs.study.evaluation.check_output_name`), or whose variables would
+    overwrite study variables or each other."""
     seen: dict[str, str] = {}
     for name in outputs:
+        check_output_name(name)
         for suffix in _OUTPUT_SUFFIXES:
             variable = f"{name}_{suffix}"
             clash = variable in STUDY_VARIABLES or variable in seen
@@ -200,6 +205,71 @@ def check_output_names(outputs: Mapping[str, Any]) -> None:
                     f"which is already used by {other}; rename the output"
                 )
             seen[variable] = f"output {name!r}"
+
+
+def _json_attribute(dataset: xarray.Dataset, key: str, default: Any, path: Any) -> Any:
+    text = dataset.attrs.get(key)
+    if text is None:
+        if default is None:
+            raise ResultFileError(f"{path}: not a fuzzymbs result (no {key!r} attribute)")
+        return default
+    try:
+        return json.loads(str(text))
+    except json.JSONDecodeError as exc:
+        raise ResultFileError(f"{path}: attribute {key!r} is not valid JSON ({exc})") from None
+
+
+def check_result(dataset: xarray.Dataset, path: Any = "result") -> None:
+    """Check a result read from a file before anything is named after its contents.
+
+    A result file is data from anywhere: its output names become plot file
+    names, so they are checked like a model's
+    (:func:`~fuzzymbs.study.evaluation.check_output_name`), and every variable
+    and attribute the plots and summary read must be there.
+
+    Raises
+    ------
+    ResultFileError
+        Names the file and what is missing or malformed.
+    """
+    outputs = _json_attribute(dataset, "outputs", None, path)
+    if not isinstance(outputs, list) or not outputs:
+        raise ResultFileError(f"{path}: attribute 'outputs' must be a non-empty list of names")
+    try:
+        for name in outputs:
+            check_output_name(name, where=f"{path}: output")
+    except ModelOutputError as exc:
+        raise ResultFileError(str(exc)) from None
+    needed = ["level", "sample_failed", "level_complete", "parameter_lower", "parameter_upper"]
+    needed += [f"{name}_{bound}" for name in outputs for bound in ("lower", "upper")]
+    missing = [name for name in needed if name not in dataset.variables]
+    if missing:
+        raise ResultFileError(
+            f"{path}: not a complete fuzzymbs result (missing variables {missing})"
+        )
+    influence = _json_attribute(dataset, "influence_outputs", [], path)
+    if not isinstance(influence, list) or not set(influence) <= set(outputs):
+        raise ResultFileError(f"{path}: attribute 'influence_outputs' names unknown outputs")
+    plots = _json_attribute(dataset, "plots", {}, path)
+    membership = plots.get("membership", []) if isinstance(plots, dict) else None
+    if not isinstance(membership, list):
+        raise ResultFileError(f"{path}: attribute 'plots' must be {{\"membership\": [...]}}")
+    for entry in membership:
+        coord = entry.get("coord") if isinstance(entry, dict) else None
+        value = entry.get("value") if isinstance(entry, dict) else None
+        valid = (
+            isinstance(entry, dict)
+            and entry.get("output") in outputs
+            and (coord is None) == (value is None)
+            and (coord is None or (isinstance(coord, str) and coord in dataset.dims))
+            and (value is None or (isinstance(value, int | float) and np.isfinite(value)))
+        )
+        if not valid:
+            raise ResultFileError(
+                f"{path}: attribute 'plots' holds an invalid membership plot {entry!r}"
+            )
+    for key in ("provenance", "parameter_units"):
+        _json_attribute(dataset, key, {}, path)
 
 
 def build_dataset(
@@ -460,20 +530,46 @@ class StudyResult:
 
     def to_netcdf(self, path: str | Path) -> Path:
         """Write the dataset as NetCDF (engine from :func:`netcdf_engine`); returns the path."""
+        import os
+        import tempfile
+
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_name(f".{path.name}.tmp")
-        self.dataset.to_netcdf(temporary, engine=netcdf_engine())
-        temporary.replace(path)
+        # a temporary name no other writer uses (process id: see store.remove_orphans)
+        handle, name = tempfile.mkstemp(
+            prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent
+        )
+        os.close(handle)
+        temporary = Path(name)
+        try:
+            self.dataset.to_netcdf(temporary, engine=netcdf_engine())
+            temporary.replace(path)
+        except BaseException:
+            temporary.unlink(missing_ok=True)
+            raise
         return path
 
     @classmethod
     def open(cls, path: str | Path) -> StudyResult:
-        """Read a result written by :meth:`to_netcdf` (fully loaded, file closed)."""
+        """Read a result written by :meth:`to_netcdf` (fully loaded, file closed) and check
+        what plots and summaries read from it (:func:`check_result`).
+
+        Raises
+        ------
+        ResultFileError
+            The file is unreadable or not a complete fuzzymbs result (names what is wrong).
+        """
         import xarray
 
-        with xarray.open_dataset(path) as dataset:
-            return cls(dataset.load())
+        try:
+            with xarray.open_dataset(path) as dataset:
+                loaded = dataset.load()
+        except Exception as exc:  # any damage: not a NetCDF file, truncated, bad encoding
+            raise ResultFileError(
+                f"{path}: not a readable result file ({type(exc).__name__}: {exc})"
+            ) from None
+        check_result(loaded, path)
+        return cls(loaded)
 
     def summary(self) -> str:
         """A short plain-text report (see :func:`fuzzymbs.study.summary.summarize`)."""

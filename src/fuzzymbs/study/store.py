@@ -1,14 +1,20 @@
 """Chunk store: a directory of per-chunk ``.npz`` files and a JSON manifest.
 
-Each finished chunk is written atomically (temporary file, then ``os.replace``)
-before the runner moves on, so a run killed at any moment leaves only whole
-chunks behind and a rerun evaluates only the missing ones. Files hold data
-only; they are read with ``allow_pickle=False``.
+Each finished chunk is written atomically (a temporary file of a name no other
+writer uses, then ``os.replace``) before the runner moves on, so a run killed
+at any moment leaves only whole chunks behind and a rerun evaluates only the
+missing ones; the temporary files of a writer that died (a full disk, a kill)
+are removed when the store is opened again. Files hold data only; they are
+read with ``allow_pickle=False``.
+
+Each chunk carries the SHA-256 of its arrays (``digest``), checked when it is
+read: a chunk that is truncated, empty, unreadable or was altered is never
+used; it is evaluated again, with a warning.
 
 Layout::
 
     STORE/manifest.json        identity of the study, code version, sample count, chunk size
-    STORE/chunk-000000.npz     start, stop, failed, failure_reason, output__<name>
+    STORE/chunk-000000.npz     start, stop, failed, failure_reason, output__<name>, digest
 
 The manifest's ``code`` record (fuzzymbs version, model source digest, see
 :mod:`fuzzymbs.study.code_version`) keeps chunks of different code apart: a
@@ -18,11 +24,12 @@ discards its chunks and records the running code.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import math
 import os
-import zipfile
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -86,13 +93,74 @@ def _code_mismatch(path: Path, stored: Any, running: dict[str, Any]) -> str:
     )
 
 
+_DIGEST_KEY = "digest"
+_TEMPORARY_SUFFIX = ".tmp"
+
+
+def chunk_digest(arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 (hex) of a chunk's arrays: names, dtypes, shapes and bytes, in name order."""
+    digest = hashlib.sha256()
+    for name in sorted(arrays):
+        values = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name}\0{values.dtype.str}\0{values.shape}\0".encode())
+        digest.update(values.tobytes())
+    return digest.hexdigest()
+
+
 def _write_atomic(path: Path, write: Any) -> None:
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with temporary.open("wb") as handle:
-        write(handle)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(temporary, path)
+    """Write ``path`` through a temporary file no other writer uses, then rename it.
+
+    The temporary name holds the writer's process id (``.NAME.PID.RANDOM.tmp``),
+    so that :func:`remove_orphans` knows whether its writer still runs; a failed
+    write (a full disk) removes its temporary file.
+    """
+    handle_fd, name = tempfile.mkstemp(
+        prefix=f".{path.name}.{os.getpid()}.", suffix=_TEMPORARY_SUFFIX, dir=path.parent
+    )
+    temporary = Path(name)
+    try:
+        with os.fdopen(handle_fd, "wb") as handle:
+            write(handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+
+
+def _process_alive(pid: int) -> bool:
+    if os.name != "posix":  # os.kill(pid, 0) would end the process on Windows: keep the file
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def remove_orphans(folder: Path) -> int:
+    """Remove the temporary files in ``folder`` whose writing process has ended.
+
+    Returns the number removed. Files of running writers (another run, or this
+    process) are left alone.
+    """
+    removed = 0
+    for temporary in folder.glob(f".*{_TEMPORARY_SUFFIX}"):
+        parts = temporary.name.split(".")
+        pid = next((int(part) for part in parts[2:-1] if part.isdigit()), None)
+        if pid is None or pid == os.getpid() or _process_alive(pid):
+            continue
+        try:
+            temporary.unlink()
+            removed += 1
+        except OSError:
+            continue
+    if removed:
+        logger.info("removed %d temporary files left by an ended run in %s", removed, folder)
+    return removed
 
 
 def _write_manifest(path: Path, manifest: dict[str, Any]) -> None:
@@ -201,6 +269,7 @@ class ChunkStore:
                     path,
                     _describe_code(stored_code),
                 )
+            remove_orphans(path)
             store = cls(path, identity, n_samples, int(manifest["chunk_size"]))
             if store.chunk_size != chunk_size:
                 logger.info(
@@ -220,6 +289,7 @@ class ChunkStore:
                 f"store {path} has chunk files but no manifest.json; choose another directory"
             )
         path.mkdir(parents=True, exist_ok=True)
+        remove_orphans(path)
         manifest = {
             "format": FORMAT,
             "version": VERSION,
@@ -251,6 +321,7 @@ class ChunkStore:
             arrays[_OUTPUT_PREFIX + name] = values
         for dim, values in chunk.coords.items():
             arrays[_COORD_PREFIX + dim] = values
+        arrays[_DIGEST_KEY] = np.array(chunk_digest(arrays))
         _write_atomic(self.chunk_path(index), lambda handle: np.savez(handle, **arrays))
 
     def read(self, index: int) -> ChunkResult | None:
@@ -260,20 +331,32 @@ class ChunkStore:
             return None
         try:
             with np.load(path, allow_pickle=False) as data:
-                start, stop = int(data["start"]), int(data["stop"])
-                outputs = {
-                    key[len(_OUTPUT_PREFIX) :]: data[key]
-                    for key in data.files
-                    if key.startswith(_OUTPUT_PREFIX)
-                }
-                coords = {
-                    key[len(_COORD_PREFIX) :]: data[key]
-                    for key in data.files
-                    if key.startswith(_COORD_PREFIX)
-                }
-                failed = data["failed"].astype(bool)
-                reasons = data["failure_reason"].astype(str)
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+                arrays = {key: data[key] for key in data.files}
+            stored_digest = str(arrays.pop(_DIGEST_KEY))
+            if stored_digest != chunk_digest(arrays):
+                raise ValueError("its digest does not match its contents (altered or damaged)")
+            start, stop = int(arrays["start"]), int(arrays["stop"])
+            outputs = {
+                key[len(_OUTPUT_PREFIX) :]: values
+                for key, values in arrays.items()
+                if key.startswith(_OUTPUT_PREFIX)
+            }
+            coords = {
+                key[len(_COORD_PREFIX) :]: values
+                for key, values in arrays.items()
+                if key.startswith(_COORD_PREFIX)
+            }
+            failed = arrays["failed"].astype(bool)
+            reasons = arrays["failure_reason"].astype(str)
+        except KeyError as exc:
+            logger.warning(
+                "stored chunk %s lacks %s (damaged, or written without a digest); it is "
+                "evaluated again",
+                path,
+                exc,
+            )
+            return None
+        except Exception as exc:  # any damage (empty, truncated, not a zip): never used
             logger.warning("stored chunk %s is unreadable (%s); it is evaluated again", path, exc)
             return None
         expected_start = index * self.chunk_size

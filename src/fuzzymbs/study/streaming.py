@@ -21,9 +21,10 @@ from typing import Any
 
 import numpy as np
 
+from fuzzymbs.errors import StoreMismatchError
 from fuzzymbs.fuzzy.accumulate import OutputAccumulator, StreamLayout
 from fuzzymbs.fuzzy.retransform import FuzzyResult, from_accumulated
-from fuzzymbs.study.evaluation import ChunkResult
+from fuzzymbs.study.evaluation import ChunkResult, OutputCheck
 from fuzzymbs.study.integration_check import CutBounds, choose_samples
 
 __all__ = ["RAW_LIMIT_BYTES", "ChunkFeed"]
@@ -50,6 +51,9 @@ class ChunkFeed:
     keep_raw : bool or None
         Keep every sample's outputs: True, False, or None (only if they take
         at most :data:`RAW_LIMIT_BYTES`).
+    check : OutputCheck, optional
+        What every chunk passes before it is reduced (the study's own, shared
+        with its screening and validation runs; default: a new one).
     """
 
     def __init__(
@@ -60,6 +64,7 @@ class ChunkFeed:
         stored: Any,
         chunk_store: Any,
         keep_raw: bool | None = None,
+        check: OutputCheck | None = None,
     ) -> None:
         self.plan = plan
         self.count = count
@@ -75,6 +80,7 @@ class ChunkFeed:
         self._pending_failed: list[tuple[int, int]] = []  # all-failed chunks before any shape
         self._buffer: dict[int, ChunkResult] = {}
         self._next = 0
+        self._check = OutputCheck() if check is None else check
 
     # ----------------------------------------------------------------- feeding
     def add(self, index: int, chunk: ChunkResult) -> None:
@@ -99,17 +105,22 @@ class ChunkFeed:
             elif index in self.stored:
                 chunk = self.chunk_store.read(index)
                 if chunk is None:  # vanished or damaged since it was opened
-                    raise RuntimeError(f"stored chunk {index} is no longer readable")
+                    raise StoreMismatchError(
+                        f"stored chunk {index} of {self.chunk_store.path} changed or vanished "
+                        "while this run used it (another process writing into the same "
+                        "store?); rerun to evaluate it again"
+                    )
             else:
                 return
             self._consume(chunk)
             self._next += 1
 
     def _consume(self, chunk: ChunkResult) -> None:
+        self._check.check(chunk)  # same outputs and shapes as every chunk before
         start, stop = chunk.start, chunk.stop
         self.failed[start:stop] = np.asarray(chunk.failed, dtype=bool)
         self.reasons[start:stop] = np.asarray(chunk.reasons, dtype=object)
-        if not chunk.outputs:  # every sample failed before the outputs had a shape
+        if not chunk.outputs or chunk.failed.all():  # no value of it is used
             if self.accumulators or self.raw is not None:
                 self._skip_failed(start, stop)
             else:

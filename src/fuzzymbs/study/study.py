@@ -46,7 +46,7 @@ from fuzzymbs.fuzzy.validation import (
     validation_points,
 )
 from fuzzymbs.study.code_version import code_version
-from fuzzymbs.study.evaluation import ChunkResult, merged_coords
+from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, merged_coords
 from fuzzymbs.study.execution import (
     DEFAULT_CHUNK_SIZE,
     ON_FAILURE,
@@ -227,6 +227,8 @@ class Study:
         self.model_options = resolved.options
         self.spec = resolved.spec
         self._run_coords: dict[str, np.ndarray] = {}
+        #: every chunk of the screening, plan and validation runs agrees with the others
+        self._output_check = OutputCheck()
         self._factory = resolved.factory  # registered or referenced models: the source digest
         static = self.spec is not None and not self.spec.dynamic
         self.parameter_info: dict[str, ParameterInfo] | None = (
@@ -373,8 +375,9 @@ class Study:
         """What code computes the samples: fuzzymbs version and model source digest.
 
         A result store records it next to :meth:`identity` and refuses to resume
-        chunks computed by other code (see :mod:`fuzzymbs.study.code_version`;
-        the digest is None for models defined outside fuzzymbs).
+        chunks computed by other code (see :mod:`fuzzymbs.study.code_version`:
+        the digest covers the fuzzymbs source a model uses and the file, or the
+        compiled code, of a model defined outside fuzzymbs).
         """
         return code_version(self.model, self._factory)
 
@@ -413,6 +416,7 @@ class Study:
         progress: bool = True,
         on_failure: str = "raise",
         keep_raw: bool | None = None,
+        timeout: float | None = None,
     ) -> StudyResult:
         """Evaluate the plan's samples chunk by chunk and retransform.
 
@@ -447,6 +451,12 @@ class Study:
             memory does not grow with the number of runs. With a ``store`` the
             chunks keep every sample's outputs anyway
             (:func:`fuzzymbs.study.store.read_outputs` reads them back).
+        timeout : float, optional
+            Seconds a sample may take (a batch of B samples: B times as long);
+            a sample over it fails with reason "timed out after ... s". Enforced
+            for Python models on the inline and process executors (POSIX), where
+            a model's ``sys.exit``/``os._exit`` also fails its samples instead of
+            ending the run. Default: no limit.
 
         Raises
         ------
@@ -458,12 +468,12 @@ class Study:
             chunks computed by another fuzzymbs version or model source.
         """
 
-        check_run_settings(on_failure, chunk_size)
+        check_run_settings(on_failure, chunk_size, timeout)
         started = time.perf_counter()
         requested_size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
         code = self.code_version()  # recorded by the store and in the provenance
         # one executor for the screening and the plan, started only if something is evaluated
-        work = LazyExecutor(executor, self._check_picklable)
+        work = LazyExecutor(executor, self._check_picklable, timeout)
         try:
             if self._plan is None:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
@@ -473,7 +483,9 @@ class Study:
                 store, self.identity(), count, requested_size, resume, code, load=False
             )
             # outputs are reduced chunk by chunk in sample order and then dropped
-            feed = ChunkFeed(self.plan, count, size, results, chunk_store, keep_raw)
+            feed = ChunkFeed(
+                self.plan, count, size, results, chunk_store, keep_raw, self._output_check
+            )
             feed.drain()
             logger.info(
                 "study %s: %d samples in %d chunks of %d; %d chunks from the store, %d to evaluate",
@@ -625,7 +637,9 @@ class Study:
             fail_fast=None,
         )
         ordered = [results[i] for i in range(chunk_count)]
-        outputs, failed, reasons = assemble_chunks(ordered, count)
+        outputs, failed, reasons = assemble_chunks(
+            ordered, count, self._output_check, "the validation runs"
+        )
         self._adopt_coords(ordered)
         logger.info(
             "study %s: %d validation runs (%d from the store, %d failed)",
@@ -672,6 +686,7 @@ class Study:
         resume: bool = True,
         progress: bool = False,
         on_failure: str = "raise",
+        timeout: float | None = None,
     ) -> dict[str, Any]:
         """Screen a ``nonmonotonic="auto"`` study and build its extended plan.
 
@@ -682,7 +697,7 @@ class Study:
         ``store``, the chunks go to ``STORE/screening/`` and a rerun reuses
         them. Failed screening samples are left out of the decision (listed
         in the report), except with ``on_failure="fail-fast"``, which raises.
-        A second call returns the first report.
+        A second call returns the first report. ``timeout``: as in :meth:`run`.
 
         Returns
         -------
@@ -708,10 +723,10 @@ class Study:
                 f"{self.plan.method!r}); only a study with nonmonotonic={AUTO!r} is screened"
             )
         if self.screening is None:
-            check_run_settings(on_failure, chunk_size)
+            check_run_settings(on_failure, chunk_size, timeout)
             size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
             code = self.code_version() if store is not None else None
-            work = LazyExecutor(executor, self._check_picklable)
+            work = LazyExecutor(executor, self._check_picklable, timeout)
             try:
                 self._screen(work, size, store, resume, progress, on_failure, code)
             finally:
@@ -772,7 +787,9 @@ class Study:
             fail_fast=fail_fast,
         )
         ordered = [results[i] for i in range(chunk_count)]
-        outputs, failed, reasons = assemble_chunks(ordered, count)
+        outputs, failed, reasons = assemble_chunks(
+            ordered, count, self._output_check, "the screening"
+        )
         self._adopt_coords(ordered)
         if failed.all():
             raise IncompleteResultError(

@@ -13,7 +13,7 @@ Layout (see docs/studies.md)::
     [model]      name ("registry-name", "fmu", "command" or "package.module:callable"),
                  [model.options] (fmu, command and references need --allow-code)
     [parameters] one table (fuzzy) or number (crisp) per model parameter
-    [run]        executor, chunk_size, on_failure
+    [run]        executor, chunk_size, on_failure, timeout (seconds per sample)
     [[plots.membership]]  output, coord, value
 
 Every mistake becomes a :class:`~fuzzymbs.errors.StudyFileError` naming the
@@ -37,6 +37,7 @@ from fuzzymbs.errors import (
     InvalidParameterError,
     InvalidPlanError,
     StudyFileError,
+    UntrustedCodeError,
 )
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS
 from fuzzymbs.study.integration_check import DEFAULT_RUNS, DEFAULT_TOLERANCE
@@ -124,13 +125,23 @@ class RunSection(_Section):
     executor: str = "inline"
     chunk_size: int | None = Field(default=None, gt=0)
     on_failure: Literal["raise", "fail-fast", "partial"] = "raise"
+    timeout: float | None = Field(default=None, gt=0.0, allow_inf_nan=False)
+
+    @field_validator("timeout", mode="before")
+    @classmethod
+    def _timeout_number(cls, value: Any) -> Any:
+        if isinstance(value, int) and not isinstance(value, bool):
+            return float(value)  # strict mode: an int is a valid number of seconds too
+        return value
 
     @field_validator("executor")
     @classmethod
     def _check_executor(cls, value: str) -> str:
-        if value in ("inline", "processes") or value.startswith("processes:"):
+        from fuzzymbs.study.executors import is_remote, process_workers
+
+        if value == "inline" or is_remote(value):  # a remote one needs --allow-code (below)
             return value
-        if value.startswith(("dask://", "tcp://")):
+        if process_workers(value) is not None:  # raises for a bad or too large count
             return value
         raise ValueError("executor must be 'inline', 'processes[:N]' or 'dask://host:port'")
 
@@ -180,6 +191,7 @@ class StudyDefinition:
     executor: str = "inline"
     chunk_size: int | None = None
     on_failure: str = "raise"
+    timeout: float | None = None
     membership_plots: list[dict[str, Any]] = field(default_factory=list)
 
 
@@ -257,7 +269,10 @@ def _model_options(path: Path, model: str, options: dict[str, Any]) -> dict[str,
 
 
 def load_study_file(
-    path: str | Path, allow_code: bool = False, max_runs: int | None = None
+    path: str | Path,
+    allow_code: bool = False,
+    max_runs: int | None = None,
+    file_executor: bool = True,
 ) -> StudyDefinition:
     """Read, validate and resolve a study file.
 
@@ -271,6 +286,9 @@ def load_study_file(
         :mod:`fuzzymbs.study.trust`). Registered models never need it.
     max_runs : int, optional
         Overrides the file's ``[study] max_runs`` (``fuzzymbs run --max-runs``).
+    file_executor : bool
+        The file's ``[run] executor`` is used (False: the caller gives its own,
+        so a Dask address in the file is neither checked nor used).
 
     Returns
     -------
@@ -283,9 +301,12 @@ def load_study_file(
         Malformed TOML, unknown or mistyped keys, unknown model, parameter or
         output names, or invalid fuzzy numbers; the message names the file and key.
     UntrustedCodeError
-        The file names code to run and ``allow_code`` is False (and the user's
-        trust file does not list it); nothing has been imported or run.
+        The file names code to run, or a Dask scheduler to connect to (Dask
+        exchanges pickled data, so a scheduler can run code here), and
+        ``allow_code`` is False (and the user's trust file does not list the
+        code); nothing has been imported, run or connected to.
     """
+    from fuzzymbs.study.executors import is_remote
     from fuzzymbs.study.registry import get_model
     from fuzzymbs.study.study import Study
     from fuzzymbs.study.trust import check_study_code
@@ -296,6 +317,12 @@ def load_study_file(
             raw = tomllib.load(handle)
     except FileNotFoundError:
         raise StudyFileError(f"{path}: study file not found") from None
+    except IsADirectoryError:
+        raise StudyFileError(f"{path}: is a directory; give a study file (TOML)") from None
+    except OSError as exc:
+        raise StudyFileError(f"{path}: cannot read the study file ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise StudyFileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except tomllib.TOMLDecodeError as exc:
         raise StudyFileError(f"{path}: not valid TOML: {exc}") from None
     try:
@@ -316,6 +343,13 @@ def load_study_file(
         except InvalidParameterError as exc:
             raise StudyFileError(f"{path}: key 'model.name': {exc}") from exc
     check_study_code(path, model, options, runs_code, allow_code)  # before any import or run
+    if file_executor and is_remote(parsed.run.executor) and not allow_code:
+        raise UntrustedCodeError(
+            f"{path}: key 'run.executor': {parsed.run.executor!r} connects to a Dask "
+            "scheduler, which exchanges pickled data with this process (it could run code "
+            f"here). If you trust this file, run it with `fuzzymbs run --allow-code {path} "
+            "...`, or give the scheduler on the command line (--executor)"
+        )
 
     name = parsed.study.name or path.stem
     try:
@@ -377,5 +411,6 @@ def load_study_file(
         executor=parsed.run.executor,
         chunk_size=parsed.run.chunk_size,
         on_failure=parsed.run.on_failure,
+        timeout=parsed.run.timeout,
         membership_plots=[plot.model_dump() for plot in parsed.plots.membership],
     )

@@ -183,7 +183,8 @@ def summarize(dataset: xarray.Dataset) -> str:
             else:
                 # over a coordinate: share of each parameter in the averaged absolute influence
                 totals = np.nanmean(absolute.reshape(absolute.shape[0], -1), axis=1)
-                relative = totals / totals.sum() if totals.sum() > 0 else totals * np.nan
+                # an output of zero width: no parameter has influence (0, as rho of a scalar)
+                relative = totals / totals.sum() if totals.sum() > 0 else np.zeros_like(totals)
                 header = "share of the coordinate-averaged absolute influence"
             pairs = ", ".join(
                 f"{p} {_fmt(r)}" for p, r in zip(dataset["parameter"].values, relative, strict=True)

@@ -9,7 +9,13 @@ list) and reads the CSV file the program wrote::
 
 - ``{input}`` and ``{output}`` in the arguments become the paths of the input
   file and of the CSV file to write, in the run directory (also the working
-  directory of the program); ``{run}`` becomes the run directory.
+  directory of the program); ``{run}`` becomes the run directory and
+  ``{study_dir}`` the folder relative paths refer to (``base_dir``: the study
+  file's folder).
+- An argument without placeholders that names an existing file relative to
+  ``base_dir`` (``["python", "run_solver.py", ...]``) is given as that file's
+  absolute path (the program runs in its run directory, where a relative path
+  would not find it); its content is part of :meth:`CommandModel.identity`.
 - Every other ``{name}`` in the template or the arguments is a parameter of
   the model and becomes the sample's value, written with full precision
   (``repr`` of the float: it reads back to the same number).
@@ -45,7 +51,7 @@ __all__ = ["CommandModel", "make_command_model"]
 #: ``{name}`` placeholders: a parameter name (letters, digits, _ and ., not first a digit)
 PLACEHOLDER = re.compile(r"\{([A-Za-z_][A-Za-z0-9_.]*)\}")
 #: placeholders that are not parameters
-RESERVED = ("input", "output", "run")
+RESERVED = ("input", "output", "run", "study_dir")
 #: lines of a failed program's stderr quoted in the failure reason
 STDERR_LINES = 5
 INPUT_FILE = "input.txt"
@@ -180,6 +186,16 @@ class CommandModel:
                 + (f" relative to {base}" if program != arguments[0] else " on PATH")
             )
         arguments[0] = program
+        #: arguments naming files beside the study file, made absolute (see the module doc)
+        self.files: list[Path] = []
+        for position, argument in enumerate(arguments[1:], start=1):
+            if PLACEHOLDER.search(argument) or not argument or Path(argument).is_absolute():
+                continue
+            candidate = base / argument
+            if candidate.is_file():
+                arguments[position] = str(candidate)
+                self.files.append(candidate)
+        self.base_dir = base
         self.command = arguments
         self.template_path: Path | None = None
         self.template = ""
@@ -224,6 +240,9 @@ class CommandModel:
         program = Path(shutil.which(self.command[0]) or self.command[0])
         if program.is_file():
             digest.update(program.read_bytes())
+        for path in getattr(self, "files", []):  # scripts and decks named in the arguments
+            if path.is_file():
+                digest.update(str(path).encode() + b"\0" + path.read_bytes())
         return {"command_sha256": digest.hexdigest()}
 
     # ------------------------------------------------------------------ run
@@ -241,10 +260,18 @@ class CommandModel:
         text = {name: repr(float(value)) for name, value in values.items()}
         directory = self._run_directory(text)
         input_path, output_path = directory / INPUT_FILE, directory / OUTPUT_FILE
-        paths = {"input": str(input_path), "output": str(output_path), "run": str(directory)}
+        paths = {
+            "input": str(input_path),
+            "output": str(output_path),
+            "run": str(directory),
+            "study_dir": str(getattr(self, "base_dir", Path.cwd())),
+        }
         try:
             if self.template_path is not None:
-                input_path.write_text(_fill(self.template, text), encoding="utf-8")
+                input_path.write_text(
+                    _fill(self.template, {**text, "study_dir": paths["study_dir"]}),
+                    encoding="utf-8",
+                )
             arguments = [self.command[0]] + [
                 _fill(argument, {**text, **paths}) for argument in self.command[1:]
             ]
