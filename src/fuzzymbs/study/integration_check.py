@@ -261,8 +261,10 @@ def _report(check: IntegrationCheck) -> IntegrationCheck:
 #: tolerance (measured on the brake's studies against rtol 1e-6: slopes 0.82 to 0.94
 #: per decade from 1e-2 to 1e-5, docs/brake.md)
 ERROR_ORDER = 0.88
-#: the tolerance is chosen for this fraction of the study's integration tolerance
-TARGET_FRACTION = 0.7
+#: the tolerance is chosen for this fraction of the study's integration tolerance (at
+#: 0.7 the brake's study 2 landed at 1.005 % of its 1 % tolerance: the error falls
+#: more slowly than rtol^0.88 below rtol 1e-5)
+TARGET_FRACTION = 0.5
 #: the pilot's parameters: at most this many (2^n corners)
 PILOT_MAX_PARAMETERS = 6
 
