@@ -52,6 +52,9 @@ def test_study1_runs_and_nodal_force_dominates_the_pads():
         },
         method="reduced",
         levels=[0.0, 0.25, 0.5, 0.75, 1.0],
+        # the brake's own rtol 1e-2 (the influence windows do not need the band
+        # accuracy the demo's chosen tolerance gives; benchmarks/brake_bands.py runs that)
+        choose_integration=False,
     )
     assert len(study.plan) == 33
     result = study.run(chunk_size=33, progress=False)
