@@ -18,6 +18,10 @@
   checkout's default, the ``--before`` checkout's default and this checkout with RK4
   at 1 us, alternating, ``--rounds`` times; the smallest wall times, their ratios and
   each study's own error estimates;
+* ``simd``: the 33 samples of study 1 at rtol 1e-3 in one call, four samples per
+  SIMD block (``kernel="lanes"``) against a block per sample (``kernel="samples"``),
+  CPU time, in this checkout and (``--before``) in the other one: what the lanes
+  still buy now that each keeps its own clock;
 * ``--figure``: docs/figures/brake_band_precision.png, band-relative error against
   CPU time (the work-precision diagram on the scale of the bands).
 
@@ -123,6 +127,25 @@ print(json.dumps({{k: float(np.abs(mixed[k][1] - alone[k][0]).max() / np.abs(alo
                   for k in ("y_lpad", "y_upad", "y_cali")}}))
 """
 
+_SIMD = """
+import json, time, numpy as np, fuzzymbs
+from fuzzymbs.models.brake import DiscBrake
+p = {{"pad_spring_stiffness": fuzzymbs.Triangular.relative(200e3, 0.1),
+     "caliper_spring_stiffness": fuzzymbs.Triangular.relative(1e3, 0.1),
+     "nodal_force": fuzzymbs.Triangular.relative(16e3, 0.01)}}
+plan = fuzzymbs.plan(p, method="reduced", levels=[0.0, 0.25, 0.5, 0.75, 1.0])
+samples = {{k: plan.samples[:, i] for i, k in enumerate(p)}}
+found = {{}}
+for kernel in ("lanes", "samples"):
+    model = DiscBrake(t_end={t_end}, rtol=1e-3, kernel=kernel, chunk_size=64)
+    model({{k: v[:1] for k, v in samples.items()}})
+    cpu = time.process_time()
+    model(samples)
+    found[kernel + "_cpu_s"] = time.process_time() - cpu
+found["samples_over_lanes"] = found["samples_cpu_s"] / found["lanes_cpu_s"]
+print(json.dumps(found))
+"""
+
 _STUDY = """
 import json, time, warnings
 import numpy as np
@@ -222,6 +245,12 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--skip-cost", action="store_true")
     parser.add_argument(
+        "--parts",
+        nargs="+",
+        default=["noise", "simd", "bands", "cost"],
+        choices=["noise", "simd", "bands", "cost"],
+    )
+    parser.add_argument(
         "--rtol", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4, 1e-5], help="tolerances"
     )
     args = parser.parse_args(argv)
@@ -229,14 +258,22 @@ def main(argv: list[str] | None = None) -> dict:
     studies = (1,) if args.quick else (1, 2)
     rtols = (1e-2, 1e-3) if args.quick else tuple(args.rtol)
     figures: dict = {"load_average_start": load_average(), "t_end_s": t_end}
-    figures["noise"] = {"this": _in_checkout(_NOISE.format(t_end=t_end), REPO)}
-    if args.before is not None:
-        figures["noise"]["before"] = _in_checkout(_NOISE.format(t_end=t_end), args.before)
+    parts = set(args.parts)
+    if "noise" in parts:
+        figures["noise"] = {"this": _in_checkout(_NOISE.format(t_end=t_end), REPO)}
+        if args.before is not None:
+            figures["noise"]["before"] = _in_checkout(_NOISE.format(t_end=t_end), args.before)
+    if "simd" in parts:
+        figures["simd"] = {"this": _in_checkout(_SIMD.format(t_end=t_end), REPO)}
+        if args.before is not None:
+            figures["simd"]["before"] = _in_checkout(_SIMD.format(t_end=t_end), args.before)
     figures["bands"] = {}
     references = {}
-    for study in studies:
+    for study in studies if parts & {"bands", "cost"} else ():
         reference = reference_bands(study, t_end, cache=not args.quick)
         references[study] = reference
+        if "bands" not in parts:
+            continue
         entries = {}
         variants = [(f"rtol {r:g}", {"rtol": r}) for r in rtols]
         variants.append(("rk4 1 us", {"integrator": "rk4", "dt": 1e-6}))
@@ -248,10 +285,10 @@ def main(argv: list[str] | None = None) -> dict:
                 "deviation": band_deviation(bands, reference),
             }
         figures["bands"][f"study{study}"] = entries
-    if not args.skip_cost:
+    if "cost" in parts and not args.skip_cost:
         rounds = 1 if args.quick else args.rounds
         figures["cost"] = measure_cost(args.before, t_end, rounds, references[1])
-    if args.figure:
+    if args.figure and figures["bands"]:
         plot(figures["bands"], REPO / "docs" / "figures" / "brake_band_precision.png")
     figures["load_average_end"] = load_average()
     return figures
