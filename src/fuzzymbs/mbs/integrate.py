@@ -29,7 +29,7 @@ from fuzzymbs.mbs.system import CompiledSystem, Output, System
 #: Kernel choices of :func:`simulate`.
 KERNELS = ("auto", "lanes", "samples")
 #: Integrators of :func:`simulate`: the paper's fixed-step RK4, and ROS34PW2 with
-#: error control (:mod:`fuzzymbs.mbs.kernels.rosenbrock`; opt-in while issue #14 is open)
+#: error control (:mod:`fuzzymbs.mbs.kernels.rosenbrock`; opt-in here, the brake model's default)
 INTEGRATORS = ("rk4", "ros34pw2")
 
 
