@@ -615,32 +615,13 @@ class Study:
         }
         # a folder per set of points: another count (or other method outputs) starts afresh
         folder = f"{VALIDATION_FOLDER}-{count}-{identity['validation_fingerprint'][:12]}"
-        chunk_store, size, chunk_count, results, missing, reused = open_chunks(
-            None if store is None else Path(store) / folder,
+        outputs, failed, reasons, evaluated, reused = self._evaluate_table(
+            points.samples,
             identity,
-            count,
-            size,
-            resume,
-            code,
+            None if store is None else Path(store) / folder,
+            ("validation", "the validation runs"),
+            (work, size, resume, progress, code),
         )
-        evaluated = evaluate_chunks(
-            self.model,
-            self.outputs,
-            lambda start, stop: self._columns(points.samples, start, stop),
-            count,
-            missing,
-            size,
-            results,
-            chunk_store,
-            work,
-            progress=(progress, reused, f"{self.name} (validation)"),
-            fail_fast=None,
-        )
-        ordered = [results[i] for i in range(chunk_count)]
-        outputs, failed, reasons = assemble_chunks(
-            ordered, count, self._output_check, "the validation runs"
-        )
-        self._adopt_coords(ordered)
         logger.info(
             "study %s: %d validation runs (%d from the store, %d failed)",
             self.name,
@@ -747,13 +728,21 @@ class Study:
         """Evaluate the screening samples, decide, and build the extended plan."""
         screening = self._screening_samples
         count = len(screening.samples)
-        chunk_store, size, chunk_count, results, missing, reused = open_chunks(
-            None if store is None else Path(store) / SCREENING_FOLDER,
+
+        def stop_at_failure(failed: np.ndarray, reasons: np.ndarray) -> None:
+            if failed.any():
+                raise IncompleteResultError(
+                    f"stopped early (fail-fast): screening of study {self.name!r}: "
+                    + self._screening_failures(failed, reasons)
+                )
+
+        outputs, failed, reasons, evaluated, reused = self._evaluate_table(
+            screening.samples,
             self._screening_identity(),
-            count,
-            size,
-            resume,
-            code,
+            None if store is None else Path(store) / SCREENING_FOLDER,
+            ("screening", "the screening"),
+            (work, size, resume, progress, code),
+            stop_at_failure if on_failure == "fail-fast" else None,
         )
         logger.info(
             "study %s: screening for non-monotonic parameters, %d samples, %d from the store",
@@ -761,36 +750,6 @@ class Study:
             count,
             reused,
         )
-
-        def stop_at_failure() -> None:
-            failed, reasons = assemble_chunks([results[i] for i in sorted(results)], count)[1:]
-            if failed.any():
-                raise IncompleteResultError(
-                    f"stopped early (fail-fast): screening of study {self.name!r}: "
-                    + self._screening_failures(failed, reasons)
-                )
-
-        fail_fast = stop_at_failure if on_failure == "fail-fast" else None
-        if fail_fast is not None and results:
-            fail_fast()
-        evaluated = evaluate_chunks(
-            self.model,
-            self.outputs,
-            lambda start, stop: self._columns(screening.samples, start, stop),
-            count,
-            missing,
-            size,
-            results,
-            chunk_store,
-            work,
-            progress=(progress, reused, f"{self.name} (screening)"),
-            fail_fast=fail_fast,
-        )
-        ordered = [results[i] for i in range(chunk_count)]
-        outputs, failed, reasons = assemble_chunks(
-            ordered, count, self._output_check, "the screening"
-        )
-        self._adopt_coords(ordered)
         if failed.all():
             raise IncompleteResultError(
                 f"all {count} screening samples of study {self.name!r} failed; "
@@ -831,6 +790,54 @@ class Study:
             report["nonmonotonic"],
             len(self._plan),
         )
+
+    def _evaluate_table(
+        self,
+        table: np.ndarray,
+        identity: dict[str, Any],
+        folder: Path | None,
+        labels: tuple[str, str],
+        settings: tuple[LazyExecutor, int, bool, bool, dict[str, Any] | None],
+        stop_at_failure: Callable[[np.ndarray, np.ndarray], None] | None = None,
+    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, int, int]:
+        """Evaluate the rows of a parameter table (screening or validation points) chunk by
+        chunk into ``folder``: ``(outputs, failed, reasons, evaluated, reused)``.
+
+        ``labels``: the progress bar's and the output check's names of the runs;
+        ``settings``: executor, chunk size, resume, progress, code version;
+        ``stop_at_failure(failed, reasons)``: called after every chunk (fail-fast).
+        """
+        work, size, resume, progress, code = settings
+        count = len(table)
+        chunk_store, size, chunk_count, results, missing, reused = open_chunks(
+            folder, identity, count, size, resume, code
+        )
+        fail_fast = None
+        if stop_at_failure is not None:
+
+            def fail_fast() -> None:
+                ready = [results[i] for i in sorted(results)]
+                stop_at_failure(*assemble_chunks(ready, count)[1:])
+
+            if results:
+                fail_fast()
+        evaluated = evaluate_chunks(
+            self.model,
+            self.outputs,
+            lambda start, stop: self._columns(table, start, stop),
+            count,
+            missing,
+            size,
+            results,
+            chunk_store,
+            work,
+            progress=(progress, reused, f"{self.name} ({labels[0]})"),
+            fail_fast=fail_fast,
+        )
+        ordered = [results[i] for i in range(chunk_count)]
+        outputs, failed, reasons = assemble_chunks(ordered, count, self._output_check, labels[1])
+        self._adopt_coords(ordered)
+        return outputs, failed, reasons, int(evaluated), int(reused)
 
     def _screening_failures(self, failed: np.ndarray, reasons: np.ndarray) -> str:
         """E.g. "failed screening samples: row 3 (x1=1.5): diverged; ..." (first five)."""
