@@ -129,41 +129,24 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
             if mb == sb:
                 cols2, cols3 = cols1, cols1
             ranges = (cols0, cols1, cols2, cols3)
-            if _shared_nodes(jnodes, row0 + k):
-                # the usual case: one set of master nodes for all lanes, vector arithmetic
-                if _any_active(jrec, base):
-                    _contact_point_lanes(
-                        n,
-                        bi,
-                        bf,
-                        fpool,
-                        rot,
-                        rot_a,
-                        jrec,
-                        base,
-                        slaves[k],
-                        jnodes[L * 4 * (row0 + k) : L * 4 * (row0 + k + 1) : L],
-                        sb,
-                        mb,
-                        ranges,
-                        wl,
-                        wql,
-                        kwl,
-                        jq,
-                        jv,
-                    )
-                continue
-            # lanes with master nodes of their own: each lane alone through the same
-            # vector arithmetic (the other lanes' record zeroed), so that a lane's
-            # Jacobian does not depend on the path its neighbours force
-            for lane in range(L):
-                active = False
-                for e in range(18):
-                    active = active or jrec[base + L * e + lane] != 0.0
-                if not active:
-                    continue
-                for e in range(JREC * L):
-                    masked[e] = jrec[base + e] if e % L == lane else 0.0
+            shared = _shared_nodes(jnodes, row0 + k)
+            # the usual case: one set of master nodes for all lanes, one vector pass; else
+            # each lane alone through the same vector arithmetic (the other lanes' record
+            # zeroed), so that a lane's Jacobian does not depend on its neighbours' path
+            for lane in range(1 if shared else L):
+                if shared:
+                    if not _any_active(jrec, base):
+                        break
+                    record, at = jrec, base
+                else:
+                    active = False
+                    for e in range(18):
+                        active = active or jrec[base + L * e + lane] != 0.0
+                    if not active:
+                        continue
+                    for e in range(JREC * L):
+                        masked[e] = jrec[base + e] if e % L == lane else 0.0
+                    record, at = masked, 0
                 for q in range(4):
                     masters[q] = jnodes[L * 4 * (row0 + k) + L * q + lane]
                 _contact_point_lanes(
@@ -173,8 +156,8 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
                     fpool,
                     rot,
                     rot_a,
-                    masked,
-                    0,
+                    record,
+                    at,
                     slaves[k],
                     masters,
                     sb,
