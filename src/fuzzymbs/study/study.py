@@ -21,11 +21,8 @@ dataset) and :mod:`~fuzzymbs.study.store` (the chunk store for resume).
 
 from __future__ import annotations
 
-import hashlib
-import json
 import logging
 import time
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -38,32 +35,23 @@ from fuzzymbs.errors import (
     ModelOutputError,
     UnsupportedOperationError,
 )
-from fuzzymbs.fuzzy.screening import nonmonotonic_parameters
 from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, Plan, make_levels
-from fuzzymbs.fuzzy.validation import (
-    ValidationPoints,
-    default_validation_count,
-    validation_points,
-)
 from fuzzymbs.study.code_version import code_version
 from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, merged_coords
 from fuzzymbs.study.execution import (
     DEFAULT_CHUNK_SIZE,
     ON_FAILURE,
     LazyExecutor,
-    assemble_chunks,
     check_run_settings,
     evaluate_chunks,
 )
+from fuzzymbs.study.extra_runs import StudyRuns
 from fuzzymbs.study.integration_check import (
     DEFAULT_RUNS,
     DEFAULT_TOLERANCE,
-    IntegrationCheck,
     ToleranceChoice,
-    check_time_integration,
-    choose_tolerance,
 )
-from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE, ValidationRuns
+from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE
 from fuzzymbs.study.planning import (
     AUTO,
     build_plan,
@@ -75,20 +63,14 @@ from fuzzymbs.study.planning import (
 from fuzzymbs.study.registry import ParameterInfo
 from fuzzymbs.study.result import StudyResult, build_dataset, check_output_names
 from fuzzymbs.study.store import open_chunks
-from fuzzymbs.study.streaming import ChunkFeed, integration_inputs
+from fuzzymbs.study.streaming import ChunkFeed
 
 __all__ = ["DEFAULT_CHUNK_SIZE", "ON_FAILURE", "Study", "StudyResult"]
 
 logger = logging.getLogger(__name__)
 
-#: sub-folder of a store holding the screening chunks of a ``nonmonotonic="auto"`` study
-SCREENING_FOLDER = "screening"
-#: prefix of the sub-folders of a store holding validation runs' chunks
-#: (``validation-<count>-<fingerprint>``)
-VALIDATION_FOLDER = "validation"
 
-
-class Study:
+class Study(StudyRuns):
     """A fuzzy study: model + fuzzy parameters + transformation method.
 
     Parameters
@@ -352,22 +334,6 @@ class Study:
             identity["integration_tolerance_factor"] = self.integration_choice.factor
         return identity
 
-    def _screening_identity(self) -> dict[str, Any]:
-        """What a screening store must match: the screening points and the model.
-
-        Not the tolerance: the decision is made again from the stored outputs.
-        """
-        screening = self._screening_samples
-        digest = hashlib.sha256()
-        description = {
-            "names": list(screening.names),
-            "levels": np.asarray(self._plan_levels()).tolist(),
-            "parameters": {name: number.to_dict() for name, number in self._fuzzy.items()},
-        }
-        digest.update(json.dumps(description, sort_keys=True).encode())
-        digest.update(np.ascontiguousarray(screening.samples, dtype="<f8").tobytes())
-        return {"screening_fingerprint": digest.hexdigest(), **self._model_identity()}
-
     def _plan_levels(self) -> np.ndarray:
         return make_levels(self._levels)
 
@@ -555,302 +521,6 @@ class Study:
         if self.integration_choice is not None:
             dataset.attrs.update(self.integration_choice.to_attrs())
         return StudyResult(dataset)
-
-    def _choose_integration(self) -> None:
-        """Once per study: the model's integrator tolerance chosen for the cut widths."""
-        if not self.choose_integration or self.integration_choice is not None:
-            return
-        plan = self.plan
-        self.model, self.integration_choice = choose_tolerance(
-            self.model,
-            lambda table: self._columns(table, 0, len(table)),
-            plan.cut_lower,
-            plan.cut_upper,
-            plan.samples[plan.nominal_index],
-            self.output_names,
-            self.integration_tolerance,
-        )
-
-    def validation_points(
-        self,
-        outputs: Mapping[str, np.ndarray] | None = None,
-        failed: np.ndarray | None = None,
-        *,
-        tally: Callable[[int], np.ndarray] | None = None,
-    ) -> ValidationPoints:
-        """The validation points of the study (:mod:`fuzzymbs.fuzzy.validation`), given
-        the method's outputs (or, from a run, ``tally``: how often each sample bounds a
-        level) and failed runs (without either: Halton points only)."""
-        plan = self.plan
-        count = self.validation_runs
-        if count is None:
-            count = default_validation_count(len(plan), len(plan.names))
-        return validation_points(plan, count, outputs, failed, tally=tally)
-
-    def _validate(
-        self,
-        work: LazyExecutor,
-        feed: ChunkFeed,
-        method_failed: np.ndarray,
-        size: int,
-        store: str | Path | None,
-        resume: bool,
-        progress: bool,
-        code: dict[str, Any],
-    ) -> ValidationRuns | None:
-        """Evaluate the validation points (chunks into
-        ``STORE/validation-<count>-<fingerprint>``); None if off."""
-        if feed.layout is None:  # sparse: the outputs are all there
-            points = self.validation_points(feed.raw, method_failed)
-        else:
-            points = self.validation_points(failed=method_failed, tally=feed.bound_tally)
-        count = len(points)
-        if count == 0:
-            return None
-        digest = hashlib.sha256(np.ascontiguousarray(points.samples, dtype="<f8").tobytes())
-        identity = {
-            "validation_fingerprint": digest.hexdigest(),
-            "plan_fingerprint": self.plan.fingerprint(),
-            **self._model_identity(),
-        }
-        # a folder per set of points: another count (or other method outputs) starts afresh
-        folder = f"{VALIDATION_FOLDER}-{count}-{identity['validation_fingerprint'][:12]}"
-        outputs, failed, reasons, evaluated, reused = self._evaluate_table(
-            points.samples,
-            identity,
-            None if store is None else Path(store) / folder,
-            ("validation", "the validation runs"),
-            (work, size, resume, progress, code),
-        )
-        logger.info(
-            "study %s: %d validation runs (%d from the store, %d failed)",
-            self.name,
-            count,
-            reused,
-            int(np.count_nonzero(failed)),
-        )
-        return ValidationRuns(
-            points,
-            outputs,
-            failed,
-            reasons,
-            self.method_tolerance,
-            self.widen_with_validation,
-            evaluated=int(evaluated),
-            reused=int(reused),
-        )
-
-    def _check_time_integration(
-        self, feed: ChunkFeed, failed: np.ndarray
-    ) -> IntegrationCheck | None:
-        """The samples that give the bounds re-run by a time-integrated model at a tighter
-        tolerance (:mod:`fuzzymbs.study.integration_check`)."""
-        if not callable(getattr(self.model, "tightened", None)):
-            return None
-        samples, bounds = integration_inputs(feed, self.output_names, failed, self.integration_runs)
-        return check_time_integration(
-            self.model,
-            lambda rows: self._columns(self.plan.samples[rows], 0, len(rows)),
-            samples,
-            bounds,
-            feed.nominal(),
-            self.plan.nominal_index,
-            self.plan.levels,
-            self.integration_tolerance,
-        )
-
-    def screen(
-        self,
-        executor: Any = None,
-        chunk_size: int | None = None,
-        store: str | Path | None = None,
-        resume: bool = True,
-        progress: bool = False,
-        on_failure: str = "raise",
-        timeout: float | None = None,
-    ) -> dict[str, Any]:
-        """Screen a ``nonmonotonic="auto"`` study and build its extended plan.
-
-        :meth:`run` does this itself; call it to see the detected parameters
-        (and the plan size) before running the plan. The model is evaluated
-        at :func:`~fuzzymbs.fuzzy.screening.screening_samples` (with the
-        crisp values of the study), chunk by chunk on ``executor``; with a
-        ``store``, the chunks go to ``STORE/screening/`` and a rerun reuses
-        them. Failed screening samples are left out of the decision (listed
-        in the report), except with ``on_failure="fail-fast"``, which raises.
-        A second call returns the first report. ``timeout``: as in :meth:`run`.
-
-        Returns
-        -------
-        dict
-            The report of :func:`~fuzzymbs.fuzzy.screening.nonmonotonic_parameters`
-            plus ``evaluated``, ``reused_from_store``, ``failure_reasons``
-            (row -> reason of excluded samples) and ``warnings``; also kept as
-            :attr:`screening` and in the result's provenance.
-
-        Raises
-        ------
-        UnsupportedOperationError
-            The study does not use ``nonmonotonic="auto"``.
-        IncompleteResultError
-            Screening samples failed so that a parameter's axis keeps fewer than
-            3 points (or with ``on_failure="fail-fast"``, any failed).
-        StoreMismatchError
-            ``STORE/screening`` holds the screening of a different study or code.
-        """
-        if not self.auto_nonmonotonic:
-            raise UnsupportedOperationError(
-                f"study {self.name!r} names its non-monotonic parameters (or uses method "
-                f"{self.plan.method!r}); only a study with nonmonotonic={AUTO!r} is screened"
-            )
-        if self.screening is None:
-            check_run_settings(on_failure, chunk_size, timeout)
-            size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
-            code = self.code_version() if store is not None else None
-            work = LazyExecutor(executor, self._check_picklable, timeout)
-            try:
-                self._screen(work, size, store, resume, progress, on_failure, code)
-            finally:
-                work.close()
-        assert self.screening is not None
-        return self.screening
-
-    def _screen(
-        self,
-        work: LazyExecutor,
-        size: int,
-        store: str | Path | None,
-        resume: bool,
-        progress: bool,
-        on_failure: str,
-        code: dict[str, Any] | None,
-    ) -> None:
-        """Evaluate the screening samples, decide, and build the extended plan."""
-        screening = self._screening_samples
-        count = len(screening.samples)
-
-        def stop_at_failure(failed: np.ndarray, reasons: np.ndarray) -> None:
-            if failed.any():
-                raise IncompleteResultError(
-                    f"stopped early (fail-fast): screening of study {self.name!r}: "
-                    + self._screening_failures(failed, reasons)
-                )
-
-        outputs, failed, reasons, evaluated, reused = self._evaluate_table(
-            screening.samples,
-            self._screening_identity(),
-            None if store is None else Path(store) / SCREENING_FOLDER,
-            ("screening", "the screening"),
-            (work, size, resume, progress, code),
-            stop_at_failure if on_failure == "fail-fast" else None,
-        )
-        logger.info(
-            "study %s: screening for non-monotonic parameters, %d samples, %d from the store",
-            self.name,
-            count,
-            reused,
-        )
-        if failed.all():
-            raise IncompleteResultError(
-                f"all {count} screening samples of study {self.name!r} failed; "
-                f"first reason: {reasons[0]}"
-            )
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            try:
-                report = nonmonotonic_parameters(
-                    screening, outputs, self.screening_rtol, failed=failed
-                )
-            except IncompleteResultError as exc:
-                raise IncompleteResultError(
-                    f"screening of study {self.name!r}: {exc} "
-                    + self._screening_failures(failed, reasons)
-                ) from exc
-        report["warnings"] = [str(w.message) for w in caught]
-        for text in report["warnings"]:
-            logger.warning("study %s: %s", self.name, text)
-        report["failure_reasons"] = {
-            str(row): str(reasons[row]) or "non-finite output" for row in report["excluded_samples"]
-        }
-        report["evaluated"] = int(evaluated)
-        report["reused_from_store"] = int(reused)
-        self._plan = Plan(
-            self._fuzzy,
-            method="extended",
-            levels=self._levels,
-            nonmonotonic=report["nonmonotonic"],
-            max_runs=self._max_runs,
-        )
-        self.screening = report
-        logger.info(
-            "study %s: screening (%d runs) found non-monotonic parameters %s; extended plan "
-            "of %d samples",
-            self.name,
-            count,
-            report["nonmonotonic"],
-            len(self._plan),
-        )
-
-    def _evaluate_table(
-        self,
-        table: np.ndarray,
-        identity: dict[str, Any],
-        folder: Path | None,
-        labels: tuple[str, str],
-        settings: tuple[LazyExecutor, int, bool, bool, dict[str, Any] | None],
-        stop_at_failure: Callable[[np.ndarray, np.ndarray], None] | None = None,
-    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, int, int]:
-        """Evaluate the rows of a parameter table (screening or validation points) chunk by
-        chunk into ``folder``: ``(outputs, failed, reasons, evaluated, reused)``.
-
-        ``labels``: the progress bar's and the output check's names of the runs;
-        ``settings``: executor, chunk size, resume, progress, code version;
-        ``stop_at_failure(failed, reasons)``: called after every chunk (fail-fast).
-        """
-        work, size, resume, progress, code = settings
-        count = len(table)
-        chunk_store, size, chunk_count, results, missing, reused = open_chunks(
-            folder, identity, count, size, resume, code
-        )
-        fail_fast = None
-        if stop_at_failure is not None:
-
-            def fail_fast() -> None:
-                ready = [results[i] for i in sorted(results)]
-                stop_at_failure(*assemble_chunks(ready, count)[1:])
-
-            if results:
-                fail_fast()
-        evaluated = evaluate_chunks(
-            self.model,
-            self.outputs,
-            lambda start, stop: self._columns(table, start, stop),
-            count,
-            missing,
-            size,
-            results,
-            chunk_store,
-            work,
-            progress=(progress, reused, f"{self.name} ({labels[0]})"),
-            fail_fast=fail_fast,
-        )
-        ordered = [results[i] for i in range(chunk_count)]
-        outputs, failed, reasons = assemble_chunks(ordered, count, self._output_check, labels[1])
-        self._adopt_coords(ordered)
-        return outputs, failed, reasons, int(evaluated), int(reused)
-
-    def _screening_failures(self, failed: np.ndarray, reasons: np.ndarray) -> str:
-        """E.g. "failed screening samples: row 3 (x1=1.5): diverged; ..." (first five)."""
-        rows = np.flatnonzero(failed)
-        samples = self._screening_samples.samples
-        listed = "; ".join(
-            f"row {row} ("
-            + ", ".join(f"{n}={v:.6g}" for n, v in zip(self._fuzzy, samples[row], strict=True))
-            + f"): {reasons[row] or 'non-finite output'}"
-            for row in rows[:5]
-        )
-        more = f" (and {len(rows) - 5} more)" if len(rows) > 5 else ""
-        return f"failed screening samples: {listed}{more}"
 
     def _check_picklable(self, resolved: Any) -> None:
         """Fail early and clearly when the model cannot travel to worker processes."""
