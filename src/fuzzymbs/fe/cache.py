@@ -17,7 +17,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -26,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.fe.reducible import ReducibleBody
+from fuzzymbs.files import save_npz_atomically
 from fuzzymbs.mbs.modal_body import ModalBody
 
 __all__ = ["cache_dir", "clear", "load", "reduction_key", "store"]
@@ -109,15 +109,7 @@ def store(key: str, body: ModalBody) -> Path:
         arrays[f"node_set.{name}"] = value
     for name, value in body.face_sets.items():
         arrays[f"face_set.{name}"] = value
-    handle, temporary = tempfile.mkstemp(dir=directory, suffix=".npz.tmp")
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            np.savez(stream, **arrays)
-        os.replace(temporary, _path(key))
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return _path(key)
+    return save_npz_atomically(_path(key), arrays)
 
 
 def load(key: str, name: str) -> ModalBody | None:

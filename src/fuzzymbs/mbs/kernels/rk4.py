@@ -121,17 +121,23 @@ def start_block(sysdata, params, x0, recording, first, count):
 
 
 @nb.njit(cache=True)
+def output_value(x, out_w, o):
+    """Output o of the four lane states ``x``: ``sum_i w_oi x_i`` as a lane vector."""
+    y = V.splat(0.0)
+    for i in range(x.shape[0] // L):
+        w = out_w[o, i]
+        if w != 0.0:
+            y = V.fma(V.splat(w), V.load(x, L * i), y)
+    return y
+
+
+@nb.njit(cache=True)
 def record(x, recording, first, count, alive, rec, t):
     """Outputs of the block's healthy lanes at time t into record ``rec``; a lane whose
     output leaves its bound (or is not finite) is flagged (arguments as :func:`rk4`)."""
     out_w, bound, out, status, fail_t = recording
-    nstate = x.shape[0] // L
     for o in range(out_w.shape[0]):
-        y = V.splat(0.0)
-        for i in range(nstate):
-            w = out_w[o, i]
-            if w != 0.0:
-                y = V.fma(V.splat(w), V.load(x, L * i), y)
+        y = output_value(x, out_w, o)
         for lane in range(count):
             if alive[lane]:
                 yl = V.get(y, lane)

@@ -46,7 +46,7 @@ from fuzzymbs.mbs.kernels.jacobian import jacobian
 from fuzzymbs.mbs.kernels.layout import NONFINITE, OUT_OF_BOUND, STEP_TOO_SMALL
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
 from fuzzymbs.mbs.kernels.rhs import rhs
-from fuzzymbs.mbs.kernels.rk4 import record, retire_failed, start_block
+from fuzzymbs.mbs.kernels.rk4 import output_value, record, retire_failed, start_block
 from fuzzymbs.mbs.kernels.threads import round_robin
 
 L = V.LANES
@@ -431,13 +431,8 @@ def record_lanes(x, recording, first, lanes, records, times):
     at ``times[lane]``; a lane whose output leaves its bound (or is not finite) is
     flagged (``recording`` as for :func:`fuzzymbs.mbs.kernels.rk4.rk4`)."""
     out_w, bound, out, status, fail_t = recording
-    nstate = x.shape[0] // L
     for o in range(out_w.shape[0]):
-        y = V.splat(0.0)
-        for i in range(nstate):
-            w = out_w[o, i]
-            if w != 0.0:
-                y = V.fma(V.splat(w), V.load(x, L * i), y)
+        y = output_value(x, out_w, o)
         for lane in range(L):
             if lanes[lane]:
                 yl = V.get(y, lane)

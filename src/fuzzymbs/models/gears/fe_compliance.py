@@ -31,7 +31,6 @@ import dataclasses
 import hashlib
 import math
 import os
-import tempfile
 import time
 import warnings
 from collections import OrderedDict
@@ -42,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.files import save_npz_atomically
 from fuzzymbs.models.gears.fe_mesh import flank_point, mesh_gear
 from fuzzymbs.models.gears.geometry import SpurGear
 
@@ -372,14 +372,7 @@ def _store(key: str, table: FlankCompliance) -> None:
     directory.mkdir(parents=True, exist_ok=True)
     arrays = {name: getattr(table, name) for name in _FIELDS}
     arrays["scalars"] = np.array([table.reference_depth, table.dofs, FORMAT_VERSION], dtype=float)
-    handle, temporary = tempfile.mkstemp(dir=directory, suffix=".npz.tmp")
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            np.savez(stream, **arrays)
-        os.replace(temporary, _path(key))
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    save_npz_atomically(_path(key), arrays)
 
 
 def _load(key: str, analysis: str, support: str) -> FlankCompliance | None:
