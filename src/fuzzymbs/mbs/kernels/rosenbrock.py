@@ -151,9 +151,10 @@ def advance_block_ros(
     Jacobian age and recording, so that its outputs are bit for bit those of the
     sample run alone, whatever the other lanes hold. The lanes still share each
     vector instruction; a lane that has reached the slice's end (or failed) is
-    masked out, and its arithmetic is discarded. A Jacobian (or f0) evaluation
-    is made for all lanes when any stepping lane needs one and is kept only by
-    the lanes that asked for it.
+    masked out, and its arithmetic is discarded. A lane due for a new Jacobian
+    waits until every stepping lane is, so that one evaluation serves the block;
+    an f0 evaluation is made for all lanes when any stepping lane needs one, and
+    both are kept only by the lanes that asked for them.
 
     Steps are chosen by the error control alone; the outputs at the recording
     times come from the cubic Hermite interpolant of the step that covers them
@@ -229,9 +230,18 @@ def advance_block_ros(
                 steps[lane] = t_final - t[lane] if last[lane] else step
         if not any_stepping:
             break
+        # a lane that needs a new Jacobian waits (masked) until every stepping lane needs
+        # one, so that one evaluation serves the block; waiting changes nothing in a
+        # lane's own arithmetic, so its result stays independent of its block mates
+        all_need = True
+        for lane in range(L):
+            all_need = all_need and not (stepping[lane] and need_jac[lane] == 0.0)
         any_renew = False
         for lane in range(L):
             renew[lane] = stepping[lane] and need_jac[lane] != 0.0
+            if renew[lane] and not all_need:
+                stepping[lane] = False
+                renew[lane] = False
             any_renew = any_renew or renew[lane]
         if any_renew:
             jacobian(t_lane, x, p, sysdata, work, f_fresh, jq_fresh, jv_fresh)
