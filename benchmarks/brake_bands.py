@@ -185,7 +185,7 @@ def measure_cost(before: Path | None, t_end: float, rounds: int, reference: dict
     if before is not None:
         sides["before_default"] = (before.resolve(), {})
     runs: dict[str, list[dict]] = {name: [] for name in sides}
-    saved = BENCH_DIR / ".cache" / "brake_bands_default_study.npz"
+    saved = BENCH_DIR / ".cache" / f"brake_bands_default_study_t{t_end:g}.npz"
     saved.parent.mkdir(exist_ok=True)
     for _ in range(rounds):
         for name, (checkout, settings) in sides.items():
