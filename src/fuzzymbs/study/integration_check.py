@@ -338,7 +338,12 @@ def choose_tolerance(
     inner = [j for j in range(len(widths)) if np.any(widths[j] > 0)]
     n = cut_lower.shape[1]
     if not inner or n > PILOT_MAX_PARAMETERS:
-        note = "no cut of non-zero width" if not inner else f"more than {PILOT_MAX_PARAMETERS}"
+        note = (
+            "no cut of non-zero width"
+            if not inner
+            else f"more than {PILOT_MAX_PARAMETERS} fuzzy parameters (2^n pilot corners)"
+        )
+        note += ": the model's tolerance is kept"
         return model, ToleranceChoice(1.0, np.nan, 0, model.time_integration, note)
     j = inner[-1]
     corners = np.array(

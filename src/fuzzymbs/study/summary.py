@@ -104,6 +104,8 @@ def summarize(dataset: xarray.Dataset) -> str:
         if "integration_pilot_runs" in attrs and int(attrs["integration_pilot_runs"]) > 0:
             pilot = float(attrs["integration_pilot_error"])
             chosen = f"tightened {factor:.3g} times" if factor > 1 else "kept"
+            if attrs.get("integration_choice_note"):
+                chosen = f"kept ({attrs['integration_choice_note']})"
             lines.append(
                 f"Integrator tolerance chosen by a pilot of {int(attrs['integration_pilot_runs'])}"
                 f" runs: {100 * pilot:.3g} % of the cut width expected at the model's own, "
