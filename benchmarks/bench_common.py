@@ -149,3 +149,12 @@ def run_json_subprocess(
 def log(message: str) -> None:
     """Progress line on stderr (stdout's last line is reserved for the JSON)."""
     print(message, file=sys.stderr, flush=True)
+
+
+def run_in_checkout(
+    code: str, checkout: Path, env: dict[str, str] | None = None, timeout: float = 7200.0
+) -> Any:
+    """:func:`run_json_subprocess` with another checkout's ``src`` as the package (to
+    measure two versions of fuzzymbs in the same run)."""
+    paths = {"PYTHONPATH": str(Path(checkout) / "src"), **(env or {})}
+    return run_json_subprocess(code, env=paths, timeout=timeout)

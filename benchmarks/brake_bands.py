@@ -37,7 +37,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from bench_common import BENCH_DIR, REPO, load_average, run_json_subprocess
+from bench_common import BENCH_DIR, REPO, load_average, run_in_checkout
 
 import fuzzymbs
 from fuzzymbs.models.brake import DiscBrake
@@ -176,10 +176,6 @@ print(json.dumps({{"wall_s": time.perf_counter() - wall, "cpu_s": time.process_t
 """
 
 
-def _in_checkout(code: str, checkout: Path):
-    return run_json_subprocess(code, env={"PYTHONPATH": str(checkout / "src")}, timeout=7200)
-
-
 def measure_cost(before: Path | None, t_end: float, rounds: int, reference: dict) -> dict:
     sides = {"default": (REPO, {}), "rk4_1us": (REPO, {"integrator": "rk4", "dt": 1e-6})}
     if before is not None:
@@ -191,7 +187,7 @@ def measure_cost(before: Path | None, t_end: float, rounds: int, reference: dict
         for name, (checkout, settings) in sides.items():
             save = str(saved) if name == "default" else ""
             code = _STUDY.format(settings=repr(settings), t_end=t_end, save=save)
-            runs[name].append(_in_checkout(code, checkout))
+            runs[name].append(run_in_checkout(code, checkout))
     cost = {name: min(runs[name], key=lambda r: r["wall_s"]) for name in sides}
     figures = {"runs": runs, "best": cost}
     data = np.load(saved)
@@ -260,13 +256,13 @@ def main(argv: list[str] | None = None) -> dict:
     figures: dict = {"load_average_start": load_average(), "t_end_s": t_end}
     parts = set(args.parts)
     if "noise" in parts:
-        figures["noise"] = {"this": _in_checkout(_NOISE.format(t_end=t_end), REPO)}
+        figures["noise"] = {"this": run_in_checkout(_NOISE.format(t_end=t_end), REPO)}
         if args.before is not None:
-            figures["noise"]["before"] = _in_checkout(_NOISE.format(t_end=t_end), args.before)
+            figures["noise"]["before"] = run_in_checkout(_NOISE.format(t_end=t_end), args.before)
     if "simd" in parts:
-        figures["simd"] = {"this": _in_checkout(_SIMD.format(t_end=t_end), REPO)}
+        figures["simd"] = {"this": run_in_checkout(_SIMD.format(t_end=t_end), REPO)}
         if args.before is not None:
-            figures["simd"]["before"] = _in_checkout(_SIMD.format(t_end=t_end), args.before)
+            figures["simd"]["before"] = run_in_checkout(_SIMD.format(t_end=t_end), args.before)
     figures["bands"] = {}
     references = {}
     for study in studies if parts & {"bands", "cost"} else ():

@@ -21,7 +21,7 @@ import json
 import tempfile
 from pathlib import Path
 
-from bench_common import REPO, run_json_subprocess
+from bench_common import REPO, run_in_checkout
 
 # the paper's RK4 on both sides (checkouts without the integrator option run RK4 anyway)
 _RK4 = """
@@ -66,20 +66,17 @@ print(json.dumps(time.perf_counter() - start))
 )
 
 
-def _run(code: str, checkout: Path, env: dict[str, str] | None = None):
-    paths = {"PYTHONPATH": str(checkout / "src"), **(env or {})}
-    return run_json_subprocess(code, env=paths, timeout=3600)
-
-
 def compare(other: Path, rounds: int, cold: bool, t_end: float = 1e-2) -> dict:
     sides = {"this": REPO, "other": other.resolve()}
     figures: dict = {name: {"checkout": str(path), "study1": []} for name, path in sides.items()}
     for _ in range(rounds):
         for name, path in sides.items():
-            figures[name]["study1"].extend(_run(_STUDY.format(t_end=t_end), path))
+            figures[name]["study1"].extend(
+                run_in_checkout(_STUDY.format(t_end=t_end), path, timeout=3600)
+            )
             if cold:
                 with tempfile.TemporaryDirectory(prefix="fuzzymbs-numba-") as cache:
-                    seconds = _run(_COLD, path, {"NUMBA_CACHE_DIR": cache})
+                    seconds = run_in_checkout(_COLD, path, {"NUMBA_CACHE_DIR": cache}, timeout=3600)
                 figures[name].setdefault("cold", []).append(seconds)
     for name in sides:
         walls = [wall for wall, _ in figures[name]["study1"]]

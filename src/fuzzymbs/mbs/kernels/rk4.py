@@ -132,19 +132,26 @@ def output_value(x, out_w, o):
 
 
 @nb.njit(cache=True)
+def store_output(recording, sample, o, rec, value, t):
+    """Output o of ``sample`` at record ``rec`` (time t); a value beyond the output's bound
+    (or not finite) flags the sample (arguments as :func:`rk4`)."""
+    _, bound, out, status, fail_t = recording
+    out[sample, o, rec] = value
+    if not abs(value) <= bound[o]:  # also catches NaN
+        status[sample] = OUT_OF_BOUND if np.isfinite(value) else NONFINITE
+        fail_t[sample] = t
+
+
+@nb.njit(cache=True)
 def record(x, recording, first, count, alive, rec, t):
     """Outputs of the block's healthy lanes at time t into record ``rec``; a lane whose
     output leaves its bound (or is not finite) is flagged (arguments as :func:`rk4`)."""
-    out_w, bound, out, status, fail_t = recording
+    out_w = recording[0]
     for o in range(out_w.shape[0]):
         y = output_value(x, out_w, o)
         for lane in range(count):
             if alive[lane]:
-                yl = V.get(y, lane)
-                out[first + lane, o, rec] = yl
-                if not abs(yl) <= bound[o]:  # also catches NaN
-                    status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
-                    fail_t[first + lane] = t
+                store_output(recording, first + lane, o, rec, V.get(y, lane), t)
 
 
 @nb.njit(cache=True, nogil=True)

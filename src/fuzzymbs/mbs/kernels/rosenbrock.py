@@ -43,10 +43,16 @@ import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.jacobian import jacobian
-from fuzzymbs.mbs.kernels.layout import NONFINITE, OUT_OF_BOUND, STEP_TOO_SMALL
+from fuzzymbs.mbs.kernels.layout import NONFINITE, STEP_TOO_SMALL
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
 from fuzzymbs.mbs.kernels.rhs import rhs
-from fuzzymbs.mbs.kernels.rk4 import output_value, record, retire_failed, start_block
+from fuzzymbs.mbs.kernels.rk4 import (
+    output_value,
+    record,
+    retire_failed,
+    start_block,
+    store_output,
+)
 from fuzzymbs.mbs.kernels.threads import round_robin
 
 L = V.LANES
@@ -440,16 +446,12 @@ def record_lanes(x, recording, first, lanes, records, times):
     """Outputs of the lanes marked in ``lanes`` into their own record ``records[lane]``
     at ``times[lane]``; a lane whose output leaves its bound (or is not finite) is
     flagged (``recording`` as for :func:`fuzzymbs.mbs.kernels.rk4.rk4`)."""
-    out_w, bound, out, status, fail_t = recording
+    out_w = recording[0]
     for o in range(out_w.shape[0]):
         y = output_value(x, out_w, o)
         for lane in range(L):
             if lanes[lane]:
-                yl = V.get(y, lane)
-                out[first + lane, o, records[lane]] = yl
-                if not abs(yl) <= bound[o]:  # also catches NaN
-                    status[first + lane] = OUT_OF_BOUND if np.isfinite(yl) else NONFINITE
-                    fail_t[first + lane] = times[lane]
+                store_output(recording, first + lane, o, records[lane], V.get(y, lane), times[lane])
 
 
 #: slices (in recording intervals) a block's run is cut into when blocks share threads
