@@ -324,3 +324,15 @@ def test_max_runs_option_overrides_the_study_file(tmp_path):
         app, ["run", str(study), "--out", str(tmp_path / "c"), "-q", "--max-runs", "0"]
     )
     assert result.exit_code == 2 and "--max-runs" in result.output
+
+
+def test_cli_needs_no_click():
+    # typer >= 0.2x ships without click: the README's install (no test extras, which
+    # pull click in through dask) must still start the CLI
+    import subprocess
+    import sys
+
+    code = "import sys; sys.modules['click'] = None; import fuzzymbs.cli; print('ok')"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "ok"

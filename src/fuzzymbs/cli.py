@@ -14,7 +14,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
-import click
 import typer
 
 app = typer.Typer(
@@ -52,6 +51,22 @@ def _describe(exc: BaseException) -> str:
     return " ".join(text.split())  # one line
 
 
+def _control_exceptions() -> tuple[type[BaseException], ...]:
+    """typer's own exit and usage exceptions, which typer reports itself. Recent typer
+    has its own (and no dependency on click); older typer raises click's."""
+    found: list[type[BaseException]] = [typer.Exit, typer.Abort]
+    if hasattr(typer, "TyperException"):
+        found.append(typer.TyperException)
+    try:
+        import click
+    except ImportError:  # typer without click: nothing more to pass through
+        return tuple(found)
+    return (*found, click.exceptions.Exit, click.ClickException)
+
+
+_PASSED_THROUGH = _control_exceptions()
+
+
 def _one_line_errors(command: Callable[..., Any]) -> Callable[..., Any]:
     """Every error of ``command`` ends it with one line on stderr and exit status 1
     (``--debug`` or ``FUZZYMBS_DEBUG=1``: the traceback instead)."""
@@ -60,7 +75,7 @@ def _one_line_errors(command: Callable[..., Any]) -> Callable[..., Any]:
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
             return command(*args, **kwargs)
-        except (typer.Exit, typer.Abort, click.exceptions.Exit, click.ClickException):
+        except _PASSED_THROUGH:
             raise
         except Exception as exc:
             if _debugging():
