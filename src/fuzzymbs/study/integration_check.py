@@ -44,13 +44,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR, width_relative
+
 #: default largest time-integration error a study accepts without a warning (of the
 #: cut width, floored at a tenth of the level's widest cut)
 DEFAULT_TOLERANCE = 0.01
 #: default number of samples re-run at the tighter tolerance (two SIMD blocks)
 DEFAULT_RUNS = 8
-#: the cut width is floored at this fraction of the level's widest cut
-WIDTH_FLOOR = 0.1
 
 
 class TimeIntegrationWarning(UserWarning):
@@ -109,23 +109,6 @@ def peak_relative_deviation(coarse: np.ndarray, fine: np.ndarray) -> float:
     if not np.isfinite(peak) or peak == 0.0:
         return float("nan")
     return float(np.max(np.abs(coarse - fine)) / peak)
-
-
-def width_relative(
-    deviation: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """``deviation / max(w, 0.1 max_e w)`` per level and element, all (L, size); NaN on
-    levels whose cuts have no width anywhere and where the deviation is NaN."""
-    width = upper - lower
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN levels
-        widest = np.nanmax(np.where(np.isfinite(width), width, np.nan), axis=1, keepdims=True)
-    scale = np.maximum(width, WIDTH_FLOOR * widest)
-    crisp = ~(widest > 0.0)
-    ratio = np.full(deviation.shape, np.nan)
-    usable = np.isfinite(deviation) & ~np.broadcast_to(crisp, deviation.shape)
-    ratio[usable] = deviation[usable] / scale[usable]
-    return ratio
 
 
 def choose_samples(

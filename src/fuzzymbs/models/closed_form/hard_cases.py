@@ -1,0 +1,162 @@
+"""Non-monotonic test models with dense-grid truth: where fixed transformation methods fail.
+
+The reduced and extended transformation methods assume outputs monotonic in
+the parameters; the general and grid methods see the model only on their
+grids. Three closed-form models, each with its fuzzy parameters, break those
+assumptions the way multibody models do:
+
+- :func:`bump3`: a scalar with an interior maximum off the centre of the box
+  (three parameters);
+- :func:`ringing3`: a damped oscillation whose frequency is fuzzy (+-17 %,
+  ten periods, so the phase moves by more than a period across the support),
+  a 201-point time signal (three parameters);
+- :func:`valley4`: a scalar valley that the box corners straddle in two
+  pairs of parameters (four parameters).
+
+:func:`dense_truth` gives their true alpha-cuts from a dense grid of every
+level's box (the grid holds each box's corners and centre; its spacing error
+is stated there), :func:`fuzzymbs.fuzzy.band_scale.band_miss` the miss of a
+method against it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fuzzymbs.fuzzy.numbers import FuzzyNumber, Triangular
+
+__all__ = ["HardCase", "bump3", "dense_truth", "hard_cases", "ringing3", "valley4"]
+
+Model = Callable[[Mapping[str, NDArray[np.float64]]], dict[str, NDArray[np.float64]]]
+
+
+@dataclass(frozen=True)
+class HardCase:
+    """A test model with its fuzzy parameters.
+
+    Attributes
+    ----------
+    name : short name.
+    model : batched model, samples ``{name: (B,)}`` -> ``{output: (B, *shape)}``.
+    numbers : the fuzzy parameters.
+    grid : points per axis of :func:`dense_truth` (one count per parameter) that
+        resolve the truth to about 0.1 % of the cut width (measured by halving the
+        spacing, tests/fuzzy/test_hard_cases.py).
+    """
+
+    name: str
+    model: Model
+    numbers: dict[str, FuzzyNumber]
+    grid: tuple[int, ...]
+
+
+def _bump(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
+    x1, x2, x3 = (np.asarray(samples[k], dtype=float) for k in ("x1", "x2", "x3"))
+    bump = np.exp(-((x1 - 0.35) ** 2 + (x2 + 0.25) ** 2) / 0.18)
+    return {"z": bump * (1.0 + 0.4 * x3) + 0.3 * x1 - 0.2 * x2}
+
+
+def bump3() -> HardCase:
+    """``z = exp(-((x1-0.35)^2 + (x2+0.25)^2)/0.18) (1 + 0.4 x3) + 0.3 x1 - 0.2 x2``,
+    ``x1, x2 ~ TFN(-1, 0, 1)``, ``x3 ~ TFN(0, 0.5, 1)``: the maximum lies inside every
+    cut box of levels up to about 0.65, away from the corners and the centre."""
+    numbers = {
+        "x1": Triangular(-1.0, 0.0, 1.0),
+        "x2": Triangular(-1.0, 0.0, 1.0),
+        "x3": Triangular(0.0, 0.5, 1.0),
+    }
+    return HardCase("bump3", _bump, numbers, (81, 81, 81))
+
+
+#: ringing3's time grid: ten periods of the modal frequency (1 Hz), 201 points
+RINGING_TIME = np.linspace(0.0, 10.0, 201)
+
+
+def _ringing(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
+    f = np.asarray(samples["frequency"], dtype=float)[:, None]
+    zeta = np.asarray(samples["damping_ratio"], dtype=float)[:, None]
+    a = np.asarray(samples["amplitude"], dtype=float)[:, None]
+    omega = 2.0 * np.pi * f
+    t = RINGING_TIME[None, :]
+    return {"y": a * np.exp(-zeta * omega * t) * np.cos(omega * t)}
+
+
+def ringing3() -> HardCase:
+    """``y(t) = A exp(-zeta 2 pi f t) cos(2 pi f t)`` on 0..10 s (201 points) with
+    ``f ~ TFN(0.83, 1, 1.17) Hz``, ``zeta ~ TFN(0.015, 0.02, 0.025)``,
+    ``A ~ TFN(0.9, 1, 1.1)``: at 10 s the phase spans 3.4 periods over the support."""
+    numbers = {
+        "frequency": Triangular(0.83, 1.0, 1.17),
+        "damping_ratio": Triangular(0.015, 0.02, 0.025),
+        "amplitude": Triangular(0.9, 1.0, 1.1),
+    }
+    # y is linear in A and monotonic in zeta at fixed f and t: their ends and
+    # centre suffice; the phase needs a fine frequency axis
+    return HardCase("ringing3", _ringing, numbers, (641, 5, 5))
+
+
+def _valley(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
+    x1, x2, x3, x4 = (np.asarray(samples[k], dtype=float) for k in ("x1", "x2", "x3", "x4"))
+    return {"z": (x1 - 0.5 * x2) ** 2 + (x3 - 0.5 * x4) ** 2 + 0.2 * x1 * x3 + 0.1 * x4}
+
+
+def valley4() -> HardCase:
+    """``z = (x1 - x2/2)^2 + (x3 - x4/2)^2 + 0.2 x1 x3 + 0.1 x4``, all ``TFN(-1, 0, 1)``:
+    the minimum lies on the valley floors x1 = x2/2, x3 = x4/2 that no corner touches."""
+    numbers = {k: Triangular(-1.0, 0.0, 1.0) for k in ("x1", "x2", "x3", "x4")}
+    return HardCase("valley4", _valley, numbers, (21, 21, 21, 21))
+
+
+def hard_cases() -> list[HardCase]:
+    """The three cases, in the order bump3, ringing3, valley4."""
+    return [bump3(), ringing3(), valley4()]
+
+
+def dense_truth(
+    case: HardCase, levels: NDArray[np.float64] | list[float], *, refine: int = 1
+) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """True alpha-cuts of every output from a dense grid of each level's box.
+
+    Parameters
+    ----------
+    case : the test model.
+    levels : (L,) membership levels.
+    refine : divide the spacing of the case's grid by this (to measure its error).
+
+    Returns
+    -------
+    dict
+        output -> (lower, upper), each (L, *shape): the smallest and largest value
+        over the grid of that level's box, a lower bound of the true range with an
+        error below the grid's resolution (the cases' defaults resolve it to about
+        0.1 % of the cut width).
+    """
+    counts = [(c - 1) * int(refine) + 1 for c in case.grid]
+    names = list(case.numbers)
+    truth: dict[str, tuple[list, list]] = {}
+    for mu in np.atleast_1d(np.asarray(levels, dtype=float)):
+        axes = [
+            np.linspace(*case.numbers[n].alpha_cut(float(mu)), c)
+            for n, c in zip(names, counts, strict=True)
+        ]
+        low: dict[str, NDArray] = {}
+        high: dict[str, NDArray] = {}
+        # one value of the first axis per batch keeps memory at a slice of the grid
+        for first in axes[0]:
+            mesh = np.stack([m.ravel() for m in np.meshgrid(*axes[1:], indexing="ij")], axis=1)
+            samples = {names[0]: np.full(len(mesh), first)}
+            samples.update({n: mesh[:, i] for i, n in enumerate(names[1:])})
+            for key, value in case.model(samples).items():
+                value = np.asarray(value, dtype=float)
+                lo, hi = value.min(axis=0), value.max(axis=0)
+                low[key] = lo if key not in low else np.minimum(low[key], lo)
+                high[key] = hi if key not in high else np.maximum(high[key], hi)
+        for key in low:
+            truth.setdefault(key, ([], []))
+            truth[key][0].append(low[key])
+            truth[key][1].append(high[key])
+    return {k: (np.array(lo), np.array(hi)) for k, (lo, hi) in truth.items()}
