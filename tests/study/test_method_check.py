@@ -145,13 +145,16 @@ def test_widen_with_validation_extends_every_cut_that_holds_a_point():
 
 
 def test_count_defaults_and_off_switch():
-    result, _ = run(monotonic, POSITIVE)  # 33 runs: a fifth
-    assert result.dataset.attrs["validation_runs"] == 6
-    assert result.dataset.sizes["validation"] == 6
+    # the rule: a fifth of the runs, at least 12 per parameter; a monotonic model
+    # gives the search nothing to follow beyond its steps, and every round is made
+    result, _ = run(monotonic, POSITIVE)  # 33 runs, 3 parameters: 36
+    assert result.dataset.attrs["validation_runs"] == 36
+    assert result.dataset.sizes["validation"] == 36
+    assert sum(result.provenance["method_check"]["rounds"]) == 36
     small, _ = run(
         lambda s: {"z": s["x1"] * s["x2"]}, {"x1": POSITIVE["x1"], "x2": POSITIVE["x2"]}
-    )  # 17 runs
-    assert small.dataset.attrs["validation_runs"] == 3  # n + 1
+    )  # 17 runs, 2 parameters: 24
+    assert small.dataset.attrs["validation_runs"] == 24
     off, _ = run(valley, NUMBERS, validation_runs=0)
     assert "method_error" not in off.dataset.attrs and "z_validation" not in off.dataset
     assert "Method check" not in off.summary()
@@ -182,17 +185,21 @@ def test_validation_runs_are_stored_and_resumed(tmp_path):
             return valley(samples)
 
     first = Counting()
-    Study(first, NUMBERS, levels=4).run(progress=False, store=tmp_path)
-    assert first.calls == 33 + 6
+    done = Study(first, NUMBERS, levels=4).run(progress=False, store=tmp_path)
+    runs = done.dataset.attrs["validation_runs"]
+    assert first.calls == 33 + runs
+    rounds = done.provenance["method_check"]["rounds"]
+    assert len(rounds) == 4 and len(list(tmp_path.glob(f"validation-*-{36}-*"))) == 4
+    # every round is stored: a rerun proposes the same points and evaluates nothing
     again = Counting()
     result = Study(again, NUMBERS, levels=4).run(progress=False, store=tmp_path)
     assert again.calls == 0
-    assert result.provenance["method_check"]["reused_from_store"] == 6
-    assert len(list(tmp_path.glob("validation-6-*"))) == 1
-    # another number of validation runs starts its own folder, no store mismatch
+    assert result.provenance["method_check"]["reused_from_store"] == runs
+    assert result.dataset.attrs["method_error"] == done.dataset.attrs["method_error"]
+    # another number of validation runs starts its own folders, no store mismatch
     other = Counting()
     Study(other, NUMBERS, levels=4, validation_runs=4).run(progress=False, store=tmp_path)
-    assert other.calls == 4 and len(list(tmp_path.glob("validation-*"))) == 2
+    assert other.calls == 4 and len(list(tmp_path.glob("validation-*-4-*"))) == 4
 
 
 def test_bad_options_are_refused():
