@@ -144,7 +144,10 @@ class StudyRuns:
         count = self.validation_count()
         if count == 0:
             return None
-        fuzzy = feed.results()
+        try:
+            fuzzy = feed.results()
+        except IncompleteResultError:  # no level can be bounded: the run says so itself
+            return None
         cuts = {name: (result.lower, result.upper) for name, result in fuzzy.items()}
         elements = sum(int(np.prod(np.shape(lo)[1:], dtype=np.int64)) for lo, _ in cuts.values())
         keep = feed.keep_raw
