@@ -150,9 +150,11 @@ class StudyRuns:
             return None
         cuts = {name: (result.lower, result.upper) for name, result in fuzzy.items()}
         elements = sum(int(np.prod(np.shape(lo)[1:], dtype=np.int64)) for lo, _ in cuts.values())
+        # kept whole as the plan's raw outputs are (a sparse plan keeps those always)
         keep = feed.keep_raw
         if keep is None:
-            keep = 8 * count * elements <= RAW_LIMIT_BYTES
+            small = 8 * count * elements <= RAW_LIMIT_BYTES
+            keep = small if feed.layout is None else feed.raw is not None and small
         bounds_from = feed.bounding_samples()
         search = MethodSearch(
             self.plan,
