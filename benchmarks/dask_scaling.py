@@ -151,10 +151,11 @@ def differing(dataset: Any, reference: Any) -> list[str]:
 
 # ------------------------------------------------------------- client-side instrumentation
 class PhaseTimer:
-    """Wraps the study module's ``evaluate_chunks``: epoch start/stop of each evaluation
-    phase (the plan's runs, then the validation runs), client side only."""
+    """Wraps the study modules' ``evaluate_chunks``: epoch start/stop of each evaluation
+    phase (the plan's runs, then each round of the validation runs), client side only."""
 
     def __init__(self) -> None:
+        import fuzzymbs.study.extra_runs as extra
         import fuzzymbs.study.study as module
 
         self.module = module
@@ -168,6 +169,7 @@ class PhaseTimer:
             return evaluated
 
         module.evaluate_chunks = timed
+        extra.evaluate_chunks = timed
 
     def take(self) -> list[tuple[float, float, int, float]]:
         phases, self.phases = self.phases, []
@@ -584,7 +586,7 @@ def main(
         "positions": setting["positions"],
         "parameters": list(study.plan.names),
         "runs": runs,
-        "validation_runs": len(study.validation_points()),
+        "validation_runs": study.validation_count(),
         "chunk_size": chunk,
         "numba_threads_inline_default": numba.config.NUMBA_NUM_THREADS,
     }

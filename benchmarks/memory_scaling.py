@@ -8,11 +8,15 @@ The study: the registered ``damped-oscillator`` (2001-point displacement signal)
 full alpha-bound grid with three triangular parameters, levels m: (2m + 1)^3 runs --
 11^3 = 1,331 (m = 5) and 25^3 = 15,625 (m = 12) (258 MB and 1.36 GB peak for a
 retransformation that keeps every raw output). ``keep_raw=True`` puts every
-sample's outputs into the result again (for comparison).
+sample's outputs into the result again (for comparison). Every study makes its
+default method check (a fifth of its runs as validation runs, in four rounds).
+``--cli``: instead, ``fuzzymbs run`` of the same two studies as study files, each
+in a child process, peak resident set size of the child (the target: the large
+study within 1.25 times the small one, end to end).
 
 Usage::
 
-    python benchmarks/memory_scaling.py [--quick] [--json]
+    python benchmarks/memory_scaling.py [--quick] [--json] [--cli]
 """
 
 from __future__ import annotations
@@ -50,7 +54,6 @@ def run_case(levels: int, keep_raw: bool) -> dict:
             "grid",
             m,
             model_options={"time_steps": 2001},
-            validation_runs=0,
         )
 
     with warnings.catch_warnings():

@@ -233,3 +233,28 @@ def test_study_file_options(tmp_path):
     path.write_text(textwrap.dedent(text.format(runs=-1)))
     with pytest.raises(StudyFileError, match="validation_runs"):
         load_study_file(path)
+
+
+def test_validation_outputs_follow_the_raw_outputs():
+    # the check's verdict never needs the validation outputs whole: without the raw
+    # outputs they are reduced per chunk and left out of the result, with the same error
+    kept = Study(valley, NUMBERS, levels=4).run(progress=False, keep_raw=True)
+    reduced = Study(valley, NUMBERS, levels=4).run(progress=False, keep_raw=False)
+    assert "z_validation" in kept.dataset and "z_validation" not in reduced.dataset
+    assert reduced.dataset.attrs["method_error"] == kept.dataset.attrs["method_error"]
+    np.testing.assert_array_equal(
+        reduced.dataset["z_validation_excursion"].values,
+        kept.dataset["z_validation_excursion"].values,
+    )
+    # the kept outputs give the same verdict (the largest miss of the validation range)
+    levels = list(kept.dataset["level"].values)
+    values = kept.dataset["z_validation"].values
+    mu = kept.dataset["validation_level"].values
+    lower, upper = kept.dataset["z_lower"].values, kept.dataset["z_upper"].values
+    worst = 0.0
+    for j in range(len(levels) - 1):
+        inside = values[np.array([levels.index(m) for m in mu]) >= j]
+        width = upper[j] - lower[j]
+        miss = max(lower[j] - inside.min(), 0.0) + max(inside.max() - upper[j], 0.0)
+        worst = max(worst, miss / width)
+    assert kept.dataset.attrs["method_error"] == pytest.approx(worst, rel=1e-12)

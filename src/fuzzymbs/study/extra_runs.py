@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import math
 import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -62,6 +63,21 @@ SCREENING_FOLDER = "screening"
 #: prefix of the sub-folders of a store holding validation runs' chunks
 #: (``validation-<count>-<fingerprint>``)
 VALIDATION_FOLDER = "validation"
+
+
+#: a round of validation runs longer than a chunk goes out in a multiple of this many
+#: equal chunks, so that no worker of a small pool idles at the end of the round
+ROUND_TASKS = 4
+
+
+def balanced_chunk_size(count: int, size: int) -> int:
+    """Chunk size of a round of ``count`` validation runs: at most ``size``, in a multiple
+    of :data:`ROUND_TASKS` equal chunks when more than one chunk is needed (the same on
+    every executor, so the rounds and their points do not depend on it)."""
+    if count <= size:
+        return size
+    tasks = ROUND_TASKS * math.ceil(math.ceil(count / size) / ROUND_TASKS)
+    return math.ceil(count / tasks)
 
 
 class StudyRuns:
@@ -233,7 +249,7 @@ class StudyRuns:
         work, size, resume, progress, code = settings
         count = len(table)
         chunk_store, size, chunk_count, results, missing, reused = open_chunks(
-            folder, identity, count, size, resume, code, load=False
+            folder, identity, count, balanced_chunk_size(count, size), resume, code, load=False
         )
         stored = set(results)  # read from the store when their turn comes
         failed = np.zeros(count, dtype=bool)
