@@ -218,3 +218,26 @@ def test_rounds_are_deterministic():
     np.testing.assert_array_equal(first.points.samples, second.points.samples)
     assert first.rounds == second.rounds and len(first.rounds) == 4
     assert set(first.points.kind) == {"edge", "halton", "search"}
+
+
+def test_a_miss_inside_a_trapezoidal_core_is_searched_too():
+    # the core of trapezoidal numbers is a box: its cut can miss an interior peak like
+    # any other level's (reference: a dense grid of every box, 401 x 401 points)
+    from fuzzymbs.fuzzy import Trapezoidal
+
+    def peak(samples):
+        return {"z": np.exp(-((samples["x1"] - 0.1) ** 2) / 0.02) + 0.1 * samples["x2"]}
+
+    numbers = {"x1": Trapezoidal(-1, -0.5, 0.5, 1), "x2": Trapezoidal(0, 0.5, 1, 1.5)}
+    scheme = plan(numbers, "reduced", 3)
+    outputs = scheme.evaluate(peak)
+    with pytest.warns(UserWarning):
+        z = scheme.retransform(outputs["z"])
+    truth = grid_truth(peak, numbers, scheme.levels, 401)
+    core = band_miss(z.lower[-1:], z.upper[-1:], truth[0][-1:], truth[1][-1:])
+    assert core > 0.3  # measured 0.40: the corners of the core box miss the peak
+    check = check_plan(scheme, peak, outputs, {"z": (z.lower, z.upper)})
+    assert check.error >= 0.5 * band_miss(z.lower, z.upper, *truth)
+    # the core's own cut: the validation runs in the core box reach beyond it
+    found = max(z.lower[-1] - check.low["z"][-1], 0.0) + max(check.high["z"][-1] - z.upper[-1], 0.0)
+    assert found / (z.upper[-1] - z.lower[-1]) >= 0.5 * core

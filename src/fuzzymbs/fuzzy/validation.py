@@ -536,7 +536,9 @@ class MethodSearch:
                     (extremes.high, extremes.high_point, upper, upper_from, np.greater),
                 )
             ):
-                for j in range(levels - 1):
+                for j in range(levels):
+                    if not np.any(boxes[j, :, 1] > boxes[j, :, 0]):
+                        continue  # a crisp core: a single point, nothing to search
                     beaten = better(own[j], cut[j]) & (own_point[j] >= 0)
                     start = np.where(beaten, n_plan + own_point[j], -1)
                     if cut_from is not None:
