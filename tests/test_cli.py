@@ -49,9 +49,10 @@ def test_demo_writes_results_plots_and_summary(demo_out):
         np.testing.assert_allclose(ds["z_lower"].values, (1 + mu) * (9 + mu), rtol=1e-14)
         np.testing.assert_allclose(ds["z_upper"].values, (3 - mu) * (11 - mu), rtol=1e-14)
         assert json.loads(ds.attrs["plots"]) == {"membership": []}
-        # monotonic: the method check (3 validation runs for 17 runs) finds round-off
-        assert ds.attrs["validation_runs"] == 3 and ds.attrs["method_error"] < 1e-12
-    assert "Method check: 3 validation runs" in (demo_out / "product" / "summary.txt").read_text()
+        # monotonic: the method check (24 validation runs for 17 runs: the default's
+        # floor of 12 per parameter) finds round-off
+        assert ds.attrs["validation_runs"] == 24 and ds.attrs["method_error"] < 1e-12
+    assert "Method check: 24 validation runs" in (demo_out / "product" / "summary.txt").read_text()
 
 
 def test_method_check_reaches_the_cli_user(tmp_path, monkeypatch):
