@@ -756,7 +756,7 @@ def _cli_run(path: Path, out: Path, executor: str | None, chunk: int) -> dict[st
         "process_wall_s": wall,
         "study_wall_s": float(provenance["wall_time_s"]),
         "validation_runs": validation,
-        "rounds": provenance["method_check"]["rounds"],
+        "rounds": provenance["method_check"].get("rounds"),
         "method_error": error,
         "load_average": load,
         "arrays": {**bounds, "excursion": excursion},
