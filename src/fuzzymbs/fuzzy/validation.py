@@ -12,36 +12,48 @@ The validation runs are extra points inside the cut boxes that no run of the
 method covers, evaluated with the same model. Each point ``x`` is checked
 against the cut of the highest level whose box contains it (the exact alpha-cut
 of that level contains ``f(x)``; the boxes are nested, so that level's cut is
-the tightest). Its excursion beyond the method's cut ``[l_j, u_j]``, relative
-to the cut's width,
+the tightest), and it counts for every level below too. Per level ``j`` and
+output element ``i`` the part of the validation runs' range outside the
+method's cut ``[l, u]``, on the cut-width scale of
+:mod:`fuzzymbs.fuzzy.band_scale`,
 
-    e(x) = max(l_j - f(x), f(x) - u_j, 0) / (u_j - l_j),
+    e_j(i) = (max(l - min f, 0) + max(max f - u, 0)) / max(w_j(i), 0.1 max_i w_j(i)),
 
-per output element like the retransformation, is a lower bound of the
-method's true miss at that level; the study's ``method_error`` is the largest
-over points, levels and elements.
+is the method's miss that the check found; the study's ``method_error`` is its
+largest value over outputs, levels and elements (:meth:`MethodSearch.outcome`).
+It is the formula of the true miss against dense-grid truth
+(:func:`~fuzzymbs.fuzzy.band_scale.band_miss`) with the validation range in
+place of the true one and the method's width in place of the true width.
 
-Points (:func:`validation_points`), ``count`` in all:
+The points, ``count`` in all, in :data:`ROUNDS` rounds (:class:`MethodSearch`;
+each round is one batch of model runs, its outputs reduced as they arrive):
 
-* half of them (rounded up), when the method's outputs are given: **edge
-  probes** from the runs that bound each cut. For every level below the core
-  and every output element, the level's run giving the smallest and the one
-  giving the largest value are tallied; from the most frequent such runs on,
-  one parameter at a time is moved half-way towards its modal value (from a
-  corner of the box: the quarter point of the edge towards the centre). The
-  levels take turns (a probe of level 0, one of the next level, ...). An
-  extremum inside the box next to a bounding run, such as a valley that the
-  corners straddle while other parameters sit at their bounds, lies on such
-  an edge;
-* the rest: a scrambled Halton sequence (:class:`scipy.stats.qmc.Halton`, fixed
-  seed) in the mu = 0 box, space-filling in every dimension, for extrema away
-  from the bounding runs. Points fall into the inner boxes in proportion to
-  their volume and are checked there.
+* round 1, a quarter of them (:func:`validation_points`): **edge probes** from
+  the runs that bound each cut (for every level below the core and every output
+  element, the level's run giving the smallest and the one giving the largest
+  value are tallied; from the most frequent such runs on, one parameter at a
+  time is moved half-way towards its modal value; the levels take turns), and
+  a scrambled Halton sequence (:class:`scipy.stats.qmc.Halton`, fixed seed) in
+  the mu = 0 box, space-filling, for extrema away from the bounding runs;
+* rounds 2 to 4, the rest shared equally: a **coordinate search** (compass
+  search) from the points that give each level's bounds now, the method's runs
+  or validation runs that beat them. From each start a round evaluates steps of
+  :data:`FIRST_STEP` of the level box's half-width along each parameter, both
+  ways, clipped to the box; a start that stays the best after all its steps is
+  searched again with half the step; a validation run that improved a bound
+  starts with the step that found it. Starts inside their level's box (an
+  interior extremum: for a monotonic model every bound lies on a corner) come
+  first; the levels take turns from both ends (outermost, innermost, ...).
 
-The split is justified by tests (tests/fuzzy/test_validation.py) on models with
-known exact ranges. What the estimate cannot see: misses smaller than the
-points' spacing, extrema in corners of the box the sequence does not reach
-with few points, and (being a lower bound) it never overstates a miss.
+The default count, a fifth of the runs and at least :data:`PER_PARAMETER` per
+parameter, and the rounds were chosen on the hard cases of
+:mod:`fuzzymbs.models.closed_form.hard_cases`, where the reported error is at
+least half the true miss for every fixed method (docs/fuzzy.md,
+benchmarks/method_check_honesty.py). What the check cannot see: a narrow
+extremum far from every start and between the Halton points, or a sparse-grid
+bound at the interpolant's optimum away from every run. It can overstate a
+miss where the method's cut is much narrower than the true one (the scale is
+the method's width).
 """
 
 from __future__ import annotations
