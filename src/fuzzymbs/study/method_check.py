@@ -1,17 +1,17 @@
 """Every study checks its own fuzzy method with validation runs.
 
-After the method's runs, the study evaluates the validation points of
-:func:`fuzzymbs.fuzzy.validation.validation_points` (a fifth of the method's
-runs by default, at least n + 1; ``validation_runs`` sets the number, 0 turns
-the check off) and compares their outputs with the retransformed cuts: the
-largest excursion beyond the cut of each point's level, relative to the cut's
-width, is the study's ``method_error`` (dataset attribute; per output in the
+After the method's runs, the study evaluates the validation runs of
+:class:`fuzzymbs.fuzzy.validation.MethodSearch` in rounds (a fifth of the method's
+runs by default, at least 12 per parameter; ``validation_runs`` sets the number, 0
+turns the check off), reduced as they arrive, and compares their range with the
+retransformed cuts: the largest part of it outside a level's cut, on the cut-width
+scale, is the study's ``method_error`` (dataset attribute; per output in the
 provenance; printed in summary.txt). Above ``method_tolerance`` (default 1 %)
 the study warns with a :class:`~fuzzymbs.fuzzy.retransform.NonMonotonicWarning`
-naming the output, the level and the parameters of the worst point. The
-validation outputs are kept in the result as their own variables
-(``o_validation``); they widen the bounds only when the study asks for it
-(``widen_with_validation``).
+naming the output, the level and the parameters of the worst point. Each run's
+excursion is kept in the result (``o_validation_excursion``), the runs' outputs
+(``o_validation``) where the plan's raw outputs are; they widen the bounds only
+when the study asks for it (``widen_with_validation``).
 """
 
 from __future__ import annotations
