@@ -258,3 +258,32 @@ def test_validation_outputs_follow_the_raw_outputs():
         miss = max(lower[j] - inside.min(), 0.0) + max(inside.max() - upper[j], 0.0)
         worst = max(worst, miss / width)
     assert kept.dataset.attrs["method_error"] == pytest.approx(worst, rel=1e-12)
+
+
+def test_an_interrupted_check_resumes_every_round_from_the_store(tmp_path):
+    # interrupted in the second round: the plan and the first round come from the store,
+    # the second round's finished chunks too, and the result equals an uninterrupted run
+    class Counting:
+        def __init__(self, limit=None):
+            self.calls, self.limit = 0, limit
+
+        def __call__(self, samples):
+            self.calls += len(samples["x1"])
+            if self.limit is not None and self.calls > self.limit:
+                raise KeyboardInterrupt
+            return valley(samples)
+
+    with pytest.raises(KeyboardInterrupt):
+        Study(Counting(33 + 9 + 4), NUMBERS, levels=4).run(
+            progress=False, store=tmp_path, chunk_size=4
+        )
+    again = Counting()
+    resumed = Study(again, NUMBERS, levels=4).run(progress=False, store=tmp_path, chunk_size=4)
+    # stored: the plan's 33 runs, round 1's 9 and round 2's first chunk (a round of 9
+    # in chunks of at most 4 goes out as 3 equal chunks of 3)
+    assert again.calls == 36 - 9 - 3
+    fresh = Study(valley, NUMBERS, levels=4).run(progress=False)
+    assert resumed.dataset.attrs["method_error"] == fresh.dataset.attrs["method_error"]
+    np.testing.assert_array_equal(
+        resumed.dataset["validation_samples"].values, fresh.dataset["validation_samples"].values
+    )
