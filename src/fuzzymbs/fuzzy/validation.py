@@ -362,12 +362,19 @@ class _Extremes:
 
     def miss(self) -> NDArray[np.float64]:
         """(L, size) the part of the validation range outside the method's cut, on the
-        cut-width scale (NaN where no point or no bound)."""
+        cut-width scale of the known range (the method's cut widened by the validation
+        runs, the best inner estimate of the true cut; NaN where no point or no bound)."""
         with np.errstate(invalid="ignore"):
             outside = np.maximum(self.lower - self.low, 0.0) + np.maximum(
                 self.high - self.upper, 0.0
             )
-            relative = outside / self.scale
+            known_lower = np.where(
+                np.isfinite(self.low), np.minimum(self.lower, self.low), self.lower
+            )
+            known_upper = np.where(
+                np.isfinite(self.high), np.maximum(self.upper, self.high), self.upper
+            )
+            relative = outside / cut_scale(known_lower, known_upper)
         relative[~np.isfinite(relative)] = np.nan
         return relative
 
@@ -495,11 +502,19 @@ class MethodSearch:
         if budget == 0:
             return None
         if not self._rounds:
+            optima = _interpolant_optima(self.plan, self._outputs, self._failed, budget // 2)
             points = validation_points(
-                self.plan, budget, self._outputs, self._failed, self._seed, tally=self._tally
+                self.plan,
+                budget - len(optima),
+                self._outputs,
+                self._failed,
+                self._seed,
+                tally=self._tally,
             )
+            samples = np.concatenate([optima, points.samples]) if len(optima) else points.samples
+            kinds = np.concatenate([np.full(len(optima), "optimum"), points.kind])
             points = ValidationPoints(
-                points.samples, points.level, points.kind, np.full(len(points), FIRST_STEP)
+                samples, _box_level(self.plan, samples), kinds, np.full(len(samples), FIRST_STEP)
             )
         else:
             points = self._search(budget)
@@ -539,6 +554,7 @@ class MethodSearch:
         boxes = self._boxes
         # per (level, side): candidate starts -> [interior elements, elements]
         score: dict[tuple[int, int], dict[int, list[int]]] = {}
+        interpolated = plan.method == "sparse"
         for name, extremes in self._extremes.items():
             lower, upper = self._cuts[name]
             lower_from, upper_from = self._bounds_from.get(name, (None, None))
@@ -552,6 +568,8 @@ class MethodSearch:
                     if not np.any(boxes[j, :, 1] > boxes[j, :, 0]):
                         continue  # a crisp core: a single point, nothing to search
                     beaten = better(own[j], cut[j]) & (own_point[j] >= 0)
+                    if interpolated:  # the bounds are no run's: follow the best validation run
+                        beaten = own_point[j] >= 0
                     start = np.where(beaten, n_plan + own_point[j], -1)
                     if cut_from is not None:
                         start = np.where(beaten, start, np.asarray(cut_from)[j])
@@ -713,6 +731,56 @@ class MethodSearch:
             }
         sizes = [len(r) for r in rounds]
         return SearchOutcome(points, error, per_output, worst, excursion, low, high, outputs, sizes)
+
+
+#: interpolant evaluations per level box when a sparse plan's optima are looked for
+OPTIMUM_CANDIDATES = 512
+
+
+def _interpolant_optima(
+    plan: Plan,
+    outputs: Mapping[str, NDArray[np.float64]] | None,
+    failed: NDArray[np.bool_] | None,
+    limit: int,
+) -> NDArray[np.float64]:
+    """Up to ``limit`` points where a sparse plan's interpolant reaches its cut bounds
+    (approximately: the best of :data:`OPTIMUM_CANDIDATES` Halton points of each level's
+    box, per output element), the most frequent first, the levels taking turns. Its
+    bounds lie there, often away from every run: the true model at these points checks
+    them. Empty for other plans (their bounds are runs) or failed runs."""
+    n = len(plan.names)
+    if plan.method != "sparse" or not outputs or limit <= 0:
+        return np.empty((0, n))
+    if failed is not None and np.any(failed):
+        return np.empty((0, n))
+    from scipy.stats import qmc
+
+    boxes = np.stack([plan.parameters[name].cuts(plan.levels) for name in plan.names], axis=1)
+    unit = qmc.Halton(d=n, scramble=True, seed=SEED + 1).random(OPTIMUM_CANDIDATES)
+    levels = [j for j in range(len(plan.levels)) if np.any(boxes[j, :, 1] > boxes[j, :, 0])]
+    table = np.concatenate(
+        [boxes[j, :, 0] + unit * (boxes[j, :, 1] - boxes[j, :, 0]) for j in levels]
+    )
+    level = _box_level(plan, table)
+    ranked: dict[tuple[int, int], list[int]] = {}
+    for values in outputs.values():
+        flat = plan.interpolate(values, table).reshape(len(table), -1)
+        for j in levels:
+            rows = np.flatnonzero(level >= j)
+            for side, arg in enumerate((np.argmin, np.argmax)):
+                best = rows[arg(flat[rows], axis=0)]
+                index, tally = np.unique(best, return_counts=True)
+                ranked.setdefault((j, side), []).extend(index[np.argsort(-tally, kind="stable")])
+    chosen: list[int] = []
+    rank = 0
+    while len(chosen) < limit and any(rank < len(v) for v in ranked.values()):
+        for j in _zigzag(list(levels)):
+            for side in (0, 1):
+                listed = ranked.get((j, side), [])
+                if rank < len(listed) and listed[rank] not in chosen and len(chosen) < limit:
+                    chosen.append(int(listed[rank]))
+        rank += 1
+    return table[chosen]
 
 
 def _zigzag(values: list[int]) -> list[int]:
