@@ -428,7 +428,7 @@ class MethodSearch:
     failed : (N,) the method's failed runs.
     keep_outputs : keep the validation outputs whole (else only their reduction).
     seed : seed of the scrambled Halton sequence.
-    rounds : number of rounds.
+    rounds : number of rounds (default :data:`ROUNDS`).
 
     Notes
     -----
@@ -448,13 +448,13 @@ class MethodSearch:
         failed: NDArray[np.bool_] | None = None,
         keep_outputs: bool = True,
         seed: int = SEED,
-        rounds: int = ROUNDS,
+        rounds: int | None = None,
     ) -> None:
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
             raise InvalidPlanError(f"validation runs must be a whole number >= 0, got {count!r}")
         self.plan = plan
         self.count = int(count)
-        self.rounds = max(1, int(rounds))
+        self.rounds = max(1, int(ROUNDS if rounds is None else rounds))
         self._outputs = outputs
         self._tally = tally
         self._failed = failed
@@ -475,7 +475,10 @@ class MethodSearch:
         self._rounds: list[ValidationPoints] = []
         self._kept: dict[str, list[NDArray[np.float64]]] = {}
         self._fed = 0  # points of the finished rounds plus those of the current one fed
-        self._expanded: dict[tuple[bytes, int], list[Any]] = {}
+        self._expanded: dict[tuple[bytes, int, int], dict[str, Any]] = {}
+        #: search points -> (output, element) whose value the parabola fit needs
+        self._tracked: dict[int, tuple[str, int]] = {}
+        self._values: dict[int, float] = {}
 
     # ------------------------------------------------------------------ rounds
     def _budget(self) -> int:
@@ -539,21 +542,25 @@ class MethodSearch:
             extremes.add(offset + start, values, current.level[start : start + size])
             if self._keep:
                 self._kept.setdefault(name, []).append(values)
+        for row in range(offset + start, offset + start + int(size or 0)):
+            if row in self._tracked:
+                name, element = self._tracked[row]
+                flat = np.asarray(outputs[name], dtype=float).reshape(int(size or 0), -1)
+                self._values[row] = float(flat[row - offset - start, element])
         self._fed += int(size or 0)
 
     # ----------------------------------------------------------------- search
     def _search(self, budget: int) -> ValidationPoints | None:
-        """A round of the local search: coordinate steps from the points that give
-        each level's bounds (validation points and the plan's runs)."""
+        """A round of the local search from the points that give each level's bounds
+        (validation runs and the plan's runs): a compass step along every parameter,
+        then one step to the vertex of the parabolas through those steps."""
         plan = self.plan
-        done = [r for r in self._rounds]
-        samples = np.concatenate([r.samples for r in done])
-        steps = np.concatenate([r.step for r in done])  # type: ignore[misc]
+        samples = np.concatenate([r.samples for r in self._rounds])
+        steps = np.concatenate([r.step for r in self._rounds])  # type: ignore[misc]
         n_plan = len(plan)
-        levels = len(plan.levels)
         boxes = self._boxes
-        # per (level, side): candidate starts -> [interior elements, elements]
-        score: dict[tuple[int, int], dict[int, list[int]]] = {}
+        # per (level, side): start -> [elements it gives, output, element, its value there]
+        score: dict[tuple[int, int], dict[int, list[Any]]] = {}
         interpolated = plan.method == "sparse"
         for name, extremes in self._extremes.items():
             lower, upper = self._cuts[name]
@@ -564,92 +571,95 @@ class MethodSearch:
                     (extremes.high, extremes.high_point, upper, upper_from, np.greater),
                 )
             ):
-                for j in range(levels):
+                for j in range(len(plan.levels)):
                     if not np.any(boxes[j, :, 1] > boxes[j, :, 0]):
                         continue  # a crisp core: a single point, nothing to search
                     beaten = better(own[j], cut[j]) & (own_point[j] >= 0)
                     if interpolated:  # the bounds are no run's: follow the best validation run
                         beaten = own_point[j] >= 0
                     start = np.where(beaten, n_plan + own_point[j], -1)
+                    value = np.where(beaten, own[j], cut[j])
                     if cut_from is not None:
                         start = np.where(beaten, start, np.asarray(cut_from)[j])
-                    valid = start[start >= 0]
-                    if len(valid) == 0:
-                        continue
+                    elements = np.flatnonzero(start >= 0)
                     target = score.setdefault((j, side), {})
-                    for index, tally in zip(*np.unique(valid, return_counts=True), strict=True):
-                        entry = target.setdefault(int(index), [0, 0])
-                        entry[1] += int(tally)
+                    for element in elements:
+                        entry = target.setdefault(
+                            int(start[element]), [0, name, int(element), float(value[element])]
+                        )
+                        entry[0] += 1
         if not score:
             return self._halton_round(budget)
 
         def point(index: int) -> NDArray[np.float64]:
             return plan.samples[index] if index < n_plan else samples[index - n_plan]
 
-        ranked: dict[tuple[int, int], list[int]] = {}
+        ranked: dict[tuple[int, int], list[tuple[int, list[Any]]]] = {}
         for (j, side), entries in score.items():
             low, high = boxes[j, :, 0], boxes[j, :, 1]
             keyed = []
-            for index, (_, tally) in entries.items():
+            for index, entry in entries.items():
                 x = point(index)
                 inner = bool(np.any((x > low) & (x < high)))
-                keyed.append((not inner, -tally, index))
-            ranked[(j, side)] = [index for *_, index in sorted(keyed)]
-        order = _zigzag(sorted({j for j, _ in ranked}))
-        leads: list[tuple[int, int]] = []
+                keyed.append((not inner, -entry[0], index, entry))
+            ranked[(j, side)] = [(index, entry) for _, _, index, entry in sorted(keyed)]
+        # the levels take turns from both ends, both sides of each
+        leads: list[tuple[int, int, int, list[Any]]] = []
         rank = 0
-        while True:
-            more = False
+        order = _zigzag(sorted({j for j, _ in ranked}))
+        while any(rank < len(listed) for listed in ranked.values()):
             for j in order:
                 for side in (0, 1):
                     listed = ranked.get((j, side), [])
                     if rank < len(listed):
-                        more = True
-                        leads.append((listed[rank], j))
-            if not more:
-                break
+                        leads.append((listed[rank][0], j, side, listed[rank][1]))
             rank += 1
         n = len(plan.names)
         known = {np.round(x, 12).tobytes() for x in np.concatenate([plan.samples, samples])}
-        state = self._expanded
-
-        def key(index: int, j: int) -> tuple[bytes, int]:
-            return (np.round(point(index), 12).tobytes(), j)
-
-        def tried(lead: tuple[int, int]) -> int:
-            entry = state.get(key(*lead))
-            return -1 if entry is None else len(entry[1])
-
-        started = [lead for lead in leads if 0 <= tried(lead) < 2 * n]
-        fresh = [lead for lead in leads if tried(lead) < 0]
-        again = [lead for lead in leads if tried(lead) == 2 * n]
+        first_new = len(samples)
         new: list[NDArray[np.float64]] = []
         new_steps: list[float] = []
-        for index, j in started + fresh + again:
+        for index, j, side, (_, name, element, value) in leads:
             if len(new) == budget:
                 break
             x = point(index)
-            entry = state.get(key(index, j))
+            code = (np.round(x, 12).tobytes(), j, side)
+            entry = self._expanded.get(code)
             if entry is None:
                 step = FIRST_STEP if index < n_plan else float(steps[index - n_plan])
-                entry = state[key(index, j)] = [step, set()]
-            elif len(entry[1]) == 2 * n:  # every direction tried: a finer step
-                entry[0] = 0.5 * entry[0]
-                entry[1] = set()
+                entry = self._expanded[code] = {"step": step, "tried": {}, "vertex": False}
+            elif len(entry["tried"]) == 2 * n and entry["vertex"]:
+                entry.update(step=0.5 * entry["step"], tried={}, vertex=False)  # a finer step
             half = 0.5 * (boxes[j, :, 1] - boxes[j, :, 0])
-            for i in range(n):
-                for sign in (-1, 1):
-                    if len(new) == budget or (i, sign) in entry[1]:
-                        continue
-                    entry[1].add((i, sign))
-                    y = x.copy()
-                    y[i] = np.clip(x[i] + sign * entry[0] * half[i], boxes[j, i, 0], boxes[j, i, 1])
-                    code = np.round(y, 12).tobytes()
-                    if code in known:
-                        continue
-                    known.add(code)
-                    new.append(y)
-                    new_steps.append(entry[0])
+            proposals: list[tuple[NDArray[np.float64], Any]] = []
+            if len(entry["tried"]) < 2 * n:
+                for i in range(n):
+                    for sign in (-1, 1):
+                        if (i, sign) in entry["tried"]:
+                            continue
+                        y = x.copy()
+                        y[i] = np.clip(x[i] + sign * entry["step"] * half[i], *boxes[j, i])
+                        proposals.append((y, (i, sign)))
+            else:
+                entry["vertex"] = True
+                y = self._vertex(x, entry, name, element, value, side, half, boxes[j])
+                if y is not None:
+                    proposals.append((y, None))
+            for y, direction in proposals:
+                if len(new) == budget:
+                    break
+                code_y = np.round(y, 12).tobytes()
+                if direction is not None:
+                    # -1: clipped onto x or a known point, no value of its own to fit
+                    entry["tried"][direction] = -1
+                if code_y in known:
+                    continue
+                known.add(code_y)
+                if direction is not None:
+                    entry["tried"][direction] = first_new + len(new)
+                    self._tracked[first_new + len(new)] = (name, element)
+                new.append(y)
+                new_steps.append(entry["step"])
         if not new:
             return None
         table = np.asarray(new, dtype=float)
@@ -659,6 +669,48 @@ class MethodSearch:
             np.asarray(["search"] * len(table)),
             np.asarray(new_steps, dtype=float),
         )
+
+    def _vertex(
+        self,
+        x: NDArray[np.float64],
+        entry: dict[str, Any],
+        name: str,
+        element: int,
+        value: float,
+        side: int,
+        half: NDArray[np.float64],
+        box: NDArray[np.float64],
+    ) -> NDArray[np.float64] | None:
+        """The vertex of the parabolas through each parameter's compass steps (per
+        parameter, within one step; towards the better step where the curvature is of
+        the wrong sign), for the output element the start was chosen for."""
+        sign = 1.0 if side == 1 else -1.0  # maximise the upper bound, minimise the lower
+        h = entry["step"]
+        y = x.copy()
+        moved = False
+        for i in range(len(x)):
+            found = []
+            for direction in (-1, 1):
+                row = entry["tried"].get((i, direction), -1)
+                tracked = self._values.get(row)
+                found.append(None if tracked is None else sign * tracked)
+            centre = sign * value
+            low, high = found
+            if low is None or high is None or not np.isfinite(centre):
+                better = [d for d, v in ((-1, low), (1, high)) if v is not None and v > centre]
+                offset = float(better[0]) if better else 0.0
+            else:
+                curvature = high - 2.0 * centre + low
+                if curvature < 0.0:
+                    offset = float(np.clip(0.5 * (low - high) / curvature, -1.0, 1.0))
+                elif max(low, high) > centre:
+                    offset = 1.0 if high >= low else -1.0
+                else:
+                    offset = 0.0
+            if offset != 0.0:
+                y[i] = np.clip(x[i] + offset * h * half[i], *box[i])
+                moved = True
+        return y if moved else None
 
     def _halton_round(self, budget: int) -> ValidationPoints:
         """Without any bound to start from: further Halton points."""
