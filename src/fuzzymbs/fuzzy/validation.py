@@ -17,13 +17,16 @@ output element ``i`` the part of the validation runs' range outside the
 method's cut ``[l, u]``, on the cut-width scale of
 :mod:`fuzzymbs.fuzzy.band_scale`,
 
-    e_j(i) = (max(l - min f, 0) + max(max f - u, 0)) / max(w_j(i), 0.1 max_i w_j(i)),
+    e_j(i) = (max(l - min f, 0) + max(max f - u, 0)) / max(k_j(i), 0.1 max_i k_j(i)),
 
-is the method's miss that the check found; the study's ``method_error`` is its
-largest value over outputs, levels and elements (:meth:`MethodSearch.outcome`).
-It is the formula of the true miss against dense-grid truth
-(:func:`~fuzzymbs.fuzzy.band_scale.band_miss`) with the validation range in
-place of the true one and the method's width in place of the true width.
+with ``k`` the width of the known cut (the method's cut widened by the
+validation runs), is the method's miss that the check found; the study's
+``method_error`` is its largest value over outputs, levels and elements
+(:meth:`MethodSearch.outcome`). It is the formula of the true miss against
+dense-grid truth (:func:`~fuzzymbs.fuzzy.band_scale.band_miss`) with the
+validation runs in place of the truth, so it is at most the true miss where
+the method's cut lies inside the true one. :func:`excursions` reads each
+run's own excursion on the method's cut width (a diagnostic).
 
 The points, ``count`` in all, in :data:`ROUNDS` rounds (:class:`MethodSearch`;
 each round is one batch of model runs, its outputs reduced as they arrive):
@@ -35,25 +38,26 @@ each round is one batch of model runs, its outputs reduced as they arrive):
   time is moved half-way towards its modal value; the levels take turns), and
   a scrambled Halton sequence (:class:`scipy.stats.qmc.Halton`, fixed seed) in
   the mu = 0 box, space-filling, for extrema away from the bounding runs;
-* rounds 2 to 4, the rest shared equally: a **coordinate search** (compass
-  search) from the points that give each level's bounds now, the method's runs
-  or validation runs that beat them. From each start a round evaluates steps of
-  :data:`FIRST_STEP` of the level box's half-width along each parameter, both
-  ways, clipped to the box; a start that stays the best after all its steps is
-  searched again with half the step; a validation run that improved a bound
-  starts with the step that found it. Starts inside their level's box (an
-  interior extremum: for a monotonic model every bound lies on a corner) come
-  first; the levels take turns from both ends (outermost, innermost, ...).
+* rounds 2 to 4, the rest shared equally: a **local search** from the points
+  that give each level's bounds now (the method's runs, or validation runs
+  that beat them; for a sparse plan, whose bounds are no run's, the best
+  validation runs, and its first round also runs the true model at the
+  interpolant's optima). From each start a compass step of :data:`FIRST_STEP`
+  of the level box's half-width along each parameter, both ways, clipped to
+  the box, then one step to the vertex of the parabolas through those steps; a
+  start that stays the best after both is searched again with half the step;
+  a validation run that improved a bound starts with the step that found it.
+  Starts inside their level's box (an interior extremum: for a monotonic model
+  every bound lies on a corner) come first; the levels take turns from both
+  ends (outermost, innermost, ...).
 
 The default count, a fifth of the runs and at least :data:`PER_PARAMETER` per
 parameter, and the rounds were chosen on the hard cases of
-:mod:`fuzzymbs.models.closed_form.hard_cases`, where the reported error is at
-least half the true miss for every fixed method (docs/fuzzy.md,
+:mod:`fuzzymbs.models.closed_form.hard_cases` and two models of the tests, where the
+reported error is at least 0.63 of the true miss for every fixed method (docs/fuzzy.md,
 benchmarks/method_check_honesty.py). What the check cannot see: a narrow
-extremum far from every start and between the Halton points, or a sparse-grid
-bound at the interpolant's optimum away from every run. It can overstate a
-miss where the method's cut is much narrower than the true one (the scale is
-the method's width).
+extremum far from every start and between the Halton points, or a second
+extremum beside the one the search climbs.
 """
 
 from __future__ import annotations
