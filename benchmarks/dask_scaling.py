@@ -21,8 +21,9 @@ with five triangular parameters -- ``pinion_tooth_stiffness`` and
 (80-100-120 N m) and ``tooth_stiffness`` (+-10 %; the model lets the two
 per-gear stiffnesses override it, so it changes the run count, not the
 outputs) -- on the full alpha-bound grid (``method="grid"``, ``levels=3``):
-7**5 = **16,807 runs**, then the method check's validation runs (3,361, the
-default count), then the retransformation. ``--quick``: ``levels=1`` (3**5 =
+7**5 = **16,807 runs**, then the method check's validation runs (the default
+count 3,361 at most, in four rounds; 930 made: 840 + 30 + 30 + 30, where the search
+runs out of starts on the grid's points), then the retransformation. ``--quick``: ``levels=1`` (3**5 =
 243 runs), 12 positions, chunk 32, one round (a smoke test: ~12 s, 9 s with
 ``--no-diagnostics``).
 
