@@ -120,6 +120,13 @@ class Study(StudyRuns):
         and the modal point) and tighten the model's tolerance so that the
         time-integration error is expected below the integration tolerance
         (:func:`~fuzzymbs.study.integration_check.choose_tolerance`; default True).
+    shared_steps : bool
+        With a model that offers ``share_steps`` (the brake, ROS34PW2) and
+        ``choose_integration``: every sample takes the modal sample's step sequence
+        and the modal sample's integration error, measured against a tight
+        reference run, is removed from every sample's outputs, so that the error
+        is smooth across the parameters and the bands settle at a far looser
+        tolerance (:mod:`fuzzymbs.mbs.shared_steps`; default True).
     validation_runs : int, optional
         Extra runs that check the method (:mod:`fuzzymbs.study.method_check`):
         points inside the cut boxes that no run of the method covers, compared
@@ -168,6 +175,7 @@ class Study(StudyRuns):
         integration_tolerance: float = DEFAULT_TOLERANCE,
         integration_runs: int = DEFAULT_RUNS,
         choose_integration: bool = True,
+        shared_steps: bool = True,
         validation_runs: int | None = None,
         method_tolerance: float = DEFAULT_METHOD_TOLERANCE,
         widen_with_validation: bool = False,
@@ -199,6 +207,7 @@ class Study(StudyRuns):
         self.integration_tolerance = float(integration_tolerance)
         self.integration_runs = int(integration_runs)
         self.choose_integration = bool(choose_integration)
+        self.shared_steps = bool(shared_steps)
         self.integration_choice: ToleranceChoice | None = None
         self.validation_runs = None if validation_runs is None else int(validation_runs)
         self.method_tolerance = float(method_tolerance)
@@ -332,6 +341,8 @@ class Study(StudyRuns):
             identity["model_identity"] = model_identity()
         if self.integration_choice is not None:
             identity["integration_tolerance_factor"] = self.integration_choice.factor
+            if self.integration_choice.shared_steps:
+                identity["integration_shared_steps"] = True
         return identity
 
     def _plan_levels(self) -> np.ndarray:
