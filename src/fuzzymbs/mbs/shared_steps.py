@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -101,23 +102,16 @@ def _run(model: SimulationModel, modal: Mapping[str, float], **extra):
     return result
 
 
-def reference_runs(
-    model: SimulationModel, modal: Mapping[str, float], rtol: float = REFERENCE_RTOL
-) -> tuple[dict[str, NDArray[np.float64]], dict[str, NDArray[np.float64]]]:
-    """The modal sample at ``rtol`` on its own steps, and that run's estimated error.
-
-    Returns
-    -------
-    (reference, error) : output -> (T,) each; the error is ``|y(10 rtol) - y(rtol)| /
-    (10^q - 1)``, q = :data:`REFERENCE_ORDER`.
-    """
+def _at(model: SimulationModel, modal: Mapping[str, float], rtol: float):
+    """The modal sample on its own steps at ``rtol`` (atol scaled alike)."""
     atol = model.settings["atol"]  # None: its default fraction of rtol
+    scaled = None if atol is None else atol * rtol / model.settings["rtol"]
+    return _run(model, modal, rtol=rtol, atol=scaled)
 
-    def scaled(r: float) -> float | None:
-        return None if atol is None else atol * r / model.settings["rtol"]
 
-    fine = _run(model, modal, rtol=rtol, atol=scaled(rtol))
-    coarse = _run(model, modal, rtol=10 * rtol, atol=scaled(10 * rtol))
+def _reference(model: SimulationModel, fine, coarse):
+    """The reference (the modal sample at the reference rtol) and its estimated error,
+    ``|y(10 r) - y(r)| / (10^q - 1)``, q = :data:`REFERENCE_ORDER`, output -> (T,)."""
     scale = 10.0**REFERENCE_ORDER - 1.0
     reference = {name: fine.outputs[name][0] for name in model.outputs}
     error = {
@@ -125,6 +119,18 @@ def reference_runs(
         for name in model.outputs
     }
     return reference, error
+
+
+def _logged_sequence(model: SimulationModel, modal: Mapping[str, float]) -> NDArray[np.float64]:
+    """The ends of the modal sample's accepted steps at the model's own tolerance."""
+    capacity = 10**6
+    while True:  # a log as long as the modal sample's steps need
+        try:
+            return _run(model, modal, log_steps=capacity).step_times
+        except InvalidParameterError:
+            if capacity >= 10**9:
+                raise
+            capacity *= 8
 
 
 def share_steps(
@@ -157,19 +163,15 @@ def share_steps(
     plain = copy.copy(model)
     plain.shared = None
     modal = {name: float(value) for name, value in modal.items()}
-    capacity = 10**6
-    while True:  # a log as long as the modal sample's steps need
-        try:
-            sequence = _run(plain, modal, log_steps=capacity).step_times
-            break
-        except InvalidParameterError:
-            if capacity >= 10**9:
-                raise
-            capacity *= 8
-    if reference is None:
-        reference = (*reference_runs(plain, modal), REFERENCE_RTOL)
+    with ThreadPoolExecutor(1) as pool:  # the reference beside the sequence: two cores
+        tight = None if reference is not None else pool.submit(_at, plain, modal, REFERENCE_RTOL)
+        if tight is not None:
+            coarse = _at(plain, modal, 10 * REFERENCE_RTOL)
+        sequence = _logged_sequence(plain, modal)
+        replay = _run(plain, modal, step_sequence=sequence)
+        if tight is not None:
+            reference = (*_reference(plain, tight.result(), coarse), REFERENCE_RTOL)
     values, error, rtol = reference
-    replay = _run(plain, modal, step_sequence=sequence)
     correction = {name: values[name] - replay.outputs[name][0] for name in model.outputs}
     shared = copy.copy(plain)
     shared.shared = SharedSteps(modal, sequence, correction, values, error, rtol)
