@@ -542,6 +542,18 @@ class AdaptiveTransformation:
         return np.array(chosen).reshape(-1, dimension)
 
     # ----------------------------------------------------------------- result
+    @property
+    def layout(self) -> dict[str, tuple[int, tuple[int, ...]]]:
+        """Per output, its offset in the flattened elements and its own shape."""
+        return dict(self._layout)
+
+    def output(self, name: str) -> NDArray[np.float64]:
+        """(N, *shape) the outputs ``name`` of every run added."""
+        offset, shape = self._layout[name]
+        size = int(np.prod(shape, dtype=np.int64))
+        assert self._values is not None
+        return self._values[:, offset : offset + size].reshape(self.runs, *shape)
+
     def _finish(self, converged: bool) -> None:
         self.done = True
         self.converged = converged
