@@ -15,7 +15,7 @@ from __future__ import annotations
 import hashlib
 import json
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -31,9 +31,10 @@ from fuzzymbs.fuzzy.adaptive import (
 )
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.plan_options import checked_parameters, make_levels
+from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS
 from fuzzymbs.fuzzy.retransform import FuzzyResult
 
-__all__ = ["AdaptivePlan", "AdaptiveWarning"]
+__all__ = ["AdaptivePlan", "AdaptiveWarning", "adaptive_plan"]
 
 
 class AdaptiveWarning(UserWarning):
@@ -342,3 +343,41 @@ class AdaptivePlan:
             "adaptive_runs": int(outcome.runs),
             "adaptive_rounds": int(outcome.rounds),
         }
+
+
+def adaptive_plan(
+    parameters: Mapping[str, FuzzyNumber],
+    levels: int | ArrayLike = 4,
+    nonmonotonic: Iterable[str] | None = None,
+    *,
+    sparse_level: int | None = None,
+    search_points: int | None = None,
+    max_runs: int | None = DEFAULT_MAX_RUNS,
+    method_tolerance: float | None = None,
+) -> AdaptivePlan:
+    """``plan(parameters, "adaptive", levels, ...)``: the arguments of
+    :class:`~fuzzymbs.fuzzy.transform.Plan`, with ``max_runs`` as the run budget (the
+    general plan limit's default, and None, mean the adaptive default of 2,000) and
+    ``method_tolerance`` (default 1 %).
+
+    Raises
+    ------
+    InvalidPlanError
+        Options of other methods (``nonmonotonic``, ``sparse_level``), or invalid ones.
+    """
+    if nonmonotonic:
+        raise InvalidPlanError(
+            f"nonmonotonic={list(nonmonotonic)} is only used by method='extended', not 'adaptive'"
+        )
+    if sparse_level is not None:
+        raise InvalidPlanError("sparse_level is only used by method='sparse', not 'adaptive'")
+    budget = DEFAULT_ADAPTIVE_MAX_RUNS if max_runs in (None, DEFAULT_MAX_RUNS) else max_runs
+    return AdaptivePlan(
+        parameters,
+        levels,
+        method_tolerance=(
+            DEFAULT_ADAPTIVE_TOLERANCE if method_tolerance is None else method_tolerance
+        ),
+        max_runs=budget,
+        search_points=search_points,
+    )

@@ -164,7 +164,9 @@ class Plan:
         """``method="adaptive"`` gives an :class:`~fuzzymbs.fuzzy.adaptive_plan.AdaptivePlan`
         (its points come in rounds); every other method a :class:`Plan`."""
         if method == "adaptive":
-            return _adaptive_plan(parameters, *args, **kwargs)
+            from fuzzymbs.fuzzy.adaptive_plan import adaptive_plan
+
+            return adaptive_plan(parameters, *args, **kwargs)
         return super().__new__(cls)
 
     def __init__(
@@ -590,39 +592,6 @@ class Plan:
         digest.update(json.dumps(self.to_dict(), sort_keys=True).encode())
         digest.update(np.ascontiguousarray(self.samples, dtype="<f8").tobytes())
         return digest.hexdigest()
-
-
-def _adaptive_plan(
-    parameters: Mapping[str, FuzzyNumber],
-    levels: int | ArrayLike = 4,
-    nonmonotonic: Iterable[str] | None = None,
-    *,
-    sparse_level: int | None = None,
-    search_points: int | None = None,
-    max_runs: int | None = DEFAULT_MAX_RUNS,
-    method_tolerance: float | None = None,
-) -> Any:
-    """The adaptive plan; ``max_runs`` is its run budget (the general limit's default
-    means the adaptive default, 2,000)."""
-    from fuzzymbs.fuzzy.adaptive import DEFAULT_ADAPTIVE_MAX_RUNS, DEFAULT_ADAPTIVE_TOLERANCE
-    from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan
-
-    if nonmonotonic:
-        raise InvalidPlanError(
-            f"nonmonotonic={list(nonmonotonic)} is only used by method='extended', not 'adaptive'"
-        )
-    if sparse_level is not None:
-        raise InvalidPlanError("sparse_level is only used by method='sparse', not 'adaptive'")
-    budget = DEFAULT_ADAPTIVE_MAX_RUNS if max_runs in (None, DEFAULT_MAX_RUNS) else max_runs
-    return AdaptivePlan(
-        parameters,
-        levels,
-        method_tolerance=(
-            DEFAULT_ADAPTIVE_TOLERANCE if method_tolerance is None else method_tolerance
-        ),
-        max_runs=budget,
-        search_points=search_points,
-    )
 
 
 def _check_model_output(
