@@ -98,7 +98,7 @@ BAD_CASES = {
     "unknown section": (VALID + "\n[output]\nx = 1\n", r"unknown key 'output'.*allowed keys"),
     "wrong method": (
         VALID.replace('method = "reduced"', 'method = "reducd"'),
-        r"key 'study\.method'.*'general', 'reduced', 'extended', 'grid' or 'sparse'",
+        r"key 'study\.method'.*'general', 'reduced', 'extended', 'grid', 'sparse' or 'adaptive'",
     ),
     "wrong type": (
         VALID.replace("chunk_size = 16", 'chunk_size = "many"'),
