@@ -57,6 +57,7 @@ from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning, retrans
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
 __all__ = [
+    "ALL_METHODS",
     "DEFAULT_MAX_RUNS",
     "METHODS",
     "NonMonotonicWarning",
@@ -65,6 +66,10 @@ __all__ = [
     "plan",
     "run_count",
 ]
+
+
+#: every method :func:`plan` accepts: the fixed schemes and "adaptive" (an AdaptivePlan)
+ALL_METHODS: tuple[str, ...] = (*METHODS, "adaptive")
 
 
 def _general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]:
@@ -182,7 +187,7 @@ class Plan:
     ) -> None:
         if not isinstance(method, str) or method not in METHODS:
             raise InvalidPlanError(
-                f"unknown method {method!r}; valid methods: {[*METHODS, 'adaptive']}"
+                f"unknown method {method!r}; valid methods: {list(ALL_METHODS)}"
             )
         self.parameters: dict[str, FuzzyNumber] = checked_parameters(parameters)
         self.names: tuple[str, ...] = tuple(self.parameters)
