@@ -186,9 +186,7 @@ class Plan:
         max_runs: int | None = DEFAULT_MAX_RUNS,
     ) -> None:
         if not isinstance(method, str) or method not in METHODS:
-            raise InvalidPlanError(
-                f"unknown method {method!r}; valid methods: {list(ALL_METHODS)}"
-            )
+            raise InvalidPlanError(f"unknown method {method!r}; valid methods: {list(ALL_METHODS)}")
         self.parameters: dict[str, FuzzyNumber] = checked_parameters(parameters)
         self.names: tuple[str, ...] = tuple(self.parameters)
         self.method = method
