@@ -72,7 +72,8 @@ class ChunkFeed:
         self.stored = set(stored)
         self.chunk_store = chunk_store
         self.keep_raw = keep_raw
-        self.layout = None if plan.method == "sparse" else StreamLayout(plan)
+        # sparse and adaptive plans bound their cuts by a surrogate of every sample
+        self.layout = None if plan.method in ("sparse", "adaptive") else StreamLayout(plan)
         self.failed = np.zeros(count, dtype=bool)
         self.reasons = np.full(count, "", dtype=object)
         self.accumulators: dict[str, OutputAccumulator] = {}

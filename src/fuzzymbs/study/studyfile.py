@@ -55,7 +55,7 @@ class StudySection(_Section):
 
     name: str | None = None
     description: str = ""
-    method: Literal["general", "reduced", "extended", "grid", "sparse"] = "reduced"
+    method: Literal["general", "reduced", "extended", "grid", "sparse", "adaptive"] = "reduced"
     levels: int | list[float] = 4
     outputs: list[str] | None = None
     nonmonotonic: list[str] | Literal["auto"] = Field(default_factory=list)
