@@ -272,7 +272,7 @@ def main(argv: list[str] | None = None) -> dict:
         choices=["noise", "simd", "bands", "cost"],
     )
     parser.add_argument(
-        "--rtol", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4, 1e-5], help="tolerances"
+        "--rtol", type=float, nargs="*", default=[1e-2, 1e-3, 1e-4, 1e-5], help="tolerances"
     )
     parser.add_argument(
         "--shared-rtol",
