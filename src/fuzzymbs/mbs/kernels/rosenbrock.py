@@ -109,9 +109,6 @@ _EXPONENT = 1.0 / 3.0
 (_AFTER_REJECT, _ACCEPTED, _REJECTED, _NEXT_REC, _T, _STEP) = range(6, 12)
 _GRID = 12  # the lane's next point of a shared step sequence
 _CONTROL_ROWS = 13
-#: on a shared step sequence a step is accepted up to this error norm (the sequence's
-#: own sample accepted it at most at 1; a neighbour's differs a little)
-SHARED_ACCEPT = 4.0
 #: step proposal after reaching a point of a shared step sequence: the whole next interval
 _OPEN = np.inf
 
@@ -218,7 +215,6 @@ def advance_block_ros(
     t_final = t0 + (n_records - 1) * interval
     tiny = 1e-12 * interval
     shared = sequence.shape[0] > 0
-    accept = SHARED_ACCEPT if shared else 1.0
     logging = step_log.shape[0] > 1 and first == 0
     h = control[_H]
     err_prev = control[_ERR_PREV]
@@ -385,7 +381,7 @@ def advance_block_ros(
                 status[first + lane] = NONFINITE
                 fail_t[first + lane] = t[lane]
                 newly_failed = True
-            elif err <= accept:
+            elif err <= 1.0:
                 took[lane] = True
                 if last[lane]:
                     theta[lane] = sequence[int(control[_GRID, lane])] if shared else t_final
