@@ -13,11 +13,12 @@
   per output and level, as a fraction of max(local cut width, 0.1 x the level's widest
   cut) (the normalisation of ``method_error`` and ``time_integration_error``); CPU
   time of each call (all threads);
-* ``cost``: the whole default study 1 (``Study.run``: 33 runs, the method check's 6
-  validation runs and the time-integration check) in fresh interpreters, this
-  checkout's default, the ``--before`` checkout's default and this checkout with RK4
-  at 1 us, alternating, ``--rounds`` times; the smallest wall times, their ratios and
-  each study's own error estimates;
+* ``cost``: the whole default study 1 (``Study.run``: the integration pilot, 33 runs,
+  the method check's 6 validation runs and the time-integration check) in fresh
+  interpreters, this checkout's default (shared steps), the same with each sample on
+  its own steps (``shared_steps=False``), the ``--before`` checkout's default and
+  this checkout with RK4 at 1 us, alternating, ``--rounds`` times; the smallest wall
+  times, their ratios and each study's own error estimates;
 * ``simd``: the 33 samples of study 1 at rtol 1e-3 in one call, four samples per
   SIMD block (``kernel="lanes"``) against a block per sample (``kernel="samples"``),
   CPU time, in this checkout and (``--before``) in the other one: what the lanes
@@ -80,14 +81,23 @@ def band_deviation(bands: dict, reference: dict) -> dict[str, list[float]]:
     return found
 
 
-def evaluate_bands(study: int, t_end: float, settings: dict) -> tuple[dict, float, float]:
-    """The study's plan integrated in one call: ({output: (lower, upper)}, CPU s, wall s)."""
+def evaluate_bands(
+    study: int, t_end: float, settings: dict, shared: bool = False
+) -> tuple[dict, float, float]:
+    """The study's plan integrated in one call: ({output: (lower, upper)}, CPU s, wall s).
+
+    ``shared``: every sample on the modal sample's step sequence, corrected by its run
+    at rtol 1e-6 (``DiscBrake.share_steps``); the CPU time then includes the modal
+    sample's logging, replay and two reference runs."""
     parameters = study_parameters(study)
     plan = fuzzymbs.plan(parameters, method="reduced", levels=LEVELS)
     model = DiscBrake(t_end=t_end, **settings)
     samples = {name: plan.samples[:, i] for i, name in enumerate(parameters)}
     model({name: values[:1] for name, values in samples.items()})  # compile / warm up
     cpu, wall = time.process_time(), time.perf_counter()
+    if shared:
+        nominal = plan.nominal_index
+        model = model.share_steps({name: v[nominal : nominal + 1] for name, v in samples.items()})
     out = model(samples)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     if np.asarray(out["failed"]).any():
@@ -154,14 +164,15 @@ from fuzzymbs.study.study import Study
 parameters = {{
     "pad_spring_stiffness": {{"type": "triangular", "modal": 200e3, "spread": 0.1}},
     "caliper_spring_stiffness": {{"type": "triangular", "modal": 1e3, "spread": 0.1}},
-    "nodal_force": {{"type": "triangular", "modal": 16e3, "spread": 0.01}},
+    {third},
 }}
 levels = [0.0, 0.25, 0.5, 0.75, 1.0]
 warnings.simplefilter("ignore")
 settings = {settings}
-Study(DiscBrake(t_end=2e-5, **settings), parameters, levels=levels).run(progress=False)
+options = {options}
+Study(DiscBrake(t_end=2e-5, **settings), parameters, levels=levels, **options).run(progress=False)
 wall, cpu = time.perf_counter(), time.process_time()
-result = Study(DiscBrake(t_end={t_end}, **settings), parameters, levels=levels).run(
+result = Study(DiscBrake(t_end={t_end}, **settings), parameters, levels=levels, **options).run(
     chunk_size=33, progress=False
 )
 attrs = result.dataset.attrs
@@ -172,29 +183,52 @@ print(json.dumps({{"wall_s": time.perf_counter() - wall, "cpu_s": time.process_t
     "time_integration": str(attrs.get("time_integration", "")),
     "time_integration_error": float(attrs.get("time_integration_error", float("nan"))),
     "time_integration_error_peak": float(attrs.get("time_integration_error_peak", float("nan"))),
+    "integration_pilot_error": float(attrs.get("integration_pilot_error", float("nan"))),
+    "integration_reference_error": float(
+        attrs.get("time_integration_reference_error", float("nan"))),
     "method_error": float(attrs.get("method_error", float("nan")))}}))
 """
 
 
-def measure_cost(before: Path | None, t_end: float, rounds: int, reference: dict) -> dict:
-    sides = {"default": (REPO, {}), "rk4_1us": (REPO, {"integrator": "rk4", "dt": 1e-6})}
+_THIRD = {
+    1: '"nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01}',
+    2: '"disc_speed": {"type": "triangular", "modal": 1.0, "spread": 0.1}',
+}
+
+
+def measure_cost(
+    before: Path | None, t_end: float, rounds: int, reference: dict, study: int = 1
+) -> dict:
+    sides = {
+        "default": (REPO, {}, {}),
+        "own_steps": (REPO, {}, {"shared_steps": False}),
+        "rk4_1us": (REPO, {"integrator": "rk4", "dt": 1e-6}, {}),
+    }
     if before is not None:
-        sides["before_default"] = (before.resolve(), {})
+        sides["before_default"] = (before.resolve(), {}, {})
+    if study != 1:  # the other studies: the default's bands and cost alone
+        sides = {"default": sides["default"]}
     runs: dict[str, list[dict]] = {name: [] for name in sides}
-    saved = BENCH_DIR / ".cache" / f"brake_bands_default_study_t{t_end:g}.npz"
+    saved = BENCH_DIR / ".cache" / f"brake_bands_default_study{study}_t{t_end:g}.npz"
     saved.parent.mkdir(exist_ok=True)
+    third = _THIRD[study].replace("{", "{{").replace("}", "}}")
     for _ in range(rounds):
-        for name, (checkout, settings) in sides.items():
+        for name, (checkout, settings, options) in sides.items():
             save = str(saved) if name == "default" else ""
-            code = _STUDY.format(settings=repr(settings), t_end=t_end, save=save)
+            code = _STUDY.replace("{third}", third).format(
+                settings=repr(settings), options=repr(options), t_end=t_end, save=save
+            )
             runs[name].append(run_in_checkout(code, checkout))
     cost = {name: min(runs[name], key=lambda r: r["wall_s"]) for name in sides}
     figures = {"runs": runs, "best": cost}
     data = np.load(saved)
     bands = {n: (data[f"{n}_lower"], data[f"{n}_upper"]) for n in OUTPUTS}
     figures["default_study_band_deviation"] = band_deviation(bands, reference)
-    figures["default_over_rk4_1us"] = cost["default"]["wall_s"] / cost["rk4_1us"]["wall_s"]
-    if before is not None:
+    if "rk4_1us" in cost:
+        figures["default_over_rk4_1us"] = cost["default"]["wall_s"] / cost["rk4_1us"]["wall_s"]
+    if "own_steps" in cost:
+        figures["default_over_own_steps"] = cost["default"]["wall_s"] / cost["own_steps"]["wall_s"]
+    if "before_default" in cost:
         figures["default_over_before_default"] = (
             cost["default"]["wall_s"] / cost["before_default"]["wall_s"]
         )
@@ -214,8 +248,8 @@ def plot(bands: dict, path: Path) -> None:
     for ax, (study, entries) in zip(axes, bands.items(), strict=False):
         for label, entry in entries.items():
             worst = max(max(v) for v in entry["deviation"].values())
-            marker = "s" if label.startswith("rk4") else "o"
-            ax.loglog(entry["cpu_s"], 100 * worst, marker, color="k" if marker == "s" else "C0")
+            marker, color = {"rk4": ("s", "k"), "sha": ("^", "C1")}.get(label[:3], ("o", "C0"))
+            ax.loglog(entry["cpu_s"], 100 * worst, marker, color=color)
             ax.annotate(
                 label,
                 (entry["cpu_s"], 100 * worst),
@@ -247,7 +281,17 @@ def main(argv: list[str] | None = None) -> dict:
         choices=["noise", "simd", "bands", "cost"],
     )
     parser.add_argument(
-        "--rtol", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4, 1e-5], help="tolerances"
+        "--rtol", type=float, nargs="*", default=[1e-2, 1e-3, 1e-4, 1e-5], help="tolerances"
+    )
+    parser.add_argument(
+        "--shared-rtol",
+        type=float,
+        nargs="*",
+        default=[1e-2, 1e-3, 1e-4],
+        help="tolerances on the modal sample's shared steps",
+    )
+    parser.add_argument(
+        "--cost-studies", type=int, nargs="+", default=[1], help="studies whose default to time"
     )
     args = parser.parse_args(argv)
     t_end = 1e-3 if args.quick else 1e-2
@@ -271,10 +315,11 @@ def main(argv: list[str] | None = None) -> dict:
         if "bands" not in parts:
             continue
         entries = {}
-        variants = [(f"rtol {r:g}", {"rtol": r}) for r in rtols]
-        variants.append(("rk4 1 us", {"integrator": "rk4", "dt": 1e-6}))
-        for label, settings in variants:
-            bands, cpu, wall = evaluate_bands(study, t_end, settings)
+        variants = [(f"rtol {r:g}", {"rtol": r}, False) for r in rtols]
+        variants += [(f"shared rtol {r:g}", {"rtol": r}, True) for r in args.shared_rtol]
+        variants.append(("rk4 1 us", {"integrator": "rk4", "dt": 1e-6}, False))
+        for label, settings, shared in variants:
+            bands, cpu, wall = evaluate_bands(study, t_end, settings, shared)
             entries[label] = {
                 "cpu_s": round(cpu, 2),
                 "wall_s": round(wall, 2),
@@ -283,7 +328,11 @@ def main(argv: list[str] | None = None) -> dict:
         figures["bands"][f"study{study}"] = entries
     if "cost" in parts and not args.skip_cost:
         rounds = 1 if args.quick else args.rounds
-        figures["cost"] = measure_cost(args.before, t_end, rounds, references[1])
+        for study in args.cost_studies if not args.quick else (1,):
+            if study not in references:
+                references[study] = reference_bands(study, t_end, cache=not args.quick)
+            key = "cost" if study == 1 else f"cost_study{study}"
+            figures[key] = measure_cost(args.before, t_end, rounds, references[study], study)
     if args.figure and figures["bands"]:
         plot(figures["bands"], REPO / "docs" / "figures" / "brake_band_precision.png")
     figures["load_average_end"] = load_average()

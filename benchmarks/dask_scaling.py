@@ -22,10 +22,10 @@ with five triangular parameters -- ``pinion_tooth_stiffness`` and
 per-gear stiffnesses override it, so it changes the run count, not the
 outputs) -- on the full alpha-bound grid (``method="grid"``, ``levels=3``):
 7**5 = **16,807 runs**, then the method check's validation runs (the default
-count 3,361 at most, in four rounds; 930 made: 840 + 30 + 30 + 30, where the search
-runs out of starts on the grid's points), then the retransformation. ``--quick``: ``levels=1`` (3**5 =
-243 runs), 12 positions, chunk 32, one round (a smoke test: ~12 s, 9 s with
-``--no-diagnostics``).
+count 3,361 at most, in rounds; 870 made: 840 + 30, where the search runs out
+of starts on the grid's points), then the retransformation. ``--quick``:
+``levels=1`` (3**5 = 243 runs), 12 positions, chunk 32, one round (a smoke
+test: ~12 s, 9 s with ``--no-diagnostics``).
 
 Timed in one process, ``--repeat`` rounds (medians; the machine may be shared,
 so the load average of each run and the CPU times are reported too). Each round

@@ -402,7 +402,7 @@ def info(
     With a .fmu file: its settable real parameters and its outputs, with units.
     """
     from fuzzymbs.errors import FuzzymbsError
-    from fuzzymbs.fuzzy.transform import METHODS
+    from fuzzymbs.fuzzy.transform import ALL_METHODS
     from fuzzymbs.study.pipeline import demo_names
     from fuzzymbs.study.registry import available_models, get_model
 
@@ -435,7 +435,7 @@ def info(
         if spec.options:
             lines.append("    options:")
             lines += [f"      {k}: {v}" for k, v in spec.options.items()]
-    lines.append(f"Methods: {', '.join(METHODS)}")
+    lines.append(f"Methods: {', '.join(ALL_METHODS)}")
     lines.append("Executors: inline, processes[:N], dask://HOST:PORT")
     lines.append(f"Demos: {', '.join(demo_names()) or '(none)'}")
     typer.echo("\n".join(lines))

@@ -100,6 +100,12 @@ def checks(dataset: xarray.Dataset) -> list[Check]:
     if "method_error" in attrs:
         error, tolerance = float(attrs["method_error"]), float(attrs["method_tolerance"])
         runs = int(attrs.get("validation_runs", 0))
+        checked_by = (
+            f"certified by the adaptive method ({int(attrs['adaptive_runs'])} runs, "
+            f"{int(attrs['adaptive_rounds'])} rounds)"
+            if "adaptive_runs" in attrs
+            else f"from {runs} validation runs"
+        )
         if not np.isfinite(error):
             found.append(Check("method error", "none", "not checked: no validation run compared"))
         else:
@@ -108,7 +114,7 @@ def checks(dataset: xarray.Dataset) -> list[Check]:
                 Check(
                     "method error",
                     verdict,
-                    f"{100 * error:.3g} % of the cut's width from {runs} validation runs; "
+                    f"{100 * error:.3g} % of the cut's width {checked_by}; "
                     f"{'within' if verdict == 'pass' else 'EXCEEDS'} the tolerance "
                     f"{100 * tolerance:.3g} %",
                 )

@@ -43,6 +43,8 @@ def run(compiled, outputs, t_end, interval, rtol, x0=None, samples=None, bound=1
         (rtol, 1e-4 * rtol, 1e-14),
         4,
         counts,
+        np.empty(0),
+        np.empty(0),
     )
     assert (status == OK).all()
     return out, counts

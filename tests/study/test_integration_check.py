@@ -234,3 +234,95 @@ def test_study_chooses_the_integrator_tolerance_for_its_cut_widths():
     off = Study(ScalableDecay(1e-2), fuzzy, levels=2, choose_integration=False)
     with pytest.warns(TimeIntegrationWarning, match="exceeds"):
         assert "integration_pilot_runs" not in off.run(progress=False).dataset.attrs
+
+
+class SharedDecay(ScalableDecay):
+    """:class:`ScalableDecay` that can put its samples on shared steps: then its error is
+    smooth in ``a``, ``c r^1.2 (a - a0) sin(pi t)`` after the correction by the modal
+    sample (a0), plus the reference's own error ``R sin(pi t)`` common to all samples,
+    which it reports as ``reference_error``."""
+
+    SLOPE = 10.0  # c
+    REFERENCE = 2e-6  # R
+
+    def __init__(self, rtol: float, modal: float | None = None) -> None:
+        super().__init__(rtol)
+        self.modal = modal
+        if modal is not None:
+            self.time_integration = f"closed form, rtol {rtol:g}, shared"
+
+    @property
+    def shares_steps(self) -> bool:
+        return self.modal is not None
+
+    @property
+    def reference_error(self):
+        return None if self.modal is None else {"y": self.REFERENCE * np.sin(np.pi * TIME)}
+
+    def share_steps(self, modal) -> SharedDecay:
+        return SharedDecay(self.rtol, float(np.asarray(modal["a"])[0]))
+
+    def tightened(self, factor: float = 10.0) -> SharedDecay:
+        return SharedDecay(self.rtol / factor, self.modal)
+
+    def __call__(self, samples):
+        if self.modal is None:
+            return super().__call__(samples)
+        a = np.asarray(samples["a"], dtype=float)[:, None]
+        error = self.SLOPE * self.rtol**1.2 * (a - self.modal) + self.REFERENCE
+        y = a * np.exp(-TIME) + error * np.sin(np.pi * TIME)
+        failed = np.zeros(a.shape[0], dtype=bool)
+        return {"y": y, "failed": failed, "failure_reason": np.where(failed, "", "")}
+
+
+def test_study_on_shared_steps_chooses_its_tolerance_from_the_corners():
+    # a = 2 +- 0.2, levels 0, 0.5, 1: the pilot's corners are a = 1.9, 2.1 (the mu = 0.5
+    # cut), their band 0.2 e^-t wide (floor 0.02); at rtol r against r / 10 each corner
+    # moves by c 0.1 r^1.2 (1 - 10^-1.2) sin(pi t), the reference error is R sin(pi t).
+    # Closed forms of the pilot's figures and of the factor it divides rtol by:
+    from fuzzymbs.study.integration_check import SHARED_ORDER, TARGET_FRACTION
+
+    assert SHARED_ORDER == 1.2  # the model's own order, so the target is met exactly
+    rtol = 1e-2
+    s = np.sin(np.pi * TIME)
+    c = SharedDecay.SLOPE
+
+    def scale(half_width: float, r: float) -> np.ndarray:
+        # the cut a0 +- half_width at rtol r: 2 half_width (e^-t + c r^1.2 sin(pi t)) wide
+        width = 2 * half_width * (np.exp(-TIME) + c * r**1.2 * s)
+        return np.maximum(width, 0.1 * width.max())
+
+    pilot = np.max(c * 0.1 * rtol**1.2 * (1 - 10**-1.2) * s / scale(0.1, rtol))
+    reference = np.max(SharedDecay.REFERENCE * s / scale(0.1, rtol))
+    target = TARGET_FRACTION * 0.01
+    factor = (pilot / (target - reference)) ** (1 / 1.2)
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TimeIntegrationWarning)
+        result = Study(SharedDecay(rtol), fuzzy, levels=2, integration_tolerance=0.01).run(
+            progress=False
+        )
+    attrs = result.dataset.attrs
+    assert attrs["integration_shared_steps"] == 1
+    assert attrs["integration_pilot_error"] == pytest.approx(pilot, rel=1e-9)
+    assert attrs["integration_reference_error"] == pytest.approx(reference, rel=1e-9)
+    assert attrs["integration_tolerance_factor"] == pytest.approx(factor, rel=1e-9)
+    assert attrs["time_integration"] == f"closed form, rtol {rtol / factor:g}, shared"
+    # the check re-runs the four samples that bound the cuts (not the modal one, whose
+    # error the correction removed) and adds the reference's error: the band at the mu =
+    # 0.5 cut moves by the pilot's amount at the chosen rtol, plus R
+    assert attrs["time_integration_runs"] == 4
+    chosen = rtol / factor
+    expected = max(
+        np.max(
+            (c * h * chosen**1.2 * (1 - 10**-1.2) + SharedDecay.REFERENCE) * s / scale(h, chosen)
+        )
+        for h in (0.1, 0.2)
+    )
+    assert attrs["time_integration_error"] == pytest.approx(expected, rel=1e-6)
+    # its reference part on the study's own cut widths at the chosen rtol
+    reference_check = max(np.max(SharedDecay.REFERENCE * s / scale(h, chosen)) for h in (0.1, 0.2))
+    assert attrs["time_integration_reference_error"] == pytest.approx(reference_check, rel=1e-9)
+    # and without shared steps the same model takes the own-steps pilot
+    own = Study(SharedDecay(rtol), fuzzy, levels=2, shared_steps=False).run(progress=False)
+    assert own.dataset.attrs["integration_shared_steps"] == 0

@@ -98,7 +98,7 @@ BAD_CASES = {
     "unknown section": (VALID + "\n[output]\nx = 1\n", r"unknown key 'output'.*allowed keys"),
     "wrong method": (
         VALID.replace('method = "reduced"', 'method = "reducd"'),
-        r"key 'study\.method'.*'general', 'reduced', 'extended', 'grid' or 'sparse'",
+        r"key 'study\.method'.*'general', 'reduced', 'extended', 'grid', 'sparse' or 'adaptive'",
     ),
     "wrong type": (
         VALID.replace("chunk_size = 16", 'chunk_size = "many"'),
@@ -209,9 +209,9 @@ def test_literal_choices_match_the_engine():
     # pydantic needs literal types; they must list exactly what the engine and runner accept
     from typing import get_args
 
-    from fuzzymbs.fuzzy.transform import METHODS
+    from fuzzymbs.fuzzy.transform import ALL_METHODS
     from fuzzymbs.study.study import ON_FAILURE
     from fuzzymbs.study.studyfile import RunSection, StudySection
 
-    assert get_args(StudySection.model_fields["method"].annotation) == METHODS
+    assert get_args(StudySection.model_fields["method"].annotation) == ALL_METHODS
     assert get_args(RunSection.model_fields["on_failure"].annotation) == ON_FAILURE

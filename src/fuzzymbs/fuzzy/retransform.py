@@ -163,7 +163,8 @@ class FuzzyResult(DatasetExport):
         return self.lower[index].copy(), self.upper[index].copy()
 
     def influence(self, weights: str | ArrayLike = "membership") -> Influence:
-        """Gain factors and influence measures (reduced and extended plans only).
+        """Gain factors and influence measures (reduced, extended, grid and adaptive plans;
+        the adaptive method's come from its certified surrogate at the cut-box corners).
 
         Parameters
         ----------
@@ -180,7 +181,9 @@ class FuzzyResult(DatasetExport):
                 "influence needs the plan and the sample outputs; this FuzzyResult was built "
                 "from bounds only (use plan.retransform(outputs).influence())"
             )
-        if self._plan.method not in ("reduced", "extended", "grid") or self._sums is None:
+        if self._plan.method not in ("reduced", "extended", "grid", "adaptive") or (
+            self._sums is None
+        ):
             raise UnsupportedOperationError(
                 f"influence measures need the corner pairs of a reduced, extended or grid plan; "
                 f"this plan uses method={self._plan.method!r}"

@@ -57,6 +57,7 @@ from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning, retrans
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
 __all__ = [
+    "ALL_METHODS",
     "DEFAULT_MAX_RUNS",
     "METHODS",
     "NonMonotonicWarning",
@@ -65,6 +66,10 @@ __all__ = [
     "plan",
     "run_count",
 ]
+
+
+#: every method :func:`plan` accepts: the fixed schemes and "adaptive" (an AdaptivePlan)
+ALL_METHODS: tuple[str, ...] = (*METHODS, "adaptive")
 
 
 def _general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]:
@@ -160,6 +165,15 @@ class Plan:
     33
     """
 
+    def __new__(cls, parameters: Any = None, method: str = "reduced", *args: Any, **kwargs: Any):
+        """``method="adaptive"`` gives an :class:`~fuzzymbs.fuzzy.adaptive_plan.AdaptivePlan`
+        (its points come in rounds); every other method a :class:`Plan`."""
+        if method == "adaptive":
+            from fuzzymbs.fuzzy.adaptive_plan import adaptive_plan
+
+            return adaptive_plan(parameters, *args, **kwargs)
+        return super().__new__(cls)
+
     def __init__(
         self,
         parameters: Mapping[str, FuzzyNumber],
@@ -172,7 +186,7 @@ class Plan:
         max_runs: int | None = DEFAULT_MAX_RUNS,
     ) -> None:
         if not isinstance(method, str) or method not in METHODS:
-            raise InvalidPlanError(f"unknown method {method!r}; valid methods: {list(METHODS)}")
+            raise InvalidPlanError(f"unknown method {method!r}; valid methods: {list(ALL_METHODS)}")
         self.parameters: dict[str, FuzzyNumber] = checked_parameters(parameters)
         self.names: tuple[str, ...] = tuple(self.parameters)
         self.method = method

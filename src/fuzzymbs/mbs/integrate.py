@@ -24,6 +24,7 @@ from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
 from fuzzymbs.mbs.kernels.simd import LANES
+from fuzzymbs.mbs.shared_steps import SharedSteps, share_steps
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
 
 #: Kernel choices of :func:`simulate`.
@@ -44,6 +45,8 @@ class SimulationResult:
     failed : (B,) bool; failure_reason : (B,) str; failure_time : (B,) [s] (NaN if ok).
     step_counts : (B, 2) accepted and rejected steps per sample (ROS34PW2), None for RK4
         (``t_end / dt`` steps).
+    step_times : the ends of the accepted steps of the first sample (ROS34PW2 with
+        ``log_steps``), else None.
     """
 
     time: NDArray[np.float64]
@@ -52,6 +55,7 @@ class SimulationResult:
     failure_reason: NDArray[np.str_]
     failure_time: NDArray[np.float64]
     step_counts: NDArray[np.int64] | None = None
+    step_times: NDArray[np.float64] | None = None
 
 
 def _check_timing(t_end: float, dt: float, record_interval: float | None) -> tuple[int, int]:
@@ -86,6 +90,8 @@ def simulate(
     integrator: str = "rk4",
     rtol: float = 1e-2,
     atol: float | None = None,
+    step_sequence: NDArray[np.float64] | None = None,
+    log_steps: bool | int = False,
 ) -> SimulationResult:
     """Integrate a batch of samples with classic RK4 (fixed step) or ROS34PW2.
 
@@ -127,9 +133,21 @@ def simulate(
         of ``error / (atol + rtol |x|)`` is at most 1; atol defaults to ``1e-5 rtol``
         (positions in m, velocities in m/s; 1e-4 rtol left the brake caliper's 0.7 nm
         signal 14 % off, docs/brake.md).
+    step_sequence : (K,) array, optional
+        ROS34PW2 only: the ends of the steps every sample takes (increasing, the last
+        at ``t_end``), typically the accepted steps of one sample logged with
+        ``log_steps``. The error control still guards each step and cuts a step it
+        rejects into the sample's own smaller steps up to the next point
+        (:mod:`fuzzymbs.mbs.shared_steps`).
+    log_steps : bool or int
+        ROS34PW2 only: return the ends of the first sample's accepted steps as
+        ``step_times``; a number: at most that many (default 20 per dt, at least
+        10^6), more raise :class:`~fuzzymbs.errors.InvalidParameterError`.
     """
     _check_kernel(kernel)
     tolerances = _check_integrator(integrator, rtol, atol)
+    if log_steps is not False and integrator != "ros34pw2":
+        raise InvalidParameterError("log_steps needs integrator='ros34pw2'")
     compiled = system.compile() if isinstance(system, System) else system
     if not outputs:
         raise InvalidParameterError("simulate needs at least one output")
@@ -147,10 +165,16 @@ def simulate(
         ]
     )
     n_rec = n_steps // every + 1
+    # the kernel's final time, computed as it computes it
+    sequence = _check_sequence(step_sequence, integrator, 0.0 + (n_rec - 1) * float(every * dt))
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
     fail_t = np.full(batch, np.nan)
     counts = np.zeros((batch, 2), dtype=np.int64)
+    step_log = np.zeros(1)
+    if log_steps is not False:
+        capacity = max(20 * n_steps, 10**6) if log_steps is True else int(log_steps)
+        step_log = np.zeros(1 + capacity)
     for start in range(0, batch, max(int(chunk_size), 1)):
         sl = slice(start, min(start + chunk_size, batch))
         o = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec))
@@ -175,6 +199,8 @@ def simulate(
                 tolerances,
                 samples_per_block(kernel),
                 counts[sl],
+                sequence,
+                step_log if start == 0 else np.zeros(1),
             )
         out[sl] = o
         status[sl] = st
@@ -188,7 +214,39 @@ def simulate(
         failure_reason=reasons,
         failure_time=fail_t,
         step_counts=None if integrator == "rk4" else counts,
+        step_times=_logged(step_log) if log_steps is not False else None,
     )
+
+
+def _logged(step_log: NDArray[np.float64]) -> NDArray[np.float64]:
+    count = int(step_log[0])
+    if count < 0:
+        raise InvalidParameterError(
+            f"log_steps: more than {step_log.size - 1} steps, more than the log holds"
+        )
+    return step_log[1 : 1 + count].copy()
+
+
+def _check_sequence(
+    sequence: NDArray[np.float64] | None, integrator: str, t_end: float
+) -> NDArray[np.float64]:
+    """The shared step sequence as the kernel takes it (empty: no sequence)."""
+    if sequence is None:
+        return np.empty(0)
+    if integrator != "ros34pw2":
+        raise InvalidParameterError("step_sequence needs integrator='ros34pw2'")
+    points = np.asarray(sequence, dtype=float)
+    if points.ndim != 1 or points.size == 0 or not np.all(np.isfinite(points)):
+        raise InvalidParameterError("step_sequence must be a non-empty 1-D array of finite times")
+    if points[0] <= 0.0 or np.any(np.diff(points) <= 0.0):
+        raise InvalidParameterError("step_sequence must increase from above t = 0")
+    if abs(points[-1] - t_end) > 1e-9 * t_end:
+        raise InvalidParameterError(
+            f"step_sequence must end at t_end = {t_end} s, got {points[-1]!r}"
+        )
+    points = np.ascontiguousarray(points)
+    points[-1] = t_end  # the kernel's final time, exactly
+    return points
 
 
 def _check_integrator(
@@ -340,6 +398,8 @@ class SimulationModel:
         self.coords = {"time": np.arange(n_steps // every + 1) * every * dt}
         self.output_dims = {name: ("time",) for name in self.outputs}
         self.output_dims.update({"failed": (), "failure_reason": ()})
+        #: the step sequence and correction all samples share (:meth:`share_steps`)
+        self.shared: SharedSteps | None = None
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -351,14 +411,19 @@ class SimulationModel:
         return self.compiled.parameters.defaults()
 
     def __call__(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
+        shared = self.shared
         result = simulate(
             self.compiled,
             samples,
             outputs=self.outputs,
             initial_state=self.initial_state,
+            step_sequence=None if shared is None else shared.sequence,
             **self.settings,
         )
         out: dict[str, NDArray] = dict(result.outputs)
+        if shared is not None:  # the modal sample's error, removed from every sample
+            for name, correction in shared.correction.items():
+                out[name] = out[name] + correction
         out["failed"] = result.failed
         out["failure_reason"] = result.failure_reason
         return out
@@ -369,7 +434,13 @@ class SimulationModel:
         settings = self.settings
         if settings["integrator"] == "rk4":
             return f"rk4, dt {settings['dt']:g} s"
-        return f"{settings['integrator']}, rtol {settings['rtol']:g}"
+        words = f"{settings['integrator']}, rtol {settings['rtol']:g}"
+        if self.shared is not None:
+            words += (
+                ", on the modal sample's steps, corrected by its run at rtol "
+                f"{self.shared.reference_rtol:g}"
+            )
+        return words
 
     @property
     def scalable_tolerance(self) -> bool:
@@ -390,6 +461,28 @@ class SimulationModel:
             settings["rtol"] = settings["rtol"] / factor
             if settings["atol"] is not None:
                 settings["atol"] = settings["atol"] / factor
-        return SimulationModel(
+        tight = SimulationModel(
             self.compiled, outputs=self.outputs, initial_state=self.initial_state, **settings
         )
+        shared = self.shared
+        if shared is None:
+            return tight
+        # the tighter model's own sequence, corrected by the same reference
+        reference = (shared.reference, shared.reference_error, shared.reference_rtol)
+        return share_steps(tight, shared.modal, reference)
+
+    @property
+    def shares_steps(self) -> bool:
+        """True when every sample takes the modal sample's step sequence (:meth:`share_steps`)."""
+        return self.shared is not None
+
+    @property
+    def reference_error(self) -> dict[str, NDArray[np.float64]] | None:
+        """Per output (T,), the estimated error of the reference that corrects the samples
+        on shared steps (it moves every sample alike); None without shared steps."""
+        return None if self.shared is None else self.shared.reference_error
+
+    def share_steps(self, modal: Mapping[str, float]) -> SimulationModel:
+        """This model with every sample on the modal sample's step sequence and the modal
+        sample's error removed (ROS34PW2; :mod:`fuzzymbs.mbs.shared_steps`)."""
+        return share_steps(self, modal)

@@ -117,6 +117,7 @@ class StudyRuns:
             plan.samples[plan.nominal_index],
             self.output_names,
             self.integration_tolerance,
+            self.shared_steps,
         )
 
     def validation_points(
@@ -320,7 +321,13 @@ class StudyRuns:
         tolerance (:mod:`fuzzymbs.study.integration_check`)."""
         if not callable(getattr(self.model, "tightened", None)):
             return None
-        samples, bounds = integration_inputs(feed, self.output_names, failed, self.integration_runs)
+        samples, bounds = integration_inputs(
+            feed,
+            self.output_names,
+            failed,
+            self.integration_runs,
+            include_nominal=not getattr(self.model, "shares_steps", False),
+        )
         return check_time_integration(
             self.model,
             lambda rows: self._columns(self.plan.samples[rows], 0, len(rows)),

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from fuzzymbs.errors import SimulationDivergedError
 from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR, width_relative
 
 #: default largest time-integration error a study accepts without a warning (of the
@@ -80,6 +81,8 @@ class IntegrationCheck:
     peak_error : the modal sample's largest deviation relative to the output's peak.
     runs : samples re-run at the tighter tolerance.
     worst : where ``error`` is reached (output, level, element), or "".
+    reference_error : for a model on shared steps, its reference run's estimated error
+        relative to the cut width (included in ``error``); NaN otherwise.
     """
 
     error: float
@@ -89,6 +92,7 @@ class IntegrationCheck:
     peak_error: float = float("nan")
     runs: int = 0
     worst: str = ""
+    reference_error: float = float("nan")
 
     def to_attrs(self) -> dict[str, Any]:
         """Dataset attributes (NetCDF-safe: numbers and strings)."""
@@ -100,6 +104,7 @@ class IntegrationCheck:
             "time_integration_error_peak": float(self.peak_error),
             "time_integration_runs": int(self.runs),
             "time_integration_worst": self.worst,
+            "time_integration_reference_error": float(self.reference_error),
         }
 
 
@@ -112,16 +117,24 @@ def peak_relative_deviation(coarse: np.ndarray, fine: np.ndarray) -> float:
 
 
 def choose_samples(
-    tallies: Sequence[NDArray[np.int64]], nominal: int, failed: NDArray[np.bool_], runs: int
+    tallies: Sequence[NDArray[np.int64]],
+    nominal: int,
+    failed: NDArray[np.bool_],
+    runs: int,
+    include_nominal: bool = True,
 ) -> list[int]:
-    """The samples to re-run: the modal one, then, levels taking turns from the innermost
+    """The samples to re-run: the modal one (unless ``include_nominal`` is False: a model
+    on shared steps has no error left there), then, levels taking turns from the innermost
     (the last of ``tallies``) outwards, the one that bounds the most elements of that level
     (``tallies[j]``: (N,) bounds per sample at level j)."""
-    chosen = [] if failed[nominal] else [nominal]
+    chosen = [] if failed[nominal] or not include_nominal else [nominal]
     order = list(range(len(tallies) - 1, -1, -1))
     left = [np.where(failed, -1, tally.astype(np.int64)) for tally in tallies]
     for tally in left:
         tally[chosen] = -1
+    if not include_nominal:
+        for tally in left:
+            tally[nominal] = -1
     while len(chosen) < runs and any(int(t.max(initial=-1)) > 0 for t in left):
         for j in order:
             if len(chosen) >= runs:
@@ -196,6 +209,9 @@ def check_time_integration(
         finite = [d for d in peaks if np.isfinite(d)]
         peak = max(finite) if finite else peak
     error, worst = -np.inf, ""
+    # a model on shared steps: its reference run's error moves every sample alike
+    reference_error = getattr(model, "reference_error", None)
+    reference_part = -np.inf
     for name, cut in bounds.items():
         if cut is None:
             continue
@@ -207,6 +223,14 @@ def check_time_integration(
             columns_index = np.broadcast_to(np.arange(values.shape[1]), values.shape)
             d = np.abs(values - tight_values[np.maximum(rows, 0), columns_index])
             deviation = np.fmax(deviation, np.where(rows >= 0, d, np.nan))
+        if reference_error is not None and name in reference_error:
+            common = np.broadcast_to(
+                np.asarray(reference_error[name], dtype=float).reshape(-1), cut.lower.shape
+            )
+            alone = width_relative(np.array(common), cut.lower, cut.upper)
+            if np.isfinite(alone).any():
+                reference_part = max(reference_part, float(np.nanmax(alone)))
+            deviation = np.where(np.isnan(deviation), common, deviation + common)
         ratio = width_relative(deviation, cut.lower, cut.upper)
         if np.isfinite(ratio).any():
             level, element = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
@@ -217,7 +241,10 @@ def check_time_integration(
     if not np.isfinite(error):
         error = float("nan")
         note = "no bound of a re-run sample lies on a cut of non-zero width"
-    check = IntegrationCheck(error, tolerance, method, note, peak, len(samples), worst)
+    reference_part = reference_part if np.isfinite(reference_part) else float("nan")
+    check = IntegrationCheck(
+        error, tolerance, method, note, peak, len(samples), worst, reference_part
+    )
     return _report(check)
 
 
@@ -250,6 +277,13 @@ ERROR_ORDER = 0.88
 TARGET_FRACTION = 0.5
 #: the pilot's parameters: at most this many (2^n corners)
 PILOT_MAX_PARAMETERS = 6
+#: with shared steps, the band error is taken to fall as rtol^SHARED_ORDER (measured on
+#: the brake's studies against rtol 1e-6: study 1 10 % at rtol 1e-2, 0.37 % at 1e-3;
+#: study 2 4.5 % at 1e-3, 0.55 % at 1e-4, docs/brake.md): the smaller slope
+SHARED_ORDER = 1.2
+#: a chosen factor within this many decades of 10 takes the pilot's tenfold tighter
+#: model as it is (its sequence is logged already; the error at most 1.2^1.2 of target)
+REUSE_DECADES = 0.08
 
 
 @dataclass(frozen=True)
@@ -260,9 +294,13 @@ class ToleranceChoice:
     ----------
     factor : the model's tolerance was divided by this (1: kept).
     pilot_error : the estimated band-relative error at the model's own tolerance.
-    pilot_runs : runs of the pilot (corners of the innermost cut, modal, modal tightened).
+    pilot_runs : runs of the pilot (corners of the innermost cut, modal, modal tightened;
+        with shared steps also the modal sample's logging, replay and reference runs).
     method : the chosen time integration in words.
     note : why no choice was made, or "".
+    shared_steps : every sample takes the modal sample's step sequence, corrected.
+    reference_error : with shared steps, the reference's estimated error relative to
+        the pilot's cut widths.
     """
 
     factor: float
@@ -270,6 +308,8 @@ class ToleranceChoice:
     pilot_runs: int
     method: str
     note: str = ""
+    shared_steps: bool = False
+    reference_error: float = float("nan")
 
     def to_attrs(self) -> dict[str, Any]:
         return {
@@ -277,6 +317,8 @@ class ToleranceChoice:
             "integration_pilot_runs": int(self.pilot_runs),
             "integration_tolerance_factor": float(self.factor),
             "integration_choice_note": self.note,
+            "integration_shared_steps": int(self.shared_steps),
+            "integration_reference_error": float(self.reference_error),
         }
 
 
@@ -288,6 +330,7 @@ def choose_tolerance(
     modal: np.ndarray,
     names: Sequence[str],
     tolerance: float = DEFAULT_TOLERANCE,
+    shared_steps: bool = True,
 ) -> tuple[Any, ToleranceChoice | None]:
     """The model with its integrator's tolerance chosen for the study's cut widths.
 
@@ -310,6 +353,13 @@ def choose_tolerance(
     modal : (n,) the modal point.
     names : the study's outputs.
     tolerance : the study's integration tolerance (of the cut width).
+    shared_steps : with a model that offers ``share_steps(modal)``, put every sample on
+        the modal sample's step sequence and correct by the modal sample's error
+        (:mod:`fuzzymbs.mbs.shared_steps`); the pilot then compares the corners at the
+        model's tolerance with the corners at a tenth of it (both corrected by the same
+        reference: the modal point has no error left to compare) and divides the
+        tolerance by ``(E / (TARGET_FRACTION tolerance - E_ref))^(1 / SHARED_ORDER)``,
+        ``E_ref`` the reference's own estimated error.
 
     Returns
     -------
@@ -335,6 +385,14 @@ def choose_tolerance(
             for k in range(2**n)
         ]
     )
+    shared_note = ""
+    if shared_steps and callable(getattr(model, "share_steps", None)):
+        try:
+            shared = model.share_steps(dict(columns(modal[None, :])))
+        except SimulationDivergedError as error:
+            shared_note = f"no shared steps ({error}): each sample keeps its own; "
+        else:
+            return _choose_shared(shared, columns, corners, names, tolerance)
     table = np.vstack([corners, modal[None, :]])
     coarse = model(dict(columns(table)))
     fine = model.tightened(10.0)(dict(columns(modal[None, :])))
@@ -342,18 +400,82 @@ def choose_tolerance(
     failed = np.asarray(coarse.get("failed", np.zeros(len(table), bool)), dtype=bool)
     fine_failed = np.asarray(fine.get("failed", [False]), dtype=bool)
     if failed.any() or fine_failed.any():
-        note = "a pilot run failed; the model's tolerance is kept"
+        note = shared_note + "a pilot run failed; the model's tolerance is kept"
         return model, ToleranceChoice(1.0, np.nan, runs, model.time_integration, note)
     error = 0.0
     for name in names:
         values = np.asarray(coarse[name], dtype=float).reshape(len(table), -1)
-        width = values[:-1].max(axis=0) - values[:-1].min(axis=0)
-        widest = float(width.max())
-        if not widest > 0:
+        scale = _band_scale(values[:-1])
+        if scale is None:
             continue
         deviation = np.abs(values[-1] - np.asarray(fine[name], dtype=float).reshape(-1))
-        error = max(error, float(np.max(deviation / np.maximum(width, WIDTH_FLOOR * widest))))
+        error = max(error, float(np.max(deviation / scale)))
     target = TARGET_FRACTION * tolerance
     factor = 1.0 if error <= target else float((error / target) ** (1.0 / ERROR_ORDER))
     chosen = model.tightened(factor) if factor > 1.0 else model
-    return chosen, ToleranceChoice(factor, error, runs, chosen.time_integration)
+    note = shared_note.removesuffix("; ")
+    return chosen, ToleranceChoice(factor, error, runs, chosen.time_integration, note)
+
+
+def _band_scale(values: np.ndarray) -> np.ndarray | None:
+    """max(w, 0.1 max w) of the corners' spread ``values`` (k, size); None if no width."""
+    width = values.max(axis=0) - values.min(axis=0)
+    widest = float(width.max())
+    if not widest > 0:
+        return None
+    return np.maximum(width, WIDTH_FLOOR * widest)
+
+
+def _choose_shared(
+    shared: Any,
+    columns: Callable[[np.ndarray], Mapping[str, np.ndarray]],
+    corners: np.ndarray,
+    names: Sequence[str],
+    tolerance: float,
+) -> tuple[Any, ToleranceChoice]:
+    """:func:`choose_tolerance` for a model on the modal sample's shared steps."""
+    fine = shared.tightened(10.0)
+    coarse_out = shared(dict(columns(corners)))
+    fine_out = fine(dict(columns(corners)))
+    runs = 2 * len(corners) + 6  # logging, replay and two reference runs; again for fine
+    failed = np.asarray(coarse_out.get("failed", np.zeros(len(corners), bool)), dtype=bool)
+    failed |= np.asarray(fine_out.get("failed", np.zeros(len(corners), bool)), dtype=bool)
+    if failed.any():
+        note = "a pilot run failed; the model's tolerance is kept (on shared steps)"
+        return shared, ToleranceChoice(
+            1.0, np.nan, runs, shared.time_integration, note, shared_steps=True
+        )
+    error, reference_part = 0.0, 0.0
+    reference_error = shared.reference_error or {}
+    for name in names:
+        values = np.asarray(coarse_out[name], dtype=float).reshape(len(corners), -1)
+        scale = _band_scale(values)
+        if scale is None:
+            continue
+        tight = np.asarray(fine_out[name], dtype=float).reshape(len(corners), -1)
+        error = max(error, float(np.max(np.abs(values - tight) / scale)))
+        if name in reference_error:
+            common = np.asarray(reference_error[name], dtype=float).reshape(-1)
+            reference_part = max(reference_part, float(np.max(common / scale)))
+    target = TARGET_FRACTION * tolerance
+    budget = max(target - reference_part, 0.5 * target)  # what the steps may add
+    note = ""
+    if reference_part > 0.5 * target:
+        note = (
+            f"the reference's own error ({100 * reference_part:.2g} % of the cut width) "
+            "takes more than half the target"
+        )
+    factor = 1.0 if error <= budget else float((error / budget) ** (1.0 / SHARED_ORDER))
+    if abs(np.log10(factor) - 1.0) <= REUSE_DECADES:
+        factor, chosen = 10.0, fine  # the pilot's tighter model is near enough: reuse it
+    else:
+        chosen = shared.tightened(factor) if factor > 1.0 else shared
+    return chosen, ToleranceChoice(
+        factor,
+        error,
+        runs + (2 if factor not in (1.0, 10.0) else 0),
+        chosen.time_integration,
+        note,
+        shared_steps=True,
+        reference_error=reference_part,
+    )

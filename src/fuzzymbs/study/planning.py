@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError, InvalidPlanError
+from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, adaptive_plan
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_screening_run_limit
 from fuzzymbs.fuzzy.screening import DEFAULT_RTOL, Screening, check_tolerance
@@ -222,14 +223,18 @@ def build_plan(
     sparse_level: int | None,
     search_points: int | None,
     max_runs: int | None = DEFAULT_MAX_RUNS,
-) -> tuple[Plan | None, Screening | None, float | None]:
+    method_tolerance: float | None = None,
+) -> tuple[Plan | AdaptivePlan | None, Screening | None, float | None]:
     """``(plan, screening samples, screening tolerance)`` of a study.
 
     With ``nonmonotonic="auto"`` the plan is None (built after the screening)
     and the screening samples and tolerance are set; otherwise the plan is
     built now and the other two are None. ``max_runs`` limits the plan's runs
     (:class:`~fuzzymbs.fuzzy.transform.Plan`); for ``"auto"`` the screening
-    runs plus the reduced corners the extended plan holds at least.
+    runs plus the reduced corners the extended plan holds at least. For
+    ``method="adaptive"`` the plan is an
+    :class:`~fuzzymbs.fuzzy.adaptive_plan.AdaptivePlan` with ``max_runs`` as its run
+    budget and ``method_tolerance`` as its tolerance.
 
     Raises
     ------
@@ -259,6 +264,17 @@ def build_plan(
             f"screening_rtol={screening_rtol!r} is only used with "
             f"nonmonotonic={AUTO!r}, not {nonmonotonic!r}"
         )
+    if method == "adaptive":
+        adaptive = adaptive_plan(
+            fuzzy,
+            levels,
+            nonmonotonic,
+            sparse_level=sparse_level,
+            search_points=search_points,
+            max_runs=max_runs,
+            method_tolerance=method_tolerance,
+        )
+        return adaptive, None, None
     plan = Plan(
         fuzzy,
         method=method,

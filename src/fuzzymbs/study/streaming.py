@@ -72,7 +72,8 @@ class ChunkFeed:
         self.stored = set(stored)
         self.chunk_store = chunk_store
         self.keep_raw = keep_raw
-        self.layout = None if plan.method == "sparse" else StreamLayout(plan)
+        # sparse and adaptive plans bound their cuts by a surrogate of every sample
+        self.layout = None if plan.method in ("sparse", "adaptive") else StreamLayout(plan)
         self.failed = np.zeros(count, dtype=bool)
         self.reasons = np.full(count, "", dtype=object)
         self.accumulators: dict[str, OutputAccumulator] = {}
@@ -238,18 +239,25 @@ class ChunkFeed:
 
 
 def integration_inputs(
-    feed: ChunkFeed, names: Sequence[str], failed: np.ndarray, runs: int
+    feed: ChunkFeed,
+    names: Sequence[str],
+    failed: np.ndarray,
+    runs: int,
+    include_nominal: bool = True,
 ) -> tuple[list[int], dict[str, CutBounds | None]]:
     """What the time-integration check needs from a finished feed: the samples to re-run
     (:func:`~fuzzymbs.study.integration_check.choose_samples`) and each output's nested
     bounds with the samples that give them (None for a sparse plan, whose bounds come
-    from an interpolant: its check falls back to the modal sample)."""
+    from an interpolant: its check falls back to the modal sample). ``include_nominal``
+    False leaves the modal sample out (a model on shared steps has no error there)."""
     nominal = feed.plan.nominal_index
     if feed.layout is None:
         return ([] if failed[nominal] else [nominal]), {name: None for name in names}
     levels = len(feed.plan.levels)
     tallies = [feed.bound_tally(level) for level in range(levels)]
-    samples = choose_samples(tallies, nominal, np.asarray(failed, dtype=bool), runs)
+    samples = choose_samples(
+        tallies, nominal, np.asarray(failed, dtype=bool), runs, include_nominal
+    )
     bounds = {}
     for name in names:
         lower, upper, lower_sample, upper_sample = feed.accumulators[name].nested_extremes()

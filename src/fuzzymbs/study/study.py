@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,9 @@ from fuzzymbs.errors import (
     ModelOutputError,
     UnsupportedOperationError,
 )
+from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, AdaptiveWarning
 from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, Plan, make_levels
+from fuzzymbs.study.adaptive_rounds import run_rounds
 from fuzzymbs.study.code_version import code_version
 from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, merged_coords
 from fuzzymbs.study.execution import (
@@ -83,8 +86,12 @@ class Study(StudyRuns):
         Parameter name -> :class:`~fuzzymbs.fuzzy.numbers.FuzzyNumber`, a
         study-file definition such as ``{"type": "triangular", "modal": 2e5,
         "spread": 0.1}``, or a plain number (a crisp value overriding the default).
-    method : {"general", "reduced", "extended", "grid", "sparse"}
-        Transformation scheme.
+    method : {"general", "reduced", "extended", "grid", "sparse", "adaptive"}
+        Transformation scheme. ``"adaptive"`` refines a surrogate of every output in
+        rounds until its certified error is at most ``method_tolerance``
+        (:mod:`fuzzymbs.fuzzy.adaptive`); each round runs through the executor and,
+        with a store, into ``STORE/adaptive-<round>-<fingerprint>/``. Its
+        certification is its method check: no validation runs are made.
     levels : int or sequence of float
         Number of alpha levels m (mu_j = j/m) or explicit levels from 0 to 1.
     outputs : sequence of str, optional
@@ -120,6 +127,13 @@ class Study(StudyRuns):
         and the modal point) and tighten the model's tolerance so that the
         time-integration error is expected below the integration tolerance
         (:func:`~fuzzymbs.study.integration_check.choose_tolerance`; default True).
+    shared_steps : bool
+        With a model that offers ``share_steps`` (the brake, ROS34PW2) and
+        ``choose_integration``: every sample takes the modal sample's step sequence
+        and the modal sample's integration error, measured against a tight
+        reference run, is removed from every sample's outputs, so that the error
+        is smooth across the parameters and the bands settle at a far looser
+        tolerance (:mod:`fuzzymbs.mbs.shared_steps`; default True).
     validation_runs : int, optional
         Extra runs that check the method (:mod:`fuzzymbs.study.method_check`):
         points inside the cut boxes that no run of the method covers, in four
@@ -129,8 +143,10 @@ class Study(StudyRuns):
         per fuzzy parameter. 0 turns the check off (for a model known to be
         monotonic, or when every run counts).
     method_tolerance : float
-        Largest method error (the validation runs' range beyond a level's cut,
-        on the cut-width scale of :mod:`fuzzymbs.fuzzy.band_scale`) without a
+        Method ``"adaptive"``: the certified error (cut-width scale) at which its rounds
+        stop. The fixed methods: the largest method error (the validation runs' range
+        beyond a level's cut, on the cut-width scale of :mod:`fuzzymbs.fuzzy.band_scale`)
+        without a
         :class:`~fuzzymbs.fuzzy.retransform.NonMonotonicWarning`. Default 1 %.
     widen_with_validation : bool
         Widen the cuts to the validation outputs (each point's level and the
@@ -139,7 +155,9 @@ class Study(StudyRuns):
     max_runs : int or None
         Refuse a plan needing more model runs than this before anything is
         built (:class:`~fuzzymbs.errors.PlanTooLargeError`, an InvalidPlanError,
-        naming the runs of cheaper methods); default
+        naming the runs of cheaper methods); for method ``"adaptive"`` its run
+        budget (this default and None mean 2,000; a :class:`~fuzzymbs.fuzzy.adaptive_plan.
+        AdaptiveWarning` says when the budget stopped it above the tolerance); default
         :data:`fuzzymbs.fuzzy.transform.DEFAULT_MAX_RUNS` (1,000,000), None: no limit.
     name, description : str, optional
         Labels used in results, summaries and output folders.
@@ -169,6 +187,7 @@ class Study(StudyRuns):
         integration_tolerance: float = DEFAULT_TOLERANCE,
         integration_runs: int = DEFAULT_RUNS,
         choose_integration: bool = True,
+        shared_steps: bool = True,
         validation_runs: int | None = None,
         method_tolerance: float = DEFAULT_METHOD_TOLERANCE,
         widen_with_validation: bool = False,
@@ -200,6 +219,7 @@ class Study(StudyRuns):
         self.integration_tolerance = float(integration_tolerance)
         self.integration_runs = int(integration_runs)
         self.choose_integration = bool(choose_integration)
+        self.shared_steps = bool(shared_steps)
         self.integration_choice: ToleranceChoice | None = None
         self.validation_runs = None if validation_runs is None else int(validation_runs)
         self.method_tolerance = float(method_tolerance)
@@ -237,6 +257,7 @@ class Study(StudyRuns):
             sparse_level,
             search_points,
             max_runs=max_runs,
+            method_tolerance=self.method_tolerance if method == "adaptive" else None,
         )
         known_outputs = self._declared_outputs()
         self.outputs = checked_outputs(outputs, known_outputs, self.model_name)
@@ -246,7 +267,7 @@ class Study(StudyRuns):
         self.description = description
 
     @property
-    def plan(self) -> Plan:
+    def plan(self) -> Plan | AdaptivePlan:
         """The sampling plan (for ``nonmonotonic="auto"``: known after :meth:`screen`).
 
         Raises
@@ -333,6 +354,8 @@ class Study(StudyRuns):
             identity["model_identity"] = model_identity()
         if self.integration_choice is not None:
             identity["integration_tolerance_factor"] = self.integration_choice.factor
+            if self.integration_choice.shared_steps:
+                identity["integration_shared_steps"] = True
         return identity
 
     def _plan_levels(self) -> np.ndarray:
@@ -444,8 +467,20 @@ class Study(StudyRuns):
         try:
             if self._plan is None:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
-            count = len(self.plan)
             self._choose_integration()
+            if self.plan.method == "adaptive":
+                return self._run_adaptive(
+                    work,
+                    requested_size,
+                    store,
+                    resume,
+                    progress,
+                    code,
+                    keep_raw,
+                    on_failure,
+                    started,
+                )
+            count = len(self.plan)
             chunk_store, size, chunk_count, results, missing, reused = open_chunks(
                 store, self.identity(), count, requested_size, resume, code, load=False
             )
@@ -519,6 +554,58 @@ class Study(StudyRuns):
             integration=integration,
             validation=validation,
         )
+        if self.integration_choice is not None:
+            dataset.attrs.update(self.integration_choice.to_attrs())
+        return StudyResult(dataset)
+
+    def _run_adaptive(
+        self,
+        work: LazyExecutor,
+        size: int,
+        store: str | Path | None,
+        resume: bool,
+        progress: bool,
+        code: dict[str, Any],
+        keep_raw: bool | None,
+        on_failure: str,
+        started: float,
+    ) -> StudyResult:
+        """The rounds of an adaptive plan (:mod:`fuzzymbs.study.adaptive_rounds`), then the
+        result; its certification replaces the validation runs of the fixed methods."""
+        outputs, evaluated, reused = run_rounds(self, (work, size, resume, progress, code), store)
+        plan = self.plan
+        count = len(plan)
+        failed = np.zeros(count, dtype=bool)
+        reasons = np.full(count, "", dtype=object)
+        feed = ChunkFeed(plan, count, count, (), None, keep_raw, self._output_check)
+        feed.add(0, ChunkResult(0, count, outputs, failed, reasons))
+        integration = self._check_time_integration(feed, failed)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", AdaptiveWarning)  # build_dataset would repeat it
+            dataset = build_dataset(
+                self,
+                feed,
+                failed,
+                reasons.astype(str),
+                wall_time=time.perf_counter() - started,
+                evaluated=evaluated,
+                reused=reused,
+                executor=work.label or "none (every chunk from the store)",
+                chunk_size=size,
+                on_failure=on_failure,
+                code=code,
+                integration=integration,
+            )
+        dataset.attrs.update(plan.attrs())
+        outcome = plan.outcome()
+        if not outcome.converged:
+            message = (
+                f"study {self.name!r}: the adaptive method stopped at its run budget "
+                f"(max_runs = {plan.max_runs}) with a certified error of {outcome.error:.3g} "
+                f"of the cut width, above method_tolerance = {plan.method_tolerance:g}"
+            )
+            logger.warning("%s", message)
+            warnings.warn(message, AdaptiveWarning, stacklevel=3)
         if self.integration_choice is not None:
             dataset.attrs.update(self.integration_choice.to_attrs())
         return StudyResult(dataset)

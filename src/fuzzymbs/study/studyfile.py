@@ -7,6 +7,7 @@ Layout (see docs/studies.md)::
                  integration_tolerance (time-integrated models: of the cut width; default 0.01),
                  integration_runs (samples its check re-runs; default 8),
                  choose_integration (a pilot chooses the integrator tolerance; true),
+                 shared_steps (samples on the modal sample's steps, its error removed; true),
                  validation_runs (default: a fifth of the runs, at least 12 n; 0: off),
                  method_tolerance (default 0.01), widen_with_validation (default false),
                  max_runs (default 1,000,000: a larger plan is refused before it is built)
@@ -54,7 +55,7 @@ class StudySection(_Section):
 
     name: str | None = None
     description: str = ""
-    method: Literal["general", "reduced", "extended", "grid", "sparse"] = "reduced"
+    method: Literal["general", "reduced", "extended", "grid", "sparse", "adaptive"] = "reduced"
     levels: int | list[float] = 4
     outputs: list[str] | None = None
     nonmonotonic: list[str] | Literal["auto"] = Field(default_factory=list)
@@ -64,6 +65,7 @@ class StudySection(_Section):
     integration_tolerance: float = Field(default=DEFAULT_TOLERANCE, gt=0.0, allow_inf_nan=False)
     integration_runs: int = Field(default=DEFAULT_RUNS, ge=1)
     choose_integration: bool = True
+    shared_steps: bool = True
     validation_runs: int | None = Field(default=None, ge=0)
     method_tolerance: float = Field(default=DEFAULT_METHOD_TOLERANCE, gt=0.0, allow_inf_nan=False)
     widen_with_validation: bool = False
@@ -367,6 +369,7 @@ def load_study_file(
             integration_tolerance=parsed.study.integration_tolerance,
             integration_runs=parsed.study.integration_runs,
             choose_integration=parsed.study.choose_integration,
+            shared_steps=parsed.study.shared_steps,
             validation_runs=parsed.study.validation_runs,
             method_tolerance=parsed.study.method_tolerance,
             widen_with_validation=parsed.study.widen_with_validation,

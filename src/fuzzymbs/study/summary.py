@@ -15,8 +15,23 @@ def _fmt(value: float) -> str:
     return "nan" if not np.isfinite(value) else f"{value:.6g}"
 
 
+def _adaptive_line(attrs: dict) -> str:
+    """The adaptive method's line: runs, rounds, certified error against the tolerance."""
+    error = float(attrs["method_error"])
+    tolerance = float(attrs["method_tolerance"])
+    verdict = "within" if error <= tolerance else "EXCEEDS"
+    stopped = "" if int(attrs["method_converged"]) else " (stopped at its run budget max_runs)"
+    return (
+        f"Method check: adaptive, {int(attrs['adaptive_runs'])} runs in "
+        f"{int(attrs['adaptive_rounds'])} rounds{stopped}; certified method error "
+        f"{100 * error:.3g} % of the cut's width, {verdict} the tolerance {100 * tolerance:.3g} %"
+    )
+
+
 def _method_line(attrs: dict, provenance: dict) -> str:
     """The method check's line: validation runs, method error, worst point."""
+    if "adaptive_runs" in attrs:
+        return _adaptive_line(attrs)
     check = provenance.get("method_check", {})
     runs = int(attrs["validation_runs"])
     failed = int(check.get("failed", 0))

@@ -107,7 +107,10 @@ _EXPONENT = 1.0 / 3.0
 #: control rows of a block between slices, one column per lane (:func:`start_block_ros`)
 (_H, _ERR_PREV, _LU_STEP, _JAC_AGE, _NEED_JAC, _F_KNOWN) = range(6)
 (_AFTER_REJECT, _ACCEPTED, _REJECTED, _NEXT_REC, _T, _STEP) = range(6, 12)
-_CONTROL_ROWS = 12
+_GRID = 12  # the lane's next point of a shared step sequence
+_CONTROL_ROWS = 13
+#: step proposal after reaching a point of a shared step sequence: the whole next interval
+_OPEN = np.inf
 
 
 @nb.njit(cache=True, nogil=True)
@@ -147,7 +150,18 @@ def _copy_lanes(src, dst, lanes):
 
 @nb.njit(cache=True, nogil=True, fastmath=V.FAST)
 def advance_block_ros(
-    sysdata, timing, recording, tolerances, coefficients, first, count, state, rec_begin, rec_end
+    sysdata,
+    timing,
+    recording,
+    tolerances,
+    coefficients,
+    first,
+    count,
+    state,
+    rec_begin,
+    rec_end,
+    sequence,
+    step_log,
 ):
     """Advances a block until records ``.. rec_end - 1`` are written (a step that passes
     ``rec_end`` also writes the records it covers). Returns False when the block is
@@ -167,9 +181,18 @@ def advance_block_ros(
     (``x`` and ``f`` at both ends, O(h^4) like the method's local error), and
     only the last step is shortened, to end at the last recording time.
 
+    With a shared step sequence (``sequence``: the ends of the steps, increasing,
+    the last at the final time; empty: the lanes choose their own steps), every
+    lane steps from point to point of the sequence. The error control still
+    guards each step: a step it rejects is cut into the lane's own smaller steps
+    up to the next point, so a lane leaves the sequence only where the sequence
+    is too coarse for it, and its outputs stay its own.
+
     ``timing = (t0, record_interval, n_records, h0)``; ``recording`` as for
     :func:`fuzzymbs.mbs.kernels.rk4.rk4`; ``tolerances = (rtol, atol, h_min)``;
     ``coefficients``: :data:`COEFFICIENTS`; ``state`` from :func:`start_block_ros`.
+    ``step_log`` (length > 1) receives the ends of the accepted steps of sample 0
+    of the batch (``step_log[0]``: their number; -1 when the log is full).
     """
     t0, interval, n_records = timing[0], timing[1], int(timing[2])
     out, status, fail_t = recording[2], recording[3], recording[4]
@@ -191,6 +214,8 @@ def advance_block_ros(
     n = nstate // 2
     t_final = t0 + (n_records - 1) * interval
     tiny = 1e-12 * interval
+    shared = sequence.shape[0] > 0
+    logging = step_log.shape[0] > 1 and first == 0
     h = control[_H]
     err_prev = control[_ERR_PREV]
     lu_step = control[_LU_STEP]
@@ -231,9 +256,12 @@ def advance_block_ros(
             t_lane[lane] = t[lane]
             if stepping[lane]:
                 any_stepping = True
-                step = min(h[lane], t_final - t[lane])
-                last[lane] = step >= t_final - t[lane] - tiny
-                steps[lane] = t_final - t[lane] if last[lane] else step
+                # the step ends at the next point of the sequence (the final time when
+                # the lane chooses its own steps) if the proposal reaches it
+                end = sequence[int(control[_GRID, lane])] if shared else t_final
+                step = min(h[lane], end - t[lane])
+                last[lane] = step >= end - t[lane] - tiny
+                steps[lane] = end - t[lane] if last[lane] else step
         if not any_stepping:
             break
         # a lane that needs a new Jacobian waits (masked) until every stepping lane needs
@@ -355,7 +383,17 @@ def advance_block_ros(
                 newly_failed = True
             elif err <= 1.0:
                 took[lane] = True
-                theta[lane] = t_final if last[lane] else t[lane] + steps[lane]
+                if last[lane]:
+                    theta[lane] = sequence[int(control[_GRID, lane])] if shared else t_final
+                else:
+                    theta[lane] = t[lane] + steps[lane]
+                if logging and lane == 0:
+                    logged = int(step_log[0])
+                    if 0 <= logged < step_log.shape[0] - 1:
+                        step_log[1 + logged] = theta[lane]
+                        step_log[0] = logged + 1
+                    else:
+                        step_log[0] = -1.0
                 accepted[lane] += 1.0
                 jac_age[lane] += 1.0
                 need_jac[lane] = 1.0 if jac_age[lane] >= JACOBIAN_AGE else 0.0
@@ -368,6 +406,9 @@ def advance_block_ros(
                     factor = min(factor, 1.0)
                 after_reject[lane] = 0.0
                 h[lane] = steps[lane] * factor
+                if shared and last[lane]:
+                    control[_GRID, lane] += 1.0
+                    h[lane] = _OPEN  # the next step: the sequence's next interval
                 f_known[lane] = 0.0
                 covered[lane] = t0 + next_rec[lane] * interval <= theta[lane] + tiny
                 any_record = any_record or covered[lane]
@@ -458,11 +499,13 @@ def record_lanes(x, recording, first, lanes, records, times):
 SLICES = 16
 
 
-def ros34pw2(sysdata, params, x0, timing, recording, tolerances, per_block, counts) -> None:
+def ros34pw2(
+    sysdata, params, x0, timing, recording, tolerances, per_block, counts, sequence, step_log
+) -> None:
     """ROS34PW2 of a batch in blocks of ``per_block`` (1 to 4) samples over the threads.
 
     Arguments as :func:`advance_block_ros`; ``counts (B, 2)`` receives the accepted
-    and rejected steps of each sample (shared by its block). Blocks advance
+    and rejected steps of each sample. Blocks advance
     ``SLICES`` slices of recording intervals at a time, round robin over the
     threads (:func:`fuzzymbs.mbs.kernels.threads.round_robin`): with 9 blocks on 2
     threads each thread carries 4.5 blocks instead of 5 and 4. Slicing does not
@@ -475,13 +518,27 @@ def ros34pw2(sysdata, params, x0, timing, recording, tolerances, per_block, coun
     def start(block: int):
         first = block * per_block
         count = min(per_block, nsamples - first)
-        return start_block_ros(sysdata, params, x0, recording, first, count, timing[3])
+        # on a shared sequence the first step is its first interval (finite: a lane that
+        # does not step still carries its step into the vector arithmetic)
+        h0 = sequence[0] - timing[0] if sequence.shape[0] > 0 else timing[3]
+        return start_block_ros(sysdata, params, x0, recording, first, count, h0)
 
     def advance(block: int, state, begin: int, end: int) -> bool:
         first = block * per_block
         count = min(per_block, nsamples - first)
         going = advance_block_ros(
-            sysdata, timing, recording, tolerances, COEFFICIENTS, first, count, state, begin, end
+            sysdata,
+            timing,
+            recording,
+            tolerances,
+            COEFFICIENTS,
+            first,
+            count,
+            state,
+            begin,
+            end,
+            sequence,
+            step_log,
         )
         if not going or end >= n_records:
             control = state[-1]

@@ -341,6 +341,27 @@ class DiscBrake:
         tight.simulation = self.simulation.tightened(factor)
         return tight
 
+    @property
+    def shares_steps(self) -> bool:
+        """True after :meth:`share_steps`."""
+        return self.simulation.shares_steps
+
+    @property
+    def reference_error(self) -> dict[str, NDArray[np.float64]] | None:
+        """With shared steps, the estimated error of the correcting reference per output."""
+        return self.simulation.reference_error
+
+    def share_steps(self, modal: Mapping[str, Any]) -> DiscBrake:
+        """The same brake with every sample on the step sequence of the ``modal`` sample and
+        that sample's integration error removed from every output (ROS34PW2;
+        :mod:`fuzzymbs.mbs.shared_steps`): errors smooth across the parameters, so that
+        bands as narrow as a +-1 % parameter's settle at a far looser rtol."""
+        shared = copy.copy(self)
+        columns = {name: np.atleast_1d(value)[:1] for name, value in modal.items()}
+        single = {name: float(value[0]) for name, value in check_samples(columns).items()}
+        shared.simulation = self.simulation.share_steps(single)
+        return shared
+
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
         """Integrate a batch of samples; failed samples are NaN rows flagged in ``failed``."""
         return self.simulation(check_samples(samples))

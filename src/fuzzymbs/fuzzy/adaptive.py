@@ -1,0 +1,607 @@
+"""The adaptive transformation method: a surrogate refined until its bounds are certified.
+
+One surrogate of every output element at once, a dimension-adaptive sparse
+grid in Chebyshev form (:mod:`fuzzymbs.fuzzy.chebyshev_grid`) over the support
+box, refined round by round where the cut bounds are decided; each cut's lower
+and upper bound per element is the surrogate's minimum and maximum over the cut
+box (:mod:`fuzzymbs.fuzzy.box_search`), and the true model checks them.
+
+A round (:meth:`AdaptiveTransformation.next_batch`, then :meth:`~AdaptiveTransformation.add`):
+
+1. the surrogate ``s`` of every grid node evaluated so far gives, per level j,
+   element e and bound, the extremal point ``x*`` and value;
+2. the batch holds (a) the nodes of the forward neighbours of the frontier
+   indices whose surplus matters most at the extremal points (refinement where
+   the bounds are decided), (b) extremal points of ``s`` that lie far from every
+   run (certification), (c) a point of a fixed Halton sequence far from every
+   run (exploration);
+3. the model's outputs at the batch are compared with ``s``: the certified error
+   is the largest ``|f(x) - s(x)|`` over the batch, per element on the cut-width
+   scale of the highest level whose box holds ``x``
+   (:func:`~fuzzymbs.fuzzy.band_scale.width_relative`); the nodes join the
+   surrogate, the other runs widen the bounds they exceed.
+
+The loop ends when the certified error of a round is at most ``tolerance`` (after at
+least one certification round) or when the next round would exceed ``max_runs``
+(:attr:`AdaptiveTransformation.converged` False). The reported bounds are those of
+the surrogate the last round checked, widened to every run inside the box: true
+values where a run went beyond, surrogate bounds confirmed within the error estimate
+elsewhere.
+
+Everything is a deterministic function of the outputs added so far (no random
+numbers), so replaying stored outputs rebuilds the same rounds bit for bit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fuzzymbs.errors import InvalidPlanError, ModelOutputError
+from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR
+from fuzzymbs.fuzzy.box_search import box_extremes
+from fuzzymbs.fuzzy.chebyshev_grid import (
+    ChebyshevSparseGrid,
+    basis_matrix,
+    evaluate_series,
+    node_values,
+)
+from fuzzymbs.fuzzy.numbers import FuzzyNumber
+
+__all__ = [
+    "DEFAULT_ADAPTIVE_MAX_RUNS",
+    "DEFAULT_ADAPTIVE_TOLERANCE",
+    "AdaptiveOutcome",
+    "AdaptiveTransformation",
+    "check_adaptive_options",
+]
+
+#: certified error (on the cut-width scale) at which the adaptive method stops
+DEFAULT_ADAPTIVE_TOLERANCE = 0.01
+#: run budget of the adaptive method unless the caller sets one
+DEFAULT_ADAPTIVE_MAX_RUNS = 2000
+#: extremal points closer than this to a run (unit cube [-1, 1]^n, max norm) are not re-run
+_NEAR = 0.02
+#: frontier indices whose indicator is within this factor of the largest are refined together
+_REFINE_SHARE = 0.5
+#: Halton candidates for exploration points per parameter
+_EXPLORE_POOL = 512
+
+
+def check_adaptive_options(
+    tolerance: Any, max_runs: Any, count_parameters: int
+) -> tuple[float, int]:
+    """``(tolerance, max_runs)`` checked: a positive finite tolerance, and a budget of at
+    least the first round's runs (``2 n + 2``).
+
+    Raises
+    ------
+    InvalidPlanError
+        Names the input and what would be valid.
+    """
+    if (
+        isinstance(tolerance, bool)
+        or not isinstance(tolerance, int | float | np.floating | np.integer)
+        or not np.isfinite(tolerance)
+        or tolerance <= 0
+    ):
+        raise InvalidPlanError(
+            f"method_tolerance must be a positive number (e.g. 0.01 for 1 % of the cut "
+            f"width), got {tolerance!r}"
+        )
+    least = 2 * count_parameters + 2
+    if isinstance(max_runs, bool) or not isinstance(max_runs, int | np.integer) or max_runs < least:
+        raise InvalidPlanError(
+            f"max_runs of the adaptive method must be a whole number >= {least} (its first "
+            f"round: 2 n + 2 runs for n = {count_parameters} parameters), got {max_runs!r}"
+        )
+    return float(tolerance), int(max_runs)
+
+
+def _halton(count: int, dimension: int) -> NDArray[np.float64]:
+    """The first ``count`` points (after 0) of the Halton sequence in [0, 1)^dimension."""
+    primes: list[int] = []
+    candidate = 2
+    while len(primes) < dimension:
+        if all(candidate % p for p in primes):
+            primes.append(candidate)
+        candidate += 1
+    points = np.zeros((count, dimension))
+    for axis, base in enumerate(primes):
+        index = np.arange(1, count + 1)
+        fraction = 1.0
+        while np.any(index > 0):
+            fraction /= base
+            points[:, axis] += fraction * (index % base)
+            index //= base
+    return points
+
+
+@dataclass(frozen=True)
+class AdaptiveOutcome:
+    """What the adaptive method found.
+
+    Attributes
+    ----------
+    lower, upper : dict of str to ndarray
+        Per output, (L, *shape) nested cut bounds.
+    nominal : dict of str to ndarray
+        Per output, the value at the modal point.
+    error : float
+        The certified error estimate of the last round (cut-width scale).
+    converged : bool
+        ``error <= tolerance``; False when ``max_runs`` stopped the loop.
+    runs, rounds : int
+        Model runs and rounds.
+    pair_sum : dict of str to ndarray
+        Per output, (n, L, E) corner sums of the surrogate at every cut box's
+        corners (``sum_s sign_i(s) s(corner_s) / 2^(n-1)``): the gain factors' numerators.
+    """
+
+    lower: dict[str, NDArray[np.float64]]
+    upper: dict[str, NDArray[np.float64]]
+    nominal: dict[str, NDArray[np.float64]]
+    error: float
+    converged: bool
+    runs: int
+    rounds: int
+    pair_sum: dict[str, NDArray[np.float64]]
+
+
+class AdaptiveTransformation:
+    """The adaptive method's state machine; pure, no model and no I/O.
+
+    Parameters
+    ----------
+    parameters : mapping of str to FuzzyNumber
+        Fuzzy parameters (their order fixes the point columns).
+    levels : ndarray (L,)
+        Membership levels from 0 to 1.
+    tolerance : float
+        Certified error (cut-width scale) at which the loop stops.
+    max_runs : int
+        Run budget.
+    search_points : int
+        Search-grid points per cut box on the surrogate.
+
+    Notes
+    -----
+    Use: ``while not engine.done: points = engine.next_batch(); engine.add(points,
+    model(points))``, then :meth:`outcome`. :meth:`next_batch` is idempotent until
+    :meth:`add`; :meth:`add` takes the outputs of exactly that batch.
+    """
+
+    def __init__(
+        self,
+        parameters: Mapping[str, FuzzyNumber],
+        levels: NDArray[np.float64],
+        tolerance: float = DEFAULT_ADAPTIVE_TOLERANCE,
+        max_runs: int = DEFAULT_ADAPTIVE_MAX_RUNS,
+        search_points: int = 20_000,
+    ) -> None:
+        self.names = tuple(parameters)
+        self.levels = np.asarray(levels, dtype=float)
+        self.tolerance, self.max_runs = check_adaptive_options(tolerance, max_runs, len(self.names))
+        self.search_points = int(search_points)
+        cuts = np.stack([parameters[n].cuts(self.levels) for n in self.names], axis=1)
+        self.cut_lower = cuts[:, :, 0]
+        self.cut_upper = cuts[:, :, 1]
+        self._low = self.cut_lower[0]
+        self._high = self.cut_upper[0]
+        self._modal = np.array([parameters[n].modal for n in self.names], dtype=float)
+        frozen = [i for i in range(len(self.names)) if not self._high[i] > self._low[i]]
+        self.grid = ChebyshevSparseGrid(len(self.names), frozen)
+        dimension = len(self.names)
+        self._box_low = self.to_unit(self.cut_lower)
+        self._box_high = self.to_unit(self.cut_upper)
+        self._pool = 2.0 * _halton(_EXPLORE_POOL * dimension, dimension) - 1.0
+        # evaluated runs
+        self.samples = np.empty((0, dimension))
+        self._units = np.empty((0, dimension))
+        self._values: NDArray[np.float64] | None = None
+        self._off_grid = np.empty(0, dtype=np.intp)  # runs that are no grid node
+        self._layout: dict[str, tuple[int, tuple[int, ...]]] = {}
+        # round state
+        self.rounds = 0
+        self.error = np.inf
+        self.errors: list[float] = []
+        self.done = False
+        self.converged = False
+        self._pending: tuple[NDArray[np.float64], list[tuple[int, ...] | None]] | None = None
+        self._surrogate: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
+        self._bounds: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
+        self._certified = False
+
+    # ------------------------------------------------------------- coordinates
+    def to_unit(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Parameter points (..., n) to the unit cube [-1, 1]^n of the support box."""
+        values = np.asarray(points, dtype=float)
+        width = self._high - self._low
+        safe = np.where(width > 0.0, width, 1.0)
+        return np.where(width > 0.0, 2.0 * (values - self._low) / safe - 1.0, 0.0)
+
+    def to_parameters(self, unit: ArrayLike) -> NDArray[np.float64]:
+        """Points of [-1, 1]^n to the support box (-1 and 1 map exactly onto its bounds)."""
+        t = (np.asarray(unit, dtype=float) + 1.0) / 2.0
+        return np.where(self._high > self._low, self._low * (1.0 - t) + self._high * t, self._modal)
+
+    # ------------------------------------------------------------------ rounds
+    @property
+    def runs(self) -> int:
+        """Model runs added so far."""
+        return len(self.samples)
+
+    def next_batch(self) -> NDArray[np.float64]:
+        """The points (B, n) of the next round; (0, n) once done."""
+        if self.done:
+            return np.empty((0, len(self.names)))
+        if self._pending is None:
+            self._pending = self._plan_round()
+            if len(self._pending[0]) == 0:
+                if not self.done:  # nothing left to refine within the budget
+                    self._finish(converged=False)
+                return np.empty((0, len(self.names)))
+        return self._pending[0].copy()
+
+    def add(self, points: ArrayLike, outputs: Mapping[str, ArrayLike]) -> None:
+        """The model's outputs at the batch of :meth:`next_batch` (same points, same order).
+
+        Raises
+        ------
+        ModelOutputError
+            Points other than the batch's, outputs of the wrong shape, or non-finite
+            outputs (the surrogate needs every run).
+        """
+        if self._pending is None:
+            raise ModelOutputError("add() needs the batch of next_batch() first")
+        batch, nodes = self._pending
+        given = np.asarray(points, dtype=float)
+        if given.shape != batch.shape or not np.array_equal(given, batch):
+            raise ModelOutputError("add() takes the outputs at exactly the points of next_batch()")
+        flat = self._flatten(outputs, len(batch))
+        self._last_batch = self.runs + np.arange(len(batch))
+        self._last_predicted = (
+            np.zeros_like(flat)
+            if self._surrogate is None
+            else evaluate_series(*self._surrogate, self.to_unit(batch))
+        )
+        fresh = [(q, row) for row, q in enumerate(nodes) if q is not None]
+        if fresh:
+            self.grid.set_values([q for q, _ in fresh], flat[[row for _, row in fresh]])
+        self.samples = np.concatenate((self.samples, batch))
+        self._units = np.concatenate((self._units, self.to_unit(batch)))
+        self._values = flat if self._values is None else np.concatenate((self._values, flat))
+        self._pending = None
+        self.rounds += 1
+        self._off_grid = np.concatenate(
+            (self._off_grid, self.runs - len(batch) + np.flatnonzero([q is None for q in nodes]))
+        )
+
+    def _flatten(self, outputs: Mapping[str, ArrayLike], count: int) -> NDArray[np.float64]:
+        """Outputs as one (B, E) matrix; the layout is fixed by the first batch."""
+        if not isinstance(outputs, Mapping) or not outputs:
+            raise ModelOutputError("outputs must be a non-empty dict {name: (B, ...) array}")
+        if not self._layout:
+            offset = 0
+            for name, value in outputs.items():
+                shape = np.shape(value)[1:]
+                self._layout[name] = (offset, shape)
+                offset += int(np.prod(shape, dtype=np.int64))
+        if set(outputs) != set(self._layout):
+            raise ModelOutputError(
+                f"outputs changed between rounds: {sorted(self._layout)} then {sorted(outputs)}"
+            )
+        parts = []
+        for name, (_, shape) in self._layout.items():
+            value = np.asarray(outputs[name], dtype=float)
+            if value.shape != (count, *shape):
+                raise ModelOutputError(
+                    f"output {name!r} must have shape {(count, *shape)}, got {value.shape}"
+                )
+            if not np.all(np.isfinite(value)):
+                raise ModelOutputError(
+                    f"output {name!r} has NaN or inf: every run of the adaptive method enters "
+                    "its surrogate, so none may fail"
+                )
+            parts.append(value.reshape(count, -1))
+        return np.concatenate(parts, axis=1)
+
+    # ---------------------------------------------------------------- planning
+    def _plan_round(self) -> tuple[NDArray[np.float64], list[tuple[int, ...] | None]]:
+        """Points of the next round and, per point, its grid node (None: off the grid)."""
+        dimension = len(self.names)
+        if self.rounds == 0:
+            nodes: list[tuple[int, ...]] = []
+            start = (0,) * dimension
+            nodes += self.grid.add_index(start)
+            for i in range(dimension):
+                step = tuple(1 if q == i else 0 for q in range(dimension))
+                if self.grid.admissible(step):
+                    nodes += self.grid.add_index(step)
+            units = node_values(np.array(nodes, dtype=np.int64))
+            points = self.to_parameters(units)
+            labels: list[tuple[int, ...] | None] = list(nodes)
+            modal_unit = self.to_unit(self._modal)
+            if not np.any(np.all(units == modal_unit, axis=1)):
+                points = np.concatenate((self._modal[None, :], points))
+                labels = [None, *labels]
+            else:  # the modal point first: sample 0 of every plan is the nominal one
+                first = int(np.flatnonzero(np.all(units == modal_unit, axis=1))[0])
+                order = [first, *[i for i in range(len(points)) if i != first]]
+                points, labels = points[order], [labels[i] for i in order]
+            return points, labels
+        surrogate = self.grid.series()
+        bounds = self._search(surrogate)
+        if self._bounds is not None:
+            before = self._reported
+            self._surrogate, self._bounds = surrogate, bounds
+            self.error = self._certified_error(before)
+            self.errors.append(self.error)
+            if self._certified and self.error <= self.tolerance:
+                self._finish(converged=True)
+                return np.empty((0, dimension)), []
+        self._surrogate, self._bounds = surrogate, bounds
+        self._reported = self._widened()
+        scale = self._scale()
+        refine = self._refinement(scale)
+        nodes = []
+        for index in refine:
+            nodes += self.grid.add_index(index)
+        node_units = (
+            node_values(np.array(nodes, dtype=np.int64)) if nodes else np.empty((0, dimension))
+        )
+        room = self.max_runs - self.runs - len(nodes)
+        extra = self._certification_points(node_units, max(room, 0))
+        self._certified = len(extra) > 0 or self._certified
+        units = np.concatenate((node_units, extra))
+        if self.runs + len(units) > self.max_runs:
+            # over budget: give the refinement back and stop
+            for index in refine:
+                self._drop_index(index)
+            return np.empty((0, dimension)), []
+        labels = [*nodes, *([None] * len(extra))]
+        return self.to_parameters(units), labels
+
+    def _drop_index(self, index: tuple[int, ...]) -> None:
+        self.grid.indices.remove(index)
+        self.grid._index_set.discard(index)
+        self.grid._series = None
+
+    def _search(self, surrogate: tuple[NDArray, NDArray]) -> tuple[NDArray, ...]:
+        """Surrogate bounds and extremal points per level box (unit coordinates); a box
+        that is a point (a triangular core) is the modal run's value exactly."""
+        lower, upper, arg_lower, arg_upper = box_extremes(
+            *surrogate, self._box_low, self._box_high, budget=self.search_points
+        )
+        assert self._values is not None
+        for j in np.flatnonzero(np.all(self.cut_lower == self.cut_upper, axis=1)):
+            lower[j] = upper[j] = self._values[0]  # run 0 is the modal point
+        return lower, upper, arg_lower, arg_upper
+
+    def _scale(self) -> NDArray[np.float64]:
+        """(L, E) the cut-width scale ``max(w, 0.1 max_e w)`` of the current bounds; inf
+        where a level has no width (a crisp cut has nothing to miss)."""
+        lower, upper = self._widened()
+        width = upper - lower
+        widest = width.max(axis=1, keepdims=True)
+        scale = np.maximum(width, WIDTH_FLOOR * widest)
+        return np.where(widest > 0.0, scale, np.inf)
+
+    def _widened(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Surrogate bounds widened to every run inside each box, nested."""
+        assert self._bounds is not None and self._values is not None
+        lower, upper = self._bounds[0].copy(), self._bounds[1].copy()
+        for j in range(len(self.levels)):
+            inside = np.all(
+                (self.samples >= self.cut_lower[j]) & (self.samples <= self.cut_upper[j]), axis=1
+            )
+            if inside.any():
+                lower[j] = np.minimum(lower[j], self._values[inside].min(axis=0))
+                upper[j] = np.maximum(upper[j], self._values[inside].max(axis=0))
+        lower = np.minimum.accumulate(lower[::-1], axis=0)[::-1]
+        upper = np.maximum.accumulate(upper[::-1], axis=0)[::-1]
+        return lower, upper
+
+    def _levels_holding(self, units: NDArray[np.float64]) -> NDArray[np.intp]:
+        """(P,) the highest level whose box holds each point (unit coordinates)."""
+        eps = 1e-12
+        inside = np.all(
+            (units[:, None, :] >= self._box_low[None] - eps)
+            & (units[:, None, :] <= self._box_high[None] + eps),
+            axis=2,
+        )  # (P, L); level 0 holds every point
+        return len(self.levels) - 1 - np.argmax(inside[:, ::-1], axis=1)
+
+    def _certified_error(self, before: tuple[NDArray, NDArray]) -> float:
+        """The certified error of the current bounds: how far they moved since the last
+        round's (both widened to every run), and how far the surrogate's error seen at the
+        runs off the grid could carry a value beyond them (:meth:`_relevant_miss`), on the
+        cut-width scale."""
+        assert self._values is not None and self._surrogate is not None
+        lower, upper = self._widened()
+        scale = self._scale()
+        moved = (np.abs(lower - before[0]) + np.abs(upper - before[1])) / scale
+        change = float(np.max(np.where(np.isfinite(scale), moved, 0.0)))
+        # the certification: the runs of the last round off the grid (extremal and
+        # exploration points) against the surrogate they were planned with
+        batch = self._last_batch
+        off = np.isin(batch, self._off_grid)
+        seen = self._relevant_miss(
+            self._units[batch[off]], self._values[batch[off]], self._last_predicted[off]
+        )
+        return max(change, float(seen.max(initial=0.0)))
+
+    def _relevant_miss(
+        self, units: NDArray[np.float64], values: NDArray[np.float64], predicted: NDArray
+    ) -> NDArray[np.float64]:
+        """(P,) per point the largest ``(s + |f - s| - U)_+ + (L - s + |f - s|)_+`` over the
+        levels whose box holds it and the elements, on the cut-width scale: how far the
+        surrogate's error seen at the point could carry a value beyond the surrogate's
+        bounds ``[L, U]`` (at an extremal point: the error itself)."""
+        lower, upper = self._widened()
+        scale = self._scale()
+        error = np.abs(values - predicted)
+        holding = self._levels_holding(units)
+        worst = np.zeros(len(units))
+        for j in range(len(self.levels)):
+            inside = holding >= j
+            if not inside.any() or not np.all(np.isfinite(scale[j])):
+                continue
+            s, e = predicted[inside], error[inside]
+            beyond = np.maximum(s + e - upper[j], 0.0) + np.maximum(lower[j] - s + e, 0.0)
+            worst[inside] = np.maximum(worst[inside], (beyond / scale[j]).max(axis=1))
+        return worst
+
+    def _refinement(self, scale: NDArray[np.float64]) -> list[tuple[int, ...]]:
+        """Forward neighbours of the frontier indices whose surplus at the extremal points
+        (on the cut-width scale of their level) is within a factor of the largest."""
+        assert self._bounds is not None
+        _, _, arg_low, arg_high = self._bounds
+        count_levels, elements, dimension = arg_low.shape
+        points = np.concatenate((arg_low.reshape(-1, dimension), arg_high.reshape(-1, dimension)))
+        element = np.tile(np.arange(elements), 2 * count_levels)
+        level = np.tile(np.repeat(np.arange(count_levels), elements), 2)
+        weight = 1.0 / scale[level, element]
+        # the runs off the grid: where the surrogate is checked
+        off = self._off_grid
+        if len(off):
+            holding = self._levels_holding(self._units[off])
+            count_off = len(off)
+            points = np.concatenate((points, np.repeat(self._units[off], elements, axis=0)))
+            element = np.concatenate((element, np.tile(np.arange(elements), count_off)))
+            level = np.repeat(holding, elements)
+            weight = np.concatenate(
+                (
+                    weight,
+                    1.0
+                    / scale[np.minimum(level, len(scale) - 2), element[-count_off * elements :]],
+                )
+            )
+        unique, inverse = np.unique(points, axis=0, return_inverse=True)
+        indicator: dict[tuple[int, ...], float] = {}
+        for index in self.grid.active:
+            degrees, coefficients = self.grid.surplus(index)
+            values = basis_matrix(degrees, unique)[inverse.ravel()]  # (K, D)
+            local = np.einsum("kd,dk->k", values, coefficients[:, element])
+            goal = float(np.nanmax(np.abs(local) * weight))
+            # the surplus anywhere in the support box (its coefficients' sum bounds it)
+            anywhere = float(np.max(np.abs(coefficients).sum(axis=0) / scale[0]))
+            indicator[index] = max(goal, 0.1 * anywhere)
+        if not indicator:
+            return []
+        largest = max(indicator.values())
+        chosen: list[tuple[int, ...]] = []
+        for index in self.grid.active:
+            if indicator[index] >= _REFINE_SHARE * largest and indicator[index] > 0.0:
+                self.grid.expanded.add(index)
+                for forward in self.grid.forward(index):
+                    if forward not in chosen and all(
+                        back in self.grid._index_set or back in chosen
+                        for back in _backward(forward)
+                    ):
+                        chosen.append(forward)
+        return chosen
+
+    def _certification_points(self, planned: NDArray[np.float64], room: int) -> NDArray[np.float64]:
+        """Extremal points of the surrogate and one exploration point, each far from every
+        run and every point already planned; at most ``room``."""
+        assert self._bounds is not None
+        dimension = len(self.names)
+        _, _, arg_low, arg_high = self._bounds
+        moving = self._high > self._low
+        candidates = np.concatenate(
+            (arg_low.reshape(-1, dimension), arg_high.reshape(-1, dimension))
+        )
+        candidates = np.unique(np.round(candidates, 12), axis=0)
+        taken = np.concatenate((self._units, planned))
+        chosen: list[NDArray[np.float64]] = []
+        limit = min(room, 4 * dimension)
+
+        def distance(points: NDArray, others: NDArray) -> NDArray:
+            if len(others) == 0:
+                return np.full(len(points), np.inf)
+            gap = np.abs(points[:, None, moving] - others[None, :, moving])
+            return gap.max(axis=2).min(axis=1)
+
+        far = distance(candidates, taken)
+        while len(chosen) < limit:
+            best = int(np.argmax(far))
+            if far[best] <= _NEAR:
+                break
+            chosen.append(candidates[best])
+            far = np.minimum(far, distance(candidates, candidates[best][None, :]))
+        if len(chosen) < room:
+            pool_far = distance(
+                self._pool, np.concatenate((taken, np.array(chosen).reshape(-1, dimension)))
+            )
+            chosen.append(self._pool[int(np.argmax(pool_far))])
+        return np.array(chosen).reshape(-1, dimension)
+
+    # ----------------------------------------------------------------- result
+    @property
+    def layout(self) -> dict[str, tuple[int, tuple[int, ...]]]:
+        """Per output, its offset in the flattened elements and its own shape."""
+        return dict(self._layout)
+
+    def output(self, name: str) -> NDArray[np.float64]:
+        """(N, *shape) the outputs ``name`` of every run added."""
+        offset, shape = self._layout[name]
+        size = int(np.prod(shape, dtype=np.int64))
+        assert self._values is not None
+        return self._values[:, offset : offset + size].reshape(self.runs, *shape)
+
+    def _finish(self, converged: bool) -> None:
+        self.done = True
+        self.converged = converged
+        self._pending = None
+
+    def outcome(self) -> AdaptiveOutcome:
+        """Bounds, certified error, runs and rounds; the surrogate's corner sums."""
+        if self._values is None:
+            raise ModelOutputError("the adaptive method has no runs yet")
+        if self._surrogate is None:  # stopped after the first round: search it now
+            self._surrogate = self.grid.series()
+        if self._bounds is None:
+            self._bounds = self._search(self._surrogate)
+        lower, upper = self._widened()
+        modal_row = int(np.flatnonzero(np.all(self.samples == self._modal, axis=1))[0])
+        pairs = self._corner_sums()
+        result_lower, result_upper, nominal, pair_sum = {}, {}, {}, {}
+        for name, (offset, shape) in self._layout.items():
+            size = int(np.prod(shape, dtype=np.int64))
+            part = slice(offset, offset + size)
+            result_lower[name] = lower[:, part].reshape(len(self.levels), *shape)
+            result_upper[name] = upper[:, part].reshape(len(self.levels), *shape)
+            nominal[name] = self._values[modal_row, part].reshape(shape)
+            pair_sum[name] = pairs[:, :, part]
+        return AdaptiveOutcome(
+            result_lower,
+            result_upper,
+            nominal,
+            float(self.error),
+            bool(self.converged),
+            self.runs,
+            self.rounds,
+            pair_sum,
+        )
+
+    def _corner_sums(self) -> NDArray[np.float64]:
+        """(n, L, E) ``sum_s sign_i(s) s(corner_s) / 2^(n-1)`` on the surrogate."""
+        assert self._surrogate is not None
+        dimension = len(self.names)
+        bits = (np.arange(2**dimension)[:, None] >> np.arange(dimension - 1, -1, -1)) & 1
+        sums = np.empty((dimension, len(self.levels), self._surrogate[1].shape[1]))
+        for j in range(len(self.levels)):
+            corners = np.where(bits == 1, self._box_high[j], self._box_low[j])
+            values = evaluate_series(*self._surrogate, corners)  # (2^n, E)
+            sign = 2.0 * bits - 1.0  # (2^n, n)
+            sums[:, j] = sign.T @ values / 2 ** (dimension - 1)
+        return sums
+
+
+def _backward(index: tuple[int, ...]) -> list[tuple[int, ...]]:
+    return [(*index[:i], k - 1, *index[i + 1 :]) for i, k in enumerate(index) if k > 0]

@@ -1,0 +1,140 @@
+"""Extremes of a Chebyshev series over boxes, for every output element at once.
+
+The adaptive transformation method bounds each alpha-cut box by the minimum
+and maximum of its surrogate (:mod:`fuzzymbs.fuzzy.chebyshev_grid`) there, per
+output element. Two steps:
+
+1. a tensor grid of the box whose spacing follows the series' degree in each
+   direction (about two points per half-oscillation of the highest Chebyshev
+   polynomial over the box's share of ``[-1, 1]``): the best grid point of every
+   element and bound;
+2. a projected gradient search of the series from each of those points, all
+   elements and bounds at once (a step per start that grows by 1.5 after an
+   improvement and halves otherwise), so that an extremum between grid points
+   is found to round-off of the series rather than the grid spacing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, basis_matrix
+from fuzzymbs.fuzzy.grids import cartesian
+
+__all__ = ["box_extremes"]
+
+#: gradient steps of the polishing search
+_STEPS = 40
+#: float64 elements of one block of basis values on the search grid
+_BLOCK_ELEMENTS = 4_000_000
+
+
+def _grid_axes(
+    degrees: NDArray[np.int64], low: NDArray, high: NDArray, budget: int
+) -> list[NDArray[np.float64]]:
+    """Per direction the search grid of the box [low, high] (unit coordinates)."""
+    top = degrees.max(axis=0) if len(degrees) else np.zeros(len(low), dtype=np.int64)
+    share = (high - low) / 2.0
+    counts = np.where(high > low, np.ceil(2.0 * top * share).astype(int) + 3, 1)
+    while np.prod(counts.astype(float)) > budget and counts.max() > 3:
+        counts = np.where(counts > 3, np.maximum(3, (counts * 0.9).astype(int)), counts)
+    return [np.unique(np.linspace(lo, hi, c)) for lo, hi, c in zip(low, high, counts, strict=True)]
+
+
+def box_extremes(
+    degrees: NDArray[np.int64],
+    coefficients: NDArray[np.float64],
+    low: NDArray[np.float64],
+    high: NDArray[np.float64],
+    *,
+    budget: int = 20_000,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Minimum and maximum of a series over boxes, per element.
+
+    Parameters
+    ----------
+    degrees, coefficients : the series (D, n) and (D, E).
+    low, high : (L, n) the boxes in unit coordinates (``[-1, 1]``).
+    budget : search-grid points per box at most.
+
+    Returns
+    -------
+    lower, upper : (L, E) the smallest and largest value found.
+    arg_lower, arg_upper : (L, E, n) where.
+    """
+    count_boxes, count = low.shape
+    elements = coefficients.shape[1]
+    lower = np.empty((count_boxes, elements))
+    upper = np.empty((count_boxes, elements))
+    arg_lower = np.empty((count_boxes, elements, count))
+    arg_upper = np.empty((count_boxes, elements, count))
+    for j in range(count_boxes):
+        grid = cartesian(_grid_axes(degrees, low[j], high[j], budget))
+        block = max(1, _BLOCK_ELEMENTS // max(len(degrees), elements))
+        best_low = np.full(elements, np.inf)
+        best_high = np.full(elements, -np.inf)
+        where_low = np.zeros(elements, dtype=np.intp)
+        where_high = np.zeros(elements, dtype=np.intp)
+        for start in range(0, len(grid), block):
+            values = basis_matrix(degrees, grid[start : start + block]) @ coefficients
+            small, large = values.argmin(axis=0), values.argmax(axis=0)
+            take = np.arange(elements)
+            low_value, high_value = values[small, take], values[large, take]
+            better = low_value < best_low
+            best_low[better], where_low[better] = low_value[better], small[better] + start
+            better = high_value > best_high
+            best_high[better], where_high[better] = high_value[better], large[better] + start
+        lower[j], upper[j] = best_low, best_high
+        arg_lower[j], arg_upper[j] = grid[where_low], grid[where_high]
+    # polish every (box, element, bound) at once
+    starts = np.concatenate((arg_lower.reshape(-1, count), arg_upper.reshape(-1, count)))
+    sign = np.concatenate((-np.ones(count_boxes * elements), np.ones(count_boxes * elements)))
+    element = np.tile(np.arange(elements), 2 * count_boxes)
+    box = np.tile(np.repeat(np.arange(count_boxes), elements), 2)
+    found, value = _polish(degrees, coefficients, starts, element, sign, low[box], high[box])
+    half = count_boxes * elements
+    lower = np.minimum(lower, value[:half].reshape(count_boxes, elements))
+    upper = np.maximum(upper, value[half:].reshape(count_boxes, elements))
+    improved_low = value[:half].reshape(count_boxes, elements) <= lower
+    improved_high = value[half:].reshape(count_boxes, elements) >= upper
+    arg_lower[improved_low] = found[:half].reshape(count_boxes, elements, count)[improved_low]
+    arg_upper[improved_high] = found[half:].reshape(count_boxes, elements, count)[improved_high]
+    return lower, upper, arg_lower, arg_upper
+
+
+def _values_at(
+    degrees: NDArray, coefficients: NDArray, points: NDArray, element: NDArray
+) -> NDArray[np.float64]:
+    """Each point's own element of the series: (K,)."""
+    return np.einsum("kd,dk->k", basis_matrix(degrees, points), coefficients[:, element])
+
+
+def _polish(
+    degrees: NDArray[np.int64],
+    coefficients: NDArray[np.float64],
+    starts: NDArray[np.float64],
+    element: NDArray[np.intp],
+    sign: NDArray[np.float64],
+    low: NDArray[np.float64],
+    high: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Projected gradient ascent of ``sign * series[element]`` from every start in its box."""
+    x = starts.copy()
+    width = high - low
+    step = 0.05 * np.maximum(width.max(axis=1), 1e-300)
+    column = coefficients[:, element]  # (D, K)
+    value = np.einsum("kd,dk->k", basis_matrix(degrees, x), column)
+    for _ in range(_STEPS):
+        _, gradient = basis_gradient(degrees, x)
+        slope = np.einsum("ikd,dk->ki", gradient, column) * sign[:, None]
+        slope = np.where(width > 0.0, slope, 0.0)
+        norm = np.linalg.norm(slope, axis=1)
+        moving = norm > 0.0
+        direction = np.where(moving[:, None], slope / np.where(moving, norm, 1.0)[:, None], 0.0)
+        trial = np.clip(x + step[:, None] * direction, low, high)
+        trial_value = np.einsum("kd,dk->k", basis_matrix(degrees, trial), column)
+        better = sign * trial_value > sign * value
+        x[better], value[better] = trial[better], trial_value[better]
+        step = np.where(better, 1.5 * step, 0.5 * step)
+    return x, value

@@ -1,0 +1,113 @@
+"""The rounds of an adaptive study, each a table of points run through the executor and store.
+
+A study with ``method="adaptive"`` drives its
+:class:`~fuzzymbs.fuzzy.adaptive_plan.AdaptivePlan` round by round: the plan
+proposes the round's points, the study evaluates them chunk by chunk on its
+executor into ``STORE/adaptive-<round>-<fingerprint>/`` (like the screening and
+validation runs), and hands the outputs back. The points of round k follow
+from the outputs of rounds 0..k-1 alone, so after an interruption (even
+``kill -9``) a rerun replays the stored rounds, proposes the same points bit
+for bit, finds their chunks, and evaluates only what is missing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fuzzymbs.errors import IncompleteResultError
+
+__all__ = ["ROUND_FOLDER", "run_rounds"]
+
+logger = logging.getLogger("fuzzymbs.study.study")
+
+#: prefix of the store's sub-folders holding an adaptive round (``adaptive-<k>-<fingerprint>``)
+ROUND_FOLDER = "adaptive"
+
+
+def run_rounds(
+    study: Any,
+    settings: tuple[Any, int, bool, bool, dict[str, Any] | None],
+    store: str | Path | None,
+) -> tuple[dict[str, np.ndarray], int, int]:
+    """Run the adaptive plan of ``study`` from its first round to its last.
+
+    Parameters
+    ----------
+    study : the :class:`~fuzzymbs.study.study.Study` (its plan, model identity and
+        ``_evaluate_table``).
+    settings : executor, chunk size, resume, progress, code version (as the study's
+        other extra runs take them).
+    store : the study's store folder, or None.
+
+    Returns
+    -------
+    ``(outputs of every run in round order, runs evaluated, runs reused from the store)``
+
+    Raises
+    ------
+    IncompleteResultError
+        A run failed: every run enters the surrogate, so the study stops there (its
+        round's chunks are stored; a rerun resumes from them).
+    """
+    plan = study.plan
+    plan.reset()
+    pieces: dict[str, list[np.ndarray]] = {}
+    evaluated = reused = 0
+    round_number = 0
+    while True:
+        points = plan.next_batch()
+        if len(points) == 0:
+            break
+        digest = hashlib.sha256(np.ascontiguousarray(points, dtype="<f8").tobytes()).hexdigest()
+        identity = {
+            "adaptive_round": round_number,
+            "round_fingerprint": digest,
+            "plan_fingerprint": plan.fingerprint(),
+            **study._model_identity(),
+        }
+        folder = (
+            None
+            if store is None
+            else Path(store) / f"{ROUND_FOLDER}-{round_number:03d}-{digest[:12]}"
+        )
+        outputs, failed, reasons, done, from_store = study._evaluate_table(
+            points,
+            identity,
+            folder,
+            (f"round {round_number}", f"adaptive round {round_number}"),
+            settings,
+        )
+        if failed.any():
+            first = int(np.flatnonzero(failed)[0])
+            where = ", ".join(
+                f"{name}={value:.6g}" for name, value in zip(plan.names, points[first], strict=True)
+            )
+            raise IncompleteResultError(
+                f"{int(failed.sum())} of {len(points)} runs of adaptive round {round_number} of "
+                f"study {study.name!r} failed (first at {where}: "
+                f"{reasons[first] or 'non-finite output'}); every run of the adaptive method "
+                "enters its surrogate, so it cannot go on. Fix the model's failing runs or use "
+                "a fixed method (e.g. 'general') with on_failure='partial'"
+            )
+        plan.add(points, outputs)
+        for name, value in outputs.items():
+            pieces.setdefault(name, []).append(value)
+        evaluated += done
+        reused += from_store
+        logger.info(
+            "study %s: adaptive round %d, %d runs (%d from the store); %d runs so far, "
+            "certified error %.3g",
+            study.name,
+            round_number,
+            len(points),
+            from_store,
+            plan.engine.runs,
+            plan.engine.error,
+        )
+        round_number += 1
+    return {name: np.concatenate(value) for name, value in pieces.items()}, evaluated, reused
