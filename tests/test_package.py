@@ -23,8 +23,11 @@ def test_errors_are_builtin_subclasses():
 
 def test_version_is_the_changelogs_latest():
     # the CHANGELOG's first "## [x.y.z]" heading is the version the package reports
+    # (above it at most the "## [Unreleased]" section of Keep a Changelog)
     from pathlib import Path
 
     changelog = Path(__file__).parents[1] / "CHANGELOG.md"
     headings = [line for line in changelog.read_text().splitlines() if line.startswith("## [")]
+    if headings and headings[0] == "## [Unreleased]":
+        headings = headings[1:]
     assert headings and headings[0].startswith(f"## [{fuzzymbs.__version__}]")
