@@ -51,6 +51,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
     node_values,
 )
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
+from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
 __all__ = [
     "DEFAULT_ADAPTIVE_MAX_RUNS",
@@ -70,6 +71,14 @@ _NEAR = 0.02
 _REFINE_SHARE = 0.5
 #: Halton candidates for exploration points per parameter
 _EXPLORE_POOL = 512
+#: the runs off the grid enter the surrogate through a kernel correction
+_CORRECT = True
+#: certification points ranked by the frontier's surpluses at them (else by distance)
+_RANK = True
+
+#: a surrogate: the sparse grid's Chebyshev series (degrees, coefficients) and the
+#: kernel correction through the runs off the grid (None before there are any)
+Surrogate = tuple[NDArray[np.int64], NDArray[np.float64], KernelCorrection | None]
 
 
 def check_adaptive_options(
@@ -212,7 +221,7 @@ class AdaptiveTransformation:
         self.done = False
         self.converged = False
         self._pending: tuple[NDArray[np.float64], list[tuple[int, ...] | None]] | None = None
-        self._surrogate: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
+        self._surrogate: Surrogate | None = None
         self._bounds: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
         self._certified = False
 
@@ -267,7 +276,7 @@ class AdaptiveTransformation:
         self._last_predicted = (
             np.zeros_like(flat)
             if self._surrogate is None
-            else evaluate_series(*self._surrogate, self.to_unit(batch))
+            else self._predict(self._surrogate, self.to_unit(batch))
         )
         fresh = [(q, row) for row, q in enumerate(nodes) if q is not None]
         if fresh:
@@ -326,6 +335,10 @@ class AdaptiveTransformation:
             points = self.to_parameters(units)
             labels: list[tuple[int, ...] | None] = list(nodes)
             modal_unit = self.to_unit(self._modal)
+            # a node that is the modal point up to round-off of the unit map is run there
+            same = np.all(np.abs(units - modal_unit) <= 1e-12, axis=1)
+            points[same] = self._modal
+            units[same] = modal_unit
             if not np.any(np.all(units == modal_unit, axis=1)):
                 points = np.concatenate((self._modal[None, :], points))
                 labels = [None, *labels]
@@ -334,7 +347,7 @@ class AdaptiveTransformation:
                 order = [first, *[i for i in range(len(points)) if i != first]]
                 points, labels = points[order], [labels[i] for i in order]
             return points, labels
-        surrogate = self.grid.series()
+        surrogate = self._build_surrogate()
         bounds = self._search(surrogate)
         if self._bounds is not None:
             before = self._reported
@@ -347,6 +360,7 @@ class AdaptiveTransformation:
         self._surrogate, self._bounds = surrogate, bounds
         self._reported = self._widened()
         scale = self._scale()
+        doubt = self._doubt(scale) if _RANK else None
         refine = self._refinement(scale)
         nodes = []
         for index in refine:
@@ -355,7 +369,7 @@ class AdaptiveTransformation:
             node_values(np.array(nodes, dtype=np.int64)) if nodes else np.empty((0, dimension))
         )
         room = self.max_runs - self.runs - len(nodes)
-        extra = self._certification_points(node_units, max(room, 0))
+        extra = self._certification_points(node_units, max(room, 0), doubt)
         self._certified = len(extra) > 0 or self._certified
         units = np.concatenate((node_units, extra))
         if self.runs + len(units) > self.max_runs:
@@ -371,11 +385,36 @@ class AdaptiveTransformation:
         self.grid._index_set.discard(index)
         self.grid._series = None
 
-    def _search(self, surrogate: tuple[NDArray, NDArray]) -> tuple[NDArray, ...]:
+    def _build_surrogate(self) -> Surrogate:
+        """The sparse grid's series and, once there are runs off the grid, the kernel
+        correction through their residuals (:mod:`fuzzymbs.fuzzy.residual_correction`)."""
+        degrees, coefficients = self.grid.series()
+        if not len(self._off_grid) or not _CORRECT:
+            return degrees, coefficients, None
+        assert self._values is not None
+        residuals = self._values - evaluate_series(degrees, coefficients, self._units)
+        residuals[np.setdiff1d(np.arange(self.runs), self._off_grid)] = 0.0  # nodes: round-off
+        correction = KernelCorrection(self._units, residuals, self._high > self._low)
+        return degrees, coefficients, correction
+
+    @staticmethod
+    def _predict(surrogate: Surrogate, units: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(P, E) the surrogate at points of the unit cube."""
+        degrees, coefficients, correction = surrogate
+        values = evaluate_series(degrees, coefficients, units)
+        return values if correction is None else values + correction.values(units)
+
+    def _search(self, surrogate: Surrogate) -> tuple[NDArray, ...]:
         """Surrogate bounds and extremal points per level box (unit coordinates); a box
         that is a point (a triangular core) is the modal run's value exactly."""
+        degrees, coefficients, correction = surrogate
         lower, upper, arg_lower, arg_upper = box_extremes(
-            *surrogate, self._box_low, self._box_high, budget=self.search_points
+            degrees,
+            coefficients,
+            self._box_low,
+            self._box_high,
+            budget=self.search_points,
+            correction=correction,
         )
         assert self._values is not None
         for j in np.flatnonzero(np.all(self.cut_lower == self.cut_upper, axis=1)):
@@ -506,17 +545,52 @@ class AdaptiveTransformation:
                         chosen.append(forward)
         return chosen
 
-    def _certification_points(self, planned: NDArray[np.float64], room: int) -> NDArray[np.float64]:
+    def _extremal_points(self) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
+        """Every extremal point (K, n) of the current bounds with its level and element."""
+        assert self._bounds is not None
+        _, _, arg_low, arg_high = self._bounds
+        count_levels, elements, dimension = arg_low.shape
+        points = np.concatenate((arg_low.reshape(-1, dimension), arg_high.reshape(-1, dimension)))
+        level = np.tile(np.repeat(np.arange(count_levels), elements), 2)
+        element = np.tile(np.arange(elements), 2 * count_levels)
+        return points, level, element
+
+    def _doubt(self, scale: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(K,) per extremal point (order of :meth:`_extremal_points`) the frontier's
+        surpluses there, ``sum_k |Delta_k(x)|`` of its own element over the active indices,
+        on the cut-width scale of its level: how much the next refinement could still move
+        that bound."""
+        points, level, element = self._extremal_points()
+        unique, inverse = np.unique(points, axis=0, return_inverse=True)
+        doubt = np.zeros(len(points))
+        for index in self.grid.active:
+            degrees, coefficients = self.grid.surplus(index)
+            values = basis_matrix(degrees, unique)[inverse.ravel()]  # (K, D)
+            doubt += np.abs(np.einsum("kd,dk->k", values, coefficients[:, element]))
+        weight = 1.0 / scale[level, element]
+        return np.where(np.isfinite(weight), doubt * weight, 0.0)
+
+    def _certification_points(
+        self,
+        planned: NDArray[np.float64],
+        room: int,
+        doubt: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float64]:
         """Extremal points of the surrogate and one exploration point, each far from every
-        run and every point already planned; at most ``room``."""
+        run and every point already planned; at most ``room``. With ``doubt`` (per extremal
+        point) the most doubtful extremal points first, else the farthest from the runs."""
         assert self._bounds is not None
         dimension = len(self.names)
-        _, _, arg_low, arg_high = self._bounds
         moving = self._high > self._low
-        candidates = np.concatenate(
-            (arg_low.reshape(-1, dimension), arg_high.reshape(-1, dimension))
-        )
-        candidates = np.unique(np.round(candidates, 12), axis=0)
+        candidates, _, _ = self._extremal_points()
+        if doubt is not None:  # one candidate per location, its largest doubt
+            rounded = np.round(candidates, 12)
+            candidates, inverse = np.unique(rounded, axis=0, return_inverse=True)
+            priority = np.zeros(len(candidates))
+            np.maximum.at(priority, inverse.ravel(), doubt)
+        else:
+            candidates = np.unique(np.round(candidates, 12), axis=0)
+            priority = None
         taken = np.concatenate((self._units, planned))
         chosen: list[NDArray[np.float64]] = []
         limit = min(room, 4 * dimension)
@@ -529,7 +603,10 @@ class AdaptiveTransformation:
 
         far = distance(candidates, taken)
         while len(chosen) < limit:
-            best = int(np.argmax(far))
+            if priority is None:
+                best = int(np.argmax(far))
+            else:
+                best = int(np.argmax(np.where(far > _NEAR, priority, -1.0)))
             if far[best] <= _NEAR:
                 break
             chosen.append(candidates[best])
@@ -564,7 +641,7 @@ class AdaptiveTransformation:
         if self._values is None:
             raise ModelOutputError("the adaptive method has no runs yet")
         if self._surrogate is None:  # stopped after the first round: search it now
-            self._surrogate = self.grid.series()
+            self._surrogate = self._build_surrogate()
         if self._bounds is None:
             self._bounds = self._search(self._surrogate)
         lower, upper = self._widened()
@@ -597,7 +674,7 @@ class AdaptiveTransformation:
         sums = np.empty((dimension, len(self.levels), self._surrogate[1].shape[1]))
         for j in range(len(self.levels)):
             corners = np.where(bits == 1, self._box_high[j], self._box_low[j])
-            values = evaluate_series(*self._surrogate, corners)  # (2^n, E)
+            values = self._predict(self._surrogate, corners)  # (2^n, E)
             sign = 2.0 * bits - 1.0  # (2^n, n)
             sums[:, j] = sign.T @ values / 2 ** (dimension - 1)
         return sums
