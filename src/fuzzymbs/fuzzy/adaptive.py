@@ -75,6 +75,8 @@ _EXPLORE_POOL = 512
 _CORRECT = True
 #: certification points ranked by the frontier's surpluses at them (else by distance)
 _RANK = True
+_RIVALS = True
+_CORRECTION_DOUBT = True
 
 #: a surrogate: the sparse grid's Chebyshev series (degrees, coefficients) and the
 #: kernel correction through the runs off the grid (None before there are any)
@@ -360,7 +362,14 @@ class AdaptiveTransformation:
         self._surrogate, self._bounds = surrogate, bounds
         self._reported = self._widened()
         scale = self._scale()
-        doubt = self._doubt(scale) if _RANK else None
+        self._rivals = None
+        if surrogate[2] is not None and _RIVALS:
+            # where the sparse grid alone puts the extremes: candidates the correction moved
+            rival = box_extremes(
+                surrogate[0], surrogate[1], self._box_low, self._box_high, budget=self.search_points
+            )
+            self._rivals = rival[2], rival[3]
+        doubt = self._doubt(scale, surrogate[2]) if _RANK else None
         refine = self._refinement(scale)
         nodes = []
         for index in refine:
@@ -550,12 +559,17 @@ class AdaptiveTransformation:
         assert self._bounds is not None
         _, _, arg_low, arg_high = self._bounds
         count_levels, elements, dimension = arg_low.shape
-        points = np.concatenate((arg_low.reshape(-1, dimension), arg_high.reshape(-1, dimension)))
-        level = np.tile(np.repeat(np.arange(count_levels), elements), 2)
-        element = np.tile(np.arange(elements), 2 * count_levels)
+        sets = [arg_low, arg_high]
+        if getattr(self, "_rivals", None) is not None:
+            sets += list(self._rivals)
+        points = np.concatenate([a.reshape(-1, dimension) for a in sets])
+        level = np.tile(np.repeat(np.arange(count_levels), elements), len(sets))
+        element = np.tile(np.arange(elements), len(sets) * count_levels)
         return points, level, element
 
-    def _doubt(self, scale: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _doubt(
+        self, scale: NDArray[np.float64], correction: KernelCorrection | None = None
+    ) -> NDArray[np.float64]:
         """(K,) per extremal point (order of :meth:`_extremal_points`) the frontier's
         surpluses there, ``sum_k |Delta_k(x)|`` of its own element over the active indices,
         on the cut-width scale of its level: how much the next refinement could still move
@@ -567,6 +581,8 @@ class AdaptiveTransformation:
             degrees, coefficients = self.grid.surplus(index)
             values = basis_matrix(degrees, unique)[inverse.ravel()]  # (K, D)
             doubt += np.abs(np.einsum("kd,dk->k", values, coefficients[:, element]))
+        if correction is not None and _CORRECTION_DOUBT:
+            doubt += np.abs(correction.at(points, element))
         weight = 1.0 / scale[level, element]
         return np.where(np.isfinite(weight), doubt * weight, 0.0)
 
