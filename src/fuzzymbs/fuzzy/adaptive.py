@@ -68,7 +68,7 @@ DEFAULT_ADAPTIVE_MAX_RUNS = 2000
 #: extremal points closer than this to a run (unit cube [-1, 1]^n, max norm) are not re-run
 _NEAR = 0.02
 #: frontier indices whose indicator is within this factor of the largest are refined together
-_REFINE_SHARE = 0.5
+_REFINE_SHARE = 0.8
 #: Halton candidates for exploration points per parameter
 _EXPLORE_POOL = 512
 #: the runs off the grid enter the surrogate through a kernel correction
