@@ -1,32 +1,39 @@
 """The adaptive transformation method: a surrogate refined until its bounds are certified.
 
-One surrogate of every output element at once, a dimension-adaptive sparse
-grid in Chebyshev form (:mod:`fuzzymbs.fuzzy.chebyshev_grid`) over the support
-box, refined round by round where the cut bounds are decided; each cut's lower
-and upper bound per element is the surrogate's minimum and maximum over the cut
-box (:mod:`fuzzymbs.fuzzy.box_search`), and the true model checks them.
+One surrogate of every output element at once over the support box: a
+dimension-adaptive sparse grid in Chebyshev form
+(:mod:`fuzzymbs.fuzzy.chebyshev_grid`) plus a kernel correction through the
+residuals of every run off the grid (:mod:`fuzzymbs.fuzzy.residual_correction`),
+so that it takes the model's value at every run. It is refined round by round
+where the cut bounds are decided; each cut's lower and upper bound per element
+is the surrogate's minimum and maximum over the cut box
+(:mod:`fuzzymbs.fuzzy.box_search`), and the true model checks them.
 
 A round (:meth:`AdaptiveTransformation.next_batch`, then :meth:`~AdaptiveTransformation.add`):
 
-1. the surrogate ``s`` of every grid node evaluated so far gives, per level j,
-   element e and bound, the extremal point ``x*`` and value;
+1. the surrogate ``s`` of every run so far gives, per level j, element e and
+   bound, the extremal point ``x*`` and value (and, once there is a correction,
+   the sparse grid alone its own extremal points: where the correction moved an
+   extremum);
 2. the batch holds (a) the nodes of the forward neighbours of the frontier
    indices whose surplus matters most at the extremal points (refinement where
-   the bounds are decided), (b) extremal points of ``s`` that lie far from every
-   run (certification), (c) a point of a fixed Halton sequence far from every
-   run (exploration);
+   the bounds are decided), (b) up to ``4 n`` of those extremal points that lie
+   far from every run, the most doubtful first: largest frontier surpluses plus
+   correction there, on the cut-width scale (certification), (c) a point of a
+   fixed Halton sequence far from every run (exploration);
 3. the model's outputs at the batch are compared with ``s``: the certified error
-   is the largest ``|f(x) - s(x)|`` over the batch, per element on the cut-width
-   scale of the highest level whose box holds ``x``
-   (:func:`~fuzzymbs.fuzzy.band_scale.width_relative`); the nodes join the
-   surrogate, the other runs widen the bounds they exceed.
+   is the larger of how far the bounds moved and how far the error
+   ``|f(x) - s(x)|`` seen at the certification and exploration runs could carry
+   a value beyond the bounds, per element on the cut-width scale of the highest
+   level whose box holds ``x``
+   (:func:`~fuzzymbs.fuzzy.band_scale.width_relative`); every run joins the
+   surrogate (the nodes its sparse grid, the others its correction).
 
 The loop ends when the certified error of a round is at most ``tolerance`` (after at
 least one certification round) or when the next round would exceed ``max_runs``
 (:attr:`AdaptiveTransformation.converged` False). The reported bounds are those of
-the surrogate the last round checked, widened to every run inside the box: true
-values where a run went beyond, surrogate bounds confirmed within the error estimate
-elsewhere.
+the surrogate of every run, widened to every run inside the box: true values where
+a run went beyond, surrogate bounds confirmed within the error estimate elsewhere.
 
 Everything is a deterministic function of the outputs added so far (no random
 numbers), so replaying stored outputs rebuilds the same rounds bit for bit.
@@ -71,12 +78,6 @@ _NEAR = 0.02
 _REFINE_SHARE = 0.8
 #: Halton candidates for exploration points per parameter
 _EXPLORE_POOL = 512
-#: the runs off the grid enter the surrogate through a kernel correction
-_CORRECT = True
-#: certification points ranked by the frontier's surpluses at them (else by distance)
-_RANK = True
-_RIVALS = True
-_CORRECTION_DOUBT = True
 
 #: a surrogate: the sparse grid's Chebyshev series (degrees, coefficients) and the
 #: kernel correction through the runs off the grid (None before there are any)
@@ -226,6 +227,8 @@ class AdaptiveTransformation:
         self._surrogate: Surrogate | None = None
         self._bounds: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
         self._certified = False
+        # extremal points (arg_lower, arg_upper) of the sparse grid without the correction
+        self._rivals: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
     # ------------------------------------------------------------- coordinates
     def to_unit(self, points: ArrayLike) -> NDArray[np.float64]:
@@ -363,13 +366,13 @@ class AdaptiveTransformation:
         self._reported = self._widened()
         scale = self._scale()
         self._rivals = None
-        if surrogate[2] is not None and _RIVALS:
+        if surrogate[2] is not None:
             # where the sparse grid alone puts the extremes: candidates the correction moved
             rival = box_extremes(
                 surrogate[0], surrogate[1], self._box_low, self._box_high, budget=self.search_points
             )
             self._rivals = rival[2], rival[3]
-        doubt = self._doubt(scale, surrogate[2]) if _RANK else None
+        doubt = self._doubt(scale, surrogate[2])
         refine = self._refinement(scale)
         nodes = []
         for index in refine:
@@ -398,7 +401,7 @@ class AdaptiveTransformation:
         """The sparse grid's series and, once there are runs off the grid, the kernel
         correction through their residuals (:mod:`fuzzymbs.fuzzy.residual_correction`)."""
         degrees, coefficients = self.grid.series()
-        if not len(self._off_grid) or not _CORRECT:
+        if not len(self._off_grid):
             return degrees, coefficients, None
         assert self._values is not None
         residuals = self._values - evaluate_series(degrees, coefficients, self._units)
@@ -555,12 +558,13 @@ class AdaptiveTransformation:
         return chosen
 
     def _extremal_points(self) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
-        """Every extremal point (K, n) of the current bounds with its level and element."""
+        """Every extremal point (K, n) of the current bounds, and of the sparse grid alone
+        once a correction moved them, with its level and element."""
         assert self._bounds is not None
         _, _, arg_low, arg_high = self._bounds
         count_levels, elements, dimension = arg_low.shape
         sets = [arg_low, arg_high]
-        if getattr(self, "_rivals", None) is not None:
+        if self._rivals is not None:
             sets += list(self._rivals)
         points = np.concatenate([a.reshape(-1, dimension) for a in sets])
         level = np.tile(np.repeat(np.arange(count_levels), elements), len(sets))
@@ -568,12 +572,13 @@ class AdaptiveTransformation:
         return points, level, element
 
     def _doubt(
-        self, scale: NDArray[np.float64], correction: KernelCorrection | None = None
+        self, scale: NDArray[np.float64], correction: KernelCorrection | None
     ) -> NDArray[np.float64]:
-        """(K,) per extremal point (order of :meth:`_extremal_points`) the frontier's
-        surpluses there, ``sum_k |Delta_k(x)|`` of its own element over the active indices,
-        on the cut-width scale of its level: how much the next refinement could still move
-        that bound."""
+        """(K,) per extremal point (order of :meth:`_extremal_points`) how far the surrogate
+        there may still be off, on the cut-width scale of its level: the frontier's
+        surpluses ``sum_k |Delta_k(x)|`` of its own element over the active indices (what
+        the next refinement could still add) plus the size of the kernel correction (where
+        the runs off the grid already found the sparse grid off)."""
         points, level, element = self._extremal_points()
         unique, inverse = np.unique(points, axis=0, return_inverse=True)
         doubt = np.zeros(len(points))
@@ -581,32 +586,25 @@ class AdaptiveTransformation:
             degrees, coefficients = self.grid.surplus(index)
             values = basis_matrix(degrees, unique)[inverse.ravel()]  # (K, D)
             doubt += np.abs(np.einsum("kd,dk->k", values, coefficients[:, element]))
-        if correction is not None and _CORRECTION_DOUBT:
+        if correction is not None:
             doubt += np.abs(correction.at(points, element))
         weight = 1.0 / scale[level, element]
         return np.where(np.isfinite(weight), doubt * weight, 0.0)
 
     def _certification_points(
-        self,
-        planned: NDArray[np.float64],
-        room: int,
-        doubt: NDArray[np.float64] | None = None,
+        self, planned: NDArray[np.float64], room: int, doubt: NDArray[np.float64]
     ) -> NDArray[np.float64]:
-        """Extremal points of the surrogate and one exploration point, each far from every
-        run and every point already planned; at most ``room``. With ``doubt`` (per extremal
-        point) the most doubtful extremal points first, else the farthest from the runs."""
+        """Up to ``4 n`` extremal points, the most doubtful first (``doubt`` per extremal
+        point, :meth:`_doubt`), and one exploration point, each farther than ``_NEAR``
+        from every run and every point already planned; at most ``room``."""
         assert self._bounds is not None
         dimension = len(self.names)
         moving = self._high > self._low
         candidates, _, _ = self._extremal_points()
-        if doubt is not None:  # one candidate per location, its largest doubt
-            rounded = np.round(candidates, 12)
-            candidates, inverse = np.unique(rounded, axis=0, return_inverse=True)
-            priority = np.zeros(len(candidates))
-            np.maximum.at(priority, inverse.ravel(), doubt)
-        else:
-            candidates = np.unique(np.round(candidates, 12), axis=0)
-            priority = None
+        # one candidate per location, with its largest doubt
+        candidates, inverse = np.unique(np.round(candidates, 12), axis=0, return_inverse=True)
+        priority = np.zeros(len(candidates))
+        np.maximum.at(priority, inverse.ravel(), doubt)
         taken = np.concatenate((self._units, planned))
         chosen: list[NDArray[np.float64]] = []
         limit = min(room, 4 * dimension)
@@ -619,10 +617,7 @@ class AdaptiveTransformation:
 
         far = distance(candidates, taken)
         while len(chosen) < limit:
-            if priority is None:
-                best = int(np.argmax(far))
-            else:
-                best = int(np.argmax(np.where(far > _NEAR, priority, -1.0)))
+            best = int(np.argmax(np.where(far > _NEAR, priority, -1.0)))
             if far[best] <= _NEAR:
                 break
             chosen.append(candidates[best])

@@ -78,9 +78,7 @@ class KernelCorrection:
         for start in range(0, len(points), block):
             part = points[start : start + block]
             out[start : start + block] = (
-                _cubic(part, self.centres) @ self.weights
-                + self.tail[0]
-                + part @ self.tail[1:]
+                _cubic(part, self.centres) @ self.weights + self.tail[0] + part @ self.tail[1:]
             )
         return out
 
