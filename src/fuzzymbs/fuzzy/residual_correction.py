@@ -85,10 +85,18 @@ class KernelCorrection:
     def at(self, points: NDArray[np.float64], element: NDArray[np.intp]) -> NDArray[np.float64]:
         """(K,) the correction of element ``element[k]`` at ``points[k]``."""
         points = np.asarray(points, dtype=float)[:, self.moving]
-        kernel = _cubic(points, self.centres)  # (K, P)
-        own = self.weights[:, element]  # (P, K)
-        tail = self.tail[:, element]  # (1 + n, K)
-        return (kernel * own.T).sum(axis=1) + tail[0] + (points * tail[1:].T).sum(axis=1)
+        out = np.empty(len(points))
+        block = max(1, _BLOCK_ENTRIES // max(1, len(self.centres)))
+        for start in range(0, len(points), block):
+            part, own = points[start : start + block], element[start : start + block]
+            kernel = _cubic(part, self.centres)  # (k, P)
+            tail = self.tail[:, own]  # (1 + n, k)
+            out[start : start + block] = (
+                (kernel * self.weights[:, own].T).sum(axis=1)
+                + tail[0]
+                + (part * tail[1:].T).sum(axis=1)
+            )
+        return out
 
     def gradient_at(
         self, points: NDArray[np.float64], element: NDArray[np.intp]
@@ -97,11 +105,16 @@ class KernelCorrection:
         (zero along the directions that do not vary)."""
         full = np.asarray(points, dtype=float)
         points = full[:, self.moving]
-        distance = _distance(points, self.centres)  # (K, P)
-        # grad_x |x - c|^3 = 3 |x - c| (x - c): sum_p 3 d_kp w_pk (x_k - c_p)
-        factor = 3.0 * distance * self.weights[:, element].T  # (K, P)
-        slope = factor.sum(axis=1)[:, None] * points - factor @ self.centres
-        slope += self.tail[1:, element].T
+        slope = np.empty_like(points)
+        block = max(1, _BLOCK_ENTRIES // max(1, len(self.centres)))
+        for start in range(0, len(points), block):
+            part, own = points[start : start + block], element[start : start + block]
+            distance = _distance(part, self.centres)  # (k, P)
+            # grad_x |x - c|^3 = 3 |x - c| (x - c): sum_p 3 d_kp w_pk (x_k - c_p)
+            factor = 3.0 * distance * self.weights[:, own].T  # (k, P)
+            slope[start : start + block] = (
+                factor.sum(axis=1)[:, None] * part - factor @ self.centres + self.tail[1:, own].T
+            )
         gradient = np.zeros_like(full)
         gradient[:, self.moving] = slope
         return gradient
