@@ -13,11 +13,12 @@
   per output and level, as a fraction of max(local cut width, 0.1 x the level's widest
   cut) (the normalisation of ``method_error`` and ``time_integration_error``); CPU
   time of each call (all threads);
-* ``cost``: the whole default study 1 (``Study.run``: 33 runs, the method check's 6
-  validation runs and the time-integration check) in fresh interpreters, this
-  checkout's default, the ``--before`` checkout's default and this checkout with RK4
-  at 1 us, alternating, ``--rounds`` times; the smallest wall times, their ratios and
-  each study's own error estimates;
+* ``cost``: the whole default study 1 (``Study.run``: the integration pilot, 33 runs,
+  the method check's 6 validation runs and the time-integration check) in fresh
+  interpreters, this checkout's default (shared steps), the same with each sample on
+  its own steps (``shared_steps=False``), the ``--before`` checkout's default and
+  this checkout with RK4 at 1 us, alternating, ``--rounds`` times; the smallest wall
+  times, their ratios and each study's own error estimates;
 * ``simd``: the 33 samples of study 1 at rtol 1e-3 in one call, four samples per
   SIMD block (``kernel="lanes"``) against a block per sample (``kernel="samples"``),
   CPU time, in this checkout and (``--before``) in the other one: what the lanes
@@ -168,9 +169,10 @@ parameters = {{
 levels = [0.0, 0.25, 0.5, 0.75, 1.0]
 warnings.simplefilter("ignore")
 settings = {settings}
-Study(DiscBrake(t_end=2e-5, **settings), parameters, levels=levels).run(progress=False)
+options = {options}
+Study(DiscBrake(t_end=2e-5, **settings), parameters, levels=levels, **options).run(progress=False)
 wall, cpu = time.perf_counter(), time.process_time()
-result = Study(DiscBrake(t_end={t_end}, **settings), parameters, levels=levels).run(
+result = Study(DiscBrake(t_end={t_end}, **settings), parameters, levels=levels, **options).run(
     chunk_size=33, progress=False
 )
 attrs = result.dataset.attrs
@@ -182,7 +184,8 @@ print(json.dumps({{"wall_s": time.perf_counter() - wall, "cpu_s": time.process_t
     "time_integration_error": float(attrs.get("time_integration_error", float("nan"))),
     "time_integration_error_peak": float(attrs.get("time_integration_error_peak", float("nan"))),
     "integration_pilot_error": float(attrs.get("integration_pilot_error", float("nan"))),
-    "integration_reference_error": float(attrs.get("time_integration_reference_error", float("nan"))),
+    "integration_reference_error": float(
+        attrs.get("time_integration_reference_error", float("nan"))),
     "method_error": float(attrs.get("method_error", float("nan")))}}))
 """
 
@@ -196,9 +199,13 @@ _THIRD = {
 def measure_cost(
     before: Path | None, t_end: float, rounds: int, reference: dict, study: int = 1
 ) -> dict:
-    sides = {"default": (REPO, {}), "rk4_1us": (REPO, {"integrator": "rk4", "dt": 1e-6})}
+    sides = {
+        "default": (REPO, {}, {}),
+        "own_steps": (REPO, {}, {"shared_steps": False}),
+        "rk4_1us": (REPO, {"integrator": "rk4", "dt": 1e-6}, {}),
+    }
     if before is not None:
-        sides["before_default"] = (before.resolve(), {})
+        sides["before_default"] = (before.resolve(), {}, {})
     if study != 1:  # the other studies: the default's bands and cost alone
         sides = {"default": sides["default"]}
     runs: dict[str, list[dict]] = {name: [] for name in sides}
@@ -206,10 +213,10 @@ def measure_cost(
     saved.parent.mkdir(exist_ok=True)
     third = _THIRD[study].replace("{", "{{").replace("}", "}}")
     for _ in range(rounds):
-        for name, (checkout, settings) in sides.items():
+        for name, (checkout, settings, options) in sides.items():
             save = str(saved) if name == "default" else ""
             code = _STUDY.replace("{third}", third).format(
-                settings=repr(settings), t_end=t_end, save=save
+                settings=repr(settings), options=repr(options), t_end=t_end, save=save
             )
             runs[name].append(run_in_checkout(code, checkout))
     cost = {name: min(runs[name], key=lambda r: r["wall_s"]) for name in sides}
@@ -219,6 +226,8 @@ def measure_cost(
     figures["default_study_band_deviation"] = band_deviation(bands, reference)
     if "rk4_1us" in cost:
         figures["default_over_rk4_1us"] = cost["default"]["wall_s"] / cost["rk4_1us"]["wall_s"]
+    if "own_steps" in cost:
+        figures["default_over_own_steps"] = cost["default"]["wall_s"] / cost["own_steps"]["wall_s"]
     if "before_default" in cost:
         figures["default_over_before_default"] = (
             cost["default"]["wall_s"] / cost["before_default"]["wall_s"]

@@ -3,6 +3,14 @@
     python benchmarks/dask_scaling.py [--quick] [--repeat N] [--chunk-sizes 64,256,1024,4096]
                                       [--no-diagnostics] [--only PREFIX,...]
                                       [--src CHECKOUT/src] [--json] [--out FILE]
+    python benchmarks/dask_scaling.py --cli [--quick] [--repeat N] [--out FILE]
+
+``--cli``: end to end, the same study as a study file through ``fuzzymbs run`` in a
+child process (fresh store, no plots or report), inline with one Numba thread
+against ``--executor dask://`` on a LocalCluster of two single-thread workers
+started and warmed up by the benchmark, alternating; ratios of the study's own wall
+time (``wall_time_s`` in the result: plan, runs, method check, retransformation,
+dataset) and of the child's (with interpreter start and writing result.nc).
 
 Full run about 7 min on 2 cores (``--no-diagnostics``: 3.5 min); ``--src`` measures
 another checkout's ``src`` (a ``git archive`` of a commit), workers included.
@@ -13,10 +21,11 @@ with five triangular parameters -- ``pinion_tooth_stiffness`` and
 (80-100-120 N m) and ``tooth_stiffness`` (+-10 %; the model lets the two
 per-gear stiffnesses override it, so it changes the run count, not the
 outputs) -- on the full alpha-bound grid (``method="grid"``, ``levels=3``):
-7**5 = **16,807 runs**, then the method check's validation runs (3,361, the
-default count), then the retransformation. ``--quick``: ``levels=1`` (3**5 =
-243 runs), 12 positions, chunk 32, one round (a smoke test: ~12 s, 9 s with
-``--no-diagnostics``).
+7**5 = **16,807 runs**, then the method check's validation runs (the default
+count 3,361 at most, in rounds; 870 made: 840 + 30, where the search runs out
+of starts on the grid's points), then the retransformation. ``--quick``:
+``levels=1`` (3**5 = 243 runs), 12 positions, chunk 32, one round (a smoke
+test: ~12 s, 9 s with ``--no-diagnostics``).
 
 Timed in one process, ``--repeat`` rounds (medians; the machine may be shared,
 so the load average of each run and the CPU times are reported too). Each round
@@ -151,10 +160,11 @@ def differing(dataset: Any, reference: Any) -> list[str]:
 
 # ------------------------------------------------------------- client-side instrumentation
 class PhaseTimer:
-    """Wraps the study module's ``evaluate_chunks``: epoch start/stop of each evaluation
-    phase (the plan's runs, then the validation runs), client side only."""
+    """Wraps the study modules' ``evaluate_chunks``: epoch start/stop of each evaluation
+    phase (the plan's runs, then each round of the validation runs), client side only."""
 
     def __init__(self) -> None:
+        import fuzzymbs.study.extra_runs as extra
         import fuzzymbs.study.study as module
 
         self.module = module
@@ -168,6 +178,7 @@ class PhaseTimer:
             return evaluated
 
         module.evaluate_chunks = timed
+        extra.evaluate_chunks = timed
 
     def take(self) -> list[tuple[float, float, int, float]]:
         phases, self.phases = self.phases, []
@@ -584,7 +595,7 @@ def main(
         "positions": setting["positions"],
         "parameters": list(study.plan.names),
         "runs": runs,
-        "validation_runs": len(study.validation_points()),
+        "validation_runs": study.validation_count(),
         "chunk_size": chunk,
         "numba_threads_inline_default": numba.config.NUMBA_NUM_THREADS,
     }
@@ -697,6 +708,120 @@ def main(
     return figures
 
 
+GEAR_STUDY_FILE = """[study]
+name = "gear-dask-scaling"
+method = "grid"
+levels = {levels}
+outputs = ["ste"]
+
+[model]
+name = "gear-pair"
+[model.options]
+torque = 100.0
+positions = {positions}
+
+[parameters]
+pinion_tooth_stiffness = {{ type = "triangular", modal = {kt}, spread = 0.2 }}
+wheel_tooth_stiffness = {{ type = "triangular", modal = {kt}, spread = 0.2 }}
+contact_stiffness = {{ type = "triangular", modal = {kc}, spread = 0.3 }}
+torque = {{ type = "triangular", lower = 80.0, modal = 100.0, upper = 120.0 }}
+tooth_stiffness = {{ type = "triangular", modal = {kt}, spread = 0.1 }}
+"""
+
+
+def _cli_run(path: Path, out: Path, executor: str | None, chunk: int) -> dict[str, Any]:
+    """One ``fuzzymbs run`` of the study file in a child process (fresh store, no plots
+    or report); the child's wall time and the study's own (``wall_time_s``)."""
+    import subprocess
+
+    import xarray
+
+    env = dict(os.environ)
+    command = [sys.executable, "-m", "fuzzymbs.cli", "run", str(path), "--out", str(out)]
+    command += ["--fresh", "--no-plots", "--no-report", "--chunk-size", str(chunk)]
+    if executor is None:
+        env["NUMBA_NUM_THREADS"] = "1"  # the baseline: one inline core
+    else:
+        command += ["--executor", executor]
+    load = load_average()
+    start = time.perf_counter()
+    subprocess.run(command, env=env, capture_output=True, text=True, check=True)
+    wall = time.perf_counter() - start
+    with xarray.open_dataset(out / "result.nc") as result:
+        provenance = json.loads(result.attrs["provenance"])
+        bounds = {k: result[k].values.copy() for k in ("ste_lower", "ste_upper")}
+        excursion = result["ste_validation_excursion"].values.copy()
+        validation = int(result.attrs["validation_runs"])
+        error = float(result.attrs["method_error"])
+    return {
+        "process_wall_s": wall,
+        "study_wall_s": float(provenance["wall_time_s"]),
+        "validation_runs": validation,
+        "rounds": provenance["method_check"].get("rounds"),
+        "method_error": error,
+        "load_average": load,
+        "arrays": {**bounds, "excursion": excursion},
+    }
+
+
+def cli_main(quick: bool = False, repeat: int | None = None) -> dict[str, Any]:
+    """``fuzzymbs run`` of the gear study: inline with one Numba thread against two
+    single-thread Dask workers (a LocalCluster started here, warmed up before timing),
+    default method check on; alternating, ``repeat`` rounds, medians."""
+    import tempfile
+
+    setting = QUICK if quick else FULL
+    repeat = repeat or (1 if quick else 3)
+    kt, kc = MODAL_TOOTH_STIFFNESS, MODAL_CONTACT_STIFFNESS
+    values = {"positions": setting["positions"], "kt": kt, "kc": kc}
+    figures: dict[str, Any] = {"load_average_at_start": load_average(), "inline": [], "dask": []}
+    with tempfile.TemporaryDirectory() as folder:
+        root = Path(folder)
+        path = root / "gear.toml"
+        warm = root / "warm.toml"
+        path.write_text(GEAR_STUDY_FILE.format(levels=setting["levels"], **values))
+        warm.write_text(GEAR_STUDY_FILE.format(levels=1, **values))
+        _cli_run(warm, root / "warm", None, setting["chunk"])  # Numba cache, imports
+        for round_ in range(repeat):
+            inline = _cli_run(path, root / f"inline{round_}", None, setting["chunk"])
+            figures["inline"].append(inline)
+            log(f"dask_scaling --cli: round {round_ + 1} inline {inline['study_wall_s']:.2f} s")
+            cluster, client, _ = start_cluster(2, True, None)
+            try:
+                study = gear_study(1, setting["positions"])
+                client.run(_worker_warm_up, _pickled(study.model), study.columns(0, 1))
+                address = cluster.scheduler_address.replace("tcp://", "dask://")
+                dask = _cli_run(path, root / f"dask{round_}", address, setting["chunk"])
+            finally:
+                client.close()
+                cluster.close()
+            figures["dask"].append(dask)
+            log(f"dask_scaling --cli: round {round_ + 1} dask {dask['study_wall_s']:.2f} s")
+    reference = figures["inline"][0]["arrays"]
+    identical = all(
+        np.array_equal(run["arrays"][k], reference[k], equal_nan=True)
+        for run in figures["inline"] + figures["dask"]
+        for k in reference
+    )
+    for run in figures["inline"] + figures["dask"]:
+        run.pop("arrays")
+    for key in ("study_wall_s", "process_wall_s"):
+        inline_median = median([r[key] for r in figures["inline"]])
+        dask_median = median([r[key] for r in figures["dask"]])
+        figures[f"ratio_{key}"] = inline_median / dask_median
+        figures[f"inline_median_{key}"] = inline_median
+        figures[f"dask_median_{key}"] = dask_median
+    figures["identical"] = identical
+    figures["load_average_at_end"] = load_average()
+    return figures
+
+
+def _pickled(model: Any) -> bytes:
+    import cloudpickle
+
+    return cloudpickle.dumps(model)
+
+
 def table(figures: dict[str, Any]) -> str:
     """The ratio table and the Dask breakdown in text."""
     lines = [
@@ -756,7 +881,19 @@ if __name__ == "__main__":
     )
     parser.add_argument("--json", action="store_true", help="print only the JSON line")
     parser.add_argument("--out", default=None, help="also write the JSON to this file")
+    parser.add_argument(
+        "--cli",
+        action="store_true",
+        help="end to end: `fuzzymbs run` inline (1 thread) against 2 Dask workers",
+    )
     args = parser.parse_args()
+    if args.cli:
+        figures = cli_main(args.quick, args.repeat)
+        figures_line = json.dumps(figures, default=float)
+        print(figures_line)
+        if args.out:
+            Path(args.out).write_text(figures_line + "\n")
+        sys.exit(0)
     if args.src:
         source = str(Path(args.src).resolve())
         sys.path.insert(0, source)

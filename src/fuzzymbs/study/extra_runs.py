@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import math
 import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -18,10 +19,15 @@ from typing import Any
 
 import numpy as np
 
-from fuzzymbs.errors import IncompleteResultError, UnsupportedOperationError
+from fuzzymbs.errors import (
+    IncompleteResultError,
+    StoreMismatchError,
+    UnsupportedOperationError,
+)
 from fuzzymbs.fuzzy.screening import nonmonotonic_parameters
 from fuzzymbs.fuzzy.transform import Plan
 from fuzzymbs.fuzzy.validation import (
+    MethodSearch,
     ValidationPoints,
     default_validation_count,
     validation_points,
@@ -41,7 +47,12 @@ from fuzzymbs.study.integration_check import (
 from fuzzymbs.study.method_check import ValidationRuns
 from fuzzymbs.study.planning import AUTO
 from fuzzymbs.study.store import open_chunks
-from fuzzymbs.study.streaming import ChunkFeed, integration_inputs
+from fuzzymbs.study.streaming import (
+    BACKLOG_CHUNKS,
+    RAW_LIMIT_BYTES,
+    ChunkFeed,
+    integration_inputs,
+)
 
 __all__ = ["SCREENING_FOLDER", "VALIDATION_FOLDER", "StudyRuns"]
 
@@ -52,6 +63,21 @@ SCREENING_FOLDER = "screening"
 #: prefix of the sub-folders of a store holding validation runs' chunks
 #: (``validation-<count>-<fingerprint>``)
 VALIDATION_FOLDER = "validation"
+
+
+#: a round of validation runs longer than a chunk goes out in a multiple of this many
+#: equal chunks, so that no worker of a small pool idles at the end of the round
+ROUND_TASKS = 4
+
+
+def balanced_chunk_size(count: int, size: int) -> int:
+    """Chunk size of a round of ``count`` validation runs: at most ``size``, in a multiple
+    of :data:`ROUND_TASKS` equal chunks when more than one chunk is needed (the same on
+    every executor, so the rounds and their points do not depend on it)."""
+    if count <= size:
+        return size
+    tasks = ROUND_TASKS * math.ceil(math.ceil(count / size) / ROUND_TASKS)
+    return math.ceil(count / tasks)
 
 
 class StudyRuns:
@@ -101,14 +127,22 @@ class StudyRuns:
         *,
         tally: Callable[[int], np.ndarray] | None = None,
     ) -> ValidationPoints:
-        """The validation points of the study (:mod:`fuzzymbs.fuzzy.validation`), given
-        the method's outputs (or, from a run, ``tally``: how often each sample bounds a
-        level) and failed runs (without either: Halton points only)."""
-        plan = self.plan
-        count = self.validation_runs
-        if count is None:
-            count = default_validation_count(len(plan), len(plan.names))
-        return validation_points(plan, count, outputs, failed, tally=tally)
+        """The first round of the study's validation points
+        (:mod:`fuzzymbs.fuzzy.validation`: edge probes and Halton points, a quarter of
+        :meth:`validation_count`), given the method's outputs (or, from a run, ``tally``:
+        how often each sample bounds a level) and failed runs (without either: Halton
+        points only). The later rounds depend on the outputs of the earlier ones."""
+        count = self.validation_count()
+        search = MethodSearch(self.plan, {}, count, outputs=outputs, failed=failed, tally=tally)
+        points = search.next_round()
+        return points if points is not None else validation_points(self.plan, 0)
+
+    def validation_count(self) -> int:
+        """The study's validation runs in all: ``validation_runs``, or the default
+        (:func:`~fuzzymbs.fuzzy.validation.default_validation_count`)."""
+        if self.validation_runs is not None:
+            return self.validation_runs
+        return default_validation_count(len(self.plan), len(self.plan.names))
 
     def _validate(
         self,
@@ -121,40 +155,77 @@ class StudyRuns:
         progress: bool,
         code: dict[str, Any],
     ) -> ValidationRuns | None:
-        """Evaluate the validation points (chunks into
-        ``STORE/validation-<count>-<fingerprint>``); None if off."""
-        if feed.layout is None:  # sparse: the outputs are all there
-            points = self.validation_points(feed.raw, method_failed)
-        else:
-            points = self.validation_points(failed=method_failed, tally=feed.bound_tally)
-        count = len(points)
+        """The method check in rounds (:class:`~fuzzymbs.fuzzy.validation.MethodSearch`):
+        each round's chunks go to ``STORE/validation-<round>-<count>-<fingerprint>`` and
+        are reduced as they arrive; None if off."""
+        count = self.validation_count()
         if count == 0:
             return None
-        digest = hashlib.sha256(np.ascontiguousarray(points.samples, dtype="<f8").tobytes())
-        identity = {
-            "validation_fingerprint": digest.hexdigest(),
-            "plan_fingerprint": self.plan.fingerprint(),
-            **self._model_identity(),
-        }
-        # a folder per set of points: another count (or other method outputs) starts afresh
-        folder = f"{VALIDATION_FOLDER}-{count}-{identity['validation_fingerprint'][:12]}"
-        outputs, failed, reasons, evaluated, reused = self._evaluate_table(
-            points.samples,
-            identity,
-            None if store is None else Path(store) / folder,
-            ("validation", "the validation runs"),
-            (work, size, resume, progress, code),
-        )
-        logger.info(
-            "study %s: %d validation runs (%d from the store, %d failed)",
-            self.name,
+        try:
+            fuzzy = feed.results()
+        except IncompleteResultError:  # no level can be bounded: the run says so itself
+            return None
+        cuts = {name: (result.lower, result.upper) for name, result in fuzzy.items()}
+        elements = sum(int(np.prod(np.shape(lo)[1:], dtype=np.int64)) for lo, _ in cuts.values())
+        # kept whole as the plan's raw outputs are (a sparse plan keeps those always)
+        keep = feed.keep_raw
+        if keep is None:
+            small = 8 * count * elements <= RAW_LIMIT_BYTES
+            keep = small if feed.layout is None else feed.raw is not None and small
+        bounds_from = feed.bounding_samples()
+        search = MethodSearch(
+            self.plan,
+            cuts,
             count,
+            bounds_from=bounds_from,
+            outputs=feed.raw if bounds_from is None else None,
+            tally=feed.bound_tally if bounds_from is not None else None,
+            failed=method_failed,
+            keep_outputs=bool(keep),
+        )
+        failed_parts: list[np.ndarray] = []
+        reason_parts: list[np.ndarray] = []
+        evaluated = reused = 0
+        round_index = 0
+        while (points := search.next_round()) is not None:
+            digest = hashlib.sha256(np.ascontiguousarray(points.samples, dtype="<f8").tobytes())
+            identity = {
+                "validation_fingerprint": digest.hexdigest(),
+                "plan_fingerprint": self.plan.fingerprint(),
+                **self._model_identity(),
+            }
+            # a folder per round and set of points: other points start afresh
+            folder = (
+                f"{VALIDATION_FOLDER}-{round_index}-{count}-"
+                f"{identity['validation_fingerprint'][:12]}"
+            )
+            failed, reasons, done, stored = self._stream_table(
+                points.samples,
+                identity,
+                None if store is None else Path(store) / folder,
+                (work, size, resume, progress, code),
+                search.add,
+                cuts,
+            )
+            failed_parts.append(failed)
+            reason_parts.append(reasons)
+            evaluated += done
+            reused += stored
+            round_index += 1
+        outcome = search.outcome()
+        failed = np.concatenate(failed_parts) if failed_parts else np.zeros(0, bool)
+        reasons = np.concatenate(reason_parts) if reason_parts else np.zeros(0, str)
+        logger.info(
+            "study %s: %d validation runs in %d rounds (%d from the store, %d failed)",
+            self.name,
+            len(outcome.points),
+            round_index,
             reused,
             int(np.count_nonzero(failed)),
         )
         return ValidationRuns(
-            points,
-            outputs,
+            outcome.points,
+            outcome,
             failed,
             reasons,
             self.method_tolerance,
@@ -162,6 +233,86 @@ class StudyRuns:
             evaluated=int(evaluated),
             reused=int(reused),
         )
+
+    def _stream_table(
+        self,
+        table: np.ndarray,
+        identity: dict[str, Any],
+        folder: Path | None,
+        settings: tuple[LazyExecutor, int, bool, bool, dict[str, Any] | None],
+        consume: Callable[[int, dict[str, np.ndarray]], None],
+        shapes: Mapping[str, tuple[np.ndarray, np.ndarray]],
+    ) -> tuple[np.ndarray, np.ndarray, int, int]:
+        """Evaluate the rows of a table of validation points chunk by chunk into ``folder``
+        and hand each chunk's outputs to ``consume(start, outputs)`` in row order (stored
+        chunks are read when their turn comes): ``(failed, reasons, evaluated, reused)``.
+        Only the chunks waiting for an earlier one are held."""
+        work, size, resume, progress, code = settings
+        count = len(table)
+        chunk_store, size, chunk_count, results, missing, reused = open_chunks(
+            folder, identity, count, balanced_chunk_size(count, size), resume, code, load=False
+        )
+        stored = set(results)  # read from the store when their turn comes
+        failed = np.zeros(count, dtype=bool)
+        reasons = np.full(count, "", dtype=object)
+        waiting: dict[int, Any] = {}
+        turn = [0]
+
+        def take(chunk: Any) -> None:
+            self._output_check.check(chunk, "the validation runs")
+            self._adopt_coords([chunk])
+            rows = slice(chunk.start, chunk.stop)
+            failed[rows] = np.asarray(chunk.failed, dtype=bool)
+            reasons[rows] = np.asarray(chunk.reasons, dtype=object)
+            outputs = {}
+            for name, (lower, _) in shapes.items():
+                values = chunk.outputs.get(name) if chunk.outputs else None
+                if values is None or chunk.failed.all():
+                    values = np.full((chunk.size, *np.shape(lower)[1:]), np.nan)
+                values = np.array(values, dtype=float)
+                values[np.asarray(chunk.failed, dtype=bool)] = np.nan
+                outputs[name] = values
+            consume(chunk.start, outputs)
+
+        def drain() -> None:
+            while turn[0] < chunk_count:
+                index = turn[0]
+                if index in waiting:
+                    chunk = waiting.pop(index)
+                elif index in stored and chunk_store is not None:
+                    chunk = chunk_store.read(index)
+                    if chunk is None:
+                        raise StoreMismatchError(
+                            f"stored chunk {index} of {chunk_store.path} changed or vanished "
+                            "while this run used it; rerun to evaluate it again"
+                        )
+                else:
+                    return
+                take(chunk)
+                turn[0] += 1
+
+        def arrived(index: int, chunk: Any) -> None:
+            waiting[index] = chunk
+            drain()
+
+        drain()
+        evaluated = evaluate_chunks(
+            self.model,
+            self.outputs,
+            lambda start, stop: self._columns(table, start, stop),
+            count,
+            missing,
+            size,
+            results,
+            chunk_store,
+            work,
+            progress=(progress, reused, f"{self.name} (validation)"),
+            fail_fast=None,
+            on_chunk=arrived,
+            may_submit=lambda: len(waiting) < BACKLOG_CHUNKS,
+        )
+        drain()
+        return failed, reasons.astype(str), int(evaluated), int(reused)
 
     def _check_time_integration(
         self, feed: ChunkFeed, failed: np.ndarray

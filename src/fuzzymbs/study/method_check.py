@@ -1,17 +1,17 @@
 """Every study checks its own fuzzy method with validation runs.
 
-After the method's runs, the study evaluates the validation points of
-:func:`fuzzymbs.fuzzy.validation.validation_points` (a fifth of the method's
-runs by default, at least n + 1; ``validation_runs`` sets the number, 0 turns
-the check off) and compares their outputs with the retransformed cuts: the
-largest excursion beyond the cut of each point's level, relative to the cut's
-width, is the study's ``method_error`` (dataset attribute; per output in the
+After the method's runs, the study evaluates the validation runs of
+:class:`fuzzymbs.fuzzy.validation.MethodSearch` in rounds (a fifth of the method's
+runs by default, at least 12 per parameter; ``validation_runs`` sets the number, 0
+turns the check off), reduced as they arrive, and compares their range with the
+retransformed cuts: the largest part of it outside a level's cut, on the cut-width
+scale, is the study's ``method_error`` (dataset attribute; per output in the
 provenance; printed in summary.txt). Above ``method_tolerance`` (default 1 %)
 the study warns with a :class:`~fuzzymbs.fuzzy.retransform.NonMonotonicWarning`
-naming the output, the level and the parameters of the worst point. The
-validation outputs are kept in the result as their own variables
-(``o_validation``); they widen the bounds only when the study asks for it
-(``widen_with_validation``).
+naming the output, the level and the parameters of the worst point. Each run's
+excursion is kept in the result (``o_validation_excursion``), the runs' outputs
+(``o_validation``) where the plan's raw outputs are; they widen the bounds only
+when the study asks for it (``widen_with_validation``).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.fuzzy.retransform import NonMonotonicWarning
-from fuzzymbs.fuzzy.validation import ValidationPoints, excursions
+from fuzzymbs.fuzzy.validation import SearchOutcome, ValidationPoints
 
 #: default largest method error (excursion relative to the cut's width) without a warning
 DEFAULT_METHOD_TOLERANCE = 0.01
@@ -32,18 +32,20 @@ DEFAULT_METHOD_TOLERANCE = 0.01
 
 @dataclass(frozen=True)
 class ValidationRuns:
-    """The validation runs of a study, evaluated, and what to do with them.
+    """The validation runs of a study, evaluated and reduced, and what to do with them.
 
     Attributes
     ----------
-    points : the validation points.
-    outputs : output -> (V, *shape); failed, reasons : (V,) per run.
+    points : the validation points of every round.
+    outcome : what the check found (:class:`~fuzzymbs.fuzzy.validation.SearchOutcome`;
+        the validation outputs themselves only when kept).
+    failed, reasons : (V,) per run.
     tolerance : the study's ``method_tolerance``; widen : ``widen_with_validation``.
     evaluated, reused : runs evaluated now and taken from the store.
     """
 
     points: ValidationPoints
-    outputs: dict[str, np.ndarray]
+    outcome: SearchOutcome
     failed: np.ndarray
     reasons: np.ndarray
     tolerance: float
@@ -59,18 +61,19 @@ class MethodCheck:
     Attributes
     ----------
     runs, failed : validation runs made and how many of them failed.
-    error : largest excursion relative to the cut's width over outputs (NaN: no
-        validation run could be checked).
+    rounds : validation runs per round.
+    error : largest miss over outputs, levels and elements, on the cut-width scale
+        (NaN: no validation run could be checked).
     tolerance : the study's ``method_tolerance``.
-    per_output : output -> its largest excursion.
-    worst : where the largest excursion is (output, level, parameter values,
-        element index), or None.
+    per_output : output -> its largest miss.
+    worst : where the largest miss is (output, level, parameter values, element), or None.
     widened : the bounds were widened with the validation outputs.
     excursion : output -> (V,) each point's largest excursion over the elements.
     """
 
     runs: int
     failed: int
+    rounds: list[int]
     error: float
     tolerance: float
     per_output: dict[str, float]
@@ -91,6 +94,7 @@ class MethodCheck:
         return {
             "runs": self.runs,
             "failed": self.failed,
+            "rounds": list(self.rounds),
             "error": self.error,
             "tolerance": self.tolerance,
             "per_output": self.per_output,
@@ -103,65 +107,50 @@ def check_method(
     names: Sequence[str],
     levels: np.ndarray,
     cuts: Mapping[str, tuple[np.ndarray, np.ndarray]],
-    points: ValidationPoints,
-    outputs: Mapping[str, np.ndarray],
-    failed: np.ndarray,
-    tolerance: float = DEFAULT_METHOD_TOLERANCE,
-    widen: bool = False,
+    validation: ValidationRuns,
 ) -> MethodCheck:
-    """Compare validation outputs with the method's cuts; optionally widen the cuts.
+    """The method check's verdict from the reduced validation runs; warns above the
+    tolerance and widens the cuts in place when the study asks for it.
 
     Parameters
     ----------
-    names : the plan's parameter names (columns of ``points.samples``).
+    names : the plan's parameter names (columns of the points' samples).
     levels : (L,) the plan's levels.
     cuts : output -> ``(lower, upper)``, each (L, *shape); widened in place when
-        ``widen`` (every level whose box holds the point: the point's level and
+        ``validation.widen`` (every level whose box holds a point: the point's level and
         all below, so the cuts stay nested).
-    points : the validation points; outputs : output -> (V, *shape);
-    failed : (V,) bool, failed validation runs (left out).
-    tolerance : warn (:class:`NonMonotonicWarning`) above it.
+    validation : the study's validation runs.
     """
-    usable = ~np.asarray(failed, dtype=bool)
-    per_output: dict[str, float] = {}
-    per_point: dict[str, np.ndarray] = {}
-    worst: dict[str, Any] | None = None
-    error = float("nan")
-    for name, (lower, upper) in cuts.items():
-        values = np.asarray(outputs[name], dtype=float).copy()
-        values[~usable] = np.nan
-        relative = excursions(lower, upper, values, points.level)
-        flat = relative.reshape(len(values), -1)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: failed points
-            point_max = np.nanmax(flat, axis=1) if flat.shape[1] else np.full(len(values), np.nan)
-        per_point[name] = point_max
-        if not np.isfinite(point_max).any():
-            per_output[name] = float("nan")
-            continue
-        best = int(np.nanargmax(point_max))
-        per_output[name] = float(point_max[best])
-        if not np.isfinite(error) or per_output[name] > error:
-            error = per_output[name]
-            element = np.unravel_index(int(np.nanargmax(flat[best])), relative.shape[1:])
-            worst = {
-                "output": name,
-                "level": float(levels[points.level[best]]),
-                "parameters": dict(zip(names, points.samples[best].tolist(), strict=True)),
-                "element": [int(i) for i in element],
-                "excursion": per_output[name],
-            }
-        if widen:
-            _widen(lower, upper, values, points.level)
+    outcome = validation.outcome
+    points = validation.points
+    error = outcome.error
+    tolerance = validation.tolerance
+    worst = None
+    if outcome.worst is not None:
+        point = outcome.worst["point"]
+        worst = {
+            "output": outcome.worst["output"],
+            "level": float(levels[outcome.worst["level"]]),
+            "parameters": dict(zip(names, points.samples[point].tolist(), strict=True)),
+            "element": outcome.worst["element"],
+            "excursion": float(error),
+        }
+    if validation.widen:
+        for name, (lower, upper) in cuts.items():
+            low = outcome.low[name]
+            high = outcome.high[name]
+            np.minimum(lower, np.where(np.isfinite(low), low, lower), out=lower)
+            np.maximum(upper, np.where(np.isfinite(high), high, upper), out=upper)
     result = MethodCheck(
         runs=len(points),
-        failed=int(np.count_nonzero(~usable)),
-        error=error,
+        failed=int(np.count_nonzero(validation.failed)),
+        rounds=list(outcome.rounds),
+        error=float(error),
         tolerance=float(tolerance),
-        per_output=per_output,
+        per_output=dict(outcome.per_output),
         worst=worst,
-        widened=bool(widen),
-        excursion=per_point,
+        widened=bool(validation.widen),
+        excursion=dict(outcome.point_excursion),
     )
     if worst is not None and error > tolerance:
         where = ", ".join(f"{k}={v:.6g}" for k, v in worst["parameters"].items())
@@ -177,13 +166,3 @@ def check_method(
             stacklevel=3,
         )
     return result
-
-
-def _widen(lower: np.ndarray, upper: np.ndarray, values: np.ndarray, level: np.ndarray) -> None:
-    """Extend every cut whose box holds a point (its level and all below) to its output."""
-    for row, top in enumerate(level):
-        if not np.isfinite(values[row]).all():
-            continue
-        for j in range(int(top) + 1):
-            np.minimum(lower[j : j + 1], values[row], out=lower[j : j + 1])
-            np.maximum(upper[j : j + 1], values[row], out=upper[j : j + 1])

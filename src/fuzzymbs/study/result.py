@@ -27,7 +27,8 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
            with validation runs: method_error (largest excursion of a validation run
            beyond its level's cut, relative to the cut's width), method_tolerance,
            validation_runs
-    o_validation                   (validation, *dims)  outputs of the validation runs
+    o_validation                   (validation, *dims)  outputs of the validation runs (kept
+                                   as the raw outputs are: by default up to 64 MiB)
     o_validation_excursion         (validation)     each run's excursion / cut width
     validation_samples             (validation, parameter)
     validation_level, validation_failed  (validation)
@@ -311,16 +312,7 @@ def build_dataset(
     if validation is not None and len(validation.points):
         with warnings.catch_warnings(record=True) as caught_check:
             warnings.simplefilter("always")
-            method = check_method(
-                plan.names,
-                plan.levels,
-                bounds,
-                validation.points,
-                validation.outputs,
-                validation.failed,
-                validation.tolerance,
-                validation.widen,
-            )
+            method = check_method(plan.names, plan.levels, bounds, validation)
         caught = [*caught, *caught_check]
         for w in caught_check:  # the method check's warning also reaches the caller
             warnings.warn(w.message, w.category, stacklevel=3)
@@ -350,12 +342,10 @@ def build_dataset(
         attrs = {"units": units[name]} if name in units else {}
         data[f"{name}_lower"] = (("level", *dims), bounds[name][0], attrs)
         data[f"{name}_upper"] = (("level", *dims), bounds[name][1], attrs)
-        if method is not None and validation is not None:
-            data[f"{name}_validation"] = (
-                ("validation", *dims),
-                np.asarray(validation.outputs[name], dtype=float),
-                attrs,
-            )
+        kept = None if validation is None else validation.outcome.outputs
+        if method is not None and kept is not None and name in kept:
+            data[f"{name}_validation"] = (("validation", *dims), kept[name], attrs)
+        if method is not None:
             data[f"{name}_validation_excursion"] = (
                 ("validation",),
                 method.excursion[name],

@@ -82,6 +82,7 @@ class ChunkFeed:
         self._buffer: dict[int, ChunkResult] = {}
         self._next = 0
         self._check = OutputCheck() if check is None else check
+        self._results: tuple[dict[str, FuzzyResult], list[Any]] | None = None
 
     # ----------------------------------------------------------------- feeding
     def add(self, index: int, chunk: ChunkResult) -> None:
@@ -170,7 +171,23 @@ class ChunkFeed:
         return self._next == self.chunk_count
 
     def results(self, check_monotonic: bool = True) -> dict[str, FuzzyResult]:
-        """The retransformed outputs (warns like :meth:`Plan.retransform`)."""
+        """The retransformed outputs (warns like :meth:`Plan.retransform`, on every call;
+        with ``check_monotonic`` the first call's results are kept and returned again)."""
+        import warnings
+
+        if not check_monotonic:
+            return self._retransform(False)
+        if self._results is None:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                fuzzy = self._retransform(True)
+            self._results = (fuzzy, list(caught))
+        fuzzy, caught = self._results
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return fuzzy
+
+    def _retransform(self, check_monotonic: bool) -> dict[str, FuzzyResult]:
         if not self.complete:
             raise RuntimeError(f"{self._next} of {self.chunk_count} chunks reduced")
         if self.layout is None:
@@ -205,6 +222,16 @@ class ChunkFeed:
         for accumulator in self.accumulators.values():
             tally += accumulator.bound_tally(level)
         return tally
+
+    def bounding_samples(self) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
+        """Output -> (L, size) the samples that give each nested cut bound (lower, upper);
+        None for a sparse plan (its bounds come from an interpolant)."""
+        if self.layout is None:
+            return None
+        return {
+            name: accumulator.nested_extremes()[2:]
+            for name, accumulator in self.accumulators.items()
+        }
 
     def reasons_array(self) -> np.ndarray:
         """(N,) failure reasons as str ("" where the sample succeeded)."""

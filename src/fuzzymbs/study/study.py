@@ -136,15 +136,17 @@ class Study(StudyRuns):
         tolerance (:mod:`fuzzymbs.mbs.shared_steps`; default True).
     validation_runs : int, optional
         Extra runs that check the method (:mod:`fuzzymbs.study.method_check`):
-        points inside the cut boxes that no run of the method covers, compared
-        with the retransformed cuts (``method_error``). Default: a fifth of the
-        method's runs for studies of 30 runs or more, else n + 1 (n fuzzy
-        parameters). 0 turns the check off (for a model known to be monotonic,
-        or when every run counts).
+        points inside the cut boxes that no run of the method covers, in four
+        rounds (edge probes and Halton points, then a local search from the
+        points that give the bounds), compared with the retransformed cuts
+        (``method_error``). Default: a fifth of the method's runs, at least 12
+        per fuzzy parameter. 0 turns the check off (for a model known to be
+        monotonic, or when every run counts).
     method_tolerance : float
         Method ``"adaptive"``: the certified error (cut-width scale) at which its rounds
-        stop. The fixed methods: the largest method error (excursion of a validation
-        run beyond its level's cut, relative to the cut's width) without a
+        stop. The fixed methods: the largest method error (the validation runs' range
+        beyond a level's cut, on the cut-width scale of :mod:`fuzzymbs.fuzzy.band_scale`)
+        without a
         :class:`~fuzzymbs.fuzzy.retransform.NonMonotonicWarning`. Default 1 %.
     widen_with_validation : bool
         Widen the cuts to the validation outputs (each point's level and the

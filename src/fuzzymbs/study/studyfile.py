@@ -8,7 +8,7 @@ Layout (see docs/studies.md)::
                  integration_runs (samples its check re-runs; default 8),
                  choose_integration (a pilot chooses the integrator tolerance; true),
                  shared_steps (samples on the modal sample's steps, its error removed; true),
-                 validation_runs (default: a fifth of the runs, at least n + 1; 0: off),
+                 validation_runs (default: a fifth of the runs, at least 12 n; 0: off),
                  method_tolerance (default 0.01), widen_with_validation (default false),
                  max_runs (default 1,000,000: a larger plan is refused before it is built)
     [model]      name ("registry-name", "fmu", "command" or "package.module:callable"),
