@@ -1,9 +1,9 @@
 """Gear STE study (49 runs, full alpha-bound grid) against per-sample Python loops.
 
-fuzzymbs: ``Study("gear-pair", ..., method="grid", levels=3)`` -- the demo
-``gear-ste/01-ste-grid.toml`` (z 20/40, 100 mesh positions, k_t +-20 %, k_con
-+-30 %): one compiled, sample-parallel call for all 49 samples, then the
-retransformation.
+fuzzymbs: ``Study("gear-pair", ..., method="grid", levels=3)`` -- the inputs of
+the demo ``gear-ste/01-ste-adaptive.toml`` (z 20/40, 100 mesh positions, k_t
++-20 %, k_con +-30 %) on the full alpha-bound grid: one compiled, sample-parallel
+call for all 49 samples, then the retransformation.
 
 Baselines, one sample at a time:
 

@@ -1,4 +1,4 @@
-"""Cost of the quasi-static gear STE: batching, threads, and the 49-run demo study.
+"""Cost of the quasi-static gear STE: batching, threads, and the demo study.
 
     python benchmarks/gears_ste.py
 
@@ -54,13 +54,13 @@ def main() -> None:
 
     from fuzzymbs.study.pipeline import run_study_file
 
-    demo = resources.files("fuzzymbs") / "demos" / "gear-ste" / "01-ste-grid.toml"
+    demo = resources.files("fuzzymbs") / "demos" / "gear-ste" / "01-ste-adaptive.toml"
     with tempfile.TemporaryDirectory() as tmp:
         run_study_file(demo, Path(tmp) / "warm", progress=False, plots=False)
         start = time.perf_counter()
         run_study_file(demo, Path(tmp) / "run", progress=False, plots=False)
         study = time.perf_counter() - start
-    print(f"demo study gear-ste (49 runs, model set-up, result.nc, no plots): {study:.3f} s")
+    print(f"demo study gear-ste (adaptive, model set-up, result.nc, no plots): {study:.3f} s")
 
 
 if __name__ == "__main__":

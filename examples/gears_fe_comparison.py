@@ -40,7 +40,8 @@ def features(ste: np.ndarray) -> dict[str, float]:
 
 
 def fuzzy_band(muboco: MubocoPR) -> fuzzymbs.FuzzyResult:
-    """The demo study's fuzzy STE (gear-ste: grid, levels 3) at 100 N m."""
+    """The demo study's fuzzy STE at 100 N m: its inputs and levels (gear-ste, levels 3), by
+    the full alpha-bound grid (the demo's adaptive method gives the same bands, docs/gears.md)."""
     k_t = muboco.defaults["tooth_stiffness"]
     k_con = muboco.defaults["contact_stiffness"]
     plan = fuzzymbs.plan(

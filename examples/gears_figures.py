@@ -213,7 +213,7 @@ def figure_fuzzy_study() -> None:
 
     demo = resources.files("fuzzymbs") / "demos" / "gear-ste"
     with tempfile.TemporaryDirectory() as tmp:
-        for study, name in (("01-ste-grid.toml", "grid"), ("02-ste-influence.toml", "reduced")):
+        for study, name in (("01-ste-adaptive.toml", "adaptive"), ("02-ste-influence.toml", "reduced")):
             out = Path(tmp) / name
             run_study_file(demo / study, out, progress=False)
             for png in out.glob("*.png"):

@@ -158,6 +158,9 @@ def test_info_lists_models_with_units_and_methods():
     assert result.exit_code == 0, result.output
     assert "damped-oscillator" in result.output and "stiffness [N/m]" in result.output
     assert "Methods: general, reduced, extended, grid" in result.output
+    # the adaptive method has no fixed run count: info names its tolerance and budget
+    assert "adaptive: rounds until its certified error" in result.output
+    assert "at most max_runs (default 2,000)" in result.output
     assert "quickstart" in result.output
     result = runner.invoke(app, ["info", "nope"])
     assert result.exit_code == 1 and "unknown model 'nope'" in result.output

@@ -26,8 +26,9 @@ def _run(case: HardCase, **options) -> tuple[AdaptivePlan, dict, float]:
 
 @pytest.mark.parametrize(
     "case, budget",
-    # the runs measured with these settings (benchmarks/method_misses.py): 368, 444, 101
-    [(c, b) for c, b in zip(hard_cases(), (400, 480, 150), strict=True)],
+    # the cost targets of the method (about 250 runs for a three-parameter scalar, 400 for
+    # the oscillating signal); measured (benchmarks/method_misses.py): 221, 198, 75
+    [(c, b) for c, b in zip(hard_cases(), (250, 400, 100), strict=True)],
     ids=lambda v: getattr(v, "name", str(v)),
 )
 def test_hard_cases_reach_the_tolerance_against_dense_truth(case, budget):

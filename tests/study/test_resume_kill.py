@@ -133,3 +133,90 @@ def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
             min(CHUNK_SIZE, count - i * CHUNK_SIZE) for i in stored
         )
         assert provenance["evaluated"] == count - provenance["reused_from_store"]
+
+
+ADAPTIVE_STUDY = """
+[study]
+name = "slow-product-adaptive"
+method = "adaptive"
+levels = 4
+
+[model]
+name = "slow_closed_form:make"
+[model.options]
+delay = {delay}
+
+[parameters.x1]
+type = "triangular"
+lower = 1.0
+modal = 2.0
+upper = 3.0
+
+[parameters.x2]
+type = "triangular"
+modal = 10.0
+spread = 0.1
+
+[run]
+chunk_size = {chunk_size}
+"""
+
+
+def test_killed_adaptive_run_resumes_its_rounds_and_matches_uninterrupted(tmp_path, monkeypatch):
+    # the adaptive method's rounds are stored chunk by chunk under
+    # STORE/adaptive-<round>-<fingerprint>/; a SIGKILL inside a round loses only the
+    # chunks not yet written, and the resumed run replays the stored rounds bit for bit
+    study = tmp_path / "slow-adaptive.toml"
+    study.write_text(ADAPTIVE_STUDY.format(delay=0.3, chunk_size=CHUNK_SIZE))
+
+    # an uninterrupted run first (in this process): its calls, chunk by chunk
+    monkeypatch.syspath_prepend(str(HERE))
+    clean = tmp_path / "clean"
+    clean_log = tmp_path / "clean.log"
+    monkeypatch.setenv("FUZZYMBS_TEST_CALL_LOG", str(clean_log))
+    run_study_file(study, clean, progress=False, plots=False, allow_code=True)
+    clean_calls = _logged_calls(clean_log)
+    rounds = sorted(p.name for p in (clean / "chunks").glob("adaptive-*"))
+    assert len(rounds) >= 3 and len(clean_calls) >= 6  # measured: 3 rounds, 7 chunks
+
+    out = tmp_path / "interrupted"
+    store = out / "chunks"
+    process = subprocess.Popen(_command(study, out), env=_environment(tmp_path / "first.log"))
+    try:
+        deadline = time.monotonic() + 60
+        while len(list(store.glob("adaptive-*/chunk-*.npz"))) < 3:
+            assert process.poll() is None, "the run ended before it could be killed"
+            assert time.monotonic() < deadline, "no chunks were stored within 60 s"
+            time.sleep(0.02)
+        process.send_signal(signal.SIGKILL)
+        process.wait(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == -signal.SIGKILL
+    assert not (out / "result.nc").exists()
+    stored = list(store.glob("adaptive-*/chunk-*.npz"))
+    assert 3 <= len(stored) < len(clean_calls)
+
+    # resume: only the chunks missing from the store are evaluated, the same ones a
+    # clean run evaluates there
+    resumed_log = tmp_path / "resumed.log"
+    monkeypatch.setenv("FUZZYMBS_TEST_CALL_LOG", str(resumed_log))
+    run_study_file(study, out, progress=False, plots=False, allow_code=True)
+    resumed_calls = _logged_calls(resumed_log)
+    assert len(resumed_calls) == len(clean_calls) - len(stored)
+    assert all(call in clean_calls for call in resumed_calls)
+    assert sorted(p.name for p in store.glob("adaptive-*")) == rounds
+
+    with (
+        xr.open_dataset(out / "result.nc") as resumed,
+        xr.open_dataset(clean / "result.nc") as fresh,
+    ):
+        assert set(resumed.data_vars) == set(fresh.data_vars)
+        for name in fresh.data_vars:
+            np.testing.assert_array_equal(resumed[name].values, fresh[name].values, strict=True)
+        assert resumed.attrs["adaptive_rounds"] == fresh.attrs["adaptive_rounds"] == len(rounds)
+        provenance = json.loads(resumed.attrs["provenance"])
+        assert provenance["evaluated"] == sum(len(call) for call in resumed_calls)
+        total = resumed.sizes["sample"]
+        assert provenance["reused_from_store"] == total - provenance["evaluated"] > 0

@@ -1,32 +1,39 @@
 """The adaptive transformation method: a surrogate refined until its bounds are certified.
 
-One surrogate of every output element at once, a dimension-adaptive sparse
-grid in Chebyshev form (:mod:`fuzzymbs.fuzzy.chebyshev_grid`) over the support
-box, refined round by round where the cut bounds are decided; each cut's lower
-and upper bound per element is the surrogate's minimum and maximum over the cut
-box (:mod:`fuzzymbs.fuzzy.box_search`), and the true model checks them.
+One surrogate of every output element at once over the support box: a
+dimension-adaptive sparse grid in Chebyshev form
+(:mod:`fuzzymbs.fuzzy.chebyshev_grid`) plus a kernel correction through the
+residuals of every run off the grid (:mod:`fuzzymbs.fuzzy.residual_correction`),
+so that it takes the model's value at every run. It is refined round by round
+where the cut bounds are decided; each cut's lower and upper bound per element
+is the surrogate's minimum and maximum over the cut box
+(:mod:`fuzzymbs.fuzzy.box_search`), and the true model checks them.
 
 A round (:meth:`AdaptiveTransformation.next_batch`, then :meth:`~AdaptiveTransformation.add`):
 
-1. the surrogate ``s`` of every grid node evaluated so far gives, per level j,
-   element e and bound, the extremal point ``x*`` and value;
+1. the surrogate ``s`` of every run so far gives, per level j, element e and
+   bound, the extremal point ``x*`` and value (and, once there is a correction,
+   the sparse grid alone its own extremal points: where the correction moved an
+   extremum);
 2. the batch holds (a) the nodes of the forward neighbours of the frontier
    indices whose surplus matters most at the extremal points (refinement where
-   the bounds are decided), (b) extremal points of ``s`` that lie far from every
-   run (certification), (c) a point of a fixed Halton sequence far from every
-   run (exploration);
+   the bounds are decided), (b) up to ``4 n`` of those extremal points that lie
+   far from every run, the most doubtful first: largest frontier surpluses plus
+   correction there, on the cut-width scale (certification), (c) a point of a
+   fixed Halton sequence far from every run (exploration);
 3. the model's outputs at the batch are compared with ``s``: the certified error
-   is the largest ``|f(x) - s(x)|`` over the batch, per element on the cut-width
-   scale of the highest level whose box holds ``x``
-   (:func:`~fuzzymbs.fuzzy.band_scale.width_relative`); the nodes join the
-   surrogate, the other runs widen the bounds they exceed.
+   is the larger of how far the bounds moved and how far the error
+   ``|f(x) - s(x)|`` seen at the certification and exploration runs could carry
+   a value beyond the bounds, per element on the cut-width scale of the highest
+   level whose box holds ``x``
+   (:func:`~fuzzymbs.fuzzy.band_scale.width_relative`); every run joins the
+   surrogate (the nodes its sparse grid, the others its correction).
 
 The loop ends when the certified error of a round is at most ``tolerance`` (after at
 least one certification round) or when the next round would exceed ``max_runs``
 (:attr:`AdaptiveTransformation.converged` False). The reported bounds are those of
-the surrogate the last round checked, widened to every run inside the box: true
-values where a run went beyond, surrogate bounds confirmed within the error estimate
-elsewhere.
+the surrogate of every run, widened to every run inside the box: true values where
+a run went beyond, surrogate bounds confirmed within the error estimate elsewhere.
 
 Everything is a deterministic function of the outputs added so far (no random
 numbers), so replaying stored outputs rebuilds the same rounds bit for bit.
@@ -51,6 +58,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
     node_values,
 )
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
+from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
 __all__ = [
     "DEFAULT_ADAPTIVE_MAX_RUNS",
@@ -67,9 +75,13 @@ DEFAULT_ADAPTIVE_MAX_RUNS = 2000
 #: extremal points closer than this to a run (unit cube [-1, 1]^n, max norm) are not re-run
 _NEAR = 0.02
 #: frontier indices whose indicator is within this factor of the largest are refined together
-_REFINE_SHARE = 0.5
+_REFINE_SHARE = 0.8
 #: Halton candidates for exploration points per parameter
 _EXPLORE_POOL = 512
+
+#: a surrogate: the sparse grid's Chebyshev series (degrees, coefficients) and the
+#: kernel correction through the runs off the grid (None before there are any)
+Surrogate = tuple[NDArray[np.int64], NDArray[np.float64], KernelCorrection | None]
 
 
 def check_adaptive_options(
@@ -212,9 +224,11 @@ class AdaptiveTransformation:
         self.done = False
         self.converged = False
         self._pending: tuple[NDArray[np.float64], list[tuple[int, ...] | None]] | None = None
-        self._surrogate: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
+        self._surrogate: Surrogate | None = None
         self._bounds: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
         self._certified = False
+        # extremal points (arg_lower, arg_upper) of the sparse grid without the correction
+        self._rivals: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
     # ------------------------------------------------------------- coordinates
     def to_unit(self, points: ArrayLike) -> NDArray[np.float64]:
@@ -267,7 +281,7 @@ class AdaptiveTransformation:
         self._last_predicted = (
             np.zeros_like(flat)
             if self._surrogate is None
-            else evaluate_series(*self._surrogate, self.to_unit(batch))
+            else self._predict(self._surrogate, self.to_unit(batch))
         )
         fresh = [(q, row) for row, q in enumerate(nodes) if q is not None]
         if fresh:
@@ -326,6 +340,10 @@ class AdaptiveTransformation:
             points = self.to_parameters(units)
             labels: list[tuple[int, ...] | None] = list(nodes)
             modal_unit = self.to_unit(self._modal)
+            # a node that is the modal point up to round-off of the unit map is run there
+            same = np.all(np.abs(units - modal_unit) <= 1e-12, axis=1)
+            points[same] = self._modal
+            units[same] = modal_unit
             if not np.any(np.all(units == modal_unit, axis=1)):
                 points = np.concatenate((self._modal[None, :], points))
                 labels = [None, *labels]
@@ -334,7 +352,7 @@ class AdaptiveTransformation:
                 order = [first, *[i for i in range(len(points)) if i != first]]
                 points, labels = points[order], [labels[i] for i in order]
             return points, labels
-        surrogate = self.grid.series()
+        surrogate = self._build_surrogate()
         bounds = self._search(surrogate)
         if self._bounds is not None:
             before = self._reported
@@ -347,6 +365,14 @@ class AdaptiveTransformation:
         self._surrogate, self._bounds = surrogate, bounds
         self._reported = self._widened()
         scale = self._scale()
+        self._rivals = None
+        if surrogate[2] is not None:
+            # where the sparse grid alone puts the extremes: candidates the correction moved
+            rival = box_extremes(
+                surrogate[0], surrogate[1], self._box_low, self._box_high, budget=self.search_points
+            )
+            self._rivals = rival[2], rival[3]
+        doubt = self._doubt(scale, surrogate[2])
         refine = self._refinement(scale)
         nodes = []
         for index in refine:
@@ -355,7 +381,7 @@ class AdaptiveTransformation:
             node_values(np.array(nodes, dtype=np.int64)) if nodes else np.empty((0, dimension))
         )
         room = self.max_runs - self.runs - len(nodes)
-        extra = self._certification_points(node_units, max(room, 0))
+        extra = self._certification_points(node_units, max(room, 0), doubt)
         self._certified = len(extra) > 0 or self._certified
         units = np.concatenate((node_units, extra))
         if self.runs + len(units) > self.max_runs:
@@ -371,11 +397,36 @@ class AdaptiveTransformation:
         self.grid._index_set.discard(index)
         self.grid._series = None
 
-    def _search(self, surrogate: tuple[NDArray, NDArray]) -> tuple[NDArray, ...]:
+    def _build_surrogate(self) -> Surrogate:
+        """The sparse grid's series and, once there are runs off the grid, the kernel
+        correction through their residuals (:mod:`fuzzymbs.fuzzy.residual_correction`)."""
+        degrees, coefficients = self.grid.series()
+        if not len(self._off_grid):
+            return degrees, coefficients, None
+        assert self._values is not None
+        residuals = self._values - evaluate_series(degrees, coefficients, self._units)
+        residuals[np.setdiff1d(np.arange(self.runs), self._off_grid)] = 0.0  # nodes: round-off
+        correction = KernelCorrection(self._units, residuals, self._high > self._low)
+        return degrees, coefficients, correction
+
+    @staticmethod
+    def _predict(surrogate: Surrogate, units: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(P, E) the surrogate at points of the unit cube."""
+        degrees, coefficients, correction = surrogate
+        values = evaluate_series(degrees, coefficients, units)
+        return values if correction is None else values + correction.values(units)
+
+    def _search(self, surrogate: Surrogate) -> tuple[NDArray, ...]:
         """Surrogate bounds and extremal points per level box (unit coordinates); a box
         that is a point (a triangular core) is the modal run's value exactly."""
+        degrees, coefficients, correction = surrogate
         lower, upper, arg_lower, arg_upper = box_extremes(
-            *surrogate, self._box_low, self._box_high, budget=self.search_points
+            degrees,
+            coefficients,
+            self._box_low,
+            self._box_high,
+            budget=self.search_points,
+            correction=correction,
         )
         assert self._values is not None
         for j in np.flatnonzero(np.all(self.cut_lower == self.cut_upper, axis=1)):
@@ -506,17 +557,54 @@ class AdaptiveTransformation:
                         chosen.append(forward)
         return chosen
 
-    def _certification_points(self, planned: NDArray[np.float64], room: int) -> NDArray[np.float64]:
-        """Extremal points of the surrogate and one exploration point, each far from every
-        run and every point already planned; at most ``room``."""
+    def _extremal_points(self) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
+        """Every extremal point (K, n) of the current bounds, and of the sparse grid alone
+        once a correction moved them, with its level and element."""
+        assert self._bounds is not None
+        _, _, arg_low, arg_high = self._bounds
+        count_levels, elements, dimension = arg_low.shape
+        sets = [arg_low, arg_high]
+        if self._rivals is not None:
+            sets += list(self._rivals)
+        points = np.concatenate([a.reshape(-1, dimension) for a in sets])
+        level = np.tile(np.repeat(np.arange(count_levels), elements), len(sets))
+        element = np.tile(np.arange(elements), len(sets) * count_levels)
+        return points, level, element
+
+    def _doubt(
+        self, scale: NDArray[np.float64], correction: KernelCorrection | None
+    ) -> NDArray[np.float64]:
+        """(K,) per extremal point (order of :meth:`_extremal_points`) how far the surrogate
+        there may still be off, on the cut-width scale of its level: the frontier's
+        surpluses ``sum_k |Delta_k(x)|`` of its own element over the active indices (what
+        the next refinement could still add) plus the size of the kernel correction (where
+        the runs off the grid already found the sparse grid off)."""
+        points, level, element = self._extremal_points()
+        unique, inverse = np.unique(points, axis=0, return_inverse=True)
+        doubt = np.zeros(len(points))
+        for index in self.grid.active:
+            degrees, coefficients = self.grid.surplus(index)
+            values = basis_matrix(degrees, unique)[inverse.ravel()]  # (K, D)
+            doubt += np.abs(np.einsum("kd,dk->k", values, coefficients[:, element]))
+        if correction is not None:
+            doubt += np.abs(correction.at(points, element))
+        weight = 1.0 / scale[level, element]
+        return np.where(np.isfinite(weight), doubt * weight, 0.0)
+
+    def _certification_points(
+        self, planned: NDArray[np.float64], room: int, doubt: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Up to ``4 n`` extremal points, the most doubtful first (``doubt`` per extremal
+        point, :meth:`_doubt`), and one exploration point, each farther than ``_NEAR``
+        from every run and every point already planned; at most ``room``."""
         assert self._bounds is not None
         dimension = len(self.names)
-        _, _, arg_low, arg_high = self._bounds
         moving = self._high > self._low
-        candidates = np.concatenate(
-            (arg_low.reshape(-1, dimension), arg_high.reshape(-1, dimension))
-        )
-        candidates = np.unique(np.round(candidates, 12), axis=0)
+        candidates, _, _ = self._extremal_points()
+        # one candidate per location, with its largest doubt
+        candidates, inverse = np.unique(np.round(candidates, 12), axis=0, return_inverse=True)
+        priority = np.zeros(len(candidates))
+        np.maximum.at(priority, inverse.ravel(), doubt)
         taken = np.concatenate((self._units, planned))
         chosen: list[NDArray[np.float64]] = []
         limit = min(room, 4 * dimension)
@@ -529,7 +617,7 @@ class AdaptiveTransformation:
 
         far = distance(candidates, taken)
         while len(chosen) < limit:
-            best = int(np.argmax(far))
+            best = int(np.argmax(np.where(far > _NEAR, priority, -1.0)))
             if far[best] <= _NEAR:
                 break
             chosen.append(candidates[best])
@@ -564,7 +652,7 @@ class AdaptiveTransformation:
         if self._values is None:
             raise ModelOutputError("the adaptive method has no runs yet")
         if self._surrogate is None:  # stopped after the first round: search it now
-            self._surrogate = self.grid.series()
+            self._surrogate = self._build_surrogate()
         if self._bounds is None:
             self._bounds = self._search(self._surrogate)
         lower, upper = self._widened()
@@ -597,7 +685,7 @@ class AdaptiveTransformation:
         sums = np.empty((dimension, len(self.levels), self._surrogate[1].shape[1]))
         for j in range(len(self.levels)):
             corners = np.where(bits == 1, self._box_high[j], self._box_low[j])
-            values = evaluate_series(*self._surrogate, corners)  # (2^n, E)
+            values = self._predict(self._surrogate, corners)  # (2^n, E)
             sign = 2.0 * bits - 1.0  # (2^n, n)
             sums[:, j] = sign.T @ values / 2 ** (dimension - 1)
         return sums

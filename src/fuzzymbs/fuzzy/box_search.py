@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, basis_matrix
 from fuzzymbs.fuzzy.grids import cartesian
+from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
 __all__ = ["box_extremes"]
 
@@ -49,14 +50,17 @@ def box_extremes(
     high: NDArray[np.float64],
     *,
     budget: int = 20_000,
+    correction: KernelCorrection | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Minimum and maximum of a series over boxes, per element.
+    """Minimum and maximum of a series (plus a kernel correction) over boxes, per element.
 
     Parameters
     ----------
     degrees, coefficients : the series (D, n) and (D, E).
     low, high : (L, n) the boxes in unit coordinates (``[-1, 1]``).
     budget : search-grid points per box at most.
+    correction : added to the series where given (the runs off the grid,
+        :mod:`fuzzymbs.fuzzy.residual_correction`).
 
     Returns
     -------
@@ -71,13 +75,16 @@ def box_extremes(
     arg_upper = np.empty((count_boxes, elements, count))
     for j in range(count_boxes):
         grid = cartesian(_grid_axes(degrees, low[j], high[j], budget))
-        block = max(1, _BLOCK_ELEMENTS // max(len(degrees), elements))
+        centres = 0 if correction is None else len(correction.centres)
+        block = max(1, _BLOCK_ELEMENTS // max(len(degrees), elements, centres))
         best_low = np.full(elements, np.inf)
         best_high = np.full(elements, -np.inf)
         where_low = np.zeros(elements, dtype=np.intp)
         where_high = np.zeros(elements, dtype=np.intp)
         for start in range(0, len(grid), block):
             values = basis_matrix(degrees, grid[start : start + block]) @ coefficients
+            if correction is not None:
+                values += correction.values(grid[start : start + block])
             small, large = values.argmin(axis=0), values.argmax(axis=0)
             take = np.arange(elements)
             low_value, high_value = values[small, take], values[large, take]
@@ -92,7 +99,9 @@ def box_extremes(
     sign = np.concatenate((-np.ones(count_boxes * elements), np.ones(count_boxes * elements)))
     element = np.tile(np.arange(elements), 2 * count_boxes)
     box = np.tile(np.repeat(np.arange(count_boxes), elements), 2)
-    found, value = _polish(degrees, coefficients, starts, element, sign, low[box], high[box])
+    found, value = _polish(
+        degrees, coefficients, starts, element, sign, low[box], high[box], correction
+    )
     half = count_boxes * elements
     lower = np.minimum(lower, value[:half].reshape(count_boxes, elements))
     upper = np.maximum(upper, value[half:].reshape(count_boxes, elements))
@@ -118,22 +127,32 @@ def _polish(
     sign: NDArray[np.float64],
     low: NDArray[np.float64],
     high: NDArray[np.float64],
+    correction: KernelCorrection | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Projected gradient ascent of ``sign * series[element]`` from every start in its box."""
+    """Projected gradient ascent of ``sign * series[element]`` (plus the correction) from
+    every start in its box."""
     x = starts.copy()
     width = high - low
     step = 0.05 * np.maximum(width.max(axis=1), 1e-300)
     column = coefficients[:, element]  # (D, K)
-    value = np.einsum("kd,dk->k", basis_matrix(degrees, x), column)
+
+    def value_at(points: NDArray[np.float64]) -> NDArray[np.float64]:
+        own = np.einsum("kd,dk->k", basis_matrix(degrees, points), column)
+        return own if correction is None else own + correction.at(points, element)
+
+    value = value_at(x)
     for _ in range(_STEPS):
         _, gradient = basis_gradient(degrees, x)
-        slope = np.einsum("ikd,dk->ki", gradient, column) * sign[:, None]
+        slope = np.einsum("ikd,dk->ki", gradient, column)
+        if correction is not None:
+            slope = slope + correction.gradient_at(x, element)
+        slope = slope * sign[:, None]
         slope = np.where(width > 0.0, slope, 0.0)
         norm = np.linalg.norm(slope, axis=1)
         moving = norm > 0.0
         direction = np.where(moving[:, None], slope / np.where(moving, norm, 1.0)[:, None], 0.0)
         trial = np.clip(x + step[:, None] * direction, low, high)
-        trial_value = np.einsum("kd,dk->k", basis_matrix(degrees, trial), column)
+        trial_value = value_at(trial)
         better = sign * trial_value > sign * value
         x[better], value[better] = trial[better], trial_value[better]
         step = np.where(better, 1.5 * step, 0.5 * step)

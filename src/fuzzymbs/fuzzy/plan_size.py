@@ -313,6 +313,8 @@ def run_count(
     levels: int | ArrayLike = 4,
     nonmonotonic: Iterable[str] | str | None = None,
     sparse_level: int | None = None,
+    *,
+    max_runs: int | None = None,
 ) -> int:
     """Model runs of ``plan(parameters, method, levels, ...)``, in closed form, before building it.
 
@@ -328,6 +330,8 @@ def run_count(
     - grid: ``(2m + 1)^p (2m + 2)^q + [q > 0]``
     - sparse: the Smolyak node count ``[z^k] (1 - 2z^2)^n / ((1 - 2z)^n (1 - z))``
       for ``sparse_level = k``, plus 1 unless the modal point is a node
+    - adaptive: no fixed count (the model's outputs decide its rounds); its run
+      budget ``max_runs`` (default 2,000), the most it runs
 
     Flat branches and crisp values are counted too (docs/theory.md).
 
@@ -336,6 +340,9 @@ def run_count(
     parameters, method, levels, nonmonotonic, sparse_level
         As for :func:`~fuzzymbs.fuzzy.transform.plan` (``sparse_level`` defaults to 3
         for ``"sparse"``).
+    max_runs : int, optional
+        The adaptive method's run budget (default 2,000, at least ``2 n + 2``); only
+        for ``method="adaptive"``, whose count it is.
 
     Returns
     -------
@@ -360,9 +367,44 @@ def run_count(
     16385
     >>> run_count(twelve, "general", 4)
     261453379
+    >>> run_count(twelve, "adaptive", 4)  # its budget: the most it runs
+    2000
     """
+    if method == "adaptive":
+        return _adaptive_budget(parameters, levels, nonmonotonic, sparse_level, max_runs)
+    if max_runs is not None:
+        raise InvalidPlanError(
+            f"run_count takes max_runs only for method='adaptive' (its run budget); the "
+            f"{method!r} method's count follows from the parameters and levels"
+        )
     request = _request(parameters, method, levels, nonmonotonic, sparse_level)
     return request.count()
+
+
+def _adaptive_budget(
+    parameters: Mapping[str, FuzzyNumber],
+    levels: int | ArrayLike,
+    nonmonotonic: Iterable[str] | str | None,
+    sparse_level: int | None,
+    max_runs: int | None,
+) -> int:
+    """The adaptive method's run budget, its inputs checked as its plan checks them."""
+    from fuzzymbs.fuzzy.adaptive import (
+        DEFAULT_ADAPTIVE_MAX_RUNS,
+        DEFAULT_ADAPTIVE_TOLERANCE,
+        check_adaptive_options,
+    )
+
+    numbers = checked_parameters(parameters)
+    _level_steps(levels)
+    if nonmonotonic:
+        raise InvalidPlanError(
+            f"nonmonotonic={list(nonmonotonic)} is only used by method='extended', not 'adaptive'"
+        )
+    if sparse_level is not None:
+        raise InvalidPlanError("sparse_level is only used by method='sparse', not 'adaptive'")
+    budget = DEFAULT_ADAPTIVE_MAX_RUNS if max_runs is None else max_runs
+    return check_adaptive_options(DEFAULT_ADAPTIVE_TOLERANCE, budget, len(numbers))[1]
 
 
 def screening_run_count(parameters: Mapping[str, FuzzyNumber], levels: int | ArrayLike = 4) -> int:
