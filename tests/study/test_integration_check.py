@@ -323,6 +323,7 @@ def test_study_on_shared_steps_chooses_its_tolerance_from_the_corners():
     # its reference part on the study's own cut widths at the chosen rtol
     reference_check = max(np.max(SharedDecay.REFERENCE * s / scale(h, chosen)) for h in (0.1, 0.2))
     assert attrs["time_integration_reference_error"] == pytest.approx(reference_check, rel=1e-9)
+    assert "of which the reference run's error" in summarize(result.dataset)
     # and without shared steps the same model takes the own-steps pilot
     own = Study(SharedDecay(rtol), fuzzy, levels=2, shared_steps=False).run(progress=False)
     assert own.dataset.attrs["integration_shared_steps"] == 0
