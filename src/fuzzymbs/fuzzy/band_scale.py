@@ -18,10 +18,18 @@ import warnings
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["WIDTH_FLOOR", "band_miss", "width_relative"]
+__all__ = ["WIDTH_FLOOR", "band_miss", "level_widest", "width_relative"]
 
 #: floor of the local cut width, as a fraction of the widest cut of that output and level
 WIDTH_FLOOR = 0.1
+
+
+def level_widest(width: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(L, 1) the widest finite cut of each level of ``width`` (L, size); NaN where a
+    level has no finite width."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN levels
+        return np.nanmax(np.where(np.isfinite(width), width, np.nan), axis=1, keepdims=True)
 
 
 def width_relative(
@@ -30,9 +38,7 @@ def width_relative(
     """``deviation / max(w, 0.1 max_e w)`` per level and element, all (L, size); NaN on
     levels whose cuts have no width anywhere and where the deviation is NaN."""
     width = upper - lower
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN levels
-        widest = np.nanmax(np.where(np.isfinite(width), width, np.nan), axis=1, keepdims=True)
+    widest = level_widest(width)
     scale = np.maximum(width, WIDTH_FLOOR * widest)
     crisp = ~(widest > 0.0)
     ratio = np.full(deviation.shape, np.nan)

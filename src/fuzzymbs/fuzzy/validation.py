@@ -71,7 +71,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidPlanError
-from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR
+from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR, level_widest
 from fuzzymbs.fuzzy.transform import Plan
 
 __all__ = [
@@ -268,10 +268,8 @@ def cut_scale(lower: NDArray[np.float64], upper: NDArray[np.float64]) -> NDArray
     lo = np.asarray(lower, dtype=float).reshape(len(lower), -1)
     hi = np.asarray(upper, dtype=float).reshape(len(upper), -1)
     width = hi - lo
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN levels
-        widest = np.nanmax(np.where(np.isfinite(width), width, np.nan), axis=1, keepdims=True)
-        overall = np.nanmax(widest) if np.isfinite(widest).any() else np.nan
+    widest = level_widest(width)
+    overall = np.nanmax(widest) if np.isfinite(widest).any() else np.nan
     widest = np.where(widest > 0.0, widest, overall)
     scale = np.maximum(width, WIDTH_FLOOR * widest)
     scale[~(scale > 0.0)] = np.nan
