@@ -410,16 +410,21 @@ class SimulationModel:
     def parameter_defaults(self) -> dict[str, float]:
         return self.compiled.parameters.defaults()
 
-    def __call__(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
-        shared = self.shared
-        result = simulate(
+    def simulate(self, samples: Mapping[str, NDArray[np.float64]], **overrides) -> SimulationResult:
+        """:func:`simulate` of ``samples`` with this model's settings, ``overrides`` replacing
+        or adding keyword arguments (no correction of shared steps applied)."""
+        settings = {**self.settings, **overrides}
+        return simulate(
             self.compiled,
             samples,
             outputs=self.outputs,
             initial_state=self.initial_state,
-            step_sequence=None if shared is None else shared.sequence,
-            **self.settings,
+            **settings,
         )
+
+    def __call__(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
+        shared = self.shared
+        result = self.simulate(samples, step_sequence=None if shared is None else shared.sequence)
         out: dict[str, NDArray] = dict(result.outputs)
         if shared is not None:  # the modal sample's error, removed from every sample
             for name, correction in shared.correction.items():

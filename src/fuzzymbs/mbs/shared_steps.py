@@ -38,15 +38,24 @@ import copy
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError, SimulationDivergedError
 
-if TYPE_CHECKING:
-    from fuzzymbs.mbs.integrate import SimulationModel
+
+class SimulationModel(Protocol):
+    """What this module needs of a :class:`~fuzzymbs.mbs.integrate.SimulationModel` (a
+    protocol, so that integrate, which uses this module, is not imported here)."""
+
+    settings: dict[str, Any]
+    outputs: dict[str, Any]
+    shared: SharedSteps | None
+
+    def simulate(self, samples: Mapping[str, NDArray[np.float64]], **overrides: Any) -> Any: ...
+
 
 __all__ = ["REFERENCE_ORDER", "REFERENCE_RTOL", "SharedSteps", "share_steps"]
 
@@ -84,16 +93,8 @@ def _single(modal: Mapping[str, float]) -> dict[str, NDArray[np.float64]]:
 
 
 def _run(model: SimulationModel, modal: Mapping[str, float], **extra):
-    from fuzzymbs.mbs.integrate import simulate  # integrate imports this module
-
-    settings = {**model.settings, **extra}
-    result = simulate(
-        model.compiled,
-        _single(modal),
-        outputs=model.outputs,
-        initial_state=model.initial_state,
-        **settings,
-    )
+    """The modal sample alone, with ``extra`` settings; raises if it fails."""
+    result = model.simulate(_single(modal), **extra)
     if result.failed[0]:
         raise SimulationDivergedError(
             f"shared steps: the modal sample {dict(modal)} failed "
