@@ -57,6 +57,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
     evaluate_series,
     node_values,
 )
+from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
@@ -112,25 +113,6 @@ def check_adaptive_options(
             f"round: 2 n + 2 runs for n = {count_parameters} parameters), got {max_runs!r}"
         )
     return float(tolerance), int(max_runs)
-
-
-def _halton(count: int, dimension: int) -> NDArray[np.float64]:
-    """The first ``count`` points (after 0) of the Halton sequence in [0, 1)^dimension."""
-    primes: list[int] = []
-    candidate = 2
-    while len(primes) < dimension:
-        if all(candidate % p for p in primes):
-            primes.append(candidate)
-        candidate += 1
-    points = np.zeros((count, dimension))
-    for axis, base in enumerate(primes):
-        index = np.arange(1, count + 1)
-        fraction = 1.0
-        while np.any(index > 0):
-            fraction /= base
-            points[:, axis] += fraction * (index % base)
-            index //= base
-    return points
 
 
 @dataclass(frozen=True)
@@ -210,7 +192,7 @@ class AdaptiveTransformation:
         dimension = len(self.names)
         self._box_low = self.to_unit(self.cut_lower)
         self._box_high = self.to_unit(self.cut_upper)
-        self._pool = 2.0 * _halton(_EXPLORE_POOL * dimension, dimension) - 1.0
+        self._pool = 2.0 * halton(_EXPLORE_POOL * dimension, dimension, start=1) - 1.0
         # evaluated runs
         self.samples = np.empty((0, dimension))
         self._units = np.empty((0, dimension))

@@ -36,7 +36,7 @@ each round is one batch of model runs, its outputs reduced as they arrive):
   element, the level's run giving the smallest and the one giving the largest
   value are tallied; from the most frequent such runs on, one parameter at a
   time is moved half-way towards its modal value; the levels take turns), and
-  a scrambled Halton sequence (:class:`scipy.stats.qmc.Halton`, fixed seed) in
+  a scrambled Halton sequence (:func:`fuzzymbs.fuzzy.halton.halton`, fixed seed) in
   the mu = 0 box, space-filling, for extrema away from the bounding runs;
 * rounds 2 to 4, the rest shared equally: a **local search** from the points
   that give each level's bounds now (the method's runs, or validation runs
@@ -72,6 +72,7 @@ from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidPlanError
 from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR, level_widest
+from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.transform import Plan
 
 __all__ = [
@@ -185,9 +186,7 @@ def validation_points(
             kinds.append("edge")
     rest = count - len(points)
     if rest > 0:
-        from scipy.stats import qmc
-
-        unit = qmc.Halton(d=n, scramble=True, seed=seed).random(rest)
+        unit = halton(rest, n, seed=seed)
         points.extend(bottom[:, 0] + unit * (bottom[:, 1] - bottom[:, 0]))
         kinds.extend(["halton"] * rest)
     samples = np.asarray(points, dtype=float).reshape(count, n)
@@ -716,13 +715,9 @@ class MethodSearch:
 
     def _halton_round(self, budget: int) -> ValidationPoints:
         """Without any bound to start from: further Halton points."""
-        from scipy.stats import qmc
-
         n = len(self.plan.names)
         done = sum(len(r) for r in self._rounds)
-        sequence = qmc.Halton(d=n, scramble=True, seed=self._seed)
-        sequence.fast_forward(done)
-        unit = sequence.random(budget)
+        unit = halton(budget, n, start=done, seed=self._seed)
         bottom = self._boxes[0]
         table = bottom[:, 0] + unit * (bottom[:, 1] - bottom[:, 0])
         return ValidationPoints(
@@ -807,10 +802,8 @@ def _interpolant_optima(
         return np.empty((0, n))
     if failed is not None and np.any(failed):
         return np.empty((0, n))
-    from scipy.stats import qmc
-
     boxes = np.stack([plan.parameters[name].cuts(plan.levels) for name in plan.names], axis=1)
-    unit = qmc.Halton(d=n, scramble=True, seed=SEED + 1).random(OPTIMUM_CANDIDATES)
+    unit = halton(OPTIMUM_CANDIDATES, n, seed=SEED + 1)
     levels = [j for j in range(len(plan.levels)) if np.any(boxes[j, :, 1] > boxes[j, :, 0])]
     table = np.concatenate(
         [boxes[j, :, 0] + unit * (boxes[j, :, 1] - boxes[j, :, 0]) for j in levels]
