@@ -17,6 +17,7 @@ from fuzzymbs.study.integration_check import (
     TimeIntegrationWarning,
     check_time_integration,
     peak_relative_deviation,
+    run_cut_bounds,
 )
 from fuzzymbs.study.study import Study
 from fuzzymbs.study.studyfile import load_study_file
@@ -327,3 +328,53 @@ def test_study_on_shared_steps_chooses_its_tolerance_from_the_corners():
     # and without shared steps the same model takes the own-steps pilot
     own = Study(SharedDecay(rtol), fuzzy, levels=2, shared_steps=False).run(progress=False)
     assert own.dataset.attrs["integration_shared_steps"] == 0
+
+
+def test_adaptive_study_checks_the_runs_that_bound_its_cuts():
+    # the adaptive method's bounds come from a surrogate of its runs; the check re-runs
+    # the runs that bound each cut (its certification runs at the cut ends a = 1.8, 2.2,
+    # 1.9, 2.1): the same closed form as the fixed plans (decay_band_error)
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    adaptive = Study(Decay(0.001), fuzzy, method="adaptive", levels=2, integration_tolerance=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TimeIntegrationWarning)
+        result = adaptive.run(progress=False)
+    attrs = result.dataset.attrs
+    assert attrs["time_integration_error"] == pytest.approx(decay_band_error(0.001), rel=1e-9)
+    assert attrs["time_integration_runs"] == 5  # modal and the four cut ends
+    assert "level 0.5" in attrs["time_integration_worst"]
+    with pytest.warns(TimeIntegrationWarning, match="of the cut width exceeds"):
+        loose = Study(Decay(0.02), fuzzy, method="adaptive", levels=2).run(progress=False)
+    expected = decay_band_error(0.02)
+    assert loose.dataset.attrs["time_integration_error"] == pytest.approx(expected, rel=1e-9)
+
+
+def test_run_cut_bounds_against_a_direct_search():
+    # reference: the bounds and bounding runs found by a plain loop over the runs
+    rng = np.random.default_rng(4)
+    samples = rng.uniform(-1.0, 1.0, (40, 2))
+    outputs = {"y": np.stack([samples[:, 0] ** 2 - samples[:, 1], samples.sum(axis=1)], 1)}
+    lower_box = np.array([[-1.0, -1.0], [-0.5, -0.5], [0.0, 0.0]])
+    upper_box = np.array([[1.0, 1.0], [0.5, 0.5], [0.0, 0.0]])
+    failed = np.zeros(40, dtype=bool)
+    failed[3] = True
+    tallies, bounds = run_cut_bounds(samples, outputs, lower_box, upper_box, failed)
+    cut = bounds["y"]
+    for j in range(3):
+        rows = [
+            i
+            for i in range(40)
+            if not failed[i]
+            and np.all(samples[i] >= lower_box[j])
+            and np.all(samples[i] <= upper_box[j])
+        ]
+        for e in range(2):
+            if not rows:
+                assert cut.lower_sample[j, e] == -1 and np.isnan(cut.lower[j, e])
+                continue
+            values = [outputs["y"][i, e] for i in rows]
+            assert cut.lower[j, e] == min(values) and cut.upper[j, e] == max(values)
+            assert cut.lower_sample[j, e] == rows[int(np.argmin(values))]
+            assert cut.upper_sample[j, e] == rows[int(np.argmax(values))]
+        assert tallies[j].sum() == (4 if rows else 0)
+    assert tallies[0][3] == 0  # a failed run bounds nothing

@@ -42,7 +42,9 @@ from fuzzymbs.study.execution import (
 from fuzzymbs.study.integration_check import (
     IntegrationCheck,
     check_time_integration,
+    choose_samples,
     choose_tolerance,
+    run_cut_bounds,
 )
 from fuzzymbs.study.method_check import ValidationRuns
 from fuzzymbs.study.planning import AUTO
@@ -315,19 +317,31 @@ class StudyRuns:
         return failed, reasons.astype(str), int(evaluated), int(reused)
 
     def _check_time_integration(
-        self, feed: ChunkFeed, failed: np.ndarray
+        self,
+        feed: ChunkFeed,
+        failed: np.ndarray,
+        outputs: Mapping[str, np.ndarray] | None = None,
     ) -> IntegrationCheck | None:
         """The samples that give the bounds re-run by a time-integrated model at a tighter
-        tolerance (:mod:`fuzzymbs.study.integration_check`)."""
+        tolerance (:mod:`fuzzymbs.study.integration_check`); ``outputs`` (every run's, of
+        a plan whose bounds are not its runs: the adaptive method) bound the cuts by the
+        runs inside each box (:func:`~fuzzymbs.study.integration_check.run_cut_bounds`)."""
         if not callable(getattr(self.model, "tightened", None)):
             return None
-        samples, bounds = integration_inputs(
-            feed,
-            self.output_names,
-            failed,
-            self.integration_runs,
-            include_nominal=not getattr(self.model, "shares_steps", False),
-        )
+        include_nominal = not getattr(self.model, "shares_steps", False)
+        if outputs is None:
+            samples, bounds = integration_inputs(
+                feed, self.output_names, failed, self.integration_runs, include_nominal
+            )
+        else:
+            plan = self.plan
+            tallies, run_bounds = run_cut_bounds(
+                plan.samples, outputs, plan.cut_lower, plan.cut_upper, failed
+            )
+            samples = choose_samples(
+                tallies, plan.nominal_index, failed, self.integration_runs, include_nominal
+            )
+            bounds = {name: run_bounds.get(name) for name in self.output_names}
         return check_time_integration(
             self.model,
             lambda rows: self._columns(self.plan.samples[rows], 0, len(rows)),

@@ -148,6 +148,71 @@ def choose_samples(
     return chosen
 
 
+def run_cut_bounds(
+    samples: NDArray[np.float64],
+    outputs: Mapping[str, np.ndarray],
+    cut_lower: NDArray[np.float64],
+    cut_upper: NDArray[np.float64],
+    failed: NDArray[np.bool_],
+) -> tuple[list[NDArray[np.int64]], dict[str, CutBounds]]:
+    """Each cut's bounds among the runs inside its box, and the runs that give them.
+
+    For a plan whose bounds are not runs of its own (the adaptive method's come from
+    a surrogate of its runs, certified by runs at its extremal points): the runs
+    that bound a level's outputs are where the surrogate's bounds are decided, so
+    their integration error is the bounds'. The widths of these run bounds are at
+    most the plan's (a narrower width, a larger relative error: the check errs on
+    the safe side).
+
+    Parameters
+    ----------
+    samples : (N, n) the runs' parameter points.
+    outputs : output -> (N, ...) the runs' outputs.
+    cut_lower, cut_upper : (L, n) the cut boxes.
+    failed : (N,) runs left out.
+
+    Returns
+    -------
+    (tallies, bounds)
+        ``tallies[j]`` (N,) how many bounds of level j each run gives (for
+        :func:`choose_samples`); per output, :class:`CutBounds` (-1 where no run lies
+        inside a level's box).
+    """
+    samples = np.asarray(samples, dtype=float)
+    count = len(samples)
+    span = np.maximum(cut_upper[0] - cut_lower[0], np.abs(cut_lower[0])) * 1e-12
+    inside = np.stack(
+        [
+            np.all((samples >= lo - span) & (samples <= hi + span), axis=1) & ~failed
+            for lo, hi in zip(cut_lower, cut_upper, strict=True)
+        ]
+    )  # (L, N)
+    tallies = [np.zeros(count, dtype=np.int64) for _ in range(len(cut_lower))]
+    bounds: dict[str, CutBounds] = {}
+    for name, values in outputs.items():
+        flat = np.asarray(values, dtype=float).reshape(count, -1)
+        size = flat.shape[1]
+        lower = np.full((len(inside), size), np.nan)
+        upper = np.full((len(inside), size), np.nan)
+        lower_sample = np.full((len(inside), size), -1, dtype=np.int64)
+        upper_sample = np.full((len(inside), size), -1, dtype=np.int64)
+        for j, rows in enumerate(inside):
+            index = np.flatnonzero(rows)
+            if not index.size:
+                continue
+            block = flat[index]
+            low = np.argmin(np.where(np.isnan(block), np.inf, block), axis=0)
+            high = np.argmax(np.where(np.isnan(block), -np.inf, block), axis=0)
+            columns = np.arange(size)
+            lower[j], upper[j] = block[low, columns], block[high, columns]
+            lower_sample[j], upper_sample[j] = index[low], index[high]
+            if np.any(upper[j] > lower[j]):  # a level without width has no band to distort
+                tallies[j] += np.bincount(index[low], minlength=count)
+                tallies[j] += np.bincount(index[high], minlength=count)
+        bounds[name] = CutBounds(lower, upper, lower_sample, upper_sample)
+    return tallies, bounds
+
+
 def check_time_integration(
     model: Any,
     columns: Callable[[list[int]], Mapping[str, np.ndarray]],

@@ -579,7 +579,7 @@ class Study(StudyRuns):
         reasons = np.full(count, "", dtype=object)
         feed = ChunkFeed(plan, count, count, (), None, keep_raw, self._output_check)
         feed.add(0, ChunkResult(0, count, outputs, failed, reasons))
-        integration = self._check_time_integration(feed, failed)
+        integration = self._check_time_integration(feed, failed, outputs)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", AdaptiveWarning)  # build_dataset would repeat it
             dataset = build_dataset(
