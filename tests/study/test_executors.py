@@ -65,6 +65,18 @@ def test_unknown_executor_is_rejected():
         _oscillator_study().run(executor="threads", progress=False)
 
 
+def test_dask_address_without_distributed_fails_before_any_run(monkeypatch, tmp_path):
+    import sys
+
+    from fuzzymbs.errors import InvalidParameterError
+    from fuzzymbs.study.executors import check_executor_spec
+
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    with pytest.raises(InvalidParameterError, match=r"needs Dask's distributed package"):
+        check_executor_spec("dask://127.0.0.1:8786")
+    check_executor_spec("inline")  # the others need nothing
+
+
 def test_unpicklable_model_is_reported_before_starting_workers():
     from fuzzymbs.errors import InvalidParameterError
 

@@ -126,9 +126,19 @@ def check_executor_spec(spec: Any) -> None:
     Raises
     ------
     InvalidParameterError
-        An unknown specification string or a bad worker count.
+        An unknown specification string, a bad worker count, or a Dask scheduler
+        address without the ``distributed`` package installed.
     """
-    if not isinstance(spec, str) or spec == "inline" or is_remote(spec):
+    if not isinstance(spec, str) or spec == "inline":
+        return
+    if is_remote(spec):
+        try:  # a missing package fails here, before any run, not at the first chunk
+            import distributed  # noqa: F401
+        except ImportError as exc:
+            raise InvalidParameterError(
+                f"executor {spec!r} needs Dask's distributed package ({exc}); install it "
+                "with: pip install 'fuzzymbs[dask]'"
+            ) from None
         return
     if process_workers(spec) is None:
         raise InvalidParameterError(
