@@ -416,11 +416,17 @@ class AdaptiveTransformation:
         return lower, upper, arg_lower, arg_upper
 
     def _scale(self) -> NDArray[np.float64]:
-        """(L, E) the cut-width scale ``max(w, 0.1 max_e w)`` of the current bounds; inf
-        where a level has no width (a crisp cut has nothing to miss)."""
+        """(L, E) the cut-width scale ``max(w, 0.1 max_e w)`` of the current bounds, the
+        maximum over the elements of each output on its own (outputs of different sizes,
+        a pad's micrometres beside a caliper's nanometres, are each read on their own
+        cut widths); inf where an output's cut has no width at a level (a crisp cut has
+        nothing to miss)."""
         lower, upper = self._widened()
         width = upper - lower
-        widest = width.max(axis=1, keepdims=True)
+        widest = np.empty_like(width)
+        for offset, shape in self._layout.values():
+            part = slice(offset, offset + int(np.prod(shape, dtype=np.int64)))
+            widest[:, part] = width[:, part].max(axis=1, keepdims=True)
         scale = np.maximum(width, WIDTH_FLOOR * widest)
         return np.where(widest > 0.0, scale, np.inf)
 
@@ -482,11 +488,12 @@ class AdaptiveTransformation:
         worst = np.zeros(len(units))
         for j in range(len(self.levels)):
             inside = holding >= j
-            if not inside.any() or not np.all(np.isfinite(scale[j])):
+            if not inside.any() or not np.any(np.isfinite(scale[j])):
                 continue
             s, e = predicted[inside], error[inside]
             beyond = np.maximum(s + e - upper[j], 0.0) + np.maximum(lower[j] - s + e, 0.0)
-            worst[inside] = np.maximum(worst[inside], (beyond / scale[j]).max(axis=1))
+            relative = np.where(np.isfinite(scale[j]), beyond / scale[j], 0.0)
+            worst[inside] = np.maximum(worst[inside], relative.max(axis=1))
         return worst
 
     def _refinement(self, scale: NDArray[np.float64]) -> list[tuple[int, ...]]:
