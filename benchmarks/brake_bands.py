@@ -13,12 +13,14 @@
   per output and level, as a fraction of max(local cut width, 0.1 x the level's widest
   cut) (the normalisation of ``method_error`` and ``time_integration_error``); CPU
   time of each call (all threads);
-* ``cost``: the whole default study 1 (``Study.run``: the integration pilot, 33 runs,
-  the method check's 6 validation runs and the time-integration check) in fresh
-  interpreters, this checkout's default (shared steps), the same with each sample on
-  its own steps (``shared_steps=False``), the ``--before`` checkout's default and
-  this checkout with RK4 at 1 us, alternating, ``--rounds`` times; the smallest wall
-  times, their ratios and each study's own error estimates;
+* ``cost``: the whole default study 1 (``Study.run``) in fresh interpreters: this
+  checkout's default (the demo's: adaptive method, shared steps, the tolerance chosen
+  by a pilot, the time-integration check), the reduced plan of the earlier default on
+  the same integration (33 runs, 6 validation runs), the ``--before`` checkout's
+  default (its reduced study, 6 validation runs) and the reduced plan with RK4 at
+  1 us, alternating, ``--rounds`` times; the smallest wall times, their ratios (wall
+  and CPU), each study's own error estimates, and ``reduced_misses``: how far the
+  default's runs lie beyond the reduced plan's bands at rtol 1e-6;
 * ``simd``: the 33 samples of study 1 at rtol 1e-3 in one call, four samples per
   SIMD block (``kernel="lanes"``) against a block per sample (``kernel="samples"``),
   CPU time, in this checkout and (``--before``) in the other one: what the lanes
@@ -36,11 +38,13 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from bench_common import BENCH_DIR, REPO, load_average, run_in_checkout
 
 import fuzzymbs
+from fuzzymbs.fuzzy.band_scale import width_relative
 from fuzzymbs.models.brake import DiscBrake
 
 OUTPUTS = ("y_lpad", "y_upad", "y_cali")
@@ -177,8 +181,14 @@ result = Study(DiscBrake(t_end={t_end}, **settings), parameters, levels=levels, 
 )
 attrs = result.dataset.attrs
 if {save!r}:
-    np.savez({save!r}, **{{f"{{n}}_{{side}}": result.dataset[f"{{n}}_{{side}}"].values
-        for n in ("y_lpad", "y_upad", "y_cali") for side in ("lower", "upper")}})
+    data = result.dataset
+    arrays = {{f"{{n}}_{{side}}": data[f"{{n}}_{{side}}"].values
+        for n in ("y_lpad", "y_upad", "y_cali") for side in ("lower", "upper")}}
+    if "samples" in data:  # every run (kept with the raw outputs)
+        arrays["samples"] = data["samples"].values
+        arrays.update({{f"{{n}}_samples": data[f"{{n}}_samples"].values
+            for n in ("y_lpad", "y_upad", "y_cali")}})
+    np.savez({save!r}, **arrays)
 print(json.dumps({{"wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu,
     "time_integration": str(attrs.get("time_integration", "")),
     "time_integration_error": float(attrs.get("time_integration_error", float("nan"))),
@@ -186,7 +196,10 @@ print(json.dumps({{"wall_s": time.perf_counter() - wall, "cpu_s": time.process_t
     "integration_pilot_error": float(attrs.get("integration_pilot_error", float("nan"))),
     "integration_reference_error": float(
         attrs.get("time_integration_reference_error", float("nan"))),
-    "method_error": float(attrs.get("method_error", float("nan")))}}))
+    "method_error": float(attrs.get("method_error", float("nan"))),
+    "runs": int(attrs.get("adaptive_runs", attrs.get("runs", -1))),
+    "validation_runs": int(attrs.get("validation_runs", 0)),
+    "integration_tolerance_factor": float(attrs.get("integration_tolerance_factor", 1.0))}}))
 """
 
 
@@ -200,9 +213,12 @@ def measure_cost(
     before: Path | None, t_end: float, rounds: int, reference: dict, study: int = 1
 ) -> dict:
     sides = {
-        "default": (REPO, {}, {}),
-        "own_steps": (REPO, {}, {"shared_steps": False}),
-        "rk4_1us": (REPO, {"integrator": "rk4", "dt": 1e-6}, {}),
+        # the demo study: adaptive method, shared steps, tolerance chosen by the study
+        "default": (REPO, {}, {"method": "adaptive"}),
+        # the method of the earlier default (reduced, 6 validation runs) on the same
+        # integration: the integration's cost on the earlier default's plan
+        "reduced": (REPO, {}, {"validation_runs": 6}),
+        "rk4_1us": (REPO, {"integrator": "rk4", "dt": 1e-6}, {"validation_runs": 6}),
     }
     if before is not None:
         sides["before_default"] = (before.resolve(), {}, {})
@@ -224,18 +240,44 @@ def measure_cost(
     data = np.load(saved)
     bands = {n: (data[f"{n}_lower"], data[f"{n}_upper"]) for n in OUTPUTS}
     figures["default_study_band_deviation"] = band_deviation(bands, reference)
-    if "rk4_1us" in cost:
-        figures["default_over_rk4_1us"] = cost["default"]["wall_s"] / cost["rk4_1us"]["wall_s"]
-    if "own_steps" in cost:
-        figures["default_over_own_steps"] = cost["default"]["wall_s"] / cost["own_steps"]["wall_s"]
-    if "before_default" in cost:
-        figures["default_over_before_default"] = (
-            cost["default"]["wall_s"] / cost["before_default"]["wall_s"]
+    figures["reduced_misses"] = reduced_misses(study, data, reference)
+    for name in ("rk4_1us", "reduced", "before_default"):
+        if name in cost:
+            for unit in ("wall_s", "cpu_s"):
+                key = f"default_over_{name}" + ("_cpu" if unit == "cpu_s" else "")
+                figures[key] = cost["default"][unit] / cost[name][unit]
+    if "before_default" in cost and "reduced" in cost:
+        figures["reduced_over_before_default"] = (
+            cost["reduced"]["wall_s"] / cost["before_default"]["wall_s"]
         )
-        figures["default_over_before_default_cpu"] = (
-            cost["default"]["cpu_s"] / cost["before_default"]["cpu_s"]
+        figures["reduced_over_before_default_cpu"] = (
+            cost["reduced"]["cpu_s"] / cost["before_default"]["cpu_s"]
         )
     return figures
+
+
+def reduced_misses(study: int, data: Any, reference: dict) -> dict[str, list[float]]:
+    """How far the default study's runs (true values of the model, each inside the cut
+    boxes that hold it) lie beyond the reduced plan's bands at rtol 1e-6, per output and
+    level, on the cut-width scale of those bands: what the reduced method misses."""
+    from fuzzymbs.study.integration_check import run_cut_bounds
+
+    if "samples" not in data:
+        return {}
+    numbers = list(study_parameters(study).values())
+    cuts = np.stack([number.cuts(LEVELS) for number in numbers], axis=1)
+    outputs = {n: data[f"{n}_samples"] for n in OUTPUTS}
+    failed = np.zeros(len(data["samples"]), dtype=bool)
+    _, runs = run_cut_bounds(data["samples"], outputs, cuts[:, :, 0], cuts[:, :, 1], failed)
+    misses = {}
+    for name in OUTPUTS:
+        lower, upper = reference[name]
+        beyond = np.maximum(lower - runs[name].lower, 0.0) + np.maximum(
+            runs[name].upper - upper, 0.0
+        )
+        ratio = width_relative(beyond, lower, upper)
+        misses[name] = [float(np.nanmax(r)) if np.isfinite(r).any() else 0.0 for r in ratio]
+    return misses
 
 
 def plot(bands: dict, path: Path) -> None:
