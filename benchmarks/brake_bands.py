@@ -26,7 +26,9 @@
   CPU time, in this checkout and (``--before``) in the other one: what the lanes
   still buy now that each keeps its own clock;
 * ``--figure``: docs/figures/brake_band_precision.png, band-relative error against
-  CPU time (the work-precision diagram on the scale of the bands).
+  CPU time (the work-precision diagram on the scale of the bands); ``--figure-from
+  A.json B.json``: the same figure from the ``bands`` of earlier runs (e.g. one run
+  with ``--rtol`` on the samples' own steps, one with ``--shared-rtol``).
 
 ``--quick``: 1 ms signals, study 1 only, two tolerances, no reference cache (the
 smoke test's mode).
@@ -286,17 +288,30 @@ def plot(bands: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(8.0, 3.4), sharey=True)
+    fig, axes = plt.subplots(1, 2, figsize=(8.0, 3.6), sharey=True)
+    kinds = {  # label prefix -> marker, colour, legend, label offset
+        "rk4": ("s", "k", "RK4 (the paper)", (4, 2)),
+        "sha": ("^", "C1", "ROS34PW2 on shared steps (default)", (4, -9)),
+        "rto": ("o", "C0", "ROS34PW2, own steps per sample", (4, 2)),
+    }
     for ax, (study, entries) in zip(axes, bands.items(), strict=False):
+        shown = set()
         for label, entry in entries.items():
             worst = max(max(v) for v in entry["deviation"].values())
-            marker, color = {"rk4": ("s", "k"), "sha": ("^", "C1")}.get(label[:3], ("o", "C0"))
-            ax.loglog(entry["cpu_s"], 100 * worst, marker, color=color)
+            marker, color, legend, offset = kinds.get(label[:3], kinds["rto"])
+            ax.loglog(
+                entry["cpu_s"],
+                100 * worst,
+                marker,
+                color=color,
+                label=None if legend in shown else legend,
+            )
+            shown.add(legend)
             ax.annotate(
-                label,
+                label.replace("shared rtol ", "").replace("rtol ", "").replace("rk4 ", ""),
                 (entry["cpu_s"], 100 * worst),
                 fontsize=7,
-                xytext=(4, 2),
+                xytext=offset,
                 textcoords="offset points",
             )
         ax.axhline(2.0, color="C3", lw=0.8, ls="--")
@@ -304,6 +319,7 @@ def plot(bands: dict, path: Path) -> None:
         ax.set_title(f"brake study {study[-1]} (33 runs, 10 ms)", fontsize=9)
         ax.set_xlabel("CPU time of the 33 runs [s]")
         ax.grid(True, which="both", lw=0.3)
+    axes[0].legend(fontsize=6.5, loc="lower left")
     axes[0].set_ylabel("band error [% of the cut width]")
     fig.tight_layout()
     fig.savefig(path, dpi=150)
@@ -314,6 +330,12 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--before", type=Path, help="another checkout for 'noise' and 'cost'")
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--figure", action="store_true")
+    parser.add_argument(
+        "--figure-from",
+        type=Path,
+        nargs="+",
+        help="draw the figure from the 'bands' of earlier runs' JSON lines (merged)",
+    )
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--skip-cost", action="store_true")
     parser.add_argument(
@@ -336,6 +358,13 @@ def main(argv: list[str] | None = None) -> dict:
         "--cost-studies", type=int, nargs="+", default=[1], help="studies whose default to time"
     )
     args = parser.parse_args(argv)
+    if args.figure_from:
+        merged: dict = {}
+        for path in args.figure_from:
+            for study, entries in json.loads(path.read_text())["bands"].items():
+                merged.setdefault(study, {}).update(entries)
+        plot(merged, REPO / "docs" / "figures" / "brake_band_precision.png")
+        return {"bands": merged}
     t_end = 1e-3 if args.quick else 1e-2
     studies = (1,) if args.quick else (1, 2)
     rtols = (1e-2, 1e-3) if args.quick else tuple(args.rtol)
