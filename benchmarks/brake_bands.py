@@ -21,6 +21,10 @@
   1 us, alternating, ``--rounds`` times; the smallest wall times, their ratios (wall
   and CPU), each study's own error estimates, and ``reduced_misses``: how far the
   default's runs lie beyond the reduced plan's bands at rtol 1e-6;
+* ``default-runs``: the default study's runs saved by ``cost`` (``--cost-studies``),
+  integrated once more at rtol 1e-6 on each sample's own steps; the cut bounds among
+  the runs inside each box at the default against the same at rtol 1e-6 (where the
+  adaptive method's bounds are decided), per output and level;
 * ``simd``: the 33 samples of study 1 at rtol 1e-3 in one call, four samples per
   SIMD block (``kernel="lanes"``) against a block per sample (``kernel="samples"``),
   CPU time, in this checkout and (``--before``) in the other one: what the lanes
@@ -282,6 +286,39 @@ def reduced_misses(study: int, data: Any, reference: dict) -> dict[str, list[flo
     return misses
 
 
+def default_runs_at_reference(study: int, t_end: float) -> dict:
+    """The default (adaptive) study's own runs, saved by ``cost``, integrated once more
+    at rtol 1e-6 on each sample's own steps: the cut bounds among the runs inside each
+    box (:func:`~fuzzymbs.study.integration_check.run_cut_bounds`, where the adaptive
+    bounds are decided) at the default against the same at rtol 1e-6, per output and
+    level on the cut-width scale, and against those bounds the adaptive bands."""
+    from fuzzymbs.study.integration_check import run_cut_bounds
+
+    saved = BENCH_DIR / ".cache" / f"brake_bands_default_study{study}_t{t_end:g}.npz"
+    data = np.load(saved)
+    samples = data["samples"]
+    names = list(study_parameters(study))
+    model = DiscBrake(t_end=t_end, rtol=REFERENCE_RTOL)
+    cpu = time.process_time()
+    out = model({name: samples[:, i] for i, name in enumerate(names)})
+    cpu = time.process_time() - cpu
+    numbers = list(study_parameters(study).values())
+    cuts = np.stack([number.cuts(LEVELS) for number in numbers], axis=1)
+    failed = np.zeros(len(samples), dtype=bool)
+    low, high = cuts[:, :, 0], cuts[:, :, 1]
+    _, default = run_cut_bounds(
+        samples, {n: data[f"{n}_samples"] for n in OUTPUTS}, low, high, failed
+    )
+    _, converged = run_cut_bounds(samples, {n: out[n] for n in OUTPUTS}, low, high, failed)
+    runs = {n: (default[n].lower[:-1], default[n].upper[:-1]) for n in OUTPUTS}
+    reference = {n: (converged[n].lower[:-1], converged[n].upper[:-1]) for n in OUTPUTS}
+    return {
+        "runs": len(samples),
+        "cpu_s": round(cpu, 1),
+        "run_bounds_deviation": band_deviation(runs, reference),
+    }
+
+
 def plot(bands: dict, path: Path) -> None:
     import matplotlib
 
@@ -342,7 +379,7 @@ def main(argv: list[str] | None = None) -> dict:
         "--parts",
         nargs="+",
         default=["noise", "simd", "bands", "cost"],
-        choices=["noise", "simd", "bands", "cost"],
+        choices=["noise", "simd", "bands", "cost", "default-runs"],
     )
     parser.add_argument(
         "--rtol", type=float, nargs="*", default=[1e-2, 1e-3, 1e-4, 1e-5], help="tolerances"
@@ -404,6 +441,10 @@ def main(argv: list[str] | None = None) -> dict:
                 references[study] = reference_bands(study, t_end, cache=not args.quick)
             key = "cost" if study == 1 else f"cost_study{study}"
             figures[key] = measure_cost(args.before, t_end, rounds, references[study], study)
+    if "default-runs" in parts:  # after 'cost' (or an earlier run of it) saved the runs
+        figures["default_runs"] = {
+            f"study{study}": default_runs_at_reference(study, t_end) for study in args.cost_studies
+        }
     if args.figure and figures["bands"]:
         plot(figures["bands"], REPO / "docs" / "figures" / "brake_band_precision.png")
     figures["load_average_end"] = load_average()
