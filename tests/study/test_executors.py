@@ -75,6 +75,19 @@ def test_dask_address_without_distributed_fails_before_any_run(monkeypatch, tmp_
     with pytest.raises(InvalidParameterError, match=r"needs Dask's distributed package"):
         check_executor_spec("dask://127.0.0.1:8786")
     check_executor_spec("inline")  # the others need nothing
+    # a study file's own Dask executor is checked before the output folder is touched
+    from importlib import resources
+
+    from fuzzymbs.study.pipeline import run_study_file
+
+    product = resources.files("fuzzymbs.demos") / "quickstart" / "01-product.toml"
+    study_file = tmp_path / "product.toml"
+    study_file.write_text(
+        product.read_text().replace('executor = "inline"', 'executor = "dask://127.0.0.1:9"')
+    )
+    with pytest.raises(InvalidParameterError, match=r"needs Dask's distributed package"):
+        run_study_file(study_file, tmp_path / "out", allow_code=True, progress=False)
+    assert not (tmp_path / "out").exists()
 
 
 def test_unpicklable_model_is_reported_before_starting_workers():

@@ -196,6 +196,8 @@ def run_study_file(
     definition = load_study_file(
         path, allow_code=allow_code, max_runs=max_runs, file_executor=executor is None
     )
+    if executor is None:
+        check_executor_spec(definition.executor)  # the study file's own, likewise
     out = Path(out)
     prepare_output_folder(out)
     with locked_output_folder(out):
