@@ -24,10 +24,8 @@ CHUNK_SIZE = 4
 
 STUDY = """
 [study]
-name = "slow-product"
-method = "reduced"
-levels = 10
-validation_runs = 0  # the calls counted are the method's own
+name = "{name}"
+{method}
 
 [model]
 name = "slow_closed_form:make"
@@ -48,6 +46,11 @@ spread = 0.1
 [run]
 chunk_size = {chunk_size}
 """
+REDUCED = """method = "reduced"
+levels = 10
+validation_runs = 0  # the calls counted are the method's own"""
+ADAPTIVE = """method = "adaptive"
+levels = 4"""
 
 
 def _command(study: Path, out: Path) -> list[str]:
@@ -78,21 +81,14 @@ def _logged_calls(log: Path) -> list[list[float]]:
     return [json.loads(line) for line in log.read_text().splitlines()]
 
 
-def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
-    study = tmp_path / "slow.toml"
-    study.write_text(STUDY.format(delay=0.15, chunk_size=CHUNK_SIZE))
-    plan = load_study_file(study, allow_code=True).study.plan
-    count = len(plan)  # 10 * 2^2 + 1 = 41 samples
-    chunks = [plan.samples[i : i + CHUNK_SIZE, 0].tolist() for i in range(0, count, CHUNK_SIZE)]
-    assert count == 41 and len(chunks) == 11
-
-    out = tmp_path / "interrupted"
+def _kill_after_stored(study: Path, out: Path, log: Path, pattern: str) -> None:
+    """Run ``fuzzymbs run`` in a subprocess and SIGKILL it once 3 files match
+    ``pattern`` in its store; the run must not have written a result."""
     store = out / "chunks"
-    first_log = tmp_path / "first.log"
-    process = subprocess.Popen(_command(study, out), env=_environment(first_log))
+    process = subprocess.Popen(_command(study, out), env=_environment(log))
     try:
         deadline = time.monotonic() + 60
-        while len(list(store.glob("chunk-*.npz"))) < 3:
+        while len(list(store.glob(pattern))) < 3:
             assert process.poll() is None, "the run ended before it could be killed"
             assert time.monotonic() < deadline, "no chunks were stored within 60 s"
             time.sleep(0.02)
@@ -103,6 +99,27 @@ def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
             process.kill()
     assert process.returncode == -signal.SIGKILL
     assert not (out / "result.nc").exists()
+
+
+def _assert_identical(resumed: xr.Dataset, fresh: xr.Dataset) -> None:
+    assert set(resumed.data_vars) == set(fresh.data_vars)
+    for name in fresh.data_vars:
+        np.testing.assert_array_equal(resumed[name].values, fresh[name].values, strict=True)
+
+
+def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
+    study = tmp_path / "slow.toml"
+    study.write_text(
+        STUDY.format(name="slow-product", method=REDUCED, delay=0.15, chunk_size=CHUNK_SIZE)
+    )
+    plan = load_study_file(study, allow_code=True).study.plan
+    count = len(plan)  # 10 * 2^2 + 1 = 41 samples
+    chunks = [plan.samples[i : i + CHUNK_SIZE, 0].tolist() for i in range(0, count, CHUNK_SIZE)]
+    assert count == 41 and len(chunks) == 11
+
+    out = tmp_path / "interrupted"
+    store = out / "chunks"
+    _kill_after_stored(study, out, tmp_path / "first.log", "chunk-*.npz")
     stored = sorted(int(p.stem.split("-")[1]) for p in store.glob("chunk-*.npz"))
     assert 3 <= len(stored) < len(chunks)
 
@@ -125,9 +142,7 @@ def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
         xr.open_dataset(out / "result.nc") as resumed,
         xr.open_dataset(clean / "result.nc") as fresh,
     ):
-        assert set(resumed.data_vars) == set(fresh.data_vars)
-        for name in fresh.data_vars:
-            np.testing.assert_array_equal(resumed[name].values, fresh[name].values, strict=True)
+        _assert_identical(resumed, fresh)
         provenance = json.loads(resumed.attrs["provenance"])
         assert provenance["reused_from_store"] == sum(
             min(CHUNK_SIZE, count - i * CHUNK_SIZE) for i in stored
@@ -135,39 +150,16 @@ def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
         assert provenance["evaluated"] == count - provenance["reused_from_store"]
 
 
-ADAPTIVE_STUDY = """
-[study]
-name = "slow-product-adaptive"
-method = "adaptive"
-levels = 4
-
-[model]
-name = "slow_closed_form:make"
-[model.options]
-delay = {delay}
-
-[parameters.x1]
-type = "triangular"
-lower = 1.0
-modal = 2.0
-upper = 3.0
-
-[parameters.x2]
-type = "triangular"
-modal = 10.0
-spread = 0.1
-
-[run]
-chunk_size = {chunk_size}
-"""
-
-
 def test_killed_adaptive_run_resumes_its_rounds_and_matches_uninterrupted(tmp_path, monkeypatch):
     # the adaptive method's rounds are stored chunk by chunk under
     # STORE/adaptive-<round>-<fingerprint>/; a SIGKILL inside a round loses only the
     # chunks not yet written, and the resumed run replays the stored rounds bit for bit
     study = tmp_path / "slow-adaptive.toml"
-    study.write_text(ADAPTIVE_STUDY.format(delay=0.3, chunk_size=CHUNK_SIZE))
+    study.write_text(
+        STUDY.format(
+            name="slow-product-adaptive", method=ADAPTIVE, delay=0.3, chunk_size=CHUNK_SIZE
+        )
+    )
 
     # an uninterrupted run first (in this process): its calls, chunk by chunk
     monkeypatch.syspath_prepend(str(HERE))
@@ -181,20 +173,7 @@ def test_killed_adaptive_run_resumes_its_rounds_and_matches_uninterrupted(tmp_pa
 
     out = tmp_path / "interrupted"
     store = out / "chunks"
-    process = subprocess.Popen(_command(study, out), env=_environment(tmp_path / "first.log"))
-    try:
-        deadline = time.monotonic() + 60
-        while len(list(store.glob("adaptive-*/chunk-*.npz"))) < 3:
-            assert process.poll() is None, "the run ended before it could be killed"
-            assert time.monotonic() < deadline, "no chunks were stored within 60 s"
-            time.sleep(0.02)
-        process.send_signal(signal.SIGKILL)
-        process.wait(timeout=30)
-    finally:
-        if process.poll() is None:
-            process.kill()
-    assert process.returncode == -signal.SIGKILL
-    assert not (out / "result.nc").exists()
+    _kill_after_stored(study, out, tmp_path / "first.log", "adaptive-*/chunk-*.npz")
     stored = list(store.glob("adaptive-*/chunk-*.npz"))
     assert 3 <= len(stored) < len(clean_calls)
 
@@ -212,9 +191,7 @@ def test_killed_adaptive_run_resumes_its_rounds_and_matches_uninterrupted(tmp_pa
         xr.open_dataset(out / "result.nc") as resumed,
         xr.open_dataset(clean / "result.nc") as fresh,
     ):
-        assert set(resumed.data_vars) == set(fresh.data_vars)
-        for name in fresh.data_vars:
-            np.testing.assert_array_equal(resumed[name].values, fresh[name].values, strict=True)
+        _assert_identical(resumed, fresh)
         assert resumed.attrs["adaptive_rounds"] == fresh.attrs["adaptive_rounds"] == len(rounds)
         provenance = json.loads(resumed.attrs["provenance"])
         assert provenance["evaluated"] == sum(len(call) for call in resumed_calls)
