@@ -4,6 +4,7 @@ import shutil
 
 import numpy as np
 import pytest
+from same_results import assert_identical, local_dask_client
 
 from fuzzymbs import Study
 from fuzzymbs.errors import IncompleteResultError
@@ -70,24 +71,10 @@ def test_adaptive_rounds_on_dask_are_bit_identical_to_inline():
     # every round's points follow from the earlier rounds' outputs alone, so a Dask
     # cluster (here one in-process worker of two threads, as in test_executors.py) with
     # another chunking must give the same runs, bounds and certified error bit for bit
-    distributed = pytest.importorskip("distributed")
     inline = _study().run(progress=False, chunk_size=16)
-    with (
-        distributed.LocalCluster(
-            n_workers=1,
-            threads_per_worker=2,
-            processes=False,
-            protocol="tcp",
-            dashboard_address=":0",  # a free port: 8787 may be taken by another cluster
-        ) as cluster,
-        distributed.Client(cluster) as client,
-    ):
+    with local_dask_client() as (_, client):
         by_dask = _study().run(executor=client, chunk_size=7, progress=False)
     assert by_dask.provenance["executor"] != inline.provenance["executor"]
-    assert set(by_dask.dataset.data_vars) == set(inline.dataset.data_vars)
-    for name in inline.dataset.data_vars:
-        np.testing.assert_array_equal(
-            by_dask.dataset[name].values, inline.dataset[name].values, err_msg=name, strict=True
-        )
+    assert_identical(by_dask.dataset, inline.dataset)
     for key in ("method_error", "adaptive_runs", "adaptive_rounds"):
         assert by_dask.dataset.attrs[key] == inline.dataset.attrs[key]

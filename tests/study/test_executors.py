@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from same_results import assert_identical, local_dask_client
 
 from fuzzymbs import Triangular
 from fuzzymbs.study.study import Study
@@ -21,13 +22,6 @@ def _oscillator_study():
     )
 
 
-def _assert_identical(a, b):
-    # bit for bit: equal values and equal NaN placement, every variable
-    assert set(a.data_vars) == set(b.data_vars)
-    for name in a.data_vars:
-        np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name, strict=True)
-
-
 @pytest.fixture(scope="module")
 def inline_result():
     return _oscillator_study().run(progress=False, chunk_size=5)
@@ -36,26 +30,16 @@ def inline_result():
 def test_process_pool_equals_inline(inline_result):
     result = _oscillator_study().run(executor="processes:2", chunk_size=5, progress=False)
     assert result.provenance["executor"] == "processes:2"
-    _assert_identical(result.dataset, inline_result.dataset)
+    assert_identical(result.dataset, inline_result.dataset)
 
 
 def test_dask_local_cluster_equals_inline(inline_result):
-    distributed = pytest.importorskip("distributed")
-    with (
-        distributed.LocalCluster(
-            n_workers=1,
-            threads_per_worker=2,
-            processes=False,
-            protocol="tcp",
-            dashboard_address=":0",  # a free port: 8787 may be taken by another cluster
-        ) as cluster,
-        distributed.Client(cluster) as client,
-    ):
+    with local_dask_client() as (cluster, client):
         by_client = _oscillator_study().run(executor=client, chunk_size=5, progress=False)
         address = cluster.scheduler_address.replace("tcp://", "dask://")
         by_address = _oscillator_study().run(executor=address, chunk_size=7, progress=False)
-    _assert_identical(by_client.dataset, inline_result.dataset)
-    _assert_identical(by_address.dataset, inline_result.dataset)
+    assert_identical(by_client.dataset, inline_result.dataset)
+    assert_identical(by_address.dataset, inline_result.dataset)
 
 
 def test_unknown_executor_is_rejected():

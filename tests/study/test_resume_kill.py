@@ -13,8 +13,8 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import xarray as xr
+from same_results import assert_identical
 
 from fuzzymbs.study.pipeline import run_study_file
 from fuzzymbs.study.studyfile import load_study_file
@@ -101,12 +101,6 @@ def _kill_after_stored(study: Path, out: Path, log: Path, pattern: str) -> None:
     assert not (out / "result.nc").exists()
 
 
-def _assert_identical(resumed: xr.Dataset, fresh: xr.Dataset) -> None:
-    assert set(resumed.data_vars) == set(fresh.data_vars)
-    for name in fresh.data_vars:
-        np.testing.assert_array_equal(resumed[name].values, fresh[name].values, strict=True)
-
-
 def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
     study = tmp_path / "slow.toml"
     study.write_text(
@@ -142,7 +136,7 @@ def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
         xr.open_dataset(out / "result.nc") as resumed,
         xr.open_dataset(clean / "result.nc") as fresh,
     ):
-        _assert_identical(resumed, fresh)
+        assert_identical(resumed, fresh)
         provenance = json.loads(resumed.attrs["provenance"])
         assert provenance["reused_from_store"] == sum(
             min(CHUNK_SIZE, count - i * CHUNK_SIZE) for i in stored
@@ -191,7 +185,7 @@ def test_killed_adaptive_run_resumes_its_rounds_and_matches_uninterrupted(tmp_pa
         xr.open_dataset(out / "result.nc") as resumed,
         xr.open_dataset(clean / "result.nc") as fresh,
     ):
-        _assert_identical(resumed, fresh)
+        assert_identical(resumed, fresh)
         assert resumed.attrs["adaptive_rounds"] == fresh.attrs["adaptive_rounds"] == len(rounds)
         provenance = json.loads(resumed.attrs["provenance"])
         assert provenance["evaluated"] == sum(len(call) for call in resumed_calls)
