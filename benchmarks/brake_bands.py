@@ -52,6 +52,7 @@ from bench_common import BENCH_DIR, REPO, load_average, run_in_checkout
 import fuzzymbs
 from fuzzymbs.fuzzy.band_scale import width_relative
 from fuzzymbs.models.brake import DiscBrake
+from fuzzymbs.study.integration_check import run_cut_bounds
 
 OUTPUTS = ("y_lpad", "y_upad", "y_cali")
 LEVELS = [0.0, 0.25, 0.5, 0.75, 1.0]
@@ -262,19 +263,23 @@ def measure_cost(
     return figures
 
 
+def run_bounds(study: int, samples: np.ndarray, outputs: dict) -> dict:
+    """Per output, the cut bounds among the runs inside each of the study's cut boxes
+    (:func:`~fuzzymbs.study.integration_check.run_cut_bounds`: where the adaptive
+    method's bounds are decided), with the runs that give them."""
+    numbers = list(study_parameters(study).values())
+    cuts = np.stack([number.cuts(LEVELS) for number in numbers], axis=1)
+    failed = np.zeros(len(samples), dtype=bool)
+    return run_cut_bounds(samples, outputs, cuts[:, :, 0], cuts[:, :, 1], failed)[1]
+
+
 def reduced_misses(study: int, data: Any, reference: dict) -> dict[str, list[float]]:
     """How far the default study's runs (true values of the model, each inside the cut
     boxes that hold it) lie beyond the reduced plan's bands at rtol 1e-6, per output and
     level, on the cut-width scale of those bands: what the reduced method misses."""
-    from fuzzymbs.study.integration_check import run_cut_bounds
-
     if "samples" not in data:
         return {}
-    numbers = list(study_parameters(study).values())
-    cuts = np.stack([number.cuts(LEVELS) for number in numbers], axis=1)
-    outputs = {n: data[f"{n}_samples"] for n in OUTPUTS}
-    failed = np.zeros(len(data["samples"]), dtype=bool)
-    _, runs = run_cut_bounds(data["samples"], outputs, cuts[:, :, 0], cuts[:, :, 1], failed)
+    runs = run_bounds(study, data["samples"], {n: data[f"{n}_samples"] for n in OUTPUTS})
     misses = {}
     for name in OUTPUTS:
         lower, upper = reference[name]
@@ -289,11 +294,8 @@ def reduced_misses(study: int, data: Any, reference: dict) -> dict[str, list[flo
 def default_runs_at_reference(study: int, t_end: float) -> dict:
     """The default (adaptive) study's own runs, saved by ``cost``, integrated once more
     at rtol 1e-6 on each sample's own steps: the cut bounds among the runs inside each
-    box (:func:`~fuzzymbs.study.integration_check.run_cut_bounds`, where the adaptive
-    bounds are decided) at the default against the same at rtol 1e-6, per output and
-    level on the cut-width scale, and against those bounds the adaptive bands."""
-    from fuzzymbs.study.integration_check import run_cut_bounds
-
+    box (:func:`run_bounds`) at the default against the same at rtol 1e-6, per output
+    and level with a cut of non-zero width, on the cut-width scale."""
     saved = BENCH_DIR / ".cache" / f"brake_bands_default_study{study}_t{t_end:g}.npz"
     data = np.load(saved)
     samples = data["samples"]
@@ -302,14 +304,8 @@ def default_runs_at_reference(study: int, t_end: float) -> dict:
     cpu = time.process_time()
     out = model({name: samples[:, i] for i, name in enumerate(names)})
     cpu = time.process_time() - cpu
-    numbers = list(study_parameters(study).values())
-    cuts = np.stack([number.cuts(LEVELS) for number in numbers], axis=1)
-    failed = np.zeros(len(samples), dtype=bool)
-    low, high = cuts[:, :, 0], cuts[:, :, 1]
-    _, default = run_cut_bounds(
-        samples, {n: data[f"{n}_samples"] for n in OUTPUTS}, low, high, failed
-    )
-    _, converged = run_cut_bounds(samples, {n: out[n] for n in OUTPUTS}, low, high, failed)
+    default = run_bounds(study, samples, {n: data[f"{n}_samples"] for n in OUTPUTS})
+    converged = run_bounds(study, samples, {n: out[n] for n in OUTPUTS})
     runs = {n: (default[n].lower[:-1], default[n].upper[:-1]) for n in OUTPUTS}
     reference = {n: (converged[n].lower[:-1], converged[n].upper[:-1]) for n in OUTPUTS}
     return {
