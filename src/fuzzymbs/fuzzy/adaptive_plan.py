@@ -29,6 +29,7 @@ from fuzzymbs.fuzzy.adaptive import (
     AdaptiveTransformation,
     check_adaptive_options,
 )
+from fuzzymbs.fuzzy.model_calls import evaluate_table
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.plan_options import checked_parameters, make_levels
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS
@@ -212,35 +213,22 @@ class AdaptivePlan:
         model: Callable[[dict[str, NDArray[np.float64]]], Mapping[str, Any]],
         chunk_size: int | None = None,
     ) -> dict[str, NDArray]:
-        """Run every round with ``model`` (``chunk_size`` samples per call) from the first.
+        """Run every round with ``model`` (``chunk_size`` samples per call) from the first
+        (:func:`~fuzzymbs.fuzzy.model_calls.evaluate_table`: the same checks of the model's
+        outputs as :meth:`Plan.evaluate <fuzzymbs.fuzzy.transform.Plan.evaluate>`).
 
         Returns
         -------
         dict of str to ndarray
             Every output at every run, leading axis N in round order (row 0 the modal point).
         """
-        if chunk_size is not None and (
-            isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1
-        ):
-            raise InvalidPlanError(f"chunk_size must be a positive int or None, got {chunk_size!r}")
         self.reset()
         pieces: dict[str, list[NDArray]] = {}
         while True:
             points = self.next_batch()
             if len(points) == 0:
                 break
-            size = len(points) if chunk_size is None else chunk_size
-            parts: dict[str, list[NDArray]] = {}
-            for start in range(0, len(points), size):
-                block = points[start : start + size]
-                result = model({name: block[:, i].copy() for i, name in enumerate(self.names)})
-                if not isinstance(result, Mapping):
-                    raise ModelOutputError(
-                        f"a model must return a dict of arrays, got {type(result).__name__}"
-                    )
-                for key, value in result.items():
-                    parts.setdefault(key, []).append(np.asarray(value))
-            outputs = {key: np.concatenate(value) for key, value in parts.items()}
+            outputs = evaluate_table(model, self.names, points, chunk_size)
             self.add(points, outputs)
             for key, value in outputs.items():
                 pieces.setdefault(key, []).append(value)

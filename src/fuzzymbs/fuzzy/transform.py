@@ -49,6 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidPlanError, ModelOutputError, UnsupportedOperationError
 from fuzzymbs.fuzzy.grids import cartesian, unique_rows
+from fuzzymbs.fuzzy.model_calls import evaluate_table
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.plan_options import METHODS, checked_parameters, make_levels
 from fuzzymbs.fuzzy.plan_options import sparse_options as _sparse_options
@@ -497,23 +498,7 @@ class Plan:
             If the model returns something other than a mapping of numeric
             ndarrays with leading axis B, or outputs change between chunks.
         """
-        count = len(self)
-        if chunk_size is None:
-            chunk_size = count
-        if isinstance(chunk_size, bool) or not isinstance(chunk_size, int | np.integer):
-            raise InvalidPlanError(f"chunk_size must be a positive int or None, got {chunk_size!r}")
-        if chunk_size < 1:
-            raise InvalidPlanError(f"chunk_size must be >= 1, got {chunk_size!r}")
-        columns = self.sample_columns()
-        pieces: dict[str, list[NDArray]] = {}
-        for start in range(0, count, int(chunk_size)):
-            stop = min(start + int(chunk_size), count)
-            batch = {name: column[start:stop] for name, column in columns.items()}
-            result = model(batch)
-            _check_model_output(result, stop - start, pieces, start)
-            for name, value in result.items():
-                pieces.setdefault(name, []).append(value)
-        return {name: np.concatenate(parts, axis=0) for name, parts in pieces.items()}
+        return evaluate_table(model, self.names, self.samples, chunk_size)
 
     def retransform(
         self,
@@ -595,48 +580,6 @@ class Plan:
         digest.update(json.dumps(self.to_dict(), sort_keys=True).encode())
         digest.update(np.ascontiguousarray(self.samples, dtype="<f8").tobytes())
         return digest.hexdigest()
-
-
-def _check_model_output(
-    result: Any, batch: int, seen: Mapping[str, list[NDArray]], start: int
-) -> None:
-    """Raise ModelOutputError unless ``result`` is {name: numeric ndarray (batch, ...)}."""
-    if not isinstance(result, Mapping) or not result:
-        raise ModelOutputError(
-            "a model must return a non-empty dict {output name: ndarray (B, ...)}, got "
-            f"{type(result).__name__}"
-        )
-    if seen and set(result) != set(seen):
-        raise ModelOutputError(
-            f"model outputs changed between chunks: {sorted(seen)} before, {sorted(result)} "
-            f"for samples from {start}"
-        )
-    for key, value in result.items():
-        if not isinstance(value, np.ndarray):
-            raise ModelOutputError(
-                f"model output {key!r} must be a NumPy array with leading axis {batch}, got "
-                f"{type(value).__name__}"
-            )
-        if value.ndim == 0 or value.shape[0] != batch:
-            raise ModelOutputError(
-                f"model output {key!r} must have leading axis B={batch} (one row per sample), "
-                f"got shape {value.shape}"
-            )
-        if not (np.issubdtype(value.dtype, np.number) or value.dtype == np.bool_):
-            hint = (
-                " (failure flags and reasons are read by fuzzymbs.Study; with a bare plan, "
-                "drop them and pass failed=... to retransform)"
-                if key == "failure_reason"
-                else ""
-            )
-            raise ModelOutputError(
-                f"model output {key!r} must be numeric, got dtype {value.dtype}{hint}"
-            )
-        if seen and seen[key][0].shape[1:] != value.shape[1:]:
-            raise ModelOutputError(
-                f"model output {key!r} changed trailing shape between chunks: "
-                f"{seen[key][0].shape[1:]} then {value.shape[1:]}"
-            )
 
 
 #: build a sampling plan: ``plan(...)`` is ``Plan(...)``, one signature documented on :class:`Plan`
