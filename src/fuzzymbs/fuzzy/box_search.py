@@ -130,30 +130,43 @@ def _polish(
     correction: KernelCorrection | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Projected gradient ascent of ``sign * series[element]`` (plus the correction) from
-    every start in its box."""
+    every start in its box.
+
+    A start whose slope points out of its box wherever it is not zero (a corner or face
+    extremum, most starts of a monotonic output) cannot move: its clipped trial is
+    itself. It leaves the search, which changes no result (the brake's study 1: 80 to
+    98 % of the starts leave at the first step, and the search takes 3 to 15 times
+    less time).
+    """
     x = starts.copy()
     width = high - low
     step = 0.05 * np.maximum(width.max(axis=1), 1e-300)
     column = coefficients[:, element]  # (D, K)
 
-    def value_at(points: NDArray[np.float64]) -> NDArray[np.float64]:
-        own = np.einsum("kd,dk->k", basis_matrix(degrees, points), column)
-        return own if correction is None else own + correction.at(points, element)
+    def value_at(points: NDArray[np.float64], rows: NDArray[np.intp]) -> NDArray[np.float64]:
+        own = np.einsum("kd,dk->k", basis_matrix(degrees, points), column[:, rows])
+        return own if correction is None else own + correction.at(points, element[rows])
 
-    value = value_at(x)
+    value = value_at(x, np.arange(len(x)))
+    active = np.arange(len(x))
     for _ in range(_STEPS):
-        _, gradient = basis_gradient(degrees, x)
-        slope = np.einsum("ikd,dk->ki", gradient, column)
+        if not len(active):
+            break
+        here, box_low, box_high = x[active], low[active], high[active]
+        _, gradient = basis_gradient(degrees, here)
+        slope = np.einsum("ikd,dk->ki", gradient, column[:, active])
         if correction is not None:
-            slope = slope + correction.gradient_at(x, element)
-        slope = slope * sign[:, None]
-        slope = np.where(width > 0.0, slope, 0.0)
+            slope = slope + correction.gradient_at(here, element[active])
+        slope = slope * sign[active, None]
+        slope = np.where(width[active] > 0.0, slope, 0.0)
+        inward = ((slope > 0.0) & (here < box_high)) | ((slope < 0.0) & (here > box_low))
         norm = np.linalg.norm(slope, axis=1)
         moving = norm > 0.0
         direction = np.where(moving[:, None], slope / np.where(moving, norm, 1.0)[:, None], 0.0)
-        trial = np.clip(x + step[:, None] * direction, low, high)
-        trial_value = value_at(trial)
-        better = sign * trial_value > sign * value
-        x[better], value[better] = trial[better], trial_value[better]
-        step = np.where(better, 1.5 * step, 0.5 * step)
+        trial = np.clip(here + step[active, None] * direction, box_low, box_high)
+        trial_value = value_at(trial, active)
+        better = sign[active] * trial_value > sign[active] * value[active]
+        x[active[better]], value[active[better]] = trial[better], trial_value[better]
+        step[active] = np.where(better, 1.5 * step[active], 0.5 * step[active])
+        active = active[inward.any(axis=1)]
     return x, value

@@ -47,6 +47,8 @@ class SimulationResult:
         (``t_end / dt`` steps).
     step_times : the ends of the accepted steps of the first sample (ROS34PW2 with
         ``log_steps``), else None.
+    step_renewals : with ``step_times``, True for each step whose Jacobian was
+        evaluated at its start (the ``jacobian_renewals`` of a replay), else None.
     """
 
     time: NDArray[np.float64]
@@ -56,6 +58,7 @@ class SimulationResult:
     failure_time: NDArray[np.float64]
     step_counts: NDArray[np.int64] | None = None
     step_times: NDArray[np.float64] | None = None
+    step_renewals: NDArray[np.bool_] | None = None
 
 
 def _check_timing(t_end: float, dt: float, record_interval: float | None) -> tuple[int, int]:
@@ -91,6 +94,7 @@ def simulate(
     rtol: float = 1e-2,
     atol: float | None = None,
     step_sequence: NDArray[np.float64] | None = None,
+    jacobian_renewals: NDArray[np.bool_] | None = None,
     log_steps: bool | int = False,
 ) -> SimulationResult:
     """Integrate a batch of samples with classic RK4 (fixed step) or ROS34PW2.
@@ -139,10 +143,15 @@ def simulate(
         ``log_steps``. The error control still guards each step and cuts a step it
         rejects into the sample's own smaller steps up to the next point
         (:mod:`fuzzymbs.mbs.shared_steps`).
+    jacobian_renewals : (K,) bool array, optional
+        With ``step_sequence``: True where a sample arriving at the step's start renews
+        its Jacobian (the logged ``step_renewals``: where the logged sample renewed it
+        after a rejected try), so that the logged sample's replay repeats its run to the
+        rounding of the step lengths. Default: each sample renews by its own rules.
     log_steps : bool or int
         ROS34PW2 only: return the ends of the first sample's accepted steps as
-        ``step_times``; a number: at most that many (default 20 per dt, at least
-        10^6), more raise :class:`~fuzzymbs.errors.InvalidParameterError`.
+        ``step_times`` (and ``step_renewals``); a number: at most that many (default
+        20 per dt, at least 10^6), more raise :class:`~fuzzymbs.errors.InvalidParameterError`.
     """
     _check_kernel(kernel)
     tolerances = _check_integrator(integrator, rtol, atol)
@@ -167,6 +176,7 @@ def simulate(
     n_rec = n_steps // every + 1
     # the kernel's final time, computed as it computes it
     sequence = _check_sequence(step_sequence, integrator, 0.0 + (n_rec - 1) * float(every * dt))
+    renewals = _check_renewals(jacobian_renewals, sequence)
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
     fail_t = np.full(batch, np.nan)
@@ -174,7 +184,7 @@ def simulate(
     step_log = np.zeros(1)
     if log_steps is not False:
         capacity = max(20 * n_steps, 10**6) if log_steps is True else int(log_steps)
-        step_log = np.zeros(1 + capacity)
+        step_log = np.zeros(1 + 2 * capacity)  # (time, renewed) pairs
     for start in range(0, batch, max(int(chunk_size), 1)):
         sl = slice(start, min(start + chunk_size, batch))
         o = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec))
@@ -200,12 +210,14 @@ def simulate(
                 samples_per_block(kernel),
                 counts[sl],
                 sequence,
+                renewals,
                 step_log if start == 0 else np.zeros(1),
             )
         out[sl] = o
         status[sl] = st
         fail_t[sl] = ft
     time = np.arange(n_rec) * every * dt
+    logged = _logged(step_log) if log_steps is not False else None
     reasons = np.array([FAILURE_REASONS[int(s)] for s in status], dtype=str)
     return SimulationResult(
         time=time,
@@ -214,17 +226,36 @@ def simulate(
         failure_reason=reasons,
         failure_time=fail_t,
         step_counts=None if integrator == "rk4" else counts,
-        step_times=_logged(step_log) if log_steps is not False else None,
+        step_times=None if logged is None else logged[:, 0].copy(),
+        step_renewals=None if logged is None else logged[:, 1] != 0.0,
     )
 
 
 def _logged(step_log: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(count, 2): the logged steps' ends and their Jacobian flags."""
     count = int(step_log[0])
     if count < 0:
         raise InvalidParameterError(
-            f"log_steps: more than {step_log.size - 1} steps, more than the log holds"
+            f"log_steps: more than {(step_log.size - 1) // 2} steps, more than the log holds"
         )
-    return step_log[1 : 1 + count].copy()
+    return step_log[1 : 1 + 2 * count].reshape(count, 2)
+
+
+def _check_renewals(
+    renewals: NDArray[np.bool_] | None, sequence: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The Jacobian flags of a shared sequence as the kernel takes them (empty: none)."""
+    if renewals is None:
+        return np.empty(0)
+    flags = np.asarray(renewals)
+    if sequence.size == 0:
+        raise InvalidParameterError("jacobian_renewals needs a step_sequence")
+    if flags.dtype != np.bool_ or flags.shape != sequence.shape:
+        raise InvalidParameterError(
+            f"jacobian_renewals must be a bool array of the step_sequence's length "
+            f"{sequence.size}, got {flags.dtype} of shape {flags.shape}"
+        )
+    return flags.astype(float)
 
 
 def _check_sequence(
@@ -424,7 +455,12 @@ class SimulationModel:
 
     def __call__(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
         shared = self.shared
-        result = self.simulate(samples, step_sequence=None if shared is None else shared.sequence)
+        if shared is None:
+            result = self.simulate(samples)
+        else:
+            result = self.simulate(
+                samples, step_sequence=shared.sequence, jacobian_renewals=shared.renewals
+            )
         out: dict[str, NDArray] = dict(result.outputs)
         if shared is not None:  # the modal sample's error, removed from every sample
             for name, correction in shared.correction.items():

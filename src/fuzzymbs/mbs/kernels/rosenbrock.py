@@ -161,6 +161,7 @@ def advance_block_ros(
     rec_begin,
     rec_end,
     sequence,
+    renewals,
     step_log,
 ):
     """Advances a block until records ``.. rec_end - 1`` are written (a step that passes
@@ -186,13 +187,19 @@ def advance_block_ros(
     lane steps from point to point of the sequence. The error control still
     guards each step: a step it rejects is cut into the lane's own smaller steps
     up to the next point, so a lane leaves the sequence only where the sequence
-    is too coarse for it, and its outputs stay its own.
+    is too coarse for it, and its outputs stay its own. ``renewals`` (empty, or one
+    per point: 1.0 where the logged sample evaluated its Jacobian at the step's start,
+    for instance after a rejected try) makes a lane that arrives at a point renew its
+    Jacobian there too, so that the logged sample replayed on its sequence repeats
+    the logging run's arithmetic (to the rounding of the step lengths).
 
     ``timing = (t0, record_interval, n_records, h0)``; ``recording`` as for
     :func:`fuzzymbs.mbs.kernels.rk4.rk4`; ``tolerances = (rtol, atol, h_min)``;
     ``coefficients``: :data:`COEFFICIENTS`; ``state`` from :func:`start_block_ros`.
     ``step_log`` (length > 1) receives the ends of the accepted steps of sample 0
-    of the batch (``step_log[0]``: their number; -1 when the log is full).
+    of the batch and whether each one's Jacobian was evaluated at its start, in
+    pairs from ``step_log[1]`` (``step_log[0]``: their number; -1 when the log is
+    full).
     """
     t0, interval, n_records = timing[0], timing[1], int(timing[2])
     out, status, fail_t = recording[2], recording[3], recording[4]
@@ -215,6 +222,7 @@ def advance_block_ros(
     t_final = t0 + (n_records - 1) * interval
     tiny = 1e-12 * interval
     shared = sequence.shape[0] > 0
+    forced = shared and renewals.shape[0] == sequence.shape[0]
     logging = step_log.shape[0] > 1 and first == 0
     h = control[_H]
     err_prev = control[_ERR_PREV]
@@ -259,6 +267,10 @@ def advance_block_ros(
                 # the step ends at the next point of the sequence (the final time when
                 # the lane chooses its own steps) if the proposal reaches it
                 end = sequence[int(control[_GRID, lane])] if shared else t_final
+                if forced and h[lane] == _OPEN and jac_age[lane] != 0.0:
+                    # at a point of the sequence whose logged step took a fresh Jacobian
+                    if renewals[int(control[_GRID, lane])] != 0.0:
+                        need_jac[lane] = 1.0
                 step = min(h[lane], end - t[lane])
                 last[lane] = step >= end - t[lane] - tiny
                 steps[lane] = end - t[lane] if last[lane] else step
@@ -389,8 +401,9 @@ def advance_block_ros(
                     theta[lane] = t[lane] + steps[lane]
                 if logging and lane == 0:
                     logged = int(step_log[0])
-                    if 0 <= logged < step_log.shape[0] - 1:
-                        step_log[1 + logged] = theta[lane]
+                    if 0 <= logged < (step_log.shape[0] - 1) // 2:
+                        step_log[1 + 2 * logged] = theta[lane]
+                        step_log[2 + 2 * logged] = 1.0 if jac_age[lane] == 0.0 else 0.0
                         step_log[0] = logged + 1
                     else:
                         step_log[0] = -1.0
@@ -500,7 +513,17 @@ SLICES = 16
 
 
 def ros34pw2(
-    sysdata, params, x0, timing, recording, tolerances, per_block, counts, sequence, step_log
+    sysdata,
+    params,
+    x0,
+    timing,
+    recording,
+    tolerances,
+    per_block,
+    counts,
+    sequence,
+    renewals,
+    step_log,
 ) -> None:
     """ROS34PW2 of a batch in blocks of ``per_block`` (1 to 4) samples over the threads.
 
@@ -538,6 +561,7 @@ def ros34pw2(
             begin,
             end,
             sequence,
+            renewals,
             step_log,
         )
         if not going or end >= n_records:
