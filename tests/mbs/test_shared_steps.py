@@ -168,3 +168,50 @@ def test_bad_renewals_are_refused():
             jacobian_renewals=np.array([True]),
             **model.settings,
         )
+
+
+def test_deviations_are_the_outputs_less_the_modal_sample(scheme, shared):
+    # deviations need no reference run: shared(samples) = deviations + reference, to
+    # rounding (the modal sample's outputs minus its own outputs plus the reference)
+    samples = _columns(scheme, [2, 7, scheme.nominal_index])
+    corrected = shared(samples)
+    deviations = shared.deviations(samples)
+    reference = shared.simulation.shared.reference
+    for name in OUTPUTS:
+        peak = np.abs(reference[name]).max()
+        np.testing.assert_allclose(
+            deviations[name] + reference[name], corrected[name], rtol=0, atol=1e-12 * peak
+        )
+        assert np.abs(deviations[name][2]).max() <= 1e-8 * peak  # the modal sample itself
+    with pytest.raises(InvalidParameterError, match="shared steps"):
+        DiscBrake(t_end=T_END).deviations(samples)
+
+
+def test_a_pickled_model_takes_its_pending_reference_along(scheme):
+    # a model whose reference runs are still going pickles with their result (waiting
+    # for it), so that worker processes get the same correction
+    import pickle
+
+    model = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-3)
+    shared = model.share_steps(_columns(scheme, [scheme.nominal_index]))
+    copy = pickle.loads(pickle.dumps(shared))
+    samples = _columns(scheme, [4, 11])
+    for name in OUTPUTS:
+        np.testing.assert_array_equal(copy(samples)[name], shared(samples)[name])
+
+
+def test_a_prepared_tightened_model_is_the_tightened_model(scheme, shared):
+    # the check's tighter model, built in the background: the same outputs as one built
+    # on the spot; a copy (or a pickled model) builds its own
+    import copy
+
+    samples = _columns(scheme, [6])
+    direct = shared.tightened(10.0)
+    simulation = copy.copy(shared.simulation)
+    simulation.prepare_tightened(10.0)
+    prepared = simulation.tightened(10.0)
+    assert simulation.tightened(10.0) is prepared  # built once
+    assert simulation.tightened(5.0) is not prepared  # another factor: on the spot
+    assert copy.copy(simulation)._prepared is None
+    for name in OUTPUTS:
+        np.testing.assert_array_equal(prepared(samples)[name], direct.simulation(samples)[name])

@@ -266,6 +266,11 @@ class SharedDecay(ScalableDecay):
     def tightened(self, factor: float = 10.0) -> SharedDecay:
         return SharedDecay(self.rtol / factor, self.modal)
 
+    def deviations(self, samples):
+        out = self(samples)
+        out["y"] = out["y"] - self({"a": np.array([self.modal])})["y"][0]
+        return out
+
     def __call__(self, samples):
         if self.modal is None:
             return super().__call__(samples)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.integrate
@@ -24,7 +25,7 @@ from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
 from fuzzymbs.mbs.kernels.simd import LANES
-from fuzzymbs.mbs.shared_steps import SharedSteps, share_steps
+from fuzzymbs.mbs.shared_steps import Background, SharedSteps, share_steps
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
 
 #: Kernel choices of :func:`simulate`.
@@ -431,6 +432,8 @@ class SimulationModel:
         self.output_dims.update({"failed": (), "failure_reason": ()})
         #: the step sequence and correction all samples share (:meth:`share_steps`)
         self.shared: SharedSteps | None = None
+        #: (factor, tightened model being built) of :meth:`prepare_tightened`
+        self._prepared: tuple[float, Background] | None = None
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -456,15 +459,32 @@ class SimulationModel:
     def __call__(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
         shared = self.shared
         if shared is None:
-            result = self.simulate(samples)
-        else:
-            result = self.simulate(
-                samples, step_sequence=shared.sequence, jacobian_renewals=shared.renewals
-            )
+            return self._outputs(self.simulate(samples), {})
+        # the modal sample's error, removed from every sample
+        return self._outputs(self._on_shared_steps(samples), shared.correction)
+
+    def deviations(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
+        """On shared steps (:meth:`share_steps`): each sample's outputs minus the modal
+        sample's on the same steps, as ``__call__`` returns them. Differences and spreads
+        of samples are those of the corrected outputs, and they need no reference run
+        (a study's choice of tolerance goes on while the reference runs)."""
+        shared = self.shared
+        if shared is None:
+            raise InvalidParameterError("deviations need shared steps (share_steps)")
+        negated = {name: -values for name, values in shared.modal_outputs.items()}
+        return self._outputs(self._on_shared_steps(samples), negated)
+
+    def _on_shared_steps(self, samples: Mapping[str, NDArray[np.float64]]) -> SimulationResult:
+        shared = self.shared
+        return self.simulate(
+            samples, step_sequence=shared.sequence, jacobian_renewals=shared.renewals
+        )
+
+    @staticmethod
+    def _outputs(result: SimulationResult, added: Mapping[str, NDArray]) -> dict[str, NDArray]:
         out: dict[str, NDArray] = dict(result.outputs)
-        if shared is not None:  # the modal sample's error, removed from every sample
-            for name, correction in shared.correction.items():
-                out[name] = out[name] + correction
+        for name, values in added.items():
+            out[name] = out[name] + values
         out["failed"] = result.failed
         out["failure_reason"] = result.failure_reason
         return out
@@ -495,6 +515,12 @@ class SimulationModel:
         (:mod:`fuzzymbs.study.integration_check`)."""
         if not (np.isfinite(factor) and factor > 0):
             raise InvalidParameterError(f"factor must be > 0, got {factor!r}")
+        prepared = getattr(self, "_prepared", None)
+        if prepared is not None and prepared[0] == factor:
+            return prepared[1].result()
+        return self._tightened(factor)
+
+    def _tightened(self, factor: float) -> SimulationModel:
         settings = dict(self.settings)
         if settings["integrator"] == "rk4":
             settings["dt"] = settings["dt"] / 2
@@ -509,8 +535,20 @@ class SimulationModel:
         if shared is None:
             return tight
         # the tighter model's own sequence, corrected by the same reference
-        reference = (shared.reference, shared.reference_error, shared.reference_rtol)
-        return share_steps(tight, shared.modal, reference)
+        return share_steps(tight, shared.modal, shared.references)
+
+    def prepare_tightened(self, factor: float = 10.0) -> None:
+        """Start building ``tightened(factor)`` in a background thread (on shared steps,
+        its modal sample's logging run: the check of a study takes it later, and the
+        run fills a core the study leaves idle); without shared steps, nothing to do."""
+        if not (np.isfinite(factor) and factor > 0):
+            raise InvalidParameterError(f"factor must be > 0, got {factor!r}")
+        if self.shared is not None:
+            self._prepared = (factor, Background(self._tightened, factor))
+
+    def __getstate__(self) -> dict[str, Any]:
+        # a copy or a pickled model builds its own tightened model
+        return {**self.__dict__, "_prepared": None}
 
     @property
     def shares_steps(self) -> bool:

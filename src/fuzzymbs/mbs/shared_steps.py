@@ -38,15 +38,23 @@ The reference's own error enters every sample alike; it is estimated from a
 second reference run at ten times the reference tolerance,
 ``|y(10 r) - y(r)| / (10^q - 1)`` with the error's order ``q =``
 :data:`REFERENCE_ORDER`, and a study adds it to its time-integration error.
+
+The two reference runs are the longest single-sample runs of a study (the
+brake's 10 ms at rtol 1e-6: 31 s of one core). They run in two background
+threads from :func:`share_steps` on, while the caller goes on with what does
+not need them: :meth:`SimulationModel.deviations` (a sample's outputs minus the
+modal sample's on the same steps, all a study's choice of tolerance compares)
+and further step sequences (:meth:`SimulationModel.tightened`). The correction,
+the reference and its error wait for them when first asked for.
 """
 
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Generic, Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -65,13 +73,48 @@ class SimulationModel(Protocol):
     def simulate(self, samples: Mapping[str, NDArray[np.float64]], **overrides: Any) -> Any: ...
 
 
-__all__ = ["REFERENCE_ORDER", "REFERENCE_RTOL", "SharedSteps", "share_steps"]
+__all__ = ["REFERENCE_ORDER", "REFERENCE_RTOL", "Background", "SharedSteps", "share_steps"]
 
 #: tolerance of the modal sample's reference run (the correction's accuracy)
 REFERENCE_RTOL = 1e-6
 #: ROS34PW2's global error falls about as rtol^0.88 with a sequence of its own
 #: (brake studies, rtol 1e-2 to 1e-5, docs/brake.md)
 REFERENCE_ORDER = 0.88
+
+T = TypeVar("T")
+
+
+class Background(Generic[T]):
+    """A value computed in a background thread (the kernels release the GIL).
+
+    :meth:`result` waits for it and re-raises its exception. It pickles as its value
+    (waiting for it), so that a model holding one goes to worker processes whole.
+    """
+
+    def __init__(self, function: Callable[..., T], *args: Any) -> None:
+        pool = ThreadPoolExecutor(1, thread_name_prefix="fuzzymbs-background")
+        self._future = pool.submit(function, *args)
+        pool.shutdown(wait=False)  # the thread ends with the function
+
+    def result(self) -> T:
+        return self._future.result()
+
+    def __reduce__(self):
+        return (_ready, (self.result(),))
+
+
+class _Ready(Background[T]):
+    """A :class:`Background` whose value is known (after unpickling)."""
+
+    def __init__(self, value: T) -> None:
+        self._value = value
+
+    def result(self) -> T:
+        return self._value
+
+
+def _ready(value: T) -> Background[T]:
+    return _Ready(value)
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,19 +127,34 @@ class SharedSteps:
     sequence : (K,) the ends of the modal sample's accepted steps [s].
     renewals : (K,) True where the modal sample's step took a fresh Jacobian at its
         start (every sample renews there too).
-    correction : output -> (T,) added to every sample's output (reference - modal).
-    reference : output -> (T,) the modal sample at ``reference_rtol``.
-    reference_error : output -> (T,) estimated error of ``reference``.
+    modal_outputs : output -> (T,) the modal sample on these steps (the logging run).
+    references : the reference runs' ``(reference, reference_error)``, perhaps still
+        running (:class:`Background`).
     reference_rtol : the reference's tolerance.
     """
 
     modal: dict[str, float]
     sequence: NDArray[np.float64]
     renewals: NDArray[np.bool_]
-    correction: dict[str, NDArray[np.float64]]
-    reference: dict[str, NDArray[np.float64]]
-    reference_error: dict[str, NDArray[np.float64]]
+    modal_outputs: dict[str, NDArray[np.float64]]
+    references: Background[tuple[dict, dict]]
     reference_rtol: float
+
+    @property
+    def reference(self) -> dict[str, NDArray[np.float64]]:
+        """output -> (T,) the modal sample at ``reference_rtol`` (waits for its run)."""
+        return self.references.result()[0]
+
+    @property
+    def reference_error(self) -> dict[str, NDArray[np.float64]]:
+        """output -> (T,) the reference's estimated error (waits for its runs)."""
+        return self.references.result()[1]
+
+    @property
+    def correction(self) -> dict[str, NDArray[np.float64]]:
+        """output -> (T,) added to every sample's output: reference - modal."""
+        reference = self.reference
+        return {name: reference[name] - values for name, values in self.modal_outputs.items()}
 
 
 def _single(modal: Mapping[str, float]) -> dict[str, NDArray[np.float64]]:
@@ -121,9 +179,14 @@ def _at(model: SimulationModel, modal: Mapping[str, float], rtol: float):
     return _run(model, modal, rtol=rtol, atol=scaled)
 
 
-def _reference(model: SimulationModel, fine, coarse):
-    """The reference (the modal sample at the reference rtol) and its estimated error,
-    ``|y(10 r) - y(r)| / (10^q - 1)``, q = :data:`REFERENCE_ORDER`, output -> (T,)."""
+def _reference_runs(model: SimulationModel, modal: Mapping[str, float]) -> tuple[dict, dict]:
+    """The reference (the modal sample at :data:`REFERENCE_RTOL`) and its estimated error,
+    ``|y(10 r) - y(r)| / (10^q - 1)``, q = :data:`REFERENCE_ORDER`, output -> (T,); the
+    two runs side by side (two threads)."""
+    with ThreadPoolExecutor(1) as pool:
+        coarse_run = pool.submit(_at, model, modal, 10 * REFERENCE_RTOL)
+        fine = _at(model, modal, REFERENCE_RTOL)
+        coarse = coarse_run.result()
     scale = 10.0**REFERENCE_ORDER - 1.0
     reference = {name: fine.outputs[name][0] for name in model.outputs}
     error = {
@@ -148,7 +211,7 @@ def _logged_run(model: SimulationModel, modal: Mapping[str, float]):
 def share_steps(
     model: SimulationModel,
     modal: Mapping[str, float],
-    reference: tuple[dict, dict, float] | None = None,
+    references: Background[tuple[dict, dict]] | None = None,
 ) -> SimulationModel:
     """``model`` with every sample on the modal sample's step sequence, corrected.
 
@@ -156,9 +219,9 @@ def share_steps(
     ----------
     model : a ROS34PW2 :class:`~fuzzymbs.mbs.integrate.SimulationModel`.
     modal : the modal sample, ``{parameter: value}`` (names of the model's system).
-    reference : ``(reference, reference_error, rtol)`` of an earlier call (a tightened
-        model keeps its reference); default: :func:`reference_runs` at
-        :data:`REFERENCE_RTOL`.
+    references : the reference runs of an earlier call (a tightened model keeps its
+        reference); default: started here in the background, at
+        :data:`REFERENCE_RTOL` and ten times it.
 
     Returns
     -------
@@ -168,26 +231,22 @@ def share_steps(
     Raises
     ------
     SimulationDivergedError
-        If the modal sample fails at any of the tolerances.
+        If the modal sample fails at the model's tolerance; a failure of a reference
+        run is raised where the correction or the reference's error is first used.
     """
     if model.settings["integrator"] != "ros34pw2":
         raise InvalidParameterError("shared steps need integrator='ros34pw2'")
     plain = copy.copy(model)
     plain.shared = None
     modal = {name: float(value) for name, value in modal.items()}
-    with ThreadPoolExecutor(1) as pool:  # the reference beside the sequence: two cores
-        tight = None if reference is not None else pool.submit(_at, plain, modal, REFERENCE_RTOL)
-        if tight is not None:
-            coarse = _at(plain, modal, 10 * REFERENCE_RTOL)
-        logged = _logged_run(plain, modal)
-        if tight is not None:
-            reference = (*_reference(plain, tight.result(), coarse), REFERENCE_RTOL)
-    values, error, rtol = reference
+    if references is None:
+        references = Background(_reference_runs, plain, modal)
+    logged = _logged_run(plain, modal)
     # the logging run stands for the modal sample's replay: with the logged Jacobian
     # renewals the replay repeats its arithmetic (to the rounding of the step lengths)
-    correction = {name: values[name] - logged.outputs[name][0] for name in model.outputs}
+    outputs = {name: logged.outputs[name][0] for name in model.outputs}
     shared = copy.copy(plain)
     shared.shared = SharedSteps(
-        modal, logged.step_times, logged.step_renewals, correction, values, error, rtol
+        modal, logged.step_times, logged.step_renewals, outputs, references, REFERENCE_RTOL
     )
     return shared

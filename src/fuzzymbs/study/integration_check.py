@@ -360,7 +360,7 @@ class ToleranceChoice:
     factor : the model's tolerance was divided by this (1: kept).
     pilot_error : the estimated band-relative error at the model's own tolerance.
     pilot_runs : runs of the pilot (corners of the innermost cut, modal, modal tightened;
-        with shared steps also the modal sample's logging, replay and reference runs).
+        with shared steps also the modal sample's logging and reference runs).
     method : the chosen time integration in words.
     note : why no choice was made, or "".
     shared_steps : every sample takes the modal sample's step sequence, corrected.
@@ -418,11 +418,12 @@ def choose_tolerance(
     modal : (n,) the modal point.
     names : the study's outputs.
     tolerance : the study's integration tolerance (of the cut width).
-    shared_steps : with a model that offers ``share_steps(modal)``, put every sample on
+    shared_steps : with a model that offers ``share_steps(modal)`` (and, on shared steps,
+        ``deviations(samples)``: outputs minus the modal sample's), put every sample on
         the modal sample's step sequence and correct by the modal sample's error
-        (:mod:`fuzzymbs.mbs.shared_steps`); the pilot then compares the corners at the
-        model's tolerance with the corners at a tenth of it (both corrected by the same
-        reference: the modal point has no error left to compare) and divides the
+        (:mod:`fuzzymbs.mbs.shared_steps`); the pilot then compares the corners' deviations
+        at the model's tolerance with those at a tenth of it (the reference that corrects
+        both drops out: the modal point has no error left to compare) and divides the
         tolerance by ``(E / (TARGET_FRACTION tolerance - E_ref))^(1 / SHARED_ORDER)``,
         ``E_ref`` the reference's own estimated error.
 
@@ -453,11 +454,11 @@ def choose_tolerance(
     shared_note = ""
     if shared_steps and callable(getattr(model, "share_steps", None)):
         try:
+            # the reference runs go on in the background while the pilot runs
             shared = model.share_steps(dict(columns(modal[None, :])))
+            return _choose_shared(shared, columns, corners, names, tolerance)
         except SimulationDivergedError as error:
             shared_note = f"no shared steps ({error}): each sample keeps its own; "
-        else:
-            return _choose_shared(shared, columns, corners, names, tolerance)
     table = np.vstack([corners, modal[None, :]])
     coarse = model(dict(columns(table)))
     fine = model.tightened(10.0)(dict(columns(modal[None, :])))
@@ -498,15 +499,21 @@ def _choose_shared(
     names: Sequence[str],
     tolerance: float,
 ) -> tuple[Any, ToleranceChoice]:
-    """:func:`choose_tolerance` for a model on the modal sample's shared steps."""
+    """:func:`choose_tolerance` for a model on the modal sample's shared steps.
+
+    The corners are compared as ``deviations`` (minus the modal sample on the same
+    steps; the reference that corrects both alike drops out), so that the pilot runs
+    while the reference runs do; their estimated error is waited for at the end.
+    """
     fine = shared.tightened(10.0)
-    coarse_out = shared(dict(columns(corners)))
-    fine_out = fine(dict(columns(corners)))
-    runs = 2 * len(corners) + 6  # logging, replay and two reference runs; again for fine
+    coarse_out = shared.deviations(dict(columns(corners)))
+    fine_out = fine.deviations(dict(columns(corners)))
+    runs = 2 * len(corners) + 4  # a logging run each and two reference runs
     failed = np.asarray(coarse_out.get("failed", np.zeros(len(corners), bool)), dtype=bool)
     failed |= np.asarray(fine_out.get("failed", np.zeros(len(corners), bool)), dtype=bool)
     if failed.any():
         note = "a pilot run failed; the model's tolerance is kept (on shared steps)"
+        _ = shared.reference_error  # waits: a failed reference run raises here
         return shared, ToleranceChoice(
             1.0, np.nan, runs, shared.time_integration, note, shared_steps=True
         )
@@ -538,7 +545,7 @@ def _choose_shared(
     return chosen, ToleranceChoice(
         factor,
         error,
-        runs + (2 if factor not in (1.0, 10.0) else 0),
+        runs + (1 if factor not in (1.0, 10.0) else 0),
         chosen.time_integration,
         note,
         shared_steps=True,

@@ -341,6 +341,17 @@ class DiscBrake:
         tight.simulation = self.simulation.tightened(factor)
         return tight
 
+    def prepare_tightened(self, factor: float = 10.0) -> None:
+        """Start building ``tightened(factor)`` in the background (on shared steps; see
+        :meth:`fuzzymbs.mbs.integrate.SimulationModel.prepare_tightened`)."""
+        self.simulation.prepare_tightened(factor)
+
+    def deviations(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
+        """On shared steps: each sample's outputs minus the modal sample's on the same
+        steps (no reference run needed; see
+        :meth:`fuzzymbs.mbs.integrate.SimulationModel.deviations`)."""
+        return self.simulation.deviations(check_samples(samples))
+
     @property
     def shares_steps(self) -> bool:
         """True after :meth:`share_steps`."""
