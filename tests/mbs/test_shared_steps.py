@@ -215,3 +215,44 @@ def test_a_prepared_tightened_model_is_the_tightened_model(scheme, shared):
     assert copy.copy(simulation)._prepared is None
     for name in OUTPUTS:
         np.testing.assert_array_equal(prepared(samples)[name], direct.simulation(samples)[name])
+
+
+def test_a_sequence_too_coarse_for_the_tolerance_is_left():
+    # the error control still guards the steps along a sequence (up to SHARED_ACCEPT):
+    # on a sequence logged at rtol 1e-1 (itself 10 % of the pads' peak off a converged
+    # run at rtol 1e-7, 37 % of the caliper's), a sample at rtol 1e-4 rejects many
+    # points and takes its own smaller steps in between; its records then lie within
+    # 1 % of the sequence's own error from the converged run (measured 0.4 %: 3.9e-4 of
+    # the pads' peak, against 4e-5 on its own steps at rtol 1e-4)
+    model = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-4).simulation
+    coarse = model.simulate({}, rtol=1e-1, log_steps=True)
+    on_coarse = model.simulate(
+        {}, step_sequence=coarse.step_times, jacobian_renewals=coarse.step_renewals
+    )
+    converged = model.simulate({}, rtol=1e-7)
+    assert on_coarse.step_counts[0, 1] > 0
+    assert on_coarse.step_counts[0, 0] > 2 * len(coarse.step_times)
+    for name in OUTPUTS:
+        peak = np.abs(converged.outputs[name]).max()
+        sequence_error = np.abs(coarse.outputs[name] - converged.outputs[name]).max() / peak
+        error = np.abs(on_coarse.outputs[name] - converged.outputs[name]).max() / peak
+        assert error < 0.01 * sequence_error and error < 1e-3
+
+
+def test_background_results_errors_and_pickling():
+    import pickle
+
+    from fuzzymbs.errors import SimulationDivergedError
+    from fuzzymbs.mbs.shared_steps import Background
+
+    assert Background(lambda a, b: a + b, 2, 3).result() == 5
+    copy = pickle.loads(pickle.dumps(Background(sorted, [3, 1, 2])))
+    assert copy.result() == [1, 2, 3]
+
+    def fails():
+        raise SimulationDivergedError("the reference run failed")
+
+    failing = Background(fails)
+    for _ in range(2):  # every call re-raises
+        with pytest.raises(SimulationDivergedError, match="reference run failed"):
+            failing.result()

@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from fuzzymbs.errors import InvalidParameterError, StudyFileError
+from fuzzymbs.errors import InvalidParameterError, SimulationDivergedError, StudyFileError
 from fuzzymbs.mbs.bodies import FixedBody
 from fuzzymbs.mbs.integrate import SimulationModel
 from fuzzymbs.mbs.lumped import lumped_modal_body
@@ -333,6 +333,33 @@ def test_study_on_shared_steps_chooses_its_tolerance_from_the_corners():
     # and without shared steps the same model takes the own-steps pilot
     own = Study(SharedDecay(rtol), fuzzy, levels=2, shared_steps=False).run(progress=False)
     assert own.dataset.attrs["integration_shared_steps"] == 0
+
+
+class FailingReference(SharedDecay):
+    """:class:`SharedDecay` whose reference run (started in the background) failed: the
+    failure is raised where the reference's error is first asked for."""
+
+    def share_steps(self, modal) -> FailingReference:
+        return FailingReference(self.rtol, float(np.asarray(modal["a"])[0]))
+
+    def tightened(self, factor: float = 10.0) -> FailingReference:
+        return FailingReference(self.rtol / factor, self.modal)
+
+    @property
+    def reference_error(self):
+        if self.modal is None:
+            return None
+        raise SimulationDivergedError("shared steps: the modal sample failed (at rtol 1e-6)")
+
+
+def test_a_failed_reference_run_leaves_each_sample_its_own_steps():
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    result = Study(FailingReference(1e-2), fuzzy, levels=2).run(progress=False)
+    attrs = result.dataset.attrs
+    assert attrs["integration_shared_steps"] == 0
+    assert "no shared steps" in attrs["integration_choice_note"]
+    assert "the modal sample failed" in attrs["integration_choice_note"]
+    assert "shared" not in attrs["time_integration"]
 
 
 def test_adaptive_study_checks_the_runs_that_bound_its_cuts():

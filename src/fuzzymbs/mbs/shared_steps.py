@@ -51,8 +51,8 @@ the reference and its error wait for them when first asked for.
 from __future__ import annotations
 
 import copy
+import threading
 from collections.abc import Callable, Mapping
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Generic, Protocol, TypeVar
 
@@ -87,17 +87,32 @@ T = TypeVar("T")
 class Background(Generic[T]):
     """A value computed in a background thread (the kernels release the GIL).
 
-    :meth:`result` waits for it and re-raises its exception. It pickles as its value
-    (waiting for it), so that a model holding one goes to worker processes whole.
+    :meth:`result` waits for it and re-raises its exception. The thread is a daemon:
+    an interrupted study exits without waiting for a reference run. It pickles as
+    its value (waiting for it), so that a model holding one goes to worker processes
+    whole.
     """
 
     def __init__(self, function: Callable[..., T], *args: Any) -> None:
-        pool = ThreadPoolExecutor(1, thread_name_prefix="fuzzymbs-background")
-        self._future = pool.submit(function, *args)
-        pool.shutdown(wait=False)  # the thread ends with the function
+        self._done = threading.Event()
+        self._value: T | None = None
+        self._error: BaseException | None = None
+
+        def run() -> None:
+            try:
+                self._value = function(*args)
+            except BaseException as error:  # re-raised by result()
+                self._error = error
+            finally:
+                self._done.set()
+
+        threading.Thread(target=run, name="fuzzymbs-background", daemon=True).start()
 
     def result(self) -> T:
-        return self._future.result()
+        self._done.wait()
+        if self._error is not None:
+            raise self._error
+        return self._value  # type: ignore[return-value]
 
     def __reduce__(self):
         return (_ready, (self.result(),))
@@ -183,10 +198,9 @@ def _reference_runs(model: SimulationModel, modal: Mapping[str, float]) -> tuple
     """The reference (the modal sample at :data:`REFERENCE_RTOL`) and its estimated error,
     ``|y(10 r) - y(r)| / (10^q - 1)``, q = :data:`REFERENCE_ORDER`, output -> (T,); the
     two runs side by side (two threads)."""
-    with ThreadPoolExecutor(1) as pool:
-        coarse_run = pool.submit(_at, model, modal, 10 * REFERENCE_RTOL)
-        fine = _at(model, modal, REFERENCE_RTOL)
-        coarse = coarse_run.result()
+    coarse_run = Background(_at, model, modal, 10 * REFERENCE_RTOL)
+    fine = _at(model, modal, REFERENCE_RTOL)
+    coarse = coarse_run.result()
     scale = 10.0**REFERENCE_ORDER - 1.0
     reference = {name: fine.outputs[name][0] for name in model.outputs}
     error = {

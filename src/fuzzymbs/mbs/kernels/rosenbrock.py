@@ -93,6 +93,17 @@ COEFFICIENTS = (
 #: gave 0.27 % of the peak in 3.1 s at rtol 1e-2, against 0.42 % in 5.8 s at rtol 3e-3
 #: with a fresh Jacobian every step (benchmarks/ros_accuracy.py)
 JACOBIAN_AGE = 10
+#: a step along a shared sequence (from one point to the next) is accepted up to this
+#: error norm (its own steps: 1). The sequence suits the modal sample; its neighbours'
+#: errors there scatter about 1, and a rejection takes a lane off the sequence (its
+#: error no longer smooth in the parameters) and out of step with its block. On the
+#: brake's study-1 corners at rtol 2e-3 over 10 ms (benchmarks/shared_accept.py),
+#: threshold 1 / 2 / 4 / 10: the block in 5.31 / 4.48 / 4.31 / 4.28 s, 311-1038 /
+#: 55-214 / 6-69 / 12-24 rejected steps per sample, band error against rtol 1e-6 of
+#: the pads 0.31 / 0.30 / 0.30 / 0.30 % of the cut width and of the caliper 0.046 /
+#: 0.080 / 0.047 / 1.0 %: 2 keeps most of the gain five times below the threshold
+#: where the caliper's error jumps
+SHARED_ACCEPT = 2.0
 #: after a rejected step the Jacobian is renewed if it is at least this many accepted
 #: steps old (a younger one is not the likely cause). On the brake over 10 ms at rtol
 #: 1e-2: 2.0 s against 2.1-2.2 s when every rejection renews it (thresholds 2 and 5
@@ -185,9 +196,10 @@ def advance_block_ros(
     With a shared step sequence (``sequence``: the ends of the steps, increasing,
     the last at the final time; empty: the lanes choose their own steps), every
     lane steps from point to point of the sequence. The error control still
-    guards each step: a step it rejects is cut into the lane's own smaller steps
-    up to the next point, so a lane leaves the sequence only where the sequence
-    is too coarse for it, and its outputs stay its own. ``renewals`` (empty, or one
+    guards each step (an error norm up to :data:`SHARED_ACCEPT` along the sequence):
+    a step it rejects is cut into the lane's own smaller steps up to the next point,
+    so a lane leaves the sequence only where the sequence is too coarse for it, and
+    its outputs stay its own. ``renewals`` (empty, or one
     per point: 1.0 where the logged sample evaluated its Jacobian at the step's start,
     for instance after a rejected try) makes a lane that arrives at a point renew its
     Jacobian there too, so that the logged sample replayed on its sequence repeats
@@ -393,7 +405,7 @@ def advance_block_ros(
                 status[first + lane] = NONFINITE
                 fail_t[first + lane] = t[lane]
                 newly_failed = True
-            elif err <= 1.0:
+            elif err <= (SHARED_ACCEPT if shared and last[lane] else 1.0):
                 took[lane] = True
                 if last[lane]:
                     theta[lane] = sequence[int(control[_GRID, lane])] if shared else t_final

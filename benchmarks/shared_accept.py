@@ -1,0 +1,93 @@
+"""The acceptance threshold of a step along a shared step sequence (``SHARED_ACCEPT``).
+
+The brake's study-1 corners (k, k_c +-10 %, F_n +-1 %) over 10 ms in one block on
+the modal sample's sequence at rtol 2e-3 (the tolerance study 1 chooses), for
+thresholds 1 (a step of its own), 2, 4 and 10: the block's time, each corner's
+rejected steps, and the band error of the four corners against the same corners at
+rtol 1e-6 on their own steps (corrected by the modal sample at rtol 1e-6; deviation
+divided by max(the corners' spread, 0.1 x its widest), as a study measures it).
+
+The threshold is a compile-time constant of the kernel, so each value runs in a
+fresh interpreter with the kernel file patched in a temporary copy of ``src``.
+
+    python benchmarks/shared_accept.py [--thresholds 1 2 4 10]   (JSON rows on stdout)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+KERNEL = Path("fuzzymbs/mbs/kernels/rosenbrock.py")
+
+CHILD = r"""
+import json, sys, time
+import numpy as np
+from fuzzymbs.models.brake import DiscBrake
+
+model = DiscBrake(rtol=2e-3).simulation
+modal = {"pad_spring_stiffness": [200e3], "caliper_spring_stiffness": [1e3], "nodal_force": [16e3]}
+modal = {k: np.array(v) for k, v in modal.items()}
+corners = {
+    "pad_spring_stiffness": np.array([180e3, 220e3, 180e3, 220e3]),
+    "caliper_spring_stiffness": np.array([900.0, 1100.0, 1100.0, 900.0]),
+    "nodal_force": np.array([15840.0, 15840.0, 16160.0, 16160.0]),
+}
+log = model.simulate(modal, log_steps=True)
+start = time.perf_counter()
+run = model.simulate(corners, step_sequence=log.step_times, jacobian_renewals=log.step_renewals)
+seconds = time.perf_counter() - start
+tight = model.simulate(corners, rtol=1e-6, atol=None)
+tight_modal = model.simulate(modal, rtol=1e-6, atol=None)
+row = {"seconds": seconds, "rejected": run.step_counts[:, 1].tolist()}
+for name in model.outputs:
+    corrected = run.outputs[name] + tight_modal.outputs[name][0] - log.outputs[name][0]
+    width = tight.outputs[name].max(axis=0) - tight.outputs[name].min(axis=0)
+    scale = np.maximum(width, 0.1 * width.max())
+    row[name] = float(np.max(np.abs(corrected - tight.outputs[name]) / scale))
+print(json.dumps(row))
+"""
+
+
+def measure(threshold: float) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        src = Path(tmp) / "src"
+        shutil.copytree(ROOT / "src", src, ignore=shutil.ignore_patterns("*.nbi", "*.nbc"))
+        kernel = src / KERNEL
+        line = f"SHARED_ACCEPT = {threshold!r}"
+        text, count = re.subn(r"^SHARED_ACCEPT = .*$", line, kernel.read_text(), flags=re.M)
+        assert count == 1, "SHARED_ACCEPT not found in the kernel"
+        kernel.write_text(text)
+        env = {"PYTHONPATH": str(src), "NUMBA_CACHE_DIR": str(Path(tmp) / "cache")}
+        out = subprocess.run(
+            [sys.executable, "-c", CHILD],
+            env={**os.environ, **env},
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout
+    return {"threshold": threshold, **json.loads(out.strip().splitlines()[-1])}
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--thresholds", type=float, nargs="+", default=[1.0, 2.0, 4.0, 10.0])
+    args = parser.parse_args(argv)
+    rows = []
+    for threshold in args.thresholds:
+        row = measure(threshold)
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+    return rows
+
+
+if __name__ == "__main__":
+    main()
