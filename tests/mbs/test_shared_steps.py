@@ -242,8 +242,8 @@ def test_a_sequence_too_coarse_for_the_tolerance_is_left():
 def test_background_results_errors_and_pickling():
     import pickle
 
+    from fuzzymbs.background import Background
     from fuzzymbs.errors import SimulationDivergedError
-    from fuzzymbs.mbs.shared_steps import Background
 
     assert Background(lambda a, b: a + b, 2, 3).result() == 5
     copy = pickle.loads(pickle.dumps(Background(sorted, [3, 1, 2])))

@@ -286,7 +286,7 @@ def test_study_on_shared_steps_chooses_its_tolerance_from_the_corners():
     # cut), their band 0.2 e^-t wide (floor 0.02); at rtol r against r / 10 each corner
     # moves by c 0.1 r^1.2 (1 - 10^-1.2) sin(pi t), the reference error is R sin(pi t).
     # Closed forms of the pilot's figures and of the factor it divides rtol by:
-    from fuzzymbs.study.integration_check import SHARED_ORDER, TARGET_FRACTION
+    from fuzzymbs.study.integration_check import REUSE_DECADES, SHARED_ORDER, TARGET_FRACTION
 
     assert SHARED_ORDER == 1.2  # the model's own order, so the target is met exactly
     rtol = 1e-2
@@ -302,6 +302,11 @@ def test_study_on_shared_steps_chooses_its_tolerance_from_the_corners():
     reference = np.max(SharedDecay.REFERENCE * s / scale(0.1, rtol))
     target = TARGET_FRACTION * 0.01
     factor = (pilot / (target - reference)) ** (1 / 1.2)
+    # the model built ahead for a reference without error (factor (pilot / target)^(1 /
+    # 1.2)) is taken when at most REUSE_DECADES looser than the factor asked for
+    optimistic = (pilot / target) ** (1 / 1.2)
+    assert 0 < np.log10(factor / optimistic) <= REUSE_DECADES  # so here it is taken
+    factor = optimistic
     fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
     with warnings.catch_warnings():
         warnings.simplefilter("error", TimeIntegrationWarning)
@@ -333,6 +338,45 @@ def test_study_on_shared_steps_chooses_its_tolerance_from_the_corners():
     # and without shared steps the same model takes the own-steps pilot
     own = Study(SharedDecay(rtol), fuzzy, levels=2, shared_steps=False).run(progress=False)
     assert own.dataset.attrs["integration_shared_steps"] == 0
+
+
+class LargeReferenceError(SharedDecay):
+    """:class:`SharedDecay` whose reference error takes a third of the pilot's target."""
+
+    REFERENCE = 2e-4
+
+    def share_steps(self, modal) -> LargeReferenceError:
+        return LargeReferenceError(self.rtol, float(np.asarray(modal["a"])[0]))
+
+    def tightened(self, factor: float = 10.0) -> LargeReferenceError:
+        return LargeReferenceError(self.rtol / factor, self.modal)
+
+
+def test_a_model_built_ahead_too_loose_for_the_reference_is_not_taken():
+    # the reference's error (R / 0.12 of the pilot's cut width, a third of the target)
+    # tightens the factor 1.4 times beyond the one built ahead for an exact reference:
+    # that model is discarded and the factor is met exactly (closed forms as above)
+    from fuzzymbs.study.integration_check import REUSE_DECADES, TARGET_FRACTION
+
+    rtol = 1e-2
+    s = np.sin(np.pi * TIME)
+    c = SharedDecay.SLOPE
+    width = 0.2 * (np.exp(-TIME) + c * rtol**1.2 * s)
+    scale = np.maximum(width, 0.1 * width.max())
+    pilot = np.max(c * 0.1 * rtol**1.2 * (1 - 10**-1.2) * s / scale)
+    reference = np.max(LargeReferenceError.REFERENCE * s / scale)
+    target = TARGET_FRACTION * 0.01
+    factor = (pilot / (target - reference)) ** (1 / 1.2)
+    optimistic = (pilot / target) ** (1 / 1.2)
+    assert np.log10(factor / optimistic) > REUSE_DECADES and optimistic > 1.0
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    study = Study(LargeReferenceError(rtol), fuzzy, levels=2, integration_tolerance=0.01)
+    attrs = study.run(progress=False).dataset.attrs
+    assert attrs["integration_tolerance_factor"] == pytest.approx(factor, rel=1e-9)
+    assert attrs["integration_reference_error"] == pytest.approx(reference, rel=1e-9)
+    # 2 x 2 corners, a logging run each (model's rtol, tenth), two reference runs, the
+    # model built ahead and the chosen one
+    assert attrs["integration_pilot_runs"] == 2 * 2 + 4 + 2
 
 
 class FailingReference(SharedDecay):

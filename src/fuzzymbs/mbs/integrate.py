@@ -19,13 +19,14 @@ import numpy as np
 import scipy.integrate
 from numpy.typing import NDArray
 
+from fuzzymbs.background import Background
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
 from fuzzymbs.mbs.kernels.simd import LANES
-from fuzzymbs.mbs.shared_steps import Background, SharedSteps, share_steps
+from fuzzymbs.mbs.shared_steps import SharedSteps, share_steps
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
 
 #: Kernel choices of :func:`simulate`.
@@ -543,7 +544,8 @@ class SimulationModel:
         run fills a core the study leaves idle); without shared steps, nothing to do."""
         if not (np.isfinite(factor) and factor > 0):
             raise InvalidParameterError(f"factor must be > 0, got {factor!r}")
-        if self.shared is not None:
+        prepared = getattr(self, "_prepared", None)
+        if self.shared is not None and (prepared is None or prepared[0] != factor):
             self._prepared = (factor, Background(self._tightened, factor))
 
     def __getstate__(self) -> dict[str, Any]:

@@ -51,14 +51,14 @@ the reference and its error wait for them when first asked for.
 from __future__ import annotations
 
 import copy
-import threading
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Generic, Protocol, TypeVar
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from fuzzymbs.background import Background
 from fuzzymbs.errors import InvalidParameterError, SimulationDivergedError
 
 
@@ -73,63 +73,13 @@ class SimulationModel(Protocol):
     def simulate(self, samples: Mapping[str, NDArray[np.float64]], **overrides: Any) -> Any: ...
 
 
-__all__ = ["REFERENCE_ORDER", "REFERENCE_RTOL", "Background", "SharedSteps", "share_steps"]
+__all__ = ["REFERENCE_ORDER", "REFERENCE_RTOL", "SharedSteps", "share_steps"]
 
 #: tolerance of the modal sample's reference run (the correction's accuracy)
 REFERENCE_RTOL = 1e-6
 #: ROS34PW2's global error falls about as rtol^0.88 with a sequence of its own
 #: (brake studies, rtol 1e-2 to 1e-5, docs/brake.md)
 REFERENCE_ORDER = 0.88
-
-T = TypeVar("T")
-
-
-class Background(Generic[T]):
-    """A value computed in a background thread (the kernels release the GIL).
-
-    :meth:`result` waits for it and re-raises its exception. The thread is a daemon:
-    an interrupted study exits without waiting for a reference run. It pickles as
-    its value (waiting for it), so that a model holding one goes to worker processes
-    whole.
-    """
-
-    def __init__(self, function: Callable[..., T], *args: Any) -> None:
-        self._done = threading.Event()
-        self._value: T | None = None
-        self._error: BaseException | None = None
-
-        def run() -> None:
-            try:
-                self._value = function(*args)
-            except BaseException as error:  # re-raised by result()
-                self._error = error
-            finally:
-                self._done.set()
-
-        threading.Thread(target=run, name="fuzzymbs-background", daemon=True).start()
-
-    def result(self) -> T:
-        self._done.wait()
-        if self._error is not None:
-            raise self._error
-        return self._value  # type: ignore[return-value]
-
-    def __reduce__(self):
-        return (_ready, (self.result(),))
-
-
-class _Ready(Background[T]):
-    """A :class:`Background` whose value is known (after unpickling)."""
-
-    def __init__(self, value: T) -> None:
-        self._value = value
-
-    def result(self) -> T:
-        return self._value
-
-
-def _ready(value: T) -> Background[T]:
-    return _Ready(value)
 
 
 @dataclass(frozen=True, eq=False)

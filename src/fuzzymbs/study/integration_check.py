@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from fuzzymbs.background import Background
 from fuzzymbs.errors import SimulationDivergedError
 from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR, width_relative
 
@@ -346,9 +347,16 @@ PILOT_MAX_PARAMETERS = 6
 #: the brake's studies against rtol 1e-6: study 1 10 % at rtol 1e-2, 0.37 % at 1e-3;
 #: study 2 4.5 % at 1e-3, 0.55 % at 1e-4, docs/brake.md): the smaller slope
 SHARED_ORDER = 1.2
-#: a chosen factor within this many decades of 10 takes the pilot's tenfold tighter
-#: model as it is (its sequence is logged already; the error at most 1.2^1.2 of target)
+#: a chosen factor up to this many decades above 10 takes the pilot's tenfold tighter
+#: model as it is (its sequence is logged already; the error at most 1.2^1.2 of the
+#: target); so does a model built ahead for a factor this much below the chosen one
 REUSE_DECADES = 0.08
+#: a chosen factor up to this many decades below 10 takes the pilot's tighter model
+#: too: its steps cost at most 10^(0.28 x 0.14) = 1.09 times those of the chosen
+#: tolerance (ROS34PW2's steps grow about as rtol^-0.28 on the brake), less than a
+#: logging run at the chosen one takes on a core of its own (the brake's study 1:
+#: 4.6 s of 50 s of runs)
+TIGHTER_REUSE_DECADES = 0.14
 
 
 @dataclass(frozen=True)
@@ -483,6 +491,22 @@ def choose_tolerance(
     return chosen, ToleranceChoice(factor, error, runs, chosen.time_integration, note)
 
 
+def _reuses_fine(factor: float) -> bool:
+    """A factor near enough to 10 to take the pilot's tenfold tighter model: at most
+    REUSE_DECADES looser, or TIGHTER_REUSE_DECADES tighter than asked for."""
+    decades = np.log10(factor) - 1.0
+    return -TIGHTER_REUSE_DECADES <= decades <= REUSE_DECADES
+
+
+def _prepared_model(shared: Any, factor: float) -> Any:
+    """``shared.tightened(factor)``, with the check's tighter model started after it."""
+    model = shared.tightened(factor)
+    prepare = getattr(model, "prepare_tightened", None)
+    if callable(prepare):
+        prepare()
+    return model
+
+
 def _band_scale(values: np.ndarray) -> np.ndarray | None:
     """max(w, 0.1 max w) of the corners' spread ``values`` (k, size); None if no width."""
     width = values.max(axis=0) - values.min(axis=0)
@@ -517,19 +541,32 @@ def _choose_shared(
         return shared, ToleranceChoice(
             1.0, np.nan, runs, shared.time_integration, note, shared_steps=True
         )
-    error, reference_part = 0.0, 0.0
-    reference_error = shared.reference_error or {}
+    error, scales = 0.0, {}
     for name in names:
         values = np.asarray(coarse_out[name], dtype=float).reshape(len(corners), -1)
         scale = _band_scale(values)
         if scale is None:
             continue
+        scales[name] = scale
         tight = np.asarray(fine_out[name], dtype=float).reshape(len(corners), -1)
         error = max(error, float(np.max(np.abs(values - tight) / scale)))
+    target = TARGET_FRACTION * tolerance
+
+    def factor_for(budget: float) -> float:
+        return 1.0 if error <= budget else float((error / budget) ** (1.0 / SHARED_ORDER))
+
+    # while the reference runs finish, the model for a reference without error (the
+    # loosest the choice can be) is built, with the check's tighter model after it
+    optimistic = factor_for(target)
+    speculative = None
+    if optimistic > 1.0 and not _reuses_fine(optimistic):
+        speculative = Background(_prepared_model, shared, optimistic)
+    reference_part = 0.0
+    reference_error = shared.reference_error or {}  # waits for the reference runs
+    for name, scale in scales.items():
         if name in reference_error:
             common = np.asarray(reference_error[name], dtype=float).reshape(-1)
             reference_part = max(reference_part, float(np.max(common / scale)))
-    target = TARGET_FRACTION * tolerance
     budget = max(target - reference_part, 0.5 * target)  # what the steps may add
     note = ""
     if reference_part > 0.5 * target:
@@ -537,15 +574,19 @@ def _choose_shared(
             f"the reference's own error ({100 * reference_part:.2g} % of the cut width) "
             "takes more than half the target"
         )
-    factor = 1.0 if error <= budget else float((error / budget) ** (1.0 / SHARED_ORDER))
-    if abs(np.log10(factor) - 1.0) <= REUSE_DECADES:
-        factor, chosen = 10.0, fine  # the pilot's tighter model is near enough: reuse it
+    factor = factor_for(budget)
+    built = 1 if factor > 1.0 else 0  # logging runs made for the choice
+    if _reuses_fine(factor):
+        factor, chosen, built = 10.0, fine, 0  # the pilot's tighter model: near enough
+    elif speculative is not None and np.log10(factor / optimistic) <= REUSE_DECADES:
+        factor, chosen = optimistic, speculative.result()  # near enough as well
     else:
         chosen = shared.tightened(factor) if factor > 1.0 else shared
+        built += speculative is not None
     return chosen, ToleranceChoice(
         factor,
         error,
-        runs + (1 if factor not in (1.0, 10.0) else 0),
+        runs + built,
         chosen.time_integration,
         note,
         shared_steps=True,
