@@ -498,12 +498,17 @@ def _reuses_fine(factor: float) -> bool:
     return -TIGHTER_REUSE_DECADES <= decades <= REUSE_DECADES
 
 
-def _prepared_model(shared: Any, factor: float) -> Any:
-    """``shared.tightened(factor)``, with the check's tighter model started after it."""
-    model = shared.tightened(factor)
+def _prepare(model: Any) -> None:
+    """Start building the check's tighter model of ``model`` in the background."""
     prepare = getattr(model, "prepare_tightened", None)
     if callable(prepare):
         prepare()
+
+
+def _prepared_model(shared: Any, factor: float) -> Any:
+    """``shared.tightened(factor)``, with the check's tighter model started after it."""
+    model = shared.tightened(factor)
+    _prepare(model)
     return model
 
 
@@ -559,7 +564,9 @@ def _choose_shared(
     # loosest the choice can be) is built, with the check's tighter model after it
     optimistic = factor_for(target)
     speculative = None
-    if optimistic > 1.0 and not _reuses_fine(optimistic):
+    if _reuses_fine(optimistic):
+        _prepare(fine)  # the pilot's tighter model will do: its check's model now
+    elif optimistic > 1.0:
         speculative = Background(_prepared_model, shared, optimistic)
     reference_part = 0.0
     reference_error = shared.reference_error or {}  # waits for the reference runs
