@@ -40,7 +40,7 @@ def run(compiled, outputs, t_end, interval, rtol, x0=None, samples=None, bound=1
         np.ascontiguousarray(x0),
         (0.0, interval, n_rec, 1e-7),
         (out_w, np.full(out_w.shape[0], bound), out, status, fail_t),
-        (rtol, 1e-4 * rtol, 1e-14),
+        (np.full(batch, rtol), np.full(batch, 1e-4 * rtol), 1e-14),
         4,
         counts,
         np.empty(0),

@@ -256,3 +256,23 @@ def test_background_results_errors_and_pickling():
     for _ in range(2):  # every call re-raises
         with pytest.raises(SimulationDivergedError, match="reference run failed"):
             failing.result()
+
+
+def test_samples_of_one_batch_at_their_own_tolerances():
+    # one rtol per sample: each lane keeps its own error control, so each sample's
+    # outputs are bit for bit those of its run alone (the reference and its companion
+    # share a block this way)
+    model = DiscBrake(t_end=T_END, record_interval=1e-5).simulation
+    twice = {"nodal_force": np.array([16e3, 16e3]), "pad_spring_stiffness": np.array([2e5, 2.2e5])}
+    both = model.simulate(twice, rtol=np.array([1e-6, 1e-4]))
+    for row, rtol in enumerate((1e-6, 1e-4)):
+        alone = model.simulate(
+            {name: values[row : row + 1] for name, values in twice.items()}, rtol=rtol
+        )
+        for name in OUTPUTS:
+            np.testing.assert_array_equal(both.outputs[name][row], alone.outputs[name][0])
+    assert both.step_counts[0, 0] > 3 * both.step_counts[1, 0]
+    with pytest.raises(InvalidParameterError, match="one per sample"):
+        model.simulate(twice, rtol=np.array([1e-6, 1e-5, 1e-4]))
+    with pytest.raises(InvalidParameterError, match="rtol must be in"):
+        model.simulate(twice, rtol=np.array([1e-6, 0.0]))

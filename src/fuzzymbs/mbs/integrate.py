@@ -93,8 +93,8 @@ def simulate(
     chunk_size: int = 64,
     kernel: str = "auto",
     integrator: str = "rk4",
-    rtol: float = 1e-2,
-    atol: float | None = None,
+    rtol: float | NDArray[np.float64] = 1e-2,
+    atol: float | NDArray[np.float64] | None = None,
     step_sequence: NDArray[np.float64] | None = None,
     jacobian_renewals: NDArray[np.bool_] | None = None,
     log_steps: bool | int = False,
@@ -134,11 +134,13 @@ def simulate(
         the linearly implicit ROS34PW2 with error control, each sample on its own
         step sequence, so that its outputs do not depend on the samples beside it
         (docs/theory.md, "ROS34PW2").
-    rtol, atol : float
+    rtol, atol : float or (B,) array
         ROS34PW2's tolerances: a sample's step is accepted when the RMS over its state
         of ``error / (atol + rtol |x|)`` is at most 1; atol defaults to ``1e-5 rtol``
         (positions in m, velocities in m/s; 1e-4 rtol left the brake caliper's 0.7 nm
-        signal 14 % off, docs/brake.md).
+        signal 14 % off, docs/brake.md). One value per sample runs samples of one
+        batch at different tolerances, a block costing about as much as its
+        tightest lane (a reference and its companion in one block).
     step_sequence : (K,) array, optional
         ROS34PW2 only: the ends of the steps every sample takes (increasing, the last
         at ``t_end``), typically the accepted steps of one sample logged with
@@ -156,7 +158,7 @@ def simulate(
         20 per dt, at least 10^6), more raise :class:`~fuzzymbs.errors.InvalidParameterError`.
     """
     _check_kernel(kernel)
-    tolerances = _check_integrator(integrator, rtol, atol)
+    rtols, atols, h_min = _check_integrator(integrator, rtol, atol)
     if log_steps is not False and integrator != "ros34pw2":
         raise InvalidParameterError("log_steps needs integrator='ros34pw2'")
     compiled = system.compile() if isinstance(system, System) else system
@@ -165,6 +167,8 @@ def simulate(
     n_steps, every = _check_timing(t_end, dt, record_interval)
     params = compiled.parameters.values(samples or {})
     batch = params.shape[0]
+    rtols = _per_sample(rtols, batch, "rtol")
+    atols = _per_sample(atols, batch, "atol")
     x0 = _initial(compiled, initial_state, batch)
     out_w = np.array([compiled.output_functional(spec) for spec in outputs.values()])
     if not displacement_bound > 0:
@@ -208,7 +212,7 @@ def simulate(
                 np.ascontiguousarray(x0[sl]),
                 (0.0, float(every * dt), int(n_rec), float(dt)),
                 (out_w, bounds, o, st, ft),
-                tolerances,
+                (rtols[sl], atols[sl], h_min),
                 samples_per_block(kernel),
                 counts[sl],
                 sequence,
@@ -283,17 +287,30 @@ def _check_sequence(
 
 
 def _check_integrator(
-    integrator: str, rtol: float, atol: float | None
-) -> tuple[float, float, float]:
-    """``(rtol, atol, smallest step)`` for ROS34PW2, after checking the settings."""
+    integrator: str, rtol: float | NDArray[np.float64], atol: float | NDArray[np.float64] | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """``(rtol, atol, smallest step)`` for ROS34PW2 after checking the settings; rtol and
+    atol as 1-D arrays (one value, or one per sample)."""
     if integrator not in INTEGRATORS:
         raise InvalidParameterError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
-    if not (np.isfinite(rtol) and 0 < rtol < 1):
-        raise InvalidParameterError(f"rtol must be in (0, 1), got {rtol!r}")
-    atol = 1e-5 * rtol if atol is None else atol
-    if not (np.isfinite(atol) and atol > 0):
-        raise InvalidParameterError(f"atol must be > 0, got {atol!r}")
-    return float(rtol), float(atol), 1e-14
+    rtol = np.atleast_1d(np.asarray(rtol, dtype=float))
+    if rtol.ndim != 1 or not (np.all(np.isfinite(rtol)) and np.all((rtol > 0) & (rtol < 1))):
+        raise InvalidParameterError(
+            f"rtol must be in (0, 1) (a value or one per sample), got {rtol!r}"
+        )
+    atol = 1e-5 * rtol if atol is None else np.atleast_1d(np.asarray(atol, dtype=float))
+    if atol.ndim != 1 or not (np.all(np.isfinite(atol)) and np.all(atol > 0)):
+        raise InvalidParameterError(f"atol must be > 0 (a value or one per sample), got {atol!r}")
+    return rtol, atol, 1e-14
+
+
+def _per_sample(values: NDArray[np.float64], batch: int, name: str) -> NDArray[np.float64]:
+    """A tolerance for every sample of the batch (one value for all, or one each)."""
+    if values.size not in (1, batch):
+        raise InvalidParameterError(
+            f"{name} must be one value or one per sample ({batch}), got {values.size}"
+        )
+    return np.ascontiguousarray(np.broadcast_to(values, (batch,)))
 
 
 def _check_kernel(kernel: str) -> None:

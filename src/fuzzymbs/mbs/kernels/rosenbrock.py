@@ -206,7 +206,8 @@ def advance_block_ros(
     the logging run's arithmetic (to the rounding of the step lengths).
 
     ``timing = (t0, record_interval, n_records, h0)``; ``recording`` as for
-    :func:`fuzzymbs.mbs.kernels.rk4.rk4`; ``tolerances = (rtol, atol, h_min)``;
+    :func:`fuzzymbs.mbs.kernels.rk4.rk4`; ``tolerances = (rtol, atol, h_min)``, rtol
+    and atol one per sample of the batch;
     ``coefficients``: :data:`COEFFICIENTS`; ``state`` from :func:`start_block_ros`.
     ``step_log`` (length > 1) receives the ends of the accepted steps of sample 0
     of the batch and whether each one's Jacobian was evaluated at its start, in
@@ -215,7 +216,20 @@ def advance_block_ros(
     """
     t0, interval, n_records = timing[0], timing[1], int(timing[2])
     out, status, fail_t = recording[2], recording[3], recording[4]
-    rtol, atol, h_min = tolerances
+    rtols, atols, h_min = tolerances
+    # each lane's tolerances (a padded lane: its block's last sample's)
+    rtol = V.make(
+        rtols[first + min(0, count - 1)],
+        rtols[first + min(1, count - 1)],
+        rtols[first + min(2, count - 1)],
+        rtols[first + min(3, count - 1)],
+    )
+    atol = V.make(
+        atols[first + min(0, count - 1)],
+        atols[first + min(1, count - 1)],
+        atols[first + min(2, count - 1)],
+        atols[first + min(3, count - 1)],
+    )
     at, cc, m, me, alpha, gsum = coefficients
     x, p, alive, work, vectors, matrices, piv, control = state
     f0, ft, fy, y, r = vectors[0], vectors[1], vectors[2], vectors[3], vectors[4]
