@@ -310,7 +310,7 @@ def _per_sample(values: NDArray[np.float64], batch: int, name: str) -> NDArray[n
         raise InvalidParameterError(
             f"{name} must be one value or one per sample ({batch}), got {values.size}"
         )
-    return np.ascontiguousarray(np.broadcast_to(values, (batch,)))
+    return np.array(np.broadcast_to(values, (batch,)))  # writable: one kernel signature
 
 
 def _check_kernel(kernel: str) -> None:
