@@ -149,9 +149,10 @@ def simulate(
         (:mod:`fuzzymbs.mbs.shared_steps`).
     jacobian_renewals : (K,) bool array, optional
         With ``step_sequence``: True where a sample arriving at the step's start renews
-        its Jacobian (the logged ``step_renewals``: where the logged sample renewed it
-        after a rejected try), so that the logged sample's replay repeats its run to the
-        rounding of the step lengths. Default: each sample renews by its own rules.
+        its Jacobian (the logged ``step_renewals``: where the logged sample evaluated it,
+        by age or after a rejected try), so that the logged sample's replay repeats its
+        run to the rounding of the step lengths. Default: each sample renews by its own
+        rules.
     log_steps : bool or int
         ROS34PW2 only: return the ends of the first sample's accepted steps as
         ``step_times`` (and ``step_renewals``); a number: at most that many (default
@@ -293,14 +294,14 @@ def _check_integrator(
     atol as 1-D arrays (one value, or one per sample)."""
     if integrator not in INTEGRATORS:
         raise InvalidParameterError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
+    given = rtol
     rtol = np.atleast_1d(np.asarray(rtol, dtype=float))
     if rtol.ndim != 1 or not (np.all(np.isfinite(rtol)) and np.all((rtol > 0) & (rtol < 1))):
-        raise InvalidParameterError(
-            f"rtol must be in (0, 1) (a value or one per sample), got {rtol!r}"
-        )
+        raise InvalidParameterError(f"rtol must be in (0, 1), got {given!r}")
+    given = atol
     atol = 1e-5 * rtol if atol is None else np.atleast_1d(np.asarray(atol, dtype=float))
     if atol.ndim != 1 or not (np.all(np.isfinite(atol)) and np.all(atol > 0)):
-        raise InvalidParameterError(f"atol must be > 0 (a value or one per sample), got {atol!r}")
+        raise InvalidParameterError(f"atol must be > 0, got {given!r}")
     return rtol, atol, 1e-14
 
 
