@@ -39,9 +39,9 @@ second reference run at ten times the reference tolerance,
 ``|y(10 r) - y(r)| / (10^q - 1)`` with the error's order ``q =``
 :data:`REFERENCE_ORDER`, and a study adds it to its time-integration error.
 
-The two reference runs are the longest single-sample runs of a study (the
-brake's 10 ms at rtol 1e-6: 31 s of one core). They run in two background
-threads from :func:`share_steps` on, while the caller goes on with what does
+The two reference runs are the longest runs of a study (the brake's 10 ms at
+rtol 1e-6 and 1e-5, two lanes of one SIMD block: 35 s of one core). They run in
+a background thread from :func:`share_steps` on, while the caller goes on with what does
 not need them: :meth:`SimulationModel.deviations` (a sample's outputs minus the
 modal sample's on the same steps, all a study's choice of tolerance compares)
 and further step sequences (:meth:`SimulationModel.tightened`). The correction,
@@ -148,7 +148,7 @@ def _reference_runs(model: SimulationModel, modal: Mapping[str, float]) -> tuple
 
     The two runs are two lanes of one block, each with its own tolerance and steps (its
     outputs bit for bit those of the run alone): the block costs about as much as the
-    tighter run alone (the brake over 10 ms: 32 s for both against 31 s and 16 s).
+    tighter run alone (the brake over 10 ms: 35 s for both against 31 s and 16 s).
     """
     rtols = np.array([REFERENCE_RTOL, 10 * REFERENCE_RTOL])
     atol = model.settings["atol"]  # None: its default fraction of rtol
