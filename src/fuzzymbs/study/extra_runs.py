@@ -121,10 +121,6 @@ class StudyRuns:
             self.integration_tolerance,
             self.shared_steps,
         )
-        # the check's tighter model (on shared steps, a logging run) built meanwhile
-        prepare = getattr(self.model, "prepare_tightened", None)
-        if callable(prepare):
-            prepare()
 
     def validation_points(
         self,

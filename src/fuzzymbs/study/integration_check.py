@@ -543,6 +543,7 @@ def _choose_shared(
     if failed.any():
         note = "a pilot run failed; the model's tolerance is kept (on shared steps)"
         _ = shared.reference_error  # waits: a failed reference run raises here
+        _prepare(shared)
         return shared, ToleranceChoice(
             1.0, np.nan, runs, shared.time_integration, note, shared_steps=True
         )
@@ -582,14 +583,15 @@ def _choose_shared(
             "takes more than half the target"
         )
     factor = factor_for(budget)
-    built = 1 if factor > 1.0 else 0  # logging runs made for the choice
+    built = int(speculative is not None)  # logging runs made for the choice
     if _reuses_fine(factor):
-        factor, chosen, built = 10.0, fine, 0  # the pilot's tighter model: near enough
+        factor, chosen = 10.0, fine  # the pilot's tighter model: near enough
     elif speculative is not None and np.log10(factor / optimistic) <= REUSE_DECADES:
         factor, chosen = optimistic, speculative.result()  # near enough as well
     else:
         chosen = shared.tightened(factor) if factor > 1.0 else shared
-        built += speculative is not None
+        built += factor > 1.0
+    _prepare(chosen)  # the check's tighter model, unless started above already
     return chosen, ToleranceChoice(
         factor,
         error,
