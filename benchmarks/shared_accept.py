@@ -10,7 +10,14 @@ divided by max(the corners' spread, 0.1 x its widest), as a study measures it).
 The threshold is a compile-time constant of the kernel, so each value runs in a
 fresh interpreter with the kernel file patched in a temporary copy of ``src``.
 
-    python benchmarks/shared_accept.py [--thresholds 1 2 4 10]   (JSON rows on stdout)
+``--replay`` also measures, with the checkout's own kernel, the two other facts the
+shared steps rest on (docs/theory.md, "Shared steps"): the modal sample (10 ms,
+rtol 1e-2) replayed on its logged sequence with and without the logged Jacobian
+renewals against its logging run (largest deviation over the peak, rejected
+steps), and the reference pair (rtol 1e-6 and 1e-5) as two lanes of one block
+against each run alone (seconds, and whether the outputs are bit for bit equal).
+
+    python benchmarks/shared_accept.py [--thresholds 1 2 4 10] [--replay]   (JSON rows)
 """
 
 from __future__ import annotations
@@ -77,11 +84,55 @@ def measure(threshold: float) -> dict:
     return {"threshold": threshold, **json.loads(out.strip().splitlines()[-1])}
 
 
+def replay_and_pair() -> dict:
+    """The replay with and without the logged renewals; the reference pair in one block."""
+    import time
+
+    import numpy as np
+
+    from fuzzymbs.models.brake import DiscBrake
+
+    model = DiscBrake(rtol=1e-2).simulation
+    modal = {"pad_spring_stiffness": 200e3, "caliper_spring_stiffness": 1e3, "nodal_force": 16e3}
+    one = {name: np.array([value]) for name, value in modal.items()}
+    log = model.simulate(one, log_steps=True)
+    row: dict = {"logged_steps": len(log.step_times)}
+    for label, renewals in (("with_renewals", log.step_renewals), ("own_ages", None)):
+        replay = model.simulate(one, step_sequence=log.step_times, jacobian_renewals=renewals)
+        row[label] = {
+            "rejected": int(replay.step_counts[0, 1]),
+            **{
+                name: float(
+                    np.abs(replay.outputs[name] - log.outputs[name]).max()
+                    / np.abs(log.outputs[name]).max()
+                )
+                for name in model.outputs
+            },
+        }
+    two = {name: np.repeat(values, 2) for name, values in one.items()}
+    start = time.perf_counter()
+    both = model.simulate(two, rtol=np.array([1e-6, 1e-5]))
+    row["pair_s"] = time.perf_counter() - start
+    for rtol, lane in ((1e-6, 0), (1e-5, 1)):
+        start = time.perf_counter()
+        alone = model.simulate(one, rtol=rtol)
+        row[f"alone_{rtol:g}_s"] = time.perf_counter() - start
+        row[f"alone_{rtol:g}_identical"] = all(
+            np.array_equal(both.outputs[name][lane], alone.outputs[name][0])
+            for name in model.outputs
+        )
+    return row
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--thresholds", type=float, nargs="+", default=[1.0, 2.0, 4.0, 10.0])
+    parser.add_argument("--thresholds", type=float, nargs="*", default=[1.0, 2.0, 4.0, 10.0])
+    parser.add_argument("--replay", action="store_true", help="also the replay and the pair")
     args = parser.parse_args(argv)
     rows = []
+    if args.replay:
+        rows.append({"replay_and_pair": replay_and_pair()})
+        print(json.dumps(rows[-1]), flush=True)
     for threshold in args.thresholds:
         row = measure(threshold)
         print(json.dumps(row), flush=True)
