@@ -25,7 +25,7 @@ The logging run itself stands for the modal sample's run on the sequence: every
 sample renews its Jacobian where the logging run did (after a rejected try, as
 well as by age), so the replay repeats the logging run's arithmetic to the
 rounding of the step lengths (the brake over 10 ms at rtol 1e-2: 4e-12 of the
-pads' peak, 1e-7 of the caliper's; without the renewals 5e-4 and 1219 rejected
+pads' peak, 1e-7 of the caliper's; without the renewals 5e-4 and 948 rejected
 steps), and no replay is run.
 
 The error control still guards every step: a step it rejects is cut into the
