@@ -26,7 +26,7 @@ from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
 from fuzzymbs.mbs.kernels.simd import LANES
-from fuzzymbs.mbs.shared_steps import SharedSteps, share_steps
+from fuzzymbs.mbs.shared_steps import SharedSteps, kept_run, share_steps
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
 
 #: Kernel choices of :func:`simulate`.
@@ -491,12 +491,41 @@ class SimulationModel:
         if shared is None:
             raise InvalidParameterError("deviations need shared steps (share_steps)")
         negated = {name: -values for name, values in shared.modal_outputs.items()}
-        return self._outputs(self._on_shared_steps(samples), negated)
+        return self._outputs(self._on_shared_steps(samples, keep=True), negated)
 
-    def _on_shared_steps(self, samples: Mapping[str, NDArray[np.float64]]) -> SimulationResult:
+    def _on_shared_steps(
+        self, samples: Mapping[str, NDArray[np.float64]], keep: bool = False
+    ) -> SimulationResult:
+        """The samples on the shared sequence; runs kept on it (``shared.kept``) are taken
+        as they are, the others run (and are kept too with ``keep``)."""
         shared = self.shared
-        return self.simulate(
-            samples, step_sequence=shared.sequence, jacobian_renewals=shared.renewals
+        rows = self.compiled.parameters.values(samples)
+        keys = [row.tobytes() for row in rows]
+        missing = [i for i, key in enumerate(keys) if key not in shared.kept]
+        if missing:
+            if len(missing) < len(keys):
+                samples = {
+                    name: np.atleast_1d(np.asarray(values, dtype=float))[missing]
+                    for name, values in samples.items()
+                }
+            result = self.simulate(
+                samples, step_sequence=shared.sequence, jacobian_renewals=shared.renewals
+            )
+            if len(missing) == len(keys) and not keep:
+                return result
+            fresh = {keys[i]: kept_run(result, row) for row, i in enumerate(missing)}
+            if keep:
+                shared.kept.update(fresh)
+        else:
+            fresh = {}
+        runs = [fresh[key] if key in fresh else shared.kept[key] for key in keys]
+        return SimulationResult(
+            time=self.coords["time"],
+            outputs={name: np.stack([run.outputs[name] for run in runs]) for name in self.outputs},
+            failed=np.array([run.failed for run in runs]),
+            failure_reason=np.array([run.failure_reason for run in runs], dtype=str),
+            failure_time=np.array([run.failure_time for run in runs]),
+            step_counts=np.stack([run.step_counts for run in runs]),
         )
 
     @staticmethod

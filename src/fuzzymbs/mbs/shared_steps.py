@@ -26,7 +26,14 @@ sample renews its Jacobian where the logging run did (after a rejected try, as
 well as by age), so the replay repeats the logging run's arithmetic to the
 rounding of the step lengths (the brake over 10 ms at rtol 1e-2: 4e-12 of the
 pads' peak, 1e-7 of the caliper's; without the renewals 5e-4 and 948 rejected
-steps), and no replay is run.
+steps), and no replay is run: a study's modal sample takes the logging run.
+
+Runs on the sequence are kept for reuse where a study makes them before its plan:
+the pilot that chooses the tolerance runs the corners of a cut through
+``deviations``, and when its model becomes the study's, the plan takes those
+runs instead of repeating them (the brake's study 1: the 8 corners of the mu =
+0.75 cut, all of them plan points). A sample's outputs do not depend on its
+batch, so a kept run is bit for bit the run it saves.
 
 The error control still guards every step: a step it rejects is cut into the
 sample's own smaller steps up to the next point of the sequence, so a sample
@@ -52,7 +59,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
@@ -69,11 +76,19 @@ class SimulationModel(Protocol):
     settings: dict[str, Any]
     outputs: dict[str, Any]
     shared: SharedSteps | None
+    compiled: Any
 
     def simulate(self, samples: Mapping[str, NDArray[np.float64]], **overrides: Any) -> Any: ...
 
 
-__all__ = ["REFERENCE_ORDER", "REFERENCE_RTOL", "SharedSteps", "share_steps"]
+__all__ = [
+    "REFERENCE_ORDER",
+    "REFERENCE_RTOL",
+    "KeptRun",
+    "SharedSteps",
+    "kept_run",
+    "share_steps",
+]
 
 #: tolerance of the modal sample's reference run (the correction's accuracy)
 REFERENCE_RTOL = 1e-6
@@ -96,6 +111,9 @@ class SharedSteps:
     references : the reference runs' ``(reference, reference_error)``, perhaps still
         running (:class:`Background`).
     reference_rtol : the reference's tolerance.
+    kept : runs on these steps at the model's settings, kept for reuse: the parameter
+        row's bytes -> :class:`KeptRun` (the logging run for the modal sample; the runs
+        of :meth:`~fuzzymbs.mbs.integrate.SimulationModel.deviations`, a study's pilot).
     """
 
     modal: dict[str, float]
@@ -104,6 +122,7 @@ class SharedSteps:
     modal_outputs: dict[str, NDArray[np.float64]]
     references: Background[tuple[dict, dict]]
     reference_rtol: float
+    kept: dict[bytes, KeptRun] = field(default_factory=dict, repr=False)
 
     @property
     def reference(self) -> dict[str, NDArray[np.float64]]:
@@ -120,6 +139,29 @@ class SharedSteps:
         """output -> (T,) added to every sample's output: reference - modal."""
         reference = self.reference
         return {name: reference[name] - values for name, values in self.modal_outputs.items()}
+
+
+@dataclass(frozen=True)
+class KeptRun:
+    """One sample's run on a shared sequence, kept for reuse: a sample's outputs do not
+    depend on the samples that share its batch, so the kept run is the run it saves."""
+
+    outputs: dict[str, NDArray[np.float64]]
+    failed: bool
+    failure_reason: str
+    failure_time: float
+    step_counts: NDArray[np.int64]
+
+
+def kept_run(result, row: int) -> KeptRun:
+    """Sample ``row`` of a :class:`~fuzzymbs.mbs.integrate.SimulationResult`."""
+    return KeptRun(
+        {name: values[row].copy() for name, values in result.outputs.items()},
+        bool(result.failed[row]),
+        str(result.failure_reason[row]),
+        float(result.failure_time[row]),
+        np.asarray(result.step_counts[row]).copy(),
+    )
 
 
 def _single(modal: Mapping[str, float]) -> dict[str, NDArray[np.float64]]:
@@ -219,4 +261,7 @@ def share_steps(
     shared.shared = SharedSteps(
         modal, logged.step_times, logged.step_renewals, outputs, references, REFERENCE_RTOL
     )
+    # and a study's modal sample takes it (its outputs become the reference's)
+    modal_row = model.compiled.parameters.values(_single(modal))[0]
+    shared.shared.kept[modal_row.tobytes()] = kept_run(logged, 0)
     return shared
