@@ -200,6 +200,38 @@ def test_bad_renewals_are_refused():
         )
 
 
+def test_runs_ahead_are_kept_and_waited_for(scheme, monkeypatch):
+    # run_ahead runs its samples in the background and keeps them; the next call waits
+    # for them and runs only the others, bit for bit as without them
+    import pickle
+
+    import fuzzymbs.mbs.integrate as integrate
+
+    model = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-3)
+    modal = _columns(scheme, [scheme.nominal_index])
+    rows = [9, 3, 5, 12]
+    plain = model.share_steps(modal)(_columns(scheme, rows))
+    shared = model.share_steps(modal)
+    ran, then = [], []
+    simulate = integrate.simulate
+
+    def counting(system, samples=None, **settings):
+        ran.append(len(next(iter(samples.values()))))
+        return simulate(system, samples, **settings)
+
+    monkeypatch.setattr(integrate, "simulate", counting)
+    shared.run_ahead(_columns(scheme, [5, 12]), then=lambda: then.append(True))
+    ahead = shared(_columns(scheme, rows))
+    assert ran == [2, 2] and then == [True]  # the two ahead, then rows 9 and 3
+    for name in OUTPUTS:
+        np.testing.assert_array_equal(ahead[name], plain[name])
+    shared.run_ahead(_columns(scheme, [1]))
+    copy = pickle.loads(pickle.dumps(shared))  # waits for the runs ahead, takes them along
+    assert len(copy.simulation.shared.kept) == 4  # the modal sample, rows 5, 12 and 1
+    with pytest.raises(InvalidParameterError, match="shared steps"):
+        model.run_ahead(_columns(scheme, [1]))
+
+
 def test_deviations_are_the_outputs_less_the_modal_sample(scheme, shared):
     # deviations need no reference run: shared(samples) = deviations + reference, to
     # rounding (the modal sample's outputs minus its own outputs plus the reference)

@@ -4,6 +4,7 @@ its cut widths."""
 from __future__ import annotations
 
 import warnings
+from typing import ClassVar
 
 import numpy as np
 import pytest
@@ -377,6 +378,43 @@ def test_a_model_built_ahead_too_loose_for_the_reference_is_not_taken():
     # 2 x 2 corners, a logging run each (model's rtol, tenth), two reference runs, the
     # model built ahead and the chosen one
     assert attrs["integration_pilot_runs"] == 2 * 2 + 4 + 2
+
+
+class AheadDecay(SharedDecay):
+    """:class:`SharedDecay` that records the points it is asked to run ahead."""
+
+    ahead: ClassVar[list] = []  # (rtol, the points' a) of every run_ahead
+
+    def share_steps(self, modal) -> AheadDecay:
+        return AheadDecay(self.rtol, float(np.asarray(modal["a"])[0]))
+
+    def tightened(self, factor: float = 10.0) -> AheadDecay:
+        return AheadDecay(self.rtol / factor, self.modal)
+
+    def run_ahead(self, samples, then=None) -> None:
+        AheadDecay.ahead.append((self.rtol, np.asarray(samples["a"], dtype=float).copy()))
+        if then is not None:
+            then()
+
+
+def test_the_plans_first_points_run_ahead_on_the_model_the_choice_takes():
+    # while the reference finishes, the model built for an exact reference runs the
+    # plan's first points (a fixed plan: its first 8 samples); here the choice takes it
+    # (as in the closed-form test above), so those runs are the plan's
+    AheadDecay.ahead.clear()
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    study = Study(AheadDecay(1e-2), fuzzy, levels=2, integration_tolerance=0.01)
+    attrs = study.run(progress=False).dataset.attrs
+    assert len(AheadDecay.ahead) == 1
+    rtol, points = AheadDecay.ahead[0]
+    assert rtol == pytest.approx(1e-2 / attrs["integration_tolerance_factor"], rel=1e-12)
+    np.testing.assert_array_equal(points, study.plan.samples[:8, 0])
+    # the adaptive method: its first round
+    AheadDecay.ahead.clear()
+    adaptive = Study(AheadDecay(1e-2), fuzzy, method="adaptive", levels=2)
+    adaptive.run(progress=False)
+    adaptive.plan.reset()
+    np.testing.assert_array_equal(AheadDecay.ahead[0][1], adaptive.plan.next_batch()[:, 0])
 
 
 class FailingReference(SharedDecay):

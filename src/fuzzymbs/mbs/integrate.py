@@ -11,10 +11,11 @@ on the same right-hand side, for checks.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numba
 import numpy as np
 import scipy.integrate
 from numpy.typing import NDArray
@@ -453,6 +454,8 @@ class SimulationModel:
         self.shared: SharedSteps | None = None
         #: (factor, tightened model being built) of :meth:`prepare_tightened`
         self._prepared: tuple[float, Background] | None = None
+        #: runs started ahead of need (:meth:`run_ahead`)
+        self._ahead: Background | None = None
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -493,11 +496,47 @@ class SimulationModel:
         negated = {name: -values for name, values in shared.modal_outputs.items()}
         return self._outputs(self._on_shared_steps(samples, keep=True), negated)
 
+    def run_ahead(
+        self, samples: Mapping[str, NDArray[np.float64]], then: Callable[[], Any] | None = None
+    ) -> None:
+        """On shared steps: run ``samples`` in a background thread on one core and keep
+        them (as :meth:`deviations` does), then call ``then``; the model's next run waits
+        for them and takes them. A study runs its first points so while the reference
+        finishes on the other core; a failed run ahead only loses what it would have
+        kept."""
+        if self.shared is None:
+            raise InvalidParameterError("run_ahead needs shared steps (share_steps)")
+        self._wait_ahead()
+
+        def ahead() -> None:
+            numba.set_num_threads(1)  # this thread's own: the reference has the other core
+            self._shared_runs(samples, keep=True)
+            if then is not None:
+                then()
+
+        self._ahead = Background(ahead)
+
+    def _wait_ahead(self) -> None:
+        """Wait for the runs of :meth:`run_ahead`, if any (their errors are its own)."""
+        ahead = getattr(self, "_ahead", None)
+        if ahead is not None:
+            try:
+                ahead.result()
+            except Exception:  # the runs are made again where they are needed
+                pass
+            self._ahead = None
+
     def _on_shared_steps(
         self, samples: Mapping[str, NDArray[np.float64]], keep: bool = False
     ) -> SimulationResult:
         """The samples on the shared sequence; runs kept on it (``shared.kept``) are taken
         as they are, the others run (and are kept too with ``keep``)."""
+        self._wait_ahead()
+        return self._shared_runs(samples, keep)
+
+    def _shared_runs(
+        self, samples: Mapping[str, NDArray[np.float64]], keep: bool
+    ) -> SimulationResult:
         shared = self.shared
         rows = self.compiled.parameters.values(samples)
         keys = [row.tobytes() for row in rows]
@@ -597,7 +636,8 @@ class SimulationModel:
 
     def __getstate__(self) -> dict[str, Any]:
         # a copy or a pickled model builds its own tightened model
-        return {**self.__dict__, "_prepared": None}
+        self._wait_ahead()  # its runs kept before the model is copied
+        return {**self.__dict__, "_prepared": None, "_ahead": None}
 
     @property
     def shares_steps(self) -> bool:

@@ -67,6 +67,11 @@ SCREENING_FOLDER = "screening"
 VALIDATION_FOLDER = "validation"
 
 
+#: a fixed plan's samples run ahead while a shared-steps reference finishes (two SIMD
+#: blocks: about what the core the pilot leaves free does meanwhile on the brake)
+RUN_AHEAD = 8
+
+
 #: a round of validation runs longer than a chunk goes out in a multiple of this many
 #: equal chunks, so that no worker of a small pool idles at the end of the round
 ROUND_TASKS = 4
@@ -120,7 +125,19 @@ class StudyRuns:
             self.output_names,
             self.integration_tolerance,
             self.shared_steps,
+            self._first_points(),
         )
+
+    def _first_points(self) -> np.ndarray:
+        """The plan's first runs (run ahead while a shared-steps reference finishes): the
+        adaptive method's first round, or a fixed plan's first :data:`RUN_AHEAD` samples."""
+        plan = self.plan
+        if plan.method == "adaptive":
+            plan.reset()
+            points = plan.next_batch()
+            plan.reset()
+            return points
+        return plan.samples[:RUN_AHEAD]
 
     def validation_points(
         self,

@@ -404,6 +404,7 @@ def choose_tolerance(
     names: Sequence[str],
     tolerance: float = DEFAULT_TOLERANCE,
     shared_steps: bool = True,
+    first: np.ndarray | None = None,
 ) -> tuple[Any, ToleranceChoice | None]:
     """The model with its integrator's tolerance chosen for the study's cut widths.
 
@@ -434,6 +435,10 @@ def choose_tolerance(
         both drops out: the modal point has no error left to compare) and divides the
         tolerance by ``(E / (TARGET_FRACTION tolerance - E_ref))^(1 / SHARED_ORDER)``,
         ``E_ref`` the reference's own estimated error.
+    first : (k, n) the plan's first points (rows as ``modal``). On shared steps they
+        run in the background on the model the choice is likely to take, while the
+        reference finishes (``run_ahead``: kept for the plan's first call; lost if
+        the choice takes another model).
 
     Returns
     -------
@@ -464,7 +469,7 @@ def choose_tolerance(
         try:
             # the reference runs go on in the background while the pilot runs
             shared = model.share_steps(dict(columns(modal[None, :])))
-            return _choose_shared(shared, columns, corners, names, tolerance)
+            return _choose_shared(shared, columns, corners, names, tolerance, first)
         except SimulationDivergedError as error:
             shared_note = f"no shared steps ({error}): each sample keeps its own; "
     table = np.vstack([corners, modal[None, :]])
@@ -505,11 +510,22 @@ def _prepare(model: Any) -> None:
         prepare()
 
 
-def _prepared_model(shared: Any, factor: float) -> Any:
-    """``shared.tightened(factor)``, with the check's tighter model started after it."""
+def _prepared_model(shared: Any, factor: float, first: Mapping | None = None) -> Any:
+    """``shared.tightened(factor)``, with the plan's ``first`` points run ahead and the
+    check's tighter model started after them."""
     model = shared.tightened(factor)
-    _prepare(model)
+    _ahead(model, first)
     return model
+
+
+def _ahead(model: Any, first: Mapping | None) -> None:
+    """Run the plan's ``first`` points on ``model`` in the background, then start the
+    check's tighter model (one thread after the other: the reference runs beside them)."""
+    run_ahead = getattr(model, "run_ahead", None)
+    if first is None or not callable(run_ahead):
+        _prepare(model)
+        return
+    run_ahead(first, lambda: _prepare(model))
 
 
 def _band_scale(values: np.ndarray) -> np.ndarray | None:
@@ -527,6 +543,7 @@ def _choose_shared(
     corners: np.ndarray,
     names: Sequence[str],
     tolerance: float,
+    first: np.ndarray | None = None,
 ) -> tuple[Any, ToleranceChoice]:
     """:func:`choose_tolerance` for a model on the modal sample's shared steps.
 
@@ -562,13 +579,17 @@ def _choose_shared(
         return 1.0 if error <= budget else float((error / budget) ** (1.0 / SHARED_ORDER))
 
     # while the reference runs finish, the model for a reference without error (the
-    # loosest the choice can be) is built, with the check's tighter model after it
+    # loosest the choice can be) is built, the plan's first points run on it, and the
+    # check's tighter model is started after them
     optimistic = factor_for(target)
     speculative = None
+    first_columns = None if first is None or not len(first) else dict(columns(first))
     if _reuses_fine(optimistic):
-        _prepare(fine)  # the pilot's tighter model will do: its check's model now
+        _ahead(fine, first_columns)  # the pilot's tighter model will do
     elif optimistic > 1.0:
-        speculative = Background(_prepared_model, shared, optimistic)
+        speculative = Background(_prepared_model, shared, optimistic, first_columns)
+    else:
+        _ahead(shared, first_columns)
     reference_part = 0.0
     reference_error = shared.reference_error or {}  # waits for the reference runs
     for name, scale in scales.items():
@@ -591,7 +612,8 @@ def _choose_shared(
     else:
         chosen = shared.tightened(factor) if factor > 1.0 else shared
         built += factor > 1.0
-    _prepare(chosen)  # the check's tighter model, unless started above already
+    _prepare(chosen)  # the check's tighter model, unless started above already (or after
+    # the runs ahead: prepare_tightened is idempotent, and a model's call waits for them)
     return chosen, ToleranceChoice(
         factor,
         error,

@@ -25,7 +25,7 @@ of mass, because the elastic modes carry no net translation), over
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -351,6 +351,11 @@ class DiscBrake:
         steps (no reference run needed; see
         :meth:`fuzzymbs.mbs.integrate.SimulationModel.deviations`)."""
         return self.simulation.deviations(check_samples(samples))
+
+    def run_ahead(self, samples: Mapping[str, Any], then: Callable[[], Any] | None = None) -> None:
+        """On shared steps: run ``samples`` in the background and keep them for a later
+        call (see :meth:`fuzzymbs.mbs.integrate.SimulationModel.run_ahead`)."""
+        self.simulation.run_ahead(check_samples(samples), then)
 
     @property
     def shares_steps(self) -> bool:
