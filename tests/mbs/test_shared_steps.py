@@ -200,6 +200,30 @@ def test_bad_renewals_are_refused():
         )
 
 
+def test_the_reference_error_predicted_from_two_logging_runs():
+    # closed form: with a modal error exactly C r^q (q = REFERENCE_ORDER) at rtol 1e-2
+    # and 1e-3, the prediction at the reference's rtol is C r_ref^q
+    from fuzzymbs.background import Background
+    from fuzzymbs.mbs.shared_steps import (
+        REFERENCE_ORDER,
+        REFERENCE_RTOL,
+        SharedSteps,
+        predicted_reference_error,
+    )
+
+    t = np.linspace(0.0, 1.0, 11)
+    error = 3.0 * np.sin(t)  # C(t)
+    runs = {}
+    for rtol in (1e-2, 1e-3):
+        outputs = {"y": np.cos(t) + error * rtol**REFERENCE_ORDER}
+        none = Background(dict)
+        runs[rtol] = SharedSteps({}, t, t > 0, outputs, none, REFERENCE_RTOL)
+    predicted = predicted_reference_error(runs[1e-2], 1e-2, runs[1e-3], 1e-3)
+    np.testing.assert_allclose(
+        predicted["y"], np.abs(error) * REFERENCE_RTOL**REFERENCE_ORDER, rtol=1e-9, atol=1e-15
+    )
+
+
 def test_runs_ahead_are_kept_and_waited_for(scheme, monkeypatch):
     # run_ahead runs its samples in the background and keeps them; the next call waits
     # for them and runs only the others, bit for bit as without them

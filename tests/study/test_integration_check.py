@@ -417,6 +417,46 @@ def test_the_plans_first_points_run_ahead_on_the_model_the_choice_takes():
     np.testing.assert_array_equal(AheadDecay.ahead[0][1], adaptive.plan.next_batch()[:, 0])
 
 
+class PredictedReference(LargeReferenceError):
+    """:class:`LargeReferenceError` that predicts its reference's error before the
+    reference runs, a factor PREDICTION_MARGIN short (as on the brake's study 2)."""
+
+    def share_steps(self, modal) -> PredictedReference:
+        return PredictedReference(self.rtol, float(np.asarray(modal["a"])[0]))
+
+    def tightened(self, factor: float = 10.0) -> PredictedReference:
+        return PredictedReference(self.rtol / factor, self.modal)
+
+    def predicted_reference_error(self, tighter):
+        from fuzzymbs.study.integration_check import PREDICTION_MARGIN
+
+        return {"y": self.REFERENCE / PREDICTION_MARGIN * np.sin(np.pi * TIME)}
+
+
+def test_the_model_built_ahead_is_the_one_for_the_predicted_reference_error():
+    # the same study as above, but the model built while the reference runs is the one
+    # for PREDICTION_MARGIN times the predicted reference error: here exactly the one
+    # the final choice asks for, so it is taken and no other is built
+    from fuzzymbs.study.integration_check import TARGET_FRACTION
+
+    rtol = 1e-2
+    s = np.sin(np.pi * TIME)
+    c = SharedDecay.SLOPE
+    width = 0.2 * (np.exp(-TIME) + c * rtol**1.2 * s)
+    scale = np.maximum(width, 0.1 * width.max())
+    pilot = np.max(c * 0.1 * rtol**1.2 * (1 - 10**-1.2) * s / scale)
+    reference = np.max(LargeReferenceError.REFERENCE * s / scale)
+    factor = (pilot / (TARGET_FRACTION * 0.01 - reference)) ** (1 / 1.2)
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    study = Study(PredictedReference(rtol), fuzzy, levels=2, integration_tolerance=0.01)
+    attrs = study.run(progress=False).dataset.attrs
+    assert attrs["integration_tolerance_factor"] == pytest.approx(factor, rel=1e-9)
+    assert attrs["integration_reference_error_predicted"] == pytest.approx(
+        reference / 1.5, rel=1e-9
+    )
+    assert attrs["integration_pilot_runs"] == 2 * 2 + 4 + 1  # one model built: taken
+
+
 class FailingReference(SharedDecay):
     """:class:`SharedDecay` whose reference run (started in the background) failed: the
     failure is raised where the reference's error is first asked for."""

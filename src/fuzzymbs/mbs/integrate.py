@@ -27,7 +27,12 @@ from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
 from fuzzymbs.mbs.kernels.simd import LANES
-from fuzzymbs.mbs.shared_steps import SharedSteps, kept_run, share_steps
+from fuzzymbs.mbs.shared_steps import (
+    SharedSteps,
+    kept_run,
+    predicted_reference_error,
+    share_steps,
+)
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
 
 #: Kernel choices of :func:`simulate`.
@@ -643,6 +648,19 @@ class SimulationModel:
     def shares_steps(self) -> bool:
         """True when every sample takes the modal sample's step sequence (:meth:`share_steps`)."""
         return self.shared is not None
+
+    def predicted_reference_error(
+        self, tighter: SimulationModel
+    ) -> dict[str, NDArray[np.float64]] | None:
+        """On shared steps, with ``tighter`` this model at a tighter tolerance (also on
+        shared steps): the reference's error per output (T,) predicted from the two
+        modal logging runs, before the reference has run
+        (:func:`fuzzymbs.mbs.shared_steps.predicted_reference_error`); else None."""
+        if self.shared is None or tighter.shared is None:
+            return None
+        return predicted_reference_error(
+            self.shared, self.settings["rtol"], tighter.shared, tighter.settings["rtol"]
+        )
 
     @property
     def reference_error(self) -> dict[str, NDArray[np.float64]] | None:

@@ -362,6 +362,11 @@ class DiscBrake:
         """True after :meth:`share_steps`."""
         return self.simulation.shares_steps
 
+    def predicted_reference_error(self, tighter: DiscBrake) -> dict[str, NDArray] | None:
+        """On shared steps: the reference's error predicted before it has run (see
+        :meth:`fuzzymbs.mbs.integrate.SimulationModel.predicted_reference_error`)."""
+        return self.simulation.predicted_reference_error(tighter.simulation)
+
     @property
     def reference_error(self) -> dict[str, NDArray[np.float64]] | None:
         """With shared steps, the estimated error of the correcting reference per output."""
