@@ -203,6 +203,11 @@ print(json.dumps({{"wall_s": time.perf_counter() - wall, "cpu_s": time.process_t
     "integration_pilot_error": float(attrs.get("integration_pilot_error", float("nan"))),
     "integration_reference_error": float(
         attrs.get("time_integration_reference_error", float("nan"))),
+    "integration_reference_error_pilot": float(
+        attrs.get("integration_reference_error", float("nan"))),
+    "integration_reference_error_predicted": float(
+        attrs.get("integration_reference_error_predicted", float("nan"))),
+    "integration_pilot_runs": int(attrs.get("integration_pilot_runs", 0)),
     "method_error": float(attrs.get("method_error", float("nan"))),
     "runs": int(attrs.get("adaptive_runs", attrs.get("runs", -1))),
     "validation_runs": int(attrs.get("validation_runs", 0)),
