@@ -172,7 +172,7 @@ def predicted_reference_error(
     runs at two tolerances, before the reference has run: with ``e(r) = C r^q`` (q =
     :data:`REFERENCE_ORDER`), ``e(coarse) = |y(coarse) - y(fine)| / (1 - (fine /
     coarse)^q)``, scaled to the reference's tolerance. On the brake (10 ms, rtol 1e-2
-    and 1e-3) it predicts 0.047 % / 0.20 % of study 1's / study 2's cut widths,
+    and 1e-3) it predicts 0.053 % / 0.21 % of study 1's / study 2's cut widths,
     against 0.049 % / 0.29 % estimated from the reference runs themselves."""
     q = REFERENCE_ORDER
     ratio = fine_rtol / coarse_rtol
