@@ -353,20 +353,28 @@ class LargeReferenceError(SharedDecay):
         return LargeReferenceError(self.rtol / factor, self.modal)
 
 
-def test_a_model_built_ahead_too_loose_for_the_reference_is_not_taken():
-    # the reference's error (R / 0.12 of the pilot's cut width, a third of the target)
-    # tightens the factor 1.4 times beyond the one built ahead for an exact reference:
-    # that model is discarded and the factor is met exactly (closed forms as above)
-    from fuzzymbs.study.integration_check import REUSE_DECADES, TARGET_FRACTION
+def _large_reference_pilot(rtol: float) -> tuple[float, float, float]:
+    """Closed forms (as above) of :class:`LargeReferenceError`'s pilot estimate, its
+    reference error on the pilot's cut widths and the study's target (0.5 x 1 %)."""
+    from fuzzymbs.study.integration_check import TARGET_FRACTION
 
-    rtol = 1e-2
     s = np.sin(np.pi * TIME)
     c = SharedDecay.SLOPE
     width = 0.2 * (np.exp(-TIME) + c * rtol**1.2 * s)
     scale = np.maximum(width, 0.1 * width.max())
     pilot = np.max(c * 0.1 * rtol**1.2 * (1 - 10**-1.2) * s / scale)
     reference = np.max(LargeReferenceError.REFERENCE * s / scale)
-    target = TARGET_FRACTION * 0.01
+    return pilot, reference, TARGET_FRACTION * 0.01
+
+
+def test_a_model_built_ahead_too_loose_for_the_reference_is_not_taken():
+    # the reference's error (R / 0.12 of the pilot's cut width, a third of the target)
+    # tightens the factor 1.4 times beyond the one built ahead for an exact reference:
+    # that model is discarded and the factor is met exactly (closed forms as above)
+    from fuzzymbs.study.integration_check import REUSE_DECADES
+
+    rtol = 1e-2
+    pilot, reference, target = _large_reference_pilot(rtol)
     factor = (pilot / (target - reference)) ** (1 / 1.2)
     optimistic = (pilot / target) ** (1 / 1.2)
     assert np.log10(factor / optimistic) > REUSE_DECADES and optimistic > 1.0
@@ -437,16 +445,9 @@ def test_the_model_built_ahead_is_the_one_for_the_predicted_reference_error():
     # the same study as above, but the model built while the reference runs is the one
     # for PREDICTION_MARGIN times the predicted reference error: here exactly the one
     # the final choice asks for, so it is taken and no other is built
-    from fuzzymbs.study.integration_check import TARGET_FRACTION
-
     rtol = 1e-2
-    s = np.sin(np.pi * TIME)
-    c = SharedDecay.SLOPE
-    width = 0.2 * (np.exp(-TIME) + c * rtol**1.2 * s)
-    scale = np.maximum(width, 0.1 * width.max())
-    pilot = np.max(c * 0.1 * rtol**1.2 * (1 - 10**-1.2) * s / scale)
-    reference = np.max(LargeReferenceError.REFERENCE * s / scale)
-    factor = (pilot / (TARGET_FRACTION * 0.01 - reference)) ** (1 / 1.2)
+    pilot, reference, target = _large_reference_pilot(rtol)
+    factor = (pilot / (target - reference)) ** (1 / 1.2)
     fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
     study = Study(PredictedReference(rtol), fuzzy, levels=2, integration_tolerance=0.01)
     attrs = study.run(progress=False).dataset.attrs
