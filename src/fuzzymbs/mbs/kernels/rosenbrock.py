@@ -306,8 +306,9 @@ def advance_block_ros(
             break
         # a lane that needs a new Jacobian waits (masked) so that one evaluation serves
         # several lanes. On its own steps it waits until every stepping lane needs one
-        # (the lanes' renewals fall into step; without waiting, the brake's study-1
-        # corners at rtol 1e-3 took 8.9 s instead of 6.1 s). On a shared sequence it
+        # (the lanes' renewals fall into step; with the shared-sequence rule below, whose
+        # lanes' own schedules never meet, the brake's study-1 corners at rtol 1e-3 took
+        # 8.9 s instead of 6.1 s). On a shared sequence it
         # waits only while a lane behind it steps on without needing one: that lane
         # catches up and needs one at the same logged point. A lane that waited for lanes
         # ahead of it would stay behind, waiting at every renewal (the same corners on a
