@@ -542,6 +542,16 @@ def _ahead(model: Any, first: Mapping | None) -> None:
     run_ahead(first, lambda: _prepare(model))
 
 
+def _relative_to(errors: Mapping[str, Any], scales: Mapping[str, np.ndarray]) -> float:
+    """Largest common error (output -> (size,)) over its output's band scale."""
+    largest = 0.0
+    for name, scale in scales.items():
+        if name in errors:
+            common = np.asarray(errors[name], dtype=float).reshape(-1)
+            largest = max(largest, float(np.max(common / scale)))
+    return largest
+
+
 def _band_scale(values: np.ndarray) -> np.ndarray | None:
     """max(w, 0.1 max w) of the corners' spread ``values`` (k, size); None if no width."""
     width = values.max(axis=0) - values.min(axis=0)
@@ -595,28 +605,22 @@ def _choose_shared(
     # while the reference runs finish, the model for the reference error predicted from
     # the two modal logging runs (none: an exact reference) is built, the plan's first
     # points run on it, and the check's tighter model is started after them
-    predicted = 0.0
     predict = getattr(shared, "predicted_reference_error", None)
     prediction = predict(fine) if callable(predict) else None
-    for name, scale in scales.items():
-        if prediction is not None and name in prediction:
-            common = np.asarray(prediction[name], dtype=float).reshape(-1)
-            predicted = max(predicted, float(np.max(common / scale)))
+    predicted = _relative_to(prediction or {}, scales)
     likely = factor_for(max(target - PREDICTION_MARGIN * predicted, 0.5 * target))
-    speculative = None
+    speculative = ahead_on = None  # the model built ahead; the one running ahead
     first_columns = None if first is None or not len(first) else dict(columns(first))
     if _reuses_fine(likely):
-        _ahead(fine, first_columns)  # the pilot's tighter model will do
+        ahead_on = fine  # the pilot's tighter model will do
     elif likely > 1.0:
         speculative = Background(_prepared_model, shared, likely, first_columns)
     else:
-        _ahead(shared, first_columns)
-    reference_part = 0.0
-    reference_error = shared.reference_error or {}  # waits for the reference runs
-    for name, scale in scales.items():
-        if name in reference_error:
-            common = np.asarray(reference_error[name], dtype=float).reshape(-1)
-            reference_part = max(reference_part, float(np.max(common / scale)))
+        ahead_on = shared
+    if ahead_on is not None:
+        _ahead(ahead_on, first_columns)
+    # waits for the reference runs
+    reference_part = _relative_to(shared.reference_error or {}, scales)
     budget = max(target - reference_part, 0.5 * target)  # what the steps may add
     note = ""
     if reference_part > 0.5 * target:
@@ -630,11 +634,12 @@ def _choose_shared(
         factor, chosen = 10.0, fine  # the pilot's tighter model: near enough
     elif speculative is not None and _near(factor, likely):
         factor, chosen = likely, speculative.result()  # near enough as well
+        ahead_on = chosen
     else:
         chosen = shared.tightened(factor) if factor > 1.0 else shared
         built += factor > 1.0
-    _prepare(chosen)  # the check's tighter model, unless started above already (or after
-    # the runs ahead: prepare_tightened is idempotent, and a model's call waits for them)
+    if chosen is not ahead_on:
+        _prepare(chosen)  # the check's tighter model (the runs ahead start it after them)
     return chosen, ToleranceChoice(
         factor,
         error,
