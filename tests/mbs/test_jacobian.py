@@ -98,3 +98,27 @@ def test_brake_jacobian_against_finite_differences(brake, speeds):
             g, r = got[row][block], ref[row][block]
             error = np.linalg.norm(g - r) / np.linalg.norm(r)
             assert error < bound, (row, name, error)
+
+
+def test_brake_jacobian_of_a_lane_does_not_depend_on_its_neighbours(brake):
+    # a sample's Jacobian in a block of four copies of itself (the vector assembly,
+    # every point gathered for all lanes) is bit for bit its Jacobian beside a sample
+    # 0.8 rad further round the disc (other master cells: the per-lane assembly, its
+    # points gathered lane by lane) and beside a sample with the pads lifted off (its
+    # lanes out of contact: zero rows in the shared sums)
+    rng = np.random.default_rng(8)
+    n = brake.n_dofs
+    params = brake.parameters.values(
+        {"nodal_force": np.array([16e3, 17e3, 16e3]), "disc_speed": np.array([1.0, 400.0, 1.0])}
+    )
+    states = np.zeros((3, 2 * n))
+    states[:, :n] = rng.normal(scale=1e-7, size=n)
+    states[:, n:] = rng.normal(scale=1e-4, size=n)
+    for row, press in ((0, 55e-6), (1, 55e-6), (2, -1e-3)):
+        states[row, brake.body_dofs["lower_pad"].start] = press
+        states[row, brake.body_dofs["upper_pad"].start] = -press
+    alone = analytic(brake, params[[0]], states[[0]], 2e-3)[0]
+    assert np.abs(alone[brake.n_dofs :, : brake.n_dofs]).max() > 1e6  # in contact
+    for neighbour in (1, 2):
+        mixed = analytic(brake, params[[0, neighbour]], states[[0, neighbour]], 2e-3)[0]
+        assert np.array_equal(mixed, alone), neighbour

@@ -109,67 +109,161 @@ def _add(jac, n, i, j, value):
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
-    """Add every recorded contact point's ``W^T (K W + C W_q)`` to jq and ``W^T C W`` to jv."""
+    """Add every recorded contact point's ``W^T (K W + C W_q)`` to jq and ``W^T C W`` to jv.
+
+    Pass by pass: the points' rows of ``W``, ``K W + C W_q`` and ``C W`` are gathered
+    (columns: the two bodies' coordinates) and jq, jv receive the products in one
+    sweep (:func:`_gathered_products`), so that an element of jq and jv is loaded and
+    stored once per pass, not once per point.
+    """
     jrec, jnodes = work[10], work[11]
-    wl = np.zeros(3 * n * L)  # the same, four lanes per vector: [L (n r + col) + lane]
+    w_rows, kq_rows, kv_rows = work[13], work[14], work[15]
+    wl = np.zeros(3 * n * L)  # a point's W, four lanes per vector: [L (n r + col) + lane]
     wql = np.zeros(3 * n * L)
-    kwl = np.zeros(3 * n * L)
+    kql = np.zeros(3 * n * L)
+    kvl = np.zeros(3 * n * L)
     masked = np.zeros(JREC * L)  # one lane's record, the others zero
     masters = np.empty(4, dtype=np.int64)
+    cols = np.empty(n, dtype=np.int64)
     row0 = 0
     for c in range(ci.shape[0]):
         nslave = ci[c, C_NSLAVE]
         sb = ci[c, C_SBODY]
         mb = ci[c, C_MBODY]
         slaves = ipool[ci[c, C_SLAVE0] : ci[c, C_SLAVE0] + nslave]
+        cols0, cols1 = _body_columns(bi, sb)
+        cols2, cols3 = _body_columns(bi, mb)
+        if mb == sb:
+            cols2, cols3 = cols1, cols1
+        ranges = (cols0, cols1, cols2, cols3)
+        ncol = 0
+        for half in range(2):
+            for col in range(ranges[2 * half], ranges[2 * half + 1]):
+                cols[ncol] = col
+                ncol += 1
+        stride = 3 * nslave  # gathered rows per column
+        rows = 0
         for k in range(nslave):
             base = L * JREC * (row0 + k)
-            cols0, cols1 = _body_columns(bi, sb)
-            cols2, cols3 = _body_columns(bi, mb)
-            if mb == sb:
-                cols2, cols3 = cols1, cols1
-            ranges = (cols0, cols1, cols2, cols3)
-            shared = _shared_nodes(jnodes, row0 + k)
             # the usual case: one set of master nodes for all lanes, one vector pass; else
             # each lane alone through the same vector arithmetic (the other lanes' record
-            # zeroed), so that a lane's Jacobian does not depend on its neighbours' path
-            for lane in range(1 if shared else L):
-                if shared:
-                    if not _any_active(jrec, base):
-                        break
-                    record, at = jrec, base
-                else:
-                    active = False
-                    for e in range(18):
-                        active = active or jrec[base + L * e + lane] != 0.0
-                    if not active:
-                        continue
-                    for e in range(JREC * L):
-                        masked[e] = jrec[base + e] if e % L == lane else 0.0
-                    record, at = masked, 0
+            # zeroed) and only its own lane gathered, so that a lane's Jacobian does not
+            # depend on its neighbours' path
+            if _shared_nodes(jnodes, row0 + k):
+                if not _any_active(jrec, base):
+                    continue
+                for q in range(4):
+                    masters[q] = jnodes[L * 4 * (row0 + k) + L * q]
+                _contact_point_lanes(
+                    n, bi, bf, fpool, rot, rot_a, jrec, base, slaves[k], masters, sb, mb,
+                    ranges, wl, wql, kql, kvl,
+                )  # fmt: skip
+                _gather(wl, kql, kvl, n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, -1)
+                rows += 3
+                continue
+            if not _any_active(jrec, base):
+                continue
+            _clear_rows(ncol, stride, rows, w_rows, kq_rows, kv_rows)
+            for lane in range(L):
+                active = False
+                for e in range(18):
+                    active = active or jrec[base + L * e + lane] != 0.0
+                if not active:
+                    continue
+                for e in range(JREC * L):
+                    masked[e] = jrec[base + e] if e % L == lane else 0.0
                 for q in range(4):
                     masters[q] = jnodes[L * 4 * (row0 + k) + L * q + lane]
                 _contact_point_lanes(
-                    n,
-                    bi,
-                    bf,
-                    fpool,
-                    rot,
-                    rot_a,
-                    record,
-                    at,
-                    slaves[k],
-                    masters,
-                    sb,
-                    mb,
-                    ranges,
-                    wl,
-                    wql,
-                    kwl,
-                    jq,
-                    jv,
-                )
+                    n, bi, bf, fpool, rot, rot_a, masked, 0, slaves[k], masters, sb, mb,
+                    ranges, wl, wql, kql, kvl,
+                )  # fmt: skip
+                _gather(wl, kql, kvl, n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, lane)
+            rows += 3
+        _gathered_products(n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, jq, jv)
         row0 += nslave
+
+
+@nb.njit(cache=True)
+def _gather(wl, kql, kvl, n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, lane):
+    """A point's three rows of W, K W + C W_q and C W into the pass's gathered rows
+    ``rows .. rows + 2`` (layout ``[L (stride ic + row) + lane]``, ic the column's
+    index in ``cols``): all lanes (``lane = -1``) or one lane's values only."""
+    for ic in range(ncol):
+        for r in range(3):
+            src = L * (n * r + cols[ic])
+            dst = L * (stride * ic + rows + r)
+            if lane < 0:
+                V.store(w_rows, dst, V.load(wl, src))
+                V.store(kq_rows, dst, V.load(kql, src))
+                V.store(kv_rows, dst, V.load(kvl, src))
+            else:
+                w_rows[dst + lane] = wl[src + lane]
+                kq_rows[dst + lane] = kql[src + lane]
+                kv_rows[dst + lane] = kvl[src + lane]
+
+
+@nb.njit(cache=True)
+def _clear_rows(ncol, stride, rows, w_rows, kq_rows, kv_rows):
+    """Zero a point's three gathered rows in every lane (lanes out of contact add 0)."""
+    zero = V.splat(0.0)
+    for ic in range(ncol):
+        for r in range(3):
+            dst = L * (stride * ic + rows + r)
+            V.store(w_rows, dst, zero)
+            V.store(kq_rows, dst, zero)
+            V.store(kv_rows, dst, zero)
+
+
+@nb.njit(cache=True)
+def _gathered_products(n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, jq, jv):
+    """``jq += W^T (K W + C W_q)``, ``jv += W^T (C W)`` over a pass's gathered rows.
+
+    Tiles of 2 x 2 elements of both matrices (eight accumulators, six loads per eight
+    fused multiply-adds). Compiled without fast-math: each element's sum runs over
+    the rows in their order, so a row that is zero in a lane (out of contact there,
+    gathered for another lane) leaves that lane's sum bit for bit unchanged.
+    """
+    zero = V.splat(0.0)
+    for ia in range(0, ncol, 2):
+        ib = ia + 1 if ia + 1 < ncol else ia
+        for ja in range(0, ncol, 2):
+            jb = ja + 1 if ja + 1 < ncol else ja
+            q_aa = q_ab = q_ba = q_bb = zero
+            v_aa = v_ab = v_ba = v_bb = zero
+            wa0 = L * stride * ia
+            wb0 = L * stride * ib
+            ka0 = L * stride * ja
+            kb0 = L * stride * jb
+            for r in range(rows):
+                w_a = V.load(w_rows, wa0 + L * r)
+                w_b = V.load(w_rows, wb0 + L * r)
+                kq_a = V.load(kq_rows, ka0 + L * r)
+                kq_b = V.load(kq_rows, kb0 + L * r)
+                kv_a = V.load(kv_rows, ka0 + L * r)
+                kv_b = V.load(kv_rows, kb0 + L * r)
+                q_aa = V.fma(w_a, kq_a, q_aa)
+                q_ab = V.fma(w_a, kq_b, q_ab)
+                q_ba = V.fma(w_b, kq_a, q_ba)
+                q_bb = V.fma(w_b, kq_b, q_bb)
+                v_aa = V.fma(w_a, kv_a, v_aa)
+                v_ab = V.fma(w_a, kv_b, v_ab)
+                v_ba = V.fma(w_b, kv_a, v_ba)
+                v_bb = V.fma(w_b, kv_b, v_bb)
+            _add_pair(jq, jv, n, cols[ia], cols[ja], q_aa, v_aa)
+            if jb != ja:
+                _add_pair(jq, jv, n, cols[ia], cols[jb], q_ab, v_ab)
+            if ib != ia:
+                _add_pair(jq, jv, n, cols[ib], cols[ja], q_ba, v_ba)
+                if jb != ja:
+                    _add_pair(jq, jv, n, cols[ib], cols[jb], q_bb, v_bb)
+
+
+@nb.njit(cache=True, inline="always")
+def _add_pair(jq, jv, n, i, j, value_q, value_v):
+    at = L * (n * i + j)
+    V.store(jq, at, V.load(jq, at) + value_q)
+    V.store(jv, at, V.load(jv, at) + value_v)
 
 
 @nb.njit(cache=True)
@@ -195,10 +289,11 @@ def _any_active(jrec, base):
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def _contact_point_lanes(
-    n, bi, bf, fpool, rot, rot_a, jrec, base, slave, masters, sb, mb, ranges, wl, wql, kwl, jq, jv
+    n, bi, bf, fpool, rot, rot_a, jrec, base, slave, masters, sb, mb, ranges, wl, wql, kql, kvl
 ):
-    """One contact point's ``W^T (K W + C W_q)`` and ``W^T C W`` for four lanes at once
-    (the lanes share the slave and master nodes; weights, frames and K, C differ)."""
+    """One contact point's ``W``, ``K W + C W_q`` and ``C W`` (3 x n, on the two bodies'
+    columns) for four lanes at once (the lanes share the slave and master nodes;
+    weights, frames and K, C differ)."""
     zero = V.splat(0.0)
     for half in range(2):
         for col in range(ranges[2 * half], ranges[2 * half + 1]):
@@ -207,11 +302,9 @@ def _contact_point_lanes(
                 V.store(wql, L * (n * r + col), zero)
     _node_map_lanes(bi, bf, fpool, rot, rot_a, sb, slave, V.splat(1.0), n, wl, wql)
     _master_map_lanes(bi, bf, fpool, rot, rot_a, mb, masters, jrec, base, n, wl, wql)
-    _local_product_lanes(jrec, base, n, wl, kwl, ranges, False)
-    _local_product_lanes(jrec, base + 9 * L, n, wql, kwl, ranges, True)
-    _accumulate_lanes(jq, n, wl, kwl, ranges)
-    _local_product_lanes(jrec, base + 9 * L, n, wl, kwl, ranges, False)
-    _accumulate_lanes(jv, n, wl, kwl, ranges)
+    _local_product_lanes(jrec, base, n, wl, kql, ranges, False)
+    _local_product_lanes(jrec, base + 9 * L, n, wql, kql, ranges, True)
+    _local_product_lanes(jrec, base + 9 * L, n, wl, kvl, ranges, False)
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
@@ -320,22 +413,6 @@ def _local_product_lanes(jrec, at, n, wl, kwl, ranges, add):
                     acc = V.fma(m_rq, V.load(wl, L * (n * q + col)), acc)
                 dst = L * (n * r + col)
                 V.store(kwl, dst, V.load(kwl, dst) + acc if add else acc)
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def _accumulate_lanes(jac, n, wl, kwl, ranges):
-    """``jac += wl^T kwl`` over the two bodies' column ranges (four lanes)."""
-    for half_i in range(2):
-        for i in range(ranges[2 * half_i], ranges[2 * half_i + 1]):
-            w0 = V.load(wl, L * i)
-            w1 = V.load(wl, L * (n + i))
-            w2 = V.load(wl, L * (2 * n + i))
-            for half_j in range(2):
-                for j in range(ranges[2 * half_j], ranges[2 * half_j + 1]):
-                    at = L * (n * i + j)
-                    acc = w0 * V.load(kwl, L * j) + w1 * V.load(kwl, L * (n + j))
-                    acc = acc + w2 * V.load(kwl, L * (2 * n + j))
-                    V.store(jac, at, V.load(jac, at) + acc)
 
 
 @nb.njit(cache=True)
