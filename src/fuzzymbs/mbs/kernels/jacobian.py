@@ -425,7 +425,10 @@ def _body_columns(bi, b):
 @nb.njit(cache=True, fastmath=V.FAST)
 def _mass_inverse_rows(n, bi, fpool, jac):
     """Generalised forces -> accelerations on the rows of every translating body
-    (Schur complement of ``[[m P P^T, B], [B^T, I]]``, as in the right-hand side)."""
+    (Schur complement of ``[[m P P^T, B], [B^T, I]]``, as in the right-hand side),
+    column by column (each column is a generalised force), four lanes per vector."""
+    r = np.empty(3 * L)  # ntr <= 3
+    acc_s = np.empty(3 * L)
     for b in range(bi.shape[0]):
         kind, dof0, ntr, nm, _, _ = body_row(bi, b)
         if kind != KIND_TRANSLATING:
@@ -433,27 +436,21 @@ def _mass_inverse_rows(n, bi, fpool, jac):
         s0 = bi[b, B_MAT0]
         b0 = s0 + ntr * ntr
         qd0 = dof0 + ntr
-        r = np.empty((ntr, L))
-        acc_s = np.empty((ntr, L))
-        for j in range(n):  # column by column: each column is a generalised force
+        for j in range(n):
             for a in range(ntr):
-                for lane in range(L):
-                    value = jac[L * (n * (dof0 + a) + j) + lane]
-                    for m in range(nm):
-                        value -= fpool[b0 + a * nm + m] * jac[L * (n * (qd0 + m) + j) + lane]
-                    r[a, lane] = value
+                value = V.load(jac, L * (n * (dof0 + a) + j))
+                for m in range(nm):
+                    value = value - fpool[b0 + a * nm + m] * V.load(jac, L * (n * (qd0 + m) + j))
+                V.store(r, L * a, value)
             for a in range(ntr):
-                for lane in range(L):
-                    value = 0.0
-                    for a2 in range(ntr):
-                        value += fpool[s0 + a * ntr + a2] * r[a2, lane]
-                    acc_s[a, lane] = value
-            for a in range(ntr):
-                for lane in range(L):
-                    jac[L * (n * (dof0 + a) + j) + lane] = acc_s[a, lane]
+                value = V.splat(0.0)
+                for a2 in range(ntr):
+                    value = value + fpool[s0 + a * ntr + a2] * V.load(r, L * a2)
+                V.store(acc_s, L * a, value)
+                V.store(jac, L * (n * (dof0 + a) + j), value)
             for m in range(nm):
-                for lane in range(L):
-                    value = jac[L * (n * (qd0 + m) + j) + lane]
-                    for a in range(ntr):
-                        value -= fpool[b0 + a * nm + m] * acc_s[a, lane]
-                    jac[L * (n * (qd0 + m) + j) + lane] = value
+                at = L * (n * (qd0 + m) + j)
+                value = V.load(jac, at)
+                for a in range(ntr):
+                    value = value - fpool[b0 + a * nm + m] * V.load(acc_s, L * a)
+                V.store(jac, at, value)
