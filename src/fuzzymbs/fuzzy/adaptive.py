@@ -57,6 +57,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
     evaluate_series,
     node_values,
 )
+from fuzzymbs.fuzzy.grids import unique_rows
 from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
@@ -521,7 +522,7 @@ class AdaptiveTransformation:
                     / scale[np.minimum(level, len(scale) - 2), element[-count_off * elements :]],
                 )
             )
-        unique, inverse = np.unique(points, axis=0, return_inverse=True)
+        unique, inverse = unique_rows(points, sort=True)
         indicator: dict[tuple[int, ...], float] = {}
         for index in self.grid.active:
             degrees, coefficients = self.grid.surplus(index)
@@ -569,7 +570,7 @@ class AdaptiveTransformation:
         the next refinement could still add) plus the size of the kernel correction (where
         the runs off the grid already found the sparse grid off)."""
         points, level, element = self._extremal_points()
-        unique, inverse = np.unique(points, axis=0, return_inverse=True)
+        unique, inverse = unique_rows(points, sort=True)
         doubt = np.zeros(len(points))
         for index in self.grid.active:
             degrees, coefficients = self.grid.surplus(index)
@@ -591,7 +592,7 @@ class AdaptiveTransformation:
         moving = self._high > self._low
         candidates, _, _ = self._extremal_points()
         # one candidate per location, with its largest doubt
-        candidates, inverse = np.unique(np.round(candidates, 12), axis=0, return_inverse=True)
+        candidates, inverse = unique_rows(np.round(candidates, 12), sort=True)
         priority = np.zeros(len(candidates))
         np.maximum.at(priority, inverse.ravel(), doubt)
         taken = np.concatenate((self._units, planned))

@@ -32,7 +32,9 @@ def cartesian(values: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
     return np.stack([grid.reshape(-1) for grid in grids], axis=1)
 
 
-def unique_rows(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+def unique_rows(
+    points: NDArray[np.float64], *, sort: bool = False
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Unique rows by exact float equality, kept in order of first appearance.
 
     Unlike ``np.unique(axis=0)`` this compares values, not bytes, so -0.0 == 0.0.
@@ -41,11 +43,17 @@ def unique_rows(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArr
     ----------
     points : ndarray, shape (P, n)
         Points, one per row.
+    sort : bool
+        The distinct rows in lexicographic order (the first column first), the
+        order of ``np.unique(points, axis=0)``, instead of first appearance; for
+        ten thousands of rows many times faster than ``np.unique``, which sorts
+        them as structured records.
 
     Returns
     -------
     unique : ndarray, shape (U, n)
-        The distinct rows, in the order in which they first occur in ``points``.
+        The distinct rows, in the order in which they first occur in ``points``
+        (or sorted).
     inverse : ndarray of intp, shape (P,)
         Row of ``unique`` for every row of ``points``: ``unique[inverse] == points``.
     """
@@ -57,6 +65,8 @@ def unique_rows(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArr
     group_of_sorted = np.cumsum(new_group) - 1
     group = np.empty(count, dtype=np.intp)
     group[order] = group_of_sorted
+    if sort:
+        return sorted_points[new_group], group
     # renumber groups by first appearance in the original order
     first_position = np.full(group_of_sorted[-1] + 1, count, dtype=np.intp)
     np.minimum.at(first_position, group, np.arange(count))
