@@ -120,8 +120,10 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
     w_rows, kq_rows, kv_rows = work[13], work[14], work[15]
     wl = np.zeros(3 * n * L)  # a point's W, four lanes per vector: [L (n r + col) + lane]
     wql = np.zeros(3 * n * L)
-    kql = np.zeros(3 * n * L)
-    kvl = np.zeros(3 * n * L)
+    # one point's gathered rows (the per-lane path), layout of the pass's with stride 3
+    point_w = np.zeros(3 * n * L)
+    point_kq = np.zeros(3 * n * L)
+    point_kv = np.zeros(3 * n * L)
     masked = np.zeros(JREC * L)  # one lane's record, the others zero
     masters = np.empty(4, dtype=np.int64)
     cols = np.empty(n, dtype=np.int64)
@@ -156,9 +158,8 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
                     masters[q] = jnodes[L * 4 * (row0 + k) + L * q]
                 _contact_point_lanes(
                     n, bi, bf, fpool, rot, rot_a, jrec, base, slaves[k], masters, sb, mb,
-                    ranges, wl, wql, kql, kvl,
+                    ranges, wl, wql, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows,
                 )  # fmt: skip
-                _gather(wl, kql, kvl, n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, -1)
                 rows += 3
                 continue
             if not _any_active(jrec, base):
@@ -176,31 +177,26 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
                     masters[q] = jnodes[L * 4 * (row0 + k) + L * q + lane]
                 _contact_point_lanes(
                     n, bi, bf, fpool, rot, rot_a, masked, 0, slaves[k], masters, sb, mb,
-                    ranges, wl, wql, kql, kvl,
+                    ranges, wl, wql, cols, ncol, 3, 0, point_w, point_kq, point_kv,
                 )  # fmt: skip
-                _gather(wl, kql, kvl, n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, lane)
+                _copy_lane(point_w, point_kq, point_kv, ncol, stride, rows, lane,
+                           w_rows, kq_rows, kv_rows)  # fmt: skip
             rows += 3
         _gathered_products(n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, jq, jv)
         row0 += nslave
 
 
 @nb.njit(cache=True)
-def _gather(wl, kql, kvl, n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, lane):
-    """A point's three rows of W, K W + C W_q and C W into the pass's gathered rows
-    ``rows .. rows + 2`` (layout ``[L (stride ic + row) + lane]``, ic the column's
-    index in ``cols``): all lanes (``lane = -1``) or one lane's values only."""
+def _copy_lane(point_w, point_kq, point_kv, ncol, stride, rows, lane, w_rows, kq_rows, kv_rows):
+    """Lane ``lane`` of one point's gathered rows (stride 3) into the pass's rows
+    ``rows .. rows + 2`` (layout ``[L (stride ic + row) + lane]``)."""
     for ic in range(ncol):
         for r in range(3):
-            src = L * (n * r + cols[ic])
-            dst = L * (stride * ic + rows + r)
-            if lane < 0:
-                V.store(w_rows, dst, V.load(wl, src))
-                V.store(kq_rows, dst, V.load(kql, src))
-                V.store(kv_rows, dst, V.load(kvl, src))
-            else:
-                w_rows[dst + lane] = wl[src + lane]
-                kq_rows[dst + lane] = kql[src + lane]
-                kv_rows[dst + lane] = kvl[src + lane]
+            src = L * (3 * ic + r) + lane
+            dst = L * (stride * ic + rows + r) + lane
+            w_rows[dst] = point_w[src]
+            kq_rows[dst] = point_kq[src]
+            kv_rows[dst] = point_kv[src]
 
 
 @nb.njit(cache=True)
@@ -289,11 +285,13 @@ def _any_active(jrec, base):
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def _contact_point_lanes(
-    n, bi, bf, fpool, rot, rot_a, jrec, base, slave, masters, sb, mb, ranges, wl, wql, kql, kvl
-):
+    n, bi, bf, fpool, rot, rot_a, jrec, base, slave, masters, sb, mb, ranges, wl, wql,
+    cols, ncol, stride, rows, w_rows, kq_rows, kv_rows,
+):  # fmt: skip
     """One contact point's ``W``, ``K W + C W_q`` and ``C W`` (3 x n, on the two bodies'
-    columns) for four lanes at once (the lanes share the slave and master nodes;
-    weights, frames and K, C differ)."""
+    columns ``cols``) for four lanes at once (the lanes share the slave and master
+    nodes; weights, frames and K, C differ), written to the gathered rows ``rows ..
+    rows + 2`` (layout ``[L (stride ic + row) + lane]``)."""
     zero = V.splat(0.0)
     for half in range(2):
         for col in range(ranges[2 * half], ranges[2 * half + 1]):
@@ -302,9 +300,48 @@ def _contact_point_lanes(
                 V.store(wql, L * (n * r + col), zero)
     _node_map_lanes(bi, bf, fpool, rot, rot_a, sb, slave, V.splat(1.0), n, wl, wql)
     _master_map_lanes(bi, bf, fpool, rot, rot_a, mb, masters, jrec, base, n, wl, wql)
-    _local_product_lanes(jrec, base, n, wl, kql, ranges, False)
-    _local_product_lanes(jrec, base + 9 * L, n, wql, kql, ranges, True)
-    _local_product_lanes(jrec, base + 9 * L, n, wl, kvl, ranges, False)
+    _point_rows(jrec, base, n, wl, wql, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows)
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _point_rows(jrec, base, n, wl, wql, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows):
+    """The rows of W, ``K W + C W_q`` and ``C W`` from the maps ``wl``, ``wql`` and the
+    force law's K, C of the record at ``base`` (held in registers across the columns)."""
+    b = base
+    k00, k01, k02 = V.load(jrec, b), V.load(jrec, b + L), V.load(jrec, b + 2 * L)
+    k10, k11, k12 = V.load(jrec, b + 3 * L), V.load(jrec, b + 4 * L), V.load(jrec, b + 5 * L)
+    k20, k21, k22 = V.load(jrec, b + 6 * L), V.load(jrec, b + 7 * L), V.load(jrec, b + 8 * L)
+    b = base + 9 * L
+    c00, c01, c02 = V.load(jrec, b), V.load(jrec, b + L), V.load(jrec, b + 2 * L)
+    c10, c11, c12 = V.load(jrec, b + 3 * L), V.load(jrec, b + 4 * L), V.load(jrec, b + 5 * L)
+    c20, c21, c22 = V.load(jrec, b + 6 * L), V.load(jrec, b + 7 * L), V.load(jrec, b + 8 * L)
+    for ic in range(ncol):
+        col = cols[ic]
+        w0 = V.load(wl, L * col)
+        w1 = V.load(wl, L * (n + col))
+        w2 = V.load(wl, L * (2 * n + col))
+        z0 = V.load(wql, L * col)
+        z1 = V.load(wql, L * (n + col))
+        z2 = V.load(wql, L * (2 * n + col))
+        v0 = V.fma(c02, w2, V.fma(c01, w1, c00 * w0))
+        v1 = V.fma(c12, w2, V.fma(c11, w1, c10 * w0))
+        v2 = V.fma(c22, w2, V.fma(c21, w1, c20 * w0))
+        q0 = V.fma(k02, w2, V.fma(k01, w1, k00 * w0))
+        q1 = V.fma(k12, w2, V.fma(k11, w1, k10 * w0))
+        q2 = V.fma(k22, w2, V.fma(k21, w1, k20 * w0))
+        q0 = q0 + V.fma(c02, z2, V.fma(c01, z1, c00 * z0))
+        q1 = q1 + V.fma(c12, z2, V.fma(c11, z1, c10 * z0))
+        q2 = q2 + V.fma(c22, z2, V.fma(c21, z1, c20 * z0))
+        at = L * (stride * ic + rows)
+        V.store(w_rows, at, w0)
+        V.store(w_rows, at + L, w1)
+        V.store(w_rows, at + 2 * L, w2)
+        V.store(kq_rows, at, q0)
+        V.store(kq_rows, at + L, q1)
+        V.store(kq_rows, at + 2 * L, q2)
+        V.store(kv_rows, at, v0)
+        V.store(kv_rows, at + L, v1)
+        V.store(kv_rows, at + 2 * L, v2)
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
@@ -398,21 +435,6 @@ def _add_row(wl, wql, at, sigma, c0, c1, c2, u0, u1, u2, z0, z1, z2):
     """One row r of a rotating body's maps: ``A[r] . u`` (times sigma) and ``A[r] . z``."""
     V.store(wl, at, V.load(wl, at) + sigma * (c0 * u0 + c1 * u1 + c2 * u2))
     V.store(wql, at, V.load(wql, at) + (c0 * z0 + c1 * z1 + c2 * z2))
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def _local_product_lanes(jrec, at, n, wl, kwl, ranges, add):
-    """``kwl`` (+)= the contact point's 3 x 3 block of the record at ``at`` times ``wl``
-    (four lanes)."""
-    for half in range(2):
-        for col in range(ranges[2 * half], ranges[2 * half + 1]):
-            for r in range(3):
-                acc = V.splat(0.0)
-                for q in range(3):
-                    m_rq = V.load(jrec, at + L * (3 * r + q))
-                    acc = V.fma(m_rq, V.load(wl, L * (n * q + col)), acc)
-                dst = L * (n * r + col)
-                V.store(kwl, dst, V.load(kwl, dst) + acc if add else acc)
 
 
 @nb.njit(cache=True)
