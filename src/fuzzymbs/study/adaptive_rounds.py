@@ -60,7 +60,15 @@ def run_rounds(
     evaluated = reused = 0
     round_number = 0
     while True:
-        points = plan.next_batch()
+        points = plan.next_batch()  # judges the last round's runs first
+        if round_number > 0:
+            logger.info(
+                "study %s: certified error after round %d: %.3g of the cut width (tolerance %.3g)",
+                study.name,
+                round_number - 1,
+                plan.engine.error,
+                plan.engine.tolerance,
+            )
         if len(points) == 0:
             break
         digest = hashlib.sha256(np.ascontiguousarray(points, dtype="<f8").tobytes()).hexdigest()
@@ -100,14 +108,12 @@ def run_rounds(
         evaluated += done
         reused += from_store
         logger.info(
-            "study %s: adaptive round %d, %d runs (%d from the store); %d runs so far, "
-            "certified error %.3g",
+            "study %s: adaptive round %d, %d runs (%d from the store); %d runs so far",
             study.name,
             round_number,
             len(points),
             from_store,
             plan.engine.runs,
-            plan.engine.error,
         )
         round_number += 1
     return {name: np.concatenate(value) for name, value in pieces.items()}, evaluated, reused
