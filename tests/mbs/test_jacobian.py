@@ -101,10 +101,11 @@ def test_brake_jacobian_against_finite_differences(brake, speeds):
 
 
 def test_brake_jacobian_of_a_lane_does_not_depend_on_its_neighbours(brake):
-    # a sample's Jacobian in a block of four copies of itself (the vector assembly) is
-    # bit for bit its Jacobian beside a sample 0.8 rad further round the disc (other
-    # master cells: each lane assembled alone) and beside a sample with the pads lifted
-    # off (out of contact: its lanes add zeros)
+    # a sample's Jacobian in a block of four copies of itself (the vector assembly,
+    # every point gathered for all lanes) is bit for bit its Jacobian beside a sample
+    # 0.8 rad further round the disc (other master cells: the per-lane assembly, its
+    # points gathered lane by lane) and beside a sample with the pads lifted off (its
+    # lanes out of contact: zero rows in the shared sums)
     rng = np.random.default_rng(8)
     n = brake.n_dofs
     params = brake.parameters.values(

@@ -244,7 +244,7 @@ class SharedDecay(ScalableDecay):
     sample (a0), plus the reference's own error ``R sin(pi t)`` common to all samples,
     which it reports as ``reference_error``."""
 
-    SLOPE = 10.0  # c
+    SLOPE = 100.0  # c: the pilot asks for a factor above MIN_SHARED_FACTOR
     REFERENCE = 2e-6  # R
 
     def __init__(self, rtol: float, modal: float | None = None) -> None:
@@ -339,6 +339,44 @@ def test_study_on_shared_steps_chooses_its_tolerance_from_the_corners():
     # and without shared steps the same model takes the own-steps pilot
     own = Study(SharedDecay(rtol), fuzzy, levels=2, shared_steps=False).run(progress=False)
     assert own.dataset.attrs["integration_shared_steps"] == 0
+
+
+class GentleDecay(SharedDecay):
+    """:class:`SharedDecay` with a tenth of its slope: the pilot's error asks the law for a
+    factor between 1 and 10."""
+
+    SLOPE = 10.0
+
+    def share_steps(self, modal) -> GentleDecay:
+        return GentleDecay(self.rtol, float(np.asarray(modal["a"])[0]))
+
+    def tightened(self, factor: float = 10.0) -> GentleDecay:
+        return GentleDecay(self.rtol / factor, self.modal)
+
+
+def test_a_factor_between_the_pilots_tolerances_takes_the_tighter_one():
+    # the law would divide rtol by (pilot / (target - R))^(1 / 1.2), between 1 and 10
+    # (closed forms as in the test above); between its two tolerances the pilot does
+    # not interpolate, so the study takes its tenfold tighter model (MIN_SHARED_FACTOR)
+    from fuzzymbs.study.integration_check import MIN_SHARED_FACTOR, TARGET_FRACTION
+
+    rtol = 1e-2
+    s = np.sin(np.pi * TIME)
+    c = GentleDecay.SLOPE
+    width = 2 * 0.1 * (np.exp(-TIME) + c * rtol**1.2 * s)
+    scale = np.maximum(width, 0.1 * width.max())
+    pilot = np.max(c * 0.1 * rtol**1.2 * (1 - 10**-1.2) * s / scale)
+    reference = np.max(GentleDecay.REFERENCE * s / scale)
+    law = (pilot / (TARGET_FRACTION * 0.01 - reference)) ** (1 / 1.2)
+    assert 1.0 < law < MIN_SHARED_FACTOR == 10.0
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    result = Study(GentleDecay(rtol), fuzzy, levels=2, integration_tolerance=0.01).run(
+        progress=False
+    )
+    attrs = result.dataset.attrs
+    assert attrs["integration_pilot_error"] == pytest.approx(pilot, rel=1e-9)
+    assert attrs["integration_tolerance_factor"] == MIN_SHARED_FACTOR
+    assert attrs["time_integration"] == f"closed form, rtol {rtol / 10:g}, shared"
 
 
 class LargeReferenceError(SharedDecay):

@@ -172,8 +172,8 @@ def predicted_reference_error(
     runs at two tolerances, before the reference has run: with ``e(r) = C r^q`` (q =
     :data:`REFERENCE_ORDER`), ``e(coarse) = |y(coarse) - y(fine)| / (1 - (fine /
     coarse)^q)``, scaled to the reference's tolerance. On the brake (10 ms, rtol 1e-2
-    and 1e-3) it predicts 0.053 % / 0.21 % of study 1's / study 2's cut widths,
-    against 0.049 % / 0.29 % estimated from the reference runs themselves."""
+    and 1e-3) it predicts 0.049 % / 0.21 % of study 1's / study 2's cut widths,
+    against 0.052 % / 0.29 % estimated from the reference runs themselves."""
     q = REFERENCE_ORDER
     ratio = fine_rtol / coarse_rtol
     scale = (coarse.reference_rtol / coarse_rtol) ** q / (1.0 - ratio**q)

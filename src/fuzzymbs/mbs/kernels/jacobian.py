@@ -109,67 +109,157 @@ def _add(jac, n, i, j, value):
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
-    """Add every recorded contact point's ``W^T (K W + C W_q)`` to jq and ``W^T C W`` to jv."""
+    """Add every recorded contact point's ``W^T (K W + C W_q)`` to jq and ``W^T C W`` to jv.
+
+    Pass by pass: the points' rows of ``W``, ``K W + C W_q`` and ``C W`` are gathered
+    (columns: the two bodies' coordinates) and jq, jv receive the products in one
+    sweep (:func:`_gathered_products`), so that an element of jq and jv is loaded and
+    stored once per pass, not once per point.
+    """
     jrec, jnodes = work[10], work[11]
-    wl = np.zeros(3 * n * L)  # the same, four lanes per vector: [L (n r + col) + lane]
+    w_rows, kq_rows, kv_rows = work[13], work[14], work[15]
+    wl = np.zeros(3 * n * L)  # a point's W, four lanes per vector: [L (n r + col) + lane]
     wql = np.zeros(3 * n * L)
-    kwl = np.zeros(3 * n * L)
+    # one point's gathered rows (the per-lane path), layout of the pass's with stride 3
+    point_w = np.zeros(3 * n * L)
+    point_kq = np.zeros(3 * n * L)
+    point_kv = np.zeros(3 * n * L)
     masked = np.zeros(JREC * L)  # one lane's record, the others zero
     masters = np.empty(4, dtype=np.int64)
+    cols = np.empty(n, dtype=np.int64)
     row0 = 0
     for c in range(ci.shape[0]):
         nslave = ci[c, C_NSLAVE]
         sb = ci[c, C_SBODY]
         mb = ci[c, C_MBODY]
         slaves = ipool[ci[c, C_SLAVE0] : ci[c, C_SLAVE0] + nslave]
+        cols0, cols1 = _body_columns(bi, sb)
+        cols2, cols3 = _body_columns(bi, mb)
+        if mb == sb:
+            cols2, cols3 = cols1, cols1
+        ranges = (cols0, cols1, cols2, cols3)
+        ncol = 0
+        for half in range(2):
+            for col in range(ranges[2 * half], ranges[2 * half + 1]):
+                cols[ncol] = col
+                ncol += 1
+        stride = 3 * nslave  # gathered rows per column
+        rows = 0
         for k in range(nslave):
             base = L * JREC * (row0 + k)
-            cols0, cols1 = _body_columns(bi, sb)
-            cols2, cols3 = _body_columns(bi, mb)
-            if mb == sb:
-                cols2, cols3 = cols1, cols1
-            ranges = (cols0, cols1, cols2, cols3)
-            shared = _shared_nodes(jnodes, row0 + k)
             # the usual case: one set of master nodes for all lanes, one vector pass; else
             # each lane alone through the same vector arithmetic (the other lanes' record
-            # zeroed), so that a lane's Jacobian does not depend on its neighbours' path
-            for lane in range(1 if shared else L):
-                if shared:
-                    if not _any_active(jrec, base):
-                        break
-                    record, at = jrec, base
-                else:
-                    active = False
-                    for e in range(18):
-                        active = active or jrec[base + L * e + lane] != 0.0
-                    if not active:
-                        continue
-                    for e in range(JREC * L):
-                        masked[e] = jrec[base + e] if e % L == lane else 0.0
-                    record, at = masked, 0
+            # zeroed) and only its own lane gathered, so that a lane's Jacobian does not
+            # depend on its neighbours' path
+            if _shared_nodes(jnodes, row0 + k):
+                if not _any_active(jrec, base):
+                    continue
+                for q in range(4):
+                    masters[q] = jnodes[L * 4 * (row0 + k) + L * q]
+                _contact_point_lanes(
+                    n, bi, bf, fpool, rot, rot_a, jrec, base, slaves[k], masters, sb, mb,
+                    ranges, wl, wql, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows,
+                )  # fmt: skip
+                rows += 3
+                continue
+            if not _any_active(jrec, base):
+                continue
+            _clear_rows(ncol, stride, rows, w_rows, kq_rows, kv_rows)
+            for lane in range(L):
+                active = False
+                for e in range(18):
+                    active = active or jrec[base + L * e + lane] != 0.0
+                if not active:
+                    continue
+                for e in range(JREC * L):
+                    masked[e] = jrec[base + e] if e % L == lane else 0.0
                 for q in range(4):
                     masters[q] = jnodes[L * 4 * (row0 + k) + L * q + lane]
                 _contact_point_lanes(
-                    n,
-                    bi,
-                    bf,
-                    fpool,
-                    rot,
-                    rot_a,
-                    record,
-                    at,
-                    slaves[k],
-                    masters,
-                    sb,
-                    mb,
-                    ranges,
-                    wl,
-                    wql,
-                    kwl,
-                    jq,
-                    jv,
-                )
+                    n, bi, bf, fpool, rot, rot_a, masked, 0, slaves[k], masters, sb, mb,
+                    ranges, wl, wql, cols, ncol, 3, 0, point_w, point_kq, point_kv,
+                )  # fmt: skip
+                _copy_lane(point_w, point_kq, point_kv, ncol, stride, rows, lane,
+                           w_rows, kq_rows, kv_rows)  # fmt: skip
+            rows += 3
+        _gathered_products(n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, jq, jv)
         row0 += nslave
+
+
+@nb.njit(cache=True)
+def _copy_lane(point_w, point_kq, point_kv, ncol, stride, rows, lane, w_rows, kq_rows, kv_rows):
+    """Lane ``lane`` of one point's gathered rows (stride 3) into the pass's rows
+    ``rows .. rows + 2`` (layout ``[L (stride ic + row) + lane]``)."""
+    for ic in range(ncol):
+        for r in range(3):
+            src = L * (3 * ic + r) + lane
+            dst = L * (stride * ic + rows + r) + lane
+            w_rows[dst] = point_w[src]
+            kq_rows[dst] = point_kq[src]
+            kv_rows[dst] = point_kv[src]
+
+
+@nb.njit(cache=True)
+def _clear_rows(ncol, stride, rows, w_rows, kq_rows, kv_rows):
+    """Zero a point's three gathered rows in every lane (lanes out of contact add 0)."""
+    zero = V.splat(0.0)
+    for ic in range(ncol):
+        for r in range(3):
+            dst = L * (stride * ic + rows + r)
+            V.store(w_rows, dst, zero)
+            V.store(kq_rows, dst, zero)
+            V.store(kv_rows, dst, zero)
+
+
+@nb.njit(cache=True)
+def _gathered_products(n, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows, jq, jv):
+    """``jq += W^T (K W + C W_q)``, ``jv += W^T (C W)`` over a pass's gathered rows.
+
+    Tiles of 2 x 2 elements of both matrices (eight accumulators, six loads per eight
+    fused multiply-adds). Compiled without fast-math: each element's sum runs over
+    the rows in their order, so a row that is zero in a lane (out of contact there,
+    gathered for another lane) leaves that lane's sum bit for bit unchanged.
+    """
+    zero = V.splat(0.0)
+    for ia in range(0, ncol, 2):
+        ib = ia + 1 if ia + 1 < ncol else ia
+        for ja in range(0, ncol, 2):
+            jb = ja + 1 if ja + 1 < ncol else ja
+            q_aa = q_ab = q_ba = q_bb = zero
+            v_aa = v_ab = v_ba = v_bb = zero
+            wa0 = L * stride * ia
+            wb0 = L * stride * ib
+            ka0 = L * stride * ja
+            kb0 = L * stride * jb
+            for r in range(rows):
+                w_a = V.load(w_rows, wa0 + L * r)
+                w_b = V.load(w_rows, wb0 + L * r)
+                kq_a = V.load(kq_rows, ka0 + L * r)
+                kq_b = V.load(kq_rows, kb0 + L * r)
+                kv_a = V.load(kv_rows, ka0 + L * r)
+                kv_b = V.load(kv_rows, kb0 + L * r)
+                q_aa = V.fma(w_a, kq_a, q_aa)
+                q_ab = V.fma(w_a, kq_b, q_ab)
+                q_ba = V.fma(w_b, kq_a, q_ba)
+                q_bb = V.fma(w_b, kq_b, q_bb)
+                v_aa = V.fma(w_a, kv_a, v_aa)
+                v_ab = V.fma(w_a, kv_b, v_ab)
+                v_ba = V.fma(w_b, kv_a, v_ba)
+                v_bb = V.fma(w_b, kv_b, v_bb)
+            _add_pair(jq, jv, n, cols[ia], cols[ja], q_aa, v_aa)
+            if jb != ja:
+                _add_pair(jq, jv, n, cols[ia], cols[jb], q_ab, v_ab)
+            if ib != ia:
+                _add_pair(jq, jv, n, cols[ib], cols[ja], q_ba, v_ba)
+                if jb != ja:
+                    _add_pair(jq, jv, n, cols[ib], cols[jb], q_bb, v_bb)
+
+
+@nb.njit(cache=True, inline="always")
+def _add_pair(jq, jv, n, i, j, value_q, value_v):
+    at = L * (n * i + j)
+    V.store(jq, at, V.load(jq, at) + value_q)
+    V.store(jv, at, V.load(jv, at) + value_v)
 
 
 @nb.njit(cache=True)
@@ -195,10 +285,13 @@ def _any_active(jrec, base):
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def _contact_point_lanes(
-    n, bi, bf, fpool, rot, rot_a, jrec, base, slave, masters, sb, mb, ranges, wl, wql, kwl, jq, jv
-):
-    """One contact point's ``W^T (K W + C W_q)`` and ``W^T C W`` for four lanes at once
-    (the lanes share the slave and master nodes; weights, frames and K, C differ)."""
+    n, bi, bf, fpool, rot, rot_a, jrec, base, slave, masters, sb, mb, ranges, wl, wql,
+    cols, ncol, stride, rows, w_rows, kq_rows, kv_rows,
+):  # fmt: skip
+    """One contact point's ``W``, ``K W + C W_q`` and ``C W`` (3 x n, on the two bodies'
+    columns ``cols``) for four lanes at once (the lanes share the slave and master
+    nodes; weights, frames and K, C differ), written to the gathered rows ``rows ..
+    rows + 2`` (layout ``[L (stride ic + row) + lane]``)."""
     zero = V.splat(0.0)
     for half in range(2):
         for col in range(ranges[2 * half], ranges[2 * half + 1]):
@@ -207,11 +300,48 @@ def _contact_point_lanes(
                 V.store(wql, L * (n * r + col), zero)
     _node_map_lanes(bi, bf, fpool, rot, rot_a, sb, slave, V.splat(1.0), n, wl, wql)
     _master_map_lanes(bi, bf, fpool, rot, rot_a, mb, masters, jrec, base, n, wl, wql)
-    _local_product_lanes(jrec, base, n, wl, kwl, ranges, False)
-    _local_product_lanes(jrec, base + 9 * L, n, wql, kwl, ranges, True)
-    _accumulate_lanes(jq, n, wl, kwl, ranges)
-    _local_product_lanes(jrec, base + 9 * L, n, wl, kwl, ranges, False)
-    _accumulate_lanes(jv, n, wl, kwl, ranges)
+    _point_rows(jrec, base, n, wl, wql, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows)
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _point_rows(jrec, base, n, wl, wql, cols, ncol, stride, rows, w_rows, kq_rows, kv_rows):
+    """The rows of W, ``K W + C W_q`` and ``C W`` from the maps ``wl``, ``wql`` and the
+    force law's K, C of the record at ``base`` (held in registers across the columns)."""
+    b = base
+    k00, k01, k02 = V.load(jrec, b), V.load(jrec, b + L), V.load(jrec, b + 2 * L)
+    k10, k11, k12 = V.load(jrec, b + 3 * L), V.load(jrec, b + 4 * L), V.load(jrec, b + 5 * L)
+    k20, k21, k22 = V.load(jrec, b + 6 * L), V.load(jrec, b + 7 * L), V.load(jrec, b + 8 * L)
+    b = base + 9 * L
+    c00, c01, c02 = V.load(jrec, b), V.load(jrec, b + L), V.load(jrec, b + 2 * L)
+    c10, c11, c12 = V.load(jrec, b + 3 * L), V.load(jrec, b + 4 * L), V.load(jrec, b + 5 * L)
+    c20, c21, c22 = V.load(jrec, b + 6 * L), V.load(jrec, b + 7 * L), V.load(jrec, b + 8 * L)
+    for ic in range(ncol):
+        col = cols[ic]
+        w0 = V.load(wl, L * col)
+        w1 = V.load(wl, L * (n + col))
+        w2 = V.load(wl, L * (2 * n + col))
+        z0 = V.load(wql, L * col)
+        z1 = V.load(wql, L * (n + col))
+        z2 = V.load(wql, L * (2 * n + col))
+        v0 = V.fma(c02, w2, V.fma(c01, w1, c00 * w0))
+        v1 = V.fma(c12, w2, V.fma(c11, w1, c10 * w0))
+        v2 = V.fma(c22, w2, V.fma(c21, w1, c20 * w0))
+        q0 = V.fma(k02, w2, V.fma(k01, w1, k00 * w0))
+        q1 = V.fma(k12, w2, V.fma(k11, w1, k10 * w0))
+        q2 = V.fma(k22, w2, V.fma(k21, w1, k20 * w0))
+        q0 = q0 + V.fma(c02, z2, V.fma(c01, z1, c00 * z0))
+        q1 = q1 + V.fma(c12, z2, V.fma(c11, z1, c10 * z0))
+        q2 = q2 + V.fma(c22, z2, V.fma(c21, z1, c20 * z0))
+        at = L * (stride * ic + rows)
+        V.store(w_rows, at, w0)
+        V.store(w_rows, at + L, w1)
+        V.store(w_rows, at + 2 * L, w2)
+        V.store(kq_rows, at, q0)
+        V.store(kq_rows, at + L, q1)
+        V.store(kq_rows, at + 2 * L, q2)
+        V.store(kv_rows, at, v0)
+        V.store(kv_rows, at + L, v1)
+        V.store(kv_rows, at + 2 * L, v2)
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
@@ -307,37 +437,6 @@ def _add_row(wl, wql, at, sigma, c0, c1, c2, u0, u1, u2, z0, z1, z2):
     V.store(wql, at, V.load(wql, at) + (c0 * z0 + c1 * z1 + c2 * z2))
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
-def _local_product_lanes(jrec, at, n, wl, kwl, ranges, add):
-    """``kwl`` (+)= the contact point's 3 x 3 block of the record at ``at`` times ``wl``
-    (four lanes)."""
-    for half in range(2):
-        for col in range(ranges[2 * half], ranges[2 * half + 1]):
-            for r in range(3):
-                acc = V.splat(0.0)
-                for q in range(3):
-                    m_rq = V.load(jrec, at + L * (3 * r + q))
-                    acc = V.fma(m_rq, V.load(wl, L * (n * q + col)), acc)
-                dst = L * (n * r + col)
-                V.store(kwl, dst, V.load(kwl, dst) + acc if add else acc)
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def _accumulate_lanes(jac, n, wl, kwl, ranges):
-    """``jac += wl^T kwl`` over the two bodies' column ranges (four lanes)."""
-    for half_i in range(2):
-        for i in range(ranges[2 * half_i], ranges[2 * half_i + 1]):
-            w0 = V.load(wl, L * i)
-            w1 = V.load(wl, L * (n + i))
-            w2 = V.load(wl, L * (2 * n + i))
-            for half_j in range(2):
-                for j in range(ranges[2 * half_j], ranges[2 * half_j + 1]):
-                    at = L * (n * i + j)
-                    acc = w0 * V.load(kwl, L * j) + w1 * V.load(kwl, L * (n + j))
-                    acc = acc + w2 * V.load(kwl, L * (2 * n + j))
-                    V.store(jac, at, V.load(jac, at) + acc)
-
-
 @nb.njit(cache=True)
 def _body_columns(bi, b):
     """First and end coordinate of body b."""
@@ -348,7 +447,10 @@ def _body_columns(bi, b):
 @nb.njit(cache=True, fastmath=V.FAST)
 def _mass_inverse_rows(n, bi, fpool, jac):
     """Generalised forces -> accelerations on the rows of every translating body
-    (Schur complement of ``[[m P P^T, B], [B^T, I]]``, as in the right-hand side)."""
+    (Schur complement of ``[[m P P^T, B], [B^T, I]]``, as in the right-hand side),
+    column by column (each column is a generalised force), four lanes per vector."""
+    r = np.empty(3 * L)  # ntr <= 3
+    acc_s = np.empty(3 * L)
     for b in range(bi.shape[0]):
         kind, dof0, ntr, nm, _, _ = body_row(bi, b)
         if kind != KIND_TRANSLATING:
@@ -356,27 +458,21 @@ def _mass_inverse_rows(n, bi, fpool, jac):
         s0 = bi[b, B_MAT0]
         b0 = s0 + ntr * ntr
         qd0 = dof0 + ntr
-        r = np.empty((ntr, L))
-        acc_s = np.empty((ntr, L))
-        for j in range(n):  # column by column: each column is a generalised force
+        for j in range(n):
             for a in range(ntr):
-                for lane in range(L):
-                    value = jac[L * (n * (dof0 + a) + j) + lane]
-                    for m in range(nm):
-                        value -= fpool[b0 + a * nm + m] * jac[L * (n * (qd0 + m) + j) + lane]
-                    r[a, lane] = value
+                value = V.load(jac, L * (n * (dof0 + a) + j))
+                for m in range(nm):
+                    value = value - fpool[b0 + a * nm + m] * V.load(jac, L * (n * (qd0 + m) + j))
+                V.store(r, L * a, value)
             for a in range(ntr):
-                for lane in range(L):
-                    value = 0.0
-                    for a2 in range(ntr):
-                        value += fpool[s0 + a * ntr + a2] * r[a2, lane]
-                    acc_s[a, lane] = value
-            for a in range(ntr):
-                for lane in range(L):
-                    jac[L * (n * (dof0 + a) + j) + lane] = acc_s[a, lane]
+                value = V.splat(0.0)
+                for a2 in range(ntr):
+                    value = value + fpool[s0 + a * ntr + a2] * V.load(r, L * a2)
+                V.store(acc_s, L * a, value)
+                V.store(jac, L * (n * (dof0 + a) + j), value)
             for m in range(nm):
-                for lane in range(L):
-                    value = jac[L * (n * (qd0 + m) + j) + lane]
-                    for a in range(ntr):
-                        value -= fpool[b0 + a * nm + m] * acc_s[a, lane]
-                    jac[L * (n * (qd0 + m) + j) + lane] = value
+                at = L * (n * (qd0 + m) + j)
+                value = V.load(jac, at)
+                for a in range(ntr):
+                    value = value - fpool[b0 + a * nm + m] * V.load(acc_s, L * a)
+                V.store(jac, at, value)

@@ -5,8 +5,9 @@ factorises one n x n matrix per lane and step. The four matrices are stored
 lane-minor like every block array (element ``(i, j)`` of lane ``l`` at
 ``L (n i + j) + l``), so that elimination and substitution run four lanes per
 vector instruction. Each lane pivots on its own (partial pivoting by rows): the
-pivot search and the row swaps are scalar, O(n^2) per factorisation; the O(n^3)
-elimination is vectorised. A lane whose matrix is singular gets inf/NaN in its
+pivot search and the row swaps are scalar, O(n^2) per factorisation, and run
+only in a lane whose diagonal is beaten (a vector comparison finds those); the
+O(n^3) elimination is vectorised. A lane whose matrix is singular gets inf/NaN in its
 own lane only.
 """
 
@@ -27,7 +28,18 @@ def lu_factor_lanes(a, n, piv):
     swapped rows k and ``piv[L k + l]``.
     """
     for k in range(n):
+        # the largest magnitude below the diagonal, four lanes per vector: a lane whose
+        # diagonal is not beaten keeps row k, exactly as the search below would (it
+        # takes only a strictly larger value; NaN never), without its scalar loads
+        below = V.splat(0.0)
+        for i in range(k + 1, n):
+            value = V.vabs(V.load(a, L * (n * i + k)))
+            below = V.where_lt(below, value, value, below)
+        diagonal = V.vabs(V.load(a, L * (n * k + k)))
         for lane in range(L):
+            if not V.get(below, lane) > V.get(diagonal, lane):
+                piv[L * k + lane] = k
+                continue
             best = k
             largest = abs(a[L * (n * k + k) + lane])
             for i in range(k + 1, n):

@@ -35,7 +35,9 @@ from fuzzymbs.mbs.kernels.layout import (
     B_MAT0,
     B_NM,
     B_NTR,
+    C_MBODY,
     C_NSLAVE,
+    C_SBODY,
     KIND_ROTATING,
     KIND_TRANSLATING,
     S_COS,
@@ -56,16 +58,22 @@ def make_work(sysdata):
     speed, acceleration, rot_a (bodies 9 L), scratch (SCRATCH L), cells (7 L) int,
     rot3 (3, 3), charts (2 slaves L): chart coordinates u, v of a pass's slaves,
     jrec (JREC slaves L), jnodes (4 slaves L) int: the contact record of the
-    Jacobian (all passes' slaves), jflag (1,) int: 1 while the Jacobian records)``.
-    Scratch rows: see the ``S_*`` constants.
+    Jacobian (all passes' slaves), jflag (1,) int: 1 while the Jacobian records,
+    w_rows, kq_rows, kv_rows (columns x 3 slaves L, largest pass): the Jacobian's
+    gathered contact rows)``. Scratch rows: see the ``S_*`` constants.
     """
     ndof = sysdata[0]
     nbody = sysdata[1].shape[0]
     ntracked = sysdata[3].shape[0]
     ci = sysdata[11]
     all_slaves = 0
+    gathered = 0
     for c in range(ci.shape[0]):
         all_slaves += ci[c, C_NSLAVE]
+        columns = _body_size(sysdata[1], ci[c, C_SBODY])
+        if ci[c, C_MBODY] != ci[c, C_SBODY]:
+            columns += _body_size(sysdata[1], ci[c, C_MBODY])
+        gathered = max(gathered, columns * 3 * ci[c, C_NSLAVE])
     return (
         np.zeros(ndof * L),
         np.zeros(ntracked * 3 * L),
@@ -80,7 +88,16 @@ def make_work(sysdata):
         np.zeros(JREC * all_slaves * L),
         np.zeros(4 * all_slaves * L, dtype=np.int64),
         np.zeros(1, dtype=np.int64),
+        np.zeros(gathered * L),
+        np.zeros(gathered * L),
+        np.zeros(gathered * L),
     )
+
+
+@nb.njit(cache=True)
+def _body_size(bi, b):
+    """Coordinates of body b (translations and modes)."""
+    return bi[b, B_NTR] + bi[b, B_NM]
 
 
 @nb.njit(cache=True)
