@@ -357,11 +357,12 @@ MIN_SHARED_FACTOR = 10.0
 #: model as it is (its sequence is logged already; the error at most 1.2^1.2 of the
 #: target); so does a model built ahead for a factor this much below the chosen one
 REUSE_DECADES = 0.08
-#: a chosen factor up to this many decades below 10 takes the pilot's tighter model
-#: too: its steps cost at most 10^(0.28 x 0.14) = 1.09 times those of the chosen
+#: a model built ahead for a factor up to this many decades above the chosen one is
+#: taken too: its steps cost at most 10^(0.28 x 0.14) = 1.09 times those of the chosen
 #: tolerance (ROS34PW2's steps grow about as rtol^-0.28 on the brake), less than a
 #: logging run at the chosen one takes on a core of its own (the brake's study 1:
-#: 4.6 s of 50 s of runs)
+#: 4.6 s of 50 s of runs). For the pilot's tenfold tighter model the window below 10
+#: no longer matters: a factor below 10 is raised to 10 (MIN_SHARED_FACTOR)
 TIGHTER_REUSE_DECADES = 0.14
 #: the model built while the reference finishes is the one for this many times the
 #: reference error predicted from the modal logging runs (on the brake's studies 1

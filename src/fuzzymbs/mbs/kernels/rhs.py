@@ -70,9 +70,11 @@ def make_work(sysdata):
     gathered = 0
     for c in range(ci.shape[0]):
         all_slaves += ci[c, C_NSLAVE]
-        columns = _body_size(sysdata[1], ci[c, C_SBODY])
+        _, _, ntr, nm, _, _ = body_row(sysdata[1], ci[c, C_SBODY])
+        columns = ntr + nm
         if ci[c, C_MBODY] != ci[c, C_SBODY]:
-            columns += _body_size(sysdata[1], ci[c, C_MBODY])
+            _, _, ntr, nm, _, _ = body_row(sysdata[1], ci[c, C_MBODY])
+            columns += ntr + nm
         gathered = max(gathered, columns * 3 * ci[c, C_NSLAVE])
     return (
         np.zeros(ndof * L),
@@ -92,12 +94,6 @@ def make_work(sysdata):
         np.zeros(gathered * L),
         np.zeros(gathered * L),
     )
-
-
-@nb.njit(cache=True)
-def _body_size(bi, b):
-    """Coordinates of body b (translations and modes)."""
-    return bi[b, B_NTR] + bi[b, B_NM]
 
 
 @nb.njit(cache=True)
