@@ -10,7 +10,7 @@ import pytest
 
 from fuzzymbs.mbs.integrate import evaluate_rhs
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_sample
-from fuzzymbs.mbs.kernels.threads import for_each_range
+from fuzzymbs.mbs.kernels.threads import for_each_range, held_threads, round_robin
 from fuzzymbs.models.brake import DiscBrake
 
 
@@ -47,6 +47,45 @@ def test_single_thread_runs_in_order():
     finally:
         numba.set_num_threads(previous)
     assert order == [0, 1, 2, 3, 4]
+
+
+def test_a_call_beside_a_running_one_takes_only_the_free_threads():
+    # a call that starts while another holds the configured threads gets one thread (it
+    # runs its blocks in order, in its own thread), not a pool beside the running one:
+    # the reference run of a study then keeps its core while the pilot runs
+    threads = numba.get_num_threads()
+    if threads < 2:
+        pytest.skip("needs two threads")
+    inside, release = threading.Event(), threading.Event()
+    seen = {}
+
+    def slow_start(block):
+        return block
+
+    def slow_advance(block, state, begin, end):
+        inside.set()
+        release.wait(10.0)
+        return False
+
+    first = threading.Thread(target=round_robin, args=(threads, 1, 1, slow_start, slow_advance))
+    first.start()
+    try:
+        assert inside.wait(10.0)
+        seen["held"] = held_threads()
+        callers = set()
+
+        def advance(block, state, begin, end):
+            callers.add(threading.get_ident())
+            return False
+
+        round_robin(4, 1, 1, lambda block: block, advance)
+        seen["callers"] = callers
+    finally:
+        release.set()
+        first.join()
+    assert seen["held"] == threads
+    assert seen["callers"] == {threading.get_ident()}  # one thread: this one
+    assert held_threads() == 0  # all given back
 
 
 @pytest.fixture(scope="module")

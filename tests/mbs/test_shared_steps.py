@@ -154,6 +154,32 @@ def test_tightened_keeps_the_reference_and_logs_its_own_sequence(shared):
     assert shared.shares_steps and not DiscBrake(t_end=T_END).shares_steps
 
 
+def test_the_check_sequence_logged_beside_the_reference_is_its_own_logging_run(
+    scheme, shared, monkeypatch
+):
+    # the reference block's third lane logs the modal sample at rtol / 10 / 10: the
+    # sequence a tightened-twice model takes from it, without a logging run of its own,
+    # is bit for bit the one that model's own logging run gives (lanes are independent)
+    import fuzzymbs.mbs.shared_steps as shared_steps
+
+    plain = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-3).simulation
+    assert shared.simulation.shared.ahead == ((1e-3 / 10.0) / 10.0, None)
+    modal = {name: float(v[0]) for name, v in _columns(scheme, [scheme.nominal_index]).items()}
+    own = shared_steps._logged_run(plain.tightened(10.0).tightened(10.0), modal)
+
+    def no_logging_run(*args):
+        raise AssertionError("the sequence logged ahead should have been taken")
+
+    once = shared.tightened(10.0)  # its own logging run (another tolerance)
+    monkeypatch.setattr(shared_steps, "_logged_run", no_logging_run)
+    twice = once.tightened(10.0).simulation.shared
+    np.testing.assert_array_equal(twice.sequence, own.step_times)
+    np.testing.assert_array_equal(twice.renewals, own.step_renewals)
+    for name in OUTPUTS:
+        np.testing.assert_array_equal(twice.modal_outputs[name], own.outputs[name][0])
+    assert twice.reference is shared.simulation.shared.reference
+
+
 @pytest.mark.parametrize(
     ("sequence", "message"),
     [

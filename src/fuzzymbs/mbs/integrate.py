@@ -627,7 +627,7 @@ class SimulationModel:
         if shared is None:
             return tight
         # the tighter model's own sequence, corrected by the same reference
-        return share_steps(tight, shared.modal, shared.references)
+        return share_steps(tight, shared.modal, shared.references, shared.ahead)
 
     def prepare_tightened(self, factor: float = 10.0) -> None:
         """Start building ``tightened(factor)`` in a background thread (on shared steps,

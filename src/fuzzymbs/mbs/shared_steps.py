@@ -53,6 +53,13 @@ not need them: :meth:`SimulationModel.deviations` (a sample's outputs minus the
 modal sample's on the same steps, all a study's choice of tolerance compares)
 and further step sequences (:meth:`SimulationModel.tightened`). The correction,
 the reference and its error wait for them when first asked for.
+
+The block's third lane logs the modal sample at :data:`LOG_AHEAD` times tighter
+than the model (a lane costs nothing beside the reference's): the logging run
+of the step sequence a study's check most likely takes. A sequence asked for at
+exactly that tolerance (the same settings, :meth:`SimulationModel.tightened`)
+takes it instead of a logging run of its own; its outputs are bit for bit those
+of that run (each lane on its own steps).
 """
 
 from __future__ import annotations
@@ -82,6 +89,7 @@ class SimulationModel(Protocol):
 
 
 __all__ = [
+    "LOG_AHEAD",
     "REFERENCE_ORDER",
     "REFERENCE_RTOL",
     "KeptRun",
@@ -96,6 +104,14 @@ REFERENCE_RTOL = 1e-6
 #: ROS34PW2's global error falls about as rtol^0.88 with a sequence of its own
 #: (brake studies, rtol 1e-2 to 1e-5, docs/brake.md)
 REFERENCE_ORDER = 0.88
+#: the tolerance factors of the step sequence logged beside the reference runs: a
+#: study's choice tightens the model's tolerance tenfold or more
+#: (:data:`fuzzymbs.study.integration_check.MIN_SHARED_FACTOR`; the brake's study 1
+#: takes 10) and its check tenfold more, so rtol / 10 / 10 (divided in this order, as
+#: :meth:`~fuzzymbs.mbs.integrate.SimulationModel.tightened` divides it)
+LOG_AHEAD = (10.0, 10.0)
+#: longest log of the run logged ahead (its modal sample's accepted steps)
+_AHEAD_CAPACITY = 10**6
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,8 +125,9 @@ class SharedSteps:
     renewals : (K,) True where the modal sample's step took a fresh Jacobian at its
         start (every sample renews there too).
     modal_outputs : output -> (T,) the modal sample on these steps (the logging run).
-    references : the reference runs' ``(reference, reference_error)``, perhaps still
-        running (:class:`Background`).
+    references : the reference runs' ``(reference, reference_error, logged_ahead)``,
+        perhaps still running (:class:`Background`); ``logged_ahead`` the logging run
+        of the block's third lane (a ``SimulationResult``, its first sample) or None.
     reference_rtol : the reference's tolerance.
     kept : runs on these steps at the model's settings, kept for reuse: the parameter
         row's bytes -> :class:`KeptRun` (the logging run for the modal sample; the runs
@@ -124,6 +141,8 @@ class SharedSteps:
     references: Background[tuple[dict, dict]]
     reference_rtol: float
     kept: dict[bytes, KeptRun] = field(default_factory=dict, repr=False)
+    #: ``(rtol, atol)`` of the run logged ahead beside the references (None: none)
+    ahead: tuple[float, float | None] | None = None
 
     @property
     def reference(self) -> dict[str, NDArray[np.float64]]:
@@ -204,25 +223,67 @@ def _run(model: SimulationModel, modal: Mapping[str, float], **extra):
     return result
 
 
-def _reference_runs(model: SimulationModel, modal: Mapping[str, float]) -> tuple[dict, dict]:
-    """The reference (the modal sample at :data:`REFERENCE_RTOL`) and its estimated error,
-    ``|y(10 r) - y(r)| / (10^q - 1)``, q = :data:`REFERENCE_ORDER`, output -> (T,).
+def _ahead_tolerances(model: SimulationModel) -> tuple[float, float | None]:
+    """``(rtol, atol)`` of ``model`` tightened by :data:`LOG_AHEAD`, divided as
+    :meth:`~fuzzymbs.mbs.integrate.SimulationModel.tightened` divides them."""
+    rtol, atol = model.settings["rtol"], model.settings["atol"]
+    for factor in LOG_AHEAD:
+        rtol = rtol / factor
+        atol = None if atol is None else atol / factor
+    return rtol, atol
 
-    The two runs are two lanes of one block, each with its own tolerance and steps (its
-    outputs bit for bit those of the run alone): the block costs about as much as the
-    tighter run alone (the brake over 10 ms: 35 s for both against 31 s and 16 s).
+
+def _reference_runs(
+    model: SimulationModel,
+    modal: Mapping[str, float],
+    ahead: tuple[float, float | None] | None = None,
+) -> tuple[dict, dict, Any]:
+    """The reference (the modal sample at :data:`REFERENCE_RTOL`), its estimated error,
+    ``|y(10 r) - y(r)| / (10^q - 1)``, q = :data:`REFERENCE_ORDER`, output -> (T,), and
+    with ``ahead = (rtol, atol)`` the modal sample's logging run at that tolerance (None
+    if it failed or its log overflowed).
+
+    The runs are lanes of one block, each with its own tolerance and steps (its outputs
+    bit for bit those of the run alone): the block costs about as much as the tightest
+    run alone (the brake over 10 ms: 35 s for both references against 31 s and 16 s).
     """
-    rtols = np.array([REFERENCE_RTOL, 10 * REFERENCE_RTOL])
+    rtols = [REFERENCE_RTOL, 10 * REFERENCE_RTOL]
     atol = model.settings["atol"]  # None: its default fraction of rtol
-    atols = None if atol is None else atol * rtols / model.settings["rtol"]
-    twice = {name: np.array([float(value)] * 2) for name, value in modal.items()}
-    both = model.simulate(twice, rtol=rtols, atol=atols)
-    for row, rtol in enumerate(rtols):
-        _failure(both, row, modal, f"at rtol {rtol:g} ")
+    atols = None if atol is None else [atol * r / model.settings["rtol"] for r in rtols]
+    if ahead is not None and (atols is None) == (ahead[1] is None):
+        # the lane logged ahead first: the kernel logs the first sample's steps
+        rtols = [ahead[0], *rtols]
+        atols = None if atols is None else [ahead[1], *atols]
+        try:
+            runs = model.simulate(
+                _copies(modal, 3),
+                rtol=np.array(rtols),
+                atol=None if atols is None else np.array(atols),
+                log_steps=_AHEAD_CAPACITY,
+            )
+        except InvalidParameterError:  # the log overflowed: the references alone
+            return _reference_runs(model, modal)
+        logged = None if runs.failed[0] else runs
+        return (*_reference_pair(model, modal, runs, 1), logged)
+    both = model.simulate(
+        _copies(modal, 2), rtol=np.array(rtols), atol=None if atols is None else np.array(atols)
+    )
+    return (*_reference_pair(model, modal, both, 0), None)
+
+
+def _copies(modal: Mapping[str, float], count: int) -> dict[str, NDArray[np.float64]]:
+    return {name: np.array([float(value)] * count) for name, value in modal.items()}
+
+
+def _reference_pair(model: SimulationModel, modal: Mapping[str, float], runs, row: int):
+    """``(reference, error)`` from rows ``row`` (REFERENCE_RTOL) and ``row + 1`` (ten times
+    it) of ``runs``; raises if either failed."""
+    for offset, rtol in enumerate((REFERENCE_RTOL, 10 * REFERENCE_RTOL)):
+        _failure(runs, row + offset, modal, f"at rtol {rtol:g} ")
     scale = 10.0**REFERENCE_ORDER - 1.0
-    reference = {name: both.outputs[name][0] for name in model.outputs}
+    reference = {name: runs.outputs[name][row] for name in model.outputs}
     error = {
-        name: np.abs(both.outputs[name][1] - both.outputs[name][0]) / scale
+        name: np.abs(runs.outputs[name][row + 1] - runs.outputs[name][row]) / scale
         for name in model.outputs
     }
     return reference, error
@@ -243,7 +304,8 @@ def _logged_run(model: SimulationModel, modal: Mapping[str, float]):
 def share_steps(
     model: SimulationModel,
     modal: Mapping[str, float],
-    references: Background[tuple[dict, dict]] | None = None,
+    references: Background[tuple[dict, dict, Any]] | None = None,
+    ahead: tuple[float, float | None] | None = None,
 ) -> SimulationModel:
     """``model`` with every sample on the modal sample's step sequence, corrected.
 
@@ -253,7 +315,10 @@ def share_steps(
     modal : the modal sample, ``{parameter: value}`` (names of the model's system).
     references : the reference runs of an earlier call (a tightened model keeps its
         reference); default: started here in the background, at
-        :data:`REFERENCE_RTOL` and ten times it.
+        :data:`REFERENCE_RTOL` and ten times it, with the modal sample logged at
+        :data:`LOG_AHEAD` times the model's tolerance in the same block.
+    ahead : with ``references``: the ``(rtol, atol)`` they log ahead; a model at exactly
+        that tolerance takes that run (waiting for the block) instead of its own.
 
     Returns
     -------
@@ -271,15 +336,27 @@ def share_steps(
     plain = copy.copy(model)
     plain.shared = None
     modal = {name: float(value) for name, value in modal.items()}
+    settings = (plain.settings["rtol"], plain.settings["atol"])
+    logged = None
     if references is None:
-        references = Background(_reference_runs, plain, modal)
-    logged = _logged_run(plain, modal)
+        ahead = _ahead_tolerances(plain)
+        references = Background(_reference_runs, plain, modal, ahead)
+    elif ahead is not None and settings == ahead:
+        logged = references.result()[2]  # None: the lane failed; run it here
+    if logged is None:
+        logged = _logged_run(plain, modal)
     # the logging run stands for the modal sample's replay: with the logged Jacobian
     # renewals the replay repeats its arithmetic (to the rounding of the step lengths)
     outputs = {name: logged.outputs[name][0] for name in model.outputs}
     shared = copy.copy(plain)
     shared.shared = SharedSteps(
-        modal, logged.step_times, logged.step_renewals, outputs, references, REFERENCE_RTOL
+        modal,
+        logged.step_times,
+        logged.step_renewals,
+        outputs,
+        references,
+        REFERENCE_RTOL,
+        ahead=ahead,
     )
     # and a study's modal sample takes it (its outputs become the reference's)
     modal_row = model.compiled.parameters.values(_single(modal))[0]
