@@ -88,6 +88,45 @@ def test_a_call_beside_a_running_one_takes_only_the_free_threads():
     assert held_threads() == 0  # all given back
 
 
+def test_a_helper_joins_a_running_call_once_a_core_is_free():
+    # the second call starts while the first holds every thread: it works alone, and its
+    # helper joins it as soon as the first call ends, while its blocks still run
+    threads = numba.get_num_threads()
+    if threads < 2:
+        pytest.skip("needs two threads")
+    inside, release, joined = threading.Event(), threading.Event(), threading.Event()
+    callers = {}
+
+    def hold(block, state, begin, end):
+        inside.set()
+        release.wait(10.0)
+        return False
+
+    def second_call():
+        def advance(block, state, begin, end):
+            callers[block] = threading.get_ident()
+            if block == 0:  # the caller's block: release the first call, then wait
+                release.set()
+                joined.wait(10.0)
+            else:
+                joined.set()
+            return False
+
+        callers["caller"] = threading.get_ident()
+        round_robin(2, 1, 1, lambda block: block, advance)
+
+    first = threading.Thread(target=round_robin, args=(threads, 1, 1, lambda b: b, hold))
+    first.start()
+    assert inside.wait(10.0)
+    second = threading.Thread(target=second_call)
+    second.start()
+    second.join(20.0)
+    first.join(20.0)
+    assert joined.is_set()
+    assert callers[0] == callers["caller"] and callers[1] != callers["caller"]
+    assert held_threads() == 0
+
+
 @pytest.fixture(scope="module")
 def brake():
     return DiscBrake(t_end=1e-4).compiled

@@ -12,11 +12,13 @@ Kernels called here are compiled with ``nogil=True`` and write disjoint parts
 of their output arrays, so any order of the blocks gives the same results.
 
 Calls from several Python threads at once (a study's reference run in a
-background thread beside its pilot) share the cores: a call takes
-``numba.get_num_threads()`` threads less those the calls already running hold,
-at least one. Without it, the pilot's two threads and the reference's one ran
-on two cores, and the reference -- the longest run, which the study waits for
--- got two thirds of a core (the brake's study 1: 42.7 s against 36 s alone).
+background thread beside its pilot) share the cores. Each thread that works
+on a call holds one of ``numba.get_num_threads()`` cores (the caller's
+setting): the calling thread always works, and up to that many helpers join it
+as cores are free, also while the call runs (when another call ends).
+Without it, the pilot's two threads and the reference's one ran on two cores,
+and the reference -- the longest run, which the study waits for -- got two
+thirds of a core (the brake's study 1: 42.7 s against 36 s alone).
 """
 
 from __future__ import annotations
@@ -29,53 +31,93 @@ from typing import Any
 
 import numba
 
-#: threads the kernel calls running now hold (over all Python threads)
+#: threads working on kernel calls now (over all Python threads), and its guard
 _held = 0
-_held_lock = threading.Lock()
-
-
-def _take(wanted: int) -> int:
-    """Hold up to ``wanted`` threads: the configured ones less those held, at least 1."""
-    global _held
-    with _held_lock:
-        threads = max(1, min(wanted, numba.get_num_threads() - _held))
-        _held += threads
-    return threads
-
-
-def _give(threads: int) -> None:
-    global _held
-    with _held_lock:
-        _held -= threads
+_cores = threading.Condition()
 
 
 def held_threads() -> int:
-    """Threads held by the kernel calls running now (in any Python thread)."""
+    """Threads working on the kernel calls running now (in any Python thread)."""
     return _held
+
+
+def _join(limit: int, force: bool, stop: threading.Event | None = None) -> bool:
+    """Hold a core: at once with ``force``, else once fewer than ``limit`` are held;
+    False if ``stop`` is set first."""
+    global _held
+    with _cores:
+        while not force and _held >= limit:
+            if stop is not None and stop.is_set():
+                return False
+            _cores.wait()
+        _held += 1
+    return True
+
+
+def _leave() -> None:
+    global _held
+    with _cores:
+        _held -= 1
+        _cores.notify_all()
+
+
+def _share(tasks: int, work: Callable[[], None]) -> None:
+    """Run ``work`` (it takes tasks from a queue until none is left) in this thread and
+    in up to ``min(numba.get_num_threads(), tasks) - 1`` helpers, each of which starts
+    once a core is free (or leaves without work when this thread is done)."""
+    limit = numba.get_num_threads()  # the caller's setting (Numba keeps one per thread)
+    helpers = min(limit, tasks) - 1
+    if helpers <= 0:
+        _join(limit, True)
+        try:
+            work()
+        finally:
+            _leave()
+        return
+    stop = threading.Event()
+
+    def helper() -> None:
+        if _join(limit, False, stop):
+            try:
+                work()
+            finally:
+                _leave()
+
+    with ThreadPoolExecutor(max_workers=helpers) as pool:
+        futures = [pool.submit(helper) for _ in range(helpers)]
+        _join(limit, True)
+        try:
+            work()
+        finally:
+            _leave()
+            stop.set()
+            with _cores:
+                _cores.notify_all()  # helpers still waiting for a core leave
+        for future in futures:
+            future.result()  # re-raises a helper's exception
 
 
 def for_each_range(n_items: int, run: Callable[[int, int], None], tasks: int | None = None) -> None:
     """Call ``run(start, stop)`` on contiguous ranges that cover ``range(n_items)``.
 
-    ``tasks`` ranges (default: one per item) are handed out to
-    ``numba.get_num_threads()`` threads (less those other calls hold) as they
-    become free, so that long items balance themselves; with one thread or one
-    range everything runs here.
+    ``tasks`` ranges (default: one per item) are handed out to the threads of
+    :func:`_share` as they become free, so that long items balance themselves;
+    with one thread or one range everything runs here, in order.
     """
     tasks = n_items if tasks is None else max(1, min(tasks, n_items))
     bounds = [n_items * k // tasks for k in range(tasks + 1)]
-    ranges = [(bounds[k], bounds[k + 1]) for k in range(tasks) if bounds[k + 1] > bounds[k]]
-    threads = _take(len(ranges))
-    try:
-        if threads <= 1:
-            for start, stop in ranges:
-                run(start, stop)
-            return
-        with ThreadPoolExecutor(max_workers=threads) as pool:
-            # list() re-raises the first exception of a range
-            list(pool.map(lambda r: run(*r), ranges))
-    finally:
-        _give(threads)
+    queue = deque((bounds[k], bounds[k + 1]) for k in range(tasks) if bounds[k + 1] > bounds[k])
+    lock = threading.Lock()
+
+    def work() -> None:
+        while True:
+            with lock:
+                if not queue:
+                    return
+                start, stop = queue.popleft()
+            run(start, stop)
+
+    _share(len(queue), work)
 
 
 def round_robin(
@@ -90,29 +132,18 @@ def round_robin(
     ``start(b)`` returns block b's state; ``advance(b, state, begin, end)`` takes
     steps ``begin .. end - 1`` and returns False once the block is done. A block
     goes back to the end of a queue after each slice of ``slice_steps`` steps, and
-    ``numba.get_num_threads()`` threads (less those other calls hold) take blocks
-    from its front. Blocks of equal
+    the threads of :func:`_share` take blocks from its front. Blocks of equal
     cost therefore finish together, within a slice: with 9 blocks on 2 threads a
     whole-block split leaves one thread the ninth block alone (5 against 4), slices
-    share it (4.5 each). With one thread or one block, each block runs whole, in order.
+    share it (4.5 each). With one thread, each block runs whole, in order.
     """
-    threads = _take(n_blocks)
-    try:
-        _advance_all(n_blocks, n_steps, slice_steps, start, advance, threads)
-    finally:
-        _give(threads)
-
-
-def _advance_all(n_blocks, n_steps, slice_steps, start, advance, threads: int) -> None:
-    """:func:`round_robin` on ``threads`` threads."""
-    if threads <= 1:
-        for block in range(n_blocks):
-            advance(block, start(block), 0, n_steps)
+    if min(numba.get_num_threads(), n_blocks) <= 1:
+        _share(1, lambda: [advance(b, start(b), 0, n_steps) for b in range(n_blocks)])
         return
     queue = deque((block, None, 0) for block in range(n_blocks))
     lock = threading.Lock()
 
-    def worker() -> None:
+    def work() -> None:
         while True:
             with lock:
                 if not queue:
@@ -125,7 +156,4 @@ def _advance_all(n_blocks, n_steps, slice_steps, start, advance, threads: int) -
                 with lock:
                     queue.append((block, state, end))
 
-    with ThreadPoolExecutor(max_workers=threads) as pool:
-        # result() re-raises a worker's exception
-        for future in [pool.submit(worker) for _ in range(threads)]:
-            future.result()
+    _share(n_blocks, work)
