@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.errors import InvalidParameterError, SimulationDivergedError
 from fuzzymbs.fuzzy import Triangular, plan
 from fuzzymbs.fuzzy.band_scale import width_relative
 from fuzzymbs.mbs.integrate import simulate
@@ -231,6 +231,7 @@ def test_the_reference_error_predicted_from_two_logging_runs():
     # and 1e-3, the prediction at the reference's rtol is C r_ref^q
     from fuzzymbs.background import Background
     from fuzzymbs.mbs.shared_steps import (
+        REFERENCE_EQUIVALENT_RTOL,
         REFERENCE_ORDER,
         REFERENCE_RTOL,
         SharedSteps,
@@ -246,8 +247,38 @@ def test_the_reference_error_predicted_from_two_logging_runs():
         runs[rtol] = SharedSteps({}, t, t > 0, outputs, none, REFERENCE_RTOL)
     predicted = predicted_reference_error(runs[1e-2], 1e-2, runs[1e-3], 1e-3)
     np.testing.assert_allclose(
-        predicted["y"], np.abs(error) * REFERENCE_RTOL**REFERENCE_ORDER, rtol=1e-9, atol=1e-15
+        predicted["y"],
+        np.abs(error) * REFERENCE_EQUIVALENT_RTOL**REFERENCE_ORDER,
+        rtol=1e-9,
+        atol=1e-15,
     )
+
+
+def test_the_reference_is_the_two_runs_extrapolated_with_the_error_law():
+    # closed form: runs whose error is exactly C r^q (q = REFERENCE_ORDER) at rtol r and
+    # 10 r extrapolate to the exact value, and the error is estimated as C (r / 10)^q,
+    # the error of the run a decade tighter
+    from types import SimpleNamespace
+
+    from fuzzymbs.mbs.shared_steps import REFERENCE_ORDER, REFERENCE_RTOL, _extrapolated
+
+    t = np.linspace(0.0, 1.0, 11)
+    exact, error = np.cos(t), 3.0 * np.sin(t) - 1.0
+    r, q = REFERENCE_RTOL, REFERENCE_ORDER
+    rows = [exact + error * (10 * r) ** q, exact + error * r**q]  # loose first, tight second
+    runs = SimpleNamespace(
+        outputs={"y": np.array(rows)},
+        failed=np.array([False, False]),
+        failure_reason=np.array(["", "non-finite state"]),
+        failure_time=np.array([np.nan, 0.5]),
+    )
+    model = SimpleNamespace(outputs={"y": None})
+    reference, estimate = _extrapolated(model, {}, runs, (1, 0))
+    np.testing.assert_allclose(reference["y"], exact, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(estimate["y"], np.abs(error) * (r / 10) ** q, rtol=1e-9)
+    runs.failed[0] = True
+    with pytest.raises(SimulationDivergedError, match="at rtol"):
+        _extrapolated(model, {"k": 1.0}, runs, (1, 0))
 
 
 def test_runs_ahead_are_kept_and_waited_for(scheme, monkeypatch):

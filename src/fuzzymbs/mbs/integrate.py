@@ -15,7 +15,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import numba
 import numpy as np
 import scipy.integrate
 from numpy.typing import NDArray
@@ -504,7 +503,7 @@ class SimulationModel:
     def run_ahead(
         self, samples: Mapping[str, NDArray[np.float64]], then: Callable[[], Any] | None = None
     ) -> None:
-        """On shared steps: run ``samples`` in a background thread on one core and keep
+        """On shared steps: run ``samples`` in a background thread on the free cores and keep
         them (as :meth:`deviations` does), then call ``then``; the model's next run waits
         for them and takes them. A study runs its first points so while the reference
         finishes on the other core; a failed run ahead only loses what it would have
@@ -514,7 +513,8 @@ class SimulationModel:
         self._wait_ahead()
 
         def ahead() -> None:
-            numba.set_num_threads(1)  # this thread's own: the reference has the other core
+            # on the core the reference leaves; a second joins once the reference is done
+            # (fuzzymbs.mbs.kernels.threads)
             self._shared_runs(samples, keep=True)
             if then is not None:
                 then()
@@ -589,9 +589,10 @@ class SimulationModel:
             return f"rk4, dt {settings['dt']:g} s"
         words = f"{settings['integrator']}, rtol {settings['rtol']:g}"
         if self.shared is not None:
+            tight = self.shared.reference_rtol
             words += (
-                ", on the modal sample's steps, corrected by its run at rtol "
-                f"{self.shared.reference_rtol:g}"
+                ", on the modal sample's steps, corrected by its runs at rtol "
+                f"{tight:g} and {10 * tight:g}, extrapolated"
             )
         return words
 

@@ -17,7 +17,7 @@ difference, the correction ``c(t) = y_ref(p0, t) - y(p0, t)``, is added to
 every sample's outputs (a control variate: the modal sample's outputs become
 the reference's, the others keep only the error's variation across the cut).
 On the brake's study 1, the 33 runs on the modal sample's steps at rtol 1e-3,
-corrected with a reference at rtol 1e-6, give bands within 0.37 % of their
+corrected with a converged reference, give bands within 0.37 % of their
 width of the rtol 1e-6 bands, against 21 % with a sequence of their own at the
 same rtol (docs/brake.md, "Bands above the numerical noise").
 
@@ -41,21 +41,28 @@ leaves the sequence only where the sequence is too coarse for it. A sample's
 outputs depend on the modal point and the settings alone, never on the samples
 that share its batch.
 
-The reference's own error enters every sample alike; it is estimated from a
-second reference run at ten times the reference tolerance,
-``|y(10 r) - y(r)| / (10^q - 1)`` with the error's order ``q =``
-:data:`REFERENCE_ORDER`, and a study adds it to its time-integration error.
+The reference is the modal sample's runs at :data:`REFERENCE_RTOL` and ten
+times it, extrapolated with the error law ``e(r) = C r^q`` (q =
+:data:`REFERENCE_ORDER`, measured over rtol 1e-2 to 1e-5 on the brake):
+``y_ref = y(r) + (y(r) - y(10 r)) / (10^q - 1)``. On the brake's studies it is
+as accurate as one run at a tenth of ``r`` that costs twice as much (against
+the modal sample at rtol 1e-7: 0.050 % and 0.26 % of study 1's and study 2's
+cut widths, the run at rtol 1e-6 0.050 % and 0.27 %; docs/brake.md). Its
+error enters every sample alike; it is estimated as that of the run a decade
+tighter, ``|y(r) - y(10 r)| / ((10^q - 1) 10^q)`` (0.053 % and 0.27 %), and a
+study adds it to its time-integration error.
 
-The two reference runs are the longest runs of a study (the brake's 10 ms at
-rtol 1e-6 and 1e-5, two lanes of one SIMD block: 35 s of one core). They run in
+The reference runs are the longest runs of a study (the brake's 10 ms at rtol
+1e-5 and 1e-4, lanes of one SIMD block: about 17 s of one core). They run in
 a background thread from :func:`share_steps` on, while the caller goes on with what does
 not need them: :meth:`SimulationModel.deviations` (a sample's outputs minus the
 modal sample's on the same steps, all a study's choice of tolerance compares)
 and further step sequences (:meth:`SimulationModel.tightened`). The correction,
 the reference and its error wait for them when first asked for.
 
-The block's third lane logs the modal sample at :data:`LOG_AHEAD` times tighter
-than the model (a lane costs nothing beside the reference's): the logging run
+The block's first lane logs the modal sample at :data:`LOG_AHEAD` times tighter
+than the model (a lane costs nothing beside the reference's; at the brake's
+rtol 1e-2 it is the run at ten times the reference tolerance): the logging run
 of the step sequence a study's check most likely takes. A sequence asked for at
 exactly that tolerance (the same settings, :meth:`SimulationModel.tightened`)
 takes it instead of a logging run of its own; its outputs are bit for bit those
@@ -90,6 +97,7 @@ class SimulationModel(Protocol):
 
 __all__ = [
     "LOG_AHEAD",
+    "REFERENCE_EQUIVALENT_RTOL",
     "REFERENCE_ORDER",
     "REFERENCE_RTOL",
     "KeptRun",
@@ -99,8 +107,12 @@ __all__ = [
     "share_steps",
 ]
 
-#: tolerance of the modal sample's reference run (the correction's accuracy)
-REFERENCE_RTOL = 1e-6
+#: tolerance of the tighter of the modal sample's two reference runs (the other at ten
+#: times it); their extrapolation is the reference
+REFERENCE_RTOL = 1e-5
+#: the one-run tolerance the extrapolated reference's error is estimated as (a decade
+#: tighter: on the brake's studies as accurate as that run, docs/brake.md)
+REFERENCE_EQUIVALENT_RTOL = REFERENCE_RTOL / 10
 #: ROS34PW2's global error falls about as rtol^0.88 with a sequence of its own
 #: (brake studies, rtol 1e-2 to 1e-5, docs/brake.md)
 REFERENCE_ORDER = 0.88
@@ -128,7 +140,7 @@ class SharedSteps:
     references : the reference runs' ``(reference, reference_error, logged_ahead)``,
         perhaps still running (:class:`Background`); ``logged_ahead`` the logging run
         of the block's third lane (a ``SimulationResult``, its first sample) or None.
-    reference_rtol : the reference's tolerance.
+    reference_rtol : the tighter reference run's tolerance (the other at ten times it).
     kept : runs on these steps at the model's settings, kept for reuse: the parameter
         row's bytes -> :class:`KeptRun` (the logging run for the modal sample; the runs
         of :meth:`~fuzzymbs.mbs.integrate.SimulationModel.deviations`, a study's pilot).
@@ -146,7 +158,8 @@ class SharedSteps:
 
     @property
     def reference(self) -> dict[str, NDArray[np.float64]]:
-        """output -> (T,) the modal sample at ``reference_rtol`` (waits for its run)."""
+        """output -> (T,) the modal sample extrapolated from its runs at ``reference_rtol``
+        and ten times it (waits for them)."""
         return self.references.result()[0]
 
     @property
@@ -190,12 +203,15 @@ def predicted_reference_error(
     """output -> (T,) the reference's error predicted from the modal sample's logging
     runs at two tolerances, before the reference has run: with ``e(r) = C r^q`` (q =
     :data:`REFERENCE_ORDER`), ``e(coarse) = |y(coarse) - y(fine)| / (1 - (fine /
-    coarse)^q)``, scaled to the reference's tolerance. On the brake (10 ms, rtol 1e-2
-    and 1e-3) it predicts 0.049 % / 0.21 % of study 1's / study 2's cut widths,
-    against 0.052 % / 0.29 % estimated from the reference runs themselves."""
+    coarse)^q)``, scaled to the tolerance the reference's error is estimated as
+    (:data:`REFERENCE_EQUIVALENT_RTOL`, a tenth of ``reference_rtol``). On the brake
+    (10 ms, rtol 1e-2 and 1e-3) it predicts 0.049 % / 0.21 % of study 1's / study 2's
+    cut widths, against 0.052 % / 0.29 % estimated from reference runs at rtol 1e-6
+    and 1e-5."""
     q = REFERENCE_ORDER
     ratio = fine_rtol / coarse_rtol
-    scale = (coarse.reference_rtol / coarse_rtol) ** q / (1.0 - ratio**q)
+    equivalent = coarse.reference_rtol * (REFERENCE_EQUIVALENT_RTOL / REFERENCE_RTOL)
+    scale = (equivalent / coarse_rtol) ** q / (1.0 - ratio**q)
     return {
         name: np.abs(values - fine.modal_outputs[name]) * scale
         for name, values in coarse.modal_outputs.items()
@@ -238,54 +254,59 @@ def _reference_runs(
     modal: Mapping[str, float],
     ahead: tuple[float, float | None] | None = None,
 ) -> tuple[dict, dict, Any]:
-    """The reference (the modal sample at :data:`REFERENCE_RTOL`), its estimated error,
-    ``|y(10 r) - y(r)| / (10^q - 1)``, q = :data:`REFERENCE_ORDER`, output -> (T,), and
-    with ``ahead = (rtol, atol)`` the modal sample's logging run at that tolerance (None
-    if it failed or its log overflowed).
+    """The reference (the modal sample's runs at :data:`REFERENCE_RTOL` and ten times it,
+    extrapolated), its estimated error, output -> (T,), and with ``ahead = (rtol, atol)``
+    the modal sample's logging run at that tolerance (None if it failed or its log
+    overflowed).
 
     The runs are lanes of one block, each with its own tolerance and steps (its outputs
     bit for bit those of the run alone): the block costs about as much as the tightest
-    run alone (the brake over 10 ms: 35 s for both references against 31 s and 16 s).
+    run alone. The run logged ahead is the looser reference run when their tolerances
+    agree (the brake's rtol 1e-2: both at 1e-4).
     """
-    rtols = [REFERENCE_RTOL, 10 * REFERENCE_RTOL]
-    atol = model.settings["atol"]  # None: its default fraction of rtol
-    atols = None if atol is None else [atol * r / model.settings["rtol"] for r in rtols]
-    if ahead is not None and (atols is None) == (ahead[1] is None):
-        # the lane logged ahead first: the kernel logs the first sample's steps
-        rtols = [ahead[0], *rtols]
-        atols = None if atols is None else [ahead[1], *atols]
-        try:
-            runs = model.simulate(
-                _copies(modal, 3),
-                rtol=np.array(rtols),
-                atol=None if atols is None else np.array(atols),
-                log_steps=_AHEAD_CAPACITY,
-            )
-        except InvalidParameterError:  # the log overflowed: the references alone
-            return _reference_runs(model, modal)
-        logged = None if runs.failed[0] else runs
-        return (*_reference_pair(model, modal, runs, 1), logged)
-    both = model.simulate(
-        _copies(modal, 2), rtol=np.array(rtols), atol=None if atols is None else np.array(atols)
-    )
-    return (*_reference_pair(model, modal, both, 0), None)
+    rtol, atol = model.settings["rtol"], model.settings["atol"]  # atol None: a fraction
+    tolerances = (REFERENCE_RTOL, 10 * REFERENCE_RTOL)
+    references = [(r, None if atol is None else atol * r / rtol) for r in tolerances]
+    lanes = list(references)
+    if ahead is not None and (ahead[1] is None) != (atol is None):
+        ahead = None  # not a tolerance of this model's kind
+    if ahead is not None:  # first: the kernel logs the first sample's steps
+        lanes = [ahead] + [lane for lane in lanes if lane != ahead]
+    rows = tuple(lanes.index(lane) for lane in references)
+    rtols = np.array([lane[0] for lane in lanes])
+    atols = None if atol is None else np.array([lane[1] for lane in lanes])
+    try:
+        runs = model.simulate(
+            _copies(modal, len(lanes)),
+            rtol=rtols,
+            atol=atols,
+            log_steps=_AHEAD_CAPACITY if ahead is not None else False,
+        )
+    except InvalidParameterError:  # the log overflowed: the references alone
+        if ahead is None:
+            raise
+        return _reference_runs(model, modal)
+    logged = None if ahead is None or runs.failed[0] else runs
+    return (*_extrapolated(model, modal, runs, rows), logged)
 
 
 def _copies(modal: Mapping[str, float], count: int) -> dict[str, NDArray[np.float64]]:
     return {name: np.array([float(value)] * count) for name, value in modal.items()}
 
 
-def _reference_pair(model: SimulationModel, modal: Mapping[str, float], runs, row: int):
-    """``(reference, error)`` from rows ``row`` (REFERENCE_RTOL) and ``row + 1`` (ten times
-    it) of ``runs``; raises if either failed."""
-    for offset, rtol in enumerate((REFERENCE_RTOL, 10 * REFERENCE_RTOL)):
-        _failure(runs, row + offset, modal, f"at rtol {rtol:g} ")
-    scale = 10.0**REFERENCE_ORDER - 1.0
-    reference = {name: runs.outputs[name][row] for name in model.outputs}
-    error = {
-        name: np.abs(runs.outputs[name][row + 1] - runs.outputs[name][row]) / scale
-        for name in model.outputs
-    }
+def _extrapolated(model: SimulationModel, modal: Mapping[str, float], runs, rows):
+    """``(reference, error)`` from the rows ``rows = (tight, loose)`` of ``runs`` (at
+    REFERENCE_RTOL and ten times it): ``y(r) + (y(r) - y(10 r)) / (10^q - 1)`` and
+    ``|y(r) - y(10 r)| / ((10^q - 1) 10^q)``; raises if either run failed."""
+    tight, loose = rows
+    _failure(runs, tight, modal, f"at rtol {REFERENCE_RTOL:g} ")
+    _failure(runs, loose, modal, f"at rtol {10 * REFERENCE_RTOL:g} ")
+    gain = 10.0**REFERENCE_ORDER
+    reference, error = {}, {}
+    for name in model.outputs:
+        step = runs.outputs[name][tight] - runs.outputs[name][loose]
+        reference[name] = runs.outputs[name][tight] + step / (gain - 1.0)
+        error[name] = np.abs(step) / ((gain - 1.0) * gain)
     return reference, error
 
 
