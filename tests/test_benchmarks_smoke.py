@@ -248,6 +248,20 @@ def test_tolerance_study_quick_is_identical_on_dask():
 
 
 @pytest.mark.slow
+def test_reference_extrapolation_runs():
+    # the extrapolated reference of shared steps against the modal sample at rtol 1e-7
+    # over 0.2 ms (no stored bands: on the peak); the block's lane at 1e-5 is checked
+    # bit for bit against the run alone inside the script
+    import reference_extrapolation
+
+    figures = reference_extrapolation.main(["--t-end", "2e-4"])
+    study = figures["study1"]
+    assert study["scale"] in ("peak", "cut width")
+    for key in ("extrapolated", "run_1e-6", "run_1e-5", "estimate"):
+        assert study[key] and all(np.isfinite(study[key]))
+    assert figures["steps"]["1e-07"] > figures["steps"]["1e-05"] > figures["steps"]["0.0001"]
+
+
 def test_brake_bands_quick_runs():
     # 1 ms: a sample alone and beside others is bit-identical; the bands' error against
     # rtol 1e-6 falls with the tolerance (ROS34PW2's error ~ rtol^0.88, docs/brake.md)
