@@ -14,8 +14,10 @@ docs/brake.md ("Cost": where study 1's time goes).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import shutil
+import sys
 import tempfile
 import threading
 import time
@@ -59,7 +61,8 @@ def timeline(study: int, out: Path) -> dict:
         start_cpu, start = time.process_time(), time.perf_counter()
         arguments = ["run", str(path), "--out", str(out), "--fresh", "--no-plots", "--no-report"]
         try:
-            app(arguments, standalone_mode=False)
+            with contextlib.redirect_stdout(sys.stderr):  # this script's stdout: one JSON line
+                app(arguments, standalone_mode=False)
         except SystemExit:
             pass
         wall, cpu = time.perf_counter() - start, time.process_time() - start_cpu

@@ -49,11 +49,12 @@ as accurate as one run at a tenth of ``r`` that costs twice as much (against
 the modal sample at rtol 1e-7: 0.050 % and 0.26 % of study 1's and study 2's
 cut widths, the run at rtol 1e-6 0.050 % and 0.27 %; docs/brake.md). Its
 error enters every sample alike; it is estimated as that of the run a decade
-tighter, ``|y(r) - y(10 r)| / ((10^q - 1) 10^q)`` (0.053 % and 0.27 %), and a
+tighter, ``|y(r) - y(10 r)| / ((10^q - 1) 10^q)`` (0.052 % and 0.26 %), and a
 study adds it to its time-integration error.
 
 The reference runs are the longest runs of a study (the brake's 10 ms at rtol
-1e-5 and 1e-4, lanes of one SIMD block: about 17 s of one core). They run in
+1e-5 and 1e-4, lanes of one SIMD block: 18.5 s of one core alone, the run at
+1e-6 it replaces 31.3 s; benchmarks/reference_extrapolation.py). They run in
 a background thread from :func:`share_steps` on, while the caller goes on with what does
 not need them: :meth:`SimulationModel.deviations` (a sample's outputs minus the
 modal sample's on the same steps, all a study's choice of tolerance compares)
