@@ -140,21 +140,22 @@ class SharedSteps:
     modal_outputs : output -> (T,) the modal sample on these steps (the logging run).
     references : the reference runs' ``(reference, reference_error, logged_ahead)``,
         perhaps still running (:class:`Background`); ``logged_ahead`` the logging run
-        of the block's third lane (a ``SimulationResult``, its first sample) or None.
+        of the block's first lane (a ``SimulationResult``, its first sample) or None.
     reference_rtol : the tighter reference run's tolerance (the other at ten times it).
     kept : runs on these steps at the model's settings, kept for reuse: the parameter
         row's bytes -> :class:`KeptRun` (the logging run for the modal sample; the runs
         of :meth:`~fuzzymbs.mbs.integrate.SimulationModel.deviations`, a study's pilot).
+    ahead : ``(rtol, atol)`` of the run logged ahead in the references' block (None:
+        none); a tightened model at exactly that tolerance takes it.
     """
 
     modal: dict[str, float]
     sequence: NDArray[np.float64]
     renewals: NDArray[np.bool_]
     modal_outputs: dict[str, NDArray[np.float64]]
-    references: Background[tuple[dict, dict]]
+    references: Background[tuple[dict, dict, Any]]
     reference_rtol: float
     kept: dict[bytes, KeptRun] = field(default_factory=dict, repr=False)
-    #: ``(rtol, atol)`` of the run logged ahead beside the references (None: none)
     ahead: tuple[float, float | None] | None = None
 
     @property
