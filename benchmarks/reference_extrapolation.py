@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from types import SimpleNamespace
 
 import numba
 import numpy as np
@@ -56,11 +57,17 @@ def runs(t_end: float) -> tuple[dict, dict, dict]:
     return outputs, steps, seconds
 
 
-def extrapolated(outputs: dict, order: float) -> dict:
-    """The reference from the runs at REFERENCE_RTOL and ten times it, with slope ``order``."""
+def extrapolated(outputs: dict, order: float = REFERENCE_ORDER) -> tuple[dict, dict]:
+    """The reference a study takes (:func:`fuzzymbs.mbs.shared_steps._extrapolated`) from
+    the runs at REFERENCE_RTOL and ten times it, with the error law's slope ``order``, and
+    its error estimate."""
     tight, loose = outputs[REFERENCE_RTOL], outputs[10 * REFERENCE_RTOL]
-    gain = 10.0**order
-    return {n: tight[n] + (tight[n] - loose[n]) / (gain - 1.0) for n in OUTPUTS}
+    runs = SimpleNamespace(
+        outputs={n: np.array([tight[n], loose[n]]) for n in OUTPUTS},
+        failed=np.array([False, False]),
+    )
+    model = SimpleNamespace(outputs=dict.fromkeys(OUTPUTS))
+    return _extrapolated(model, {}, runs, (0, 1), order)
 
 
 def errors(candidate: dict, truth: dict, bands: dict | None) -> list[float]:
@@ -87,13 +94,7 @@ def main(argv: list[str] | None = None) -> dict:
     figures: dict = {"load_average_start": load_average(), "t_end_s": args.t_end}
     outputs, steps, seconds = runs(args.t_end)
     truth = outputs[1e-7]
-    # the estimate a study takes (shared_steps._extrapolated), per output
-    tight, loose = outputs[REFERENCE_RTOL], outputs[10 * REFERENCE_RTOL]
-    fake = type("Runs", (), {})()
-    fake.outputs = {n: np.array([tight[n], loose[n]]) for n in OUTPUTS}
-    fake.failed = np.array([False, False])
-    model = type("Model", (), {"outputs": dict.fromkeys(OUTPUTS)})()
-    reference, estimate = _extrapolated(model, {}, fake, (0, 1))
+    reference, estimate = extrapolated(outputs)
     for study in (1, 2):
         path = BENCH_DIR / ".cache" / f"brake_bands_default_study{study}_t{args.t_end:g}.npz"
         bands = None
@@ -105,8 +106,8 @@ def main(argv: list[str] | None = None) -> dict:
             "extrapolated": errors(reference, truth, bands),
             "run_1e-6": errors(outputs[1e-6], truth, bands),
             "run_1e-5": errors(outputs[1e-5], truth, bands),
-            "extrapolated_slope_0.82": errors(extrapolated(outputs, 0.82), truth, bands),
-            "extrapolated_slope_1.0": errors(extrapolated(outputs, 1.0), truth, bands),
+            "extrapolated_slope_0.82": errors(extrapolated(outputs, 0.82)[0], truth, bands),
+            "extrapolated_slope_1.0": errors(extrapolated(outputs, 1.0)[0], truth, bands),
             "estimate": errors(
                 {n: truth[n] + estimate[n] for n in OUTPUTS}, truth, bands
             ),  # the estimated error, on the same scale

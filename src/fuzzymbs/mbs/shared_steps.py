@@ -296,14 +296,17 @@ def _copies(modal: Mapping[str, float], count: int) -> dict[str, NDArray[np.floa
     return {name: np.array([float(value)] * count) for name, value in modal.items()}
 
 
-def _extrapolated(model: SimulationModel, modal: Mapping[str, float], runs, rows):
+def _extrapolated(
+    model: SimulationModel, modal: Mapping[str, float], runs, rows, order: float = REFERENCE_ORDER
+):
     """``(reference, error)`` from the rows ``rows = (tight, loose)`` of ``runs`` (at
     REFERENCE_RTOL and ten times it): ``y(r) + (y(r) - y(10 r)) / (10^q - 1)`` and
-    ``|y(r) - y(10 r)| / ((10^q - 1) 10^q)``; raises if either run failed."""
+    ``|y(r) - y(10 r)| / ((10^q - 1) 10^q)``, q = ``order``; raises if either run
+    failed."""
     tight, loose = rows
     _failure(runs, tight, modal, f"at rtol {REFERENCE_RTOL:g} ")
     _failure(runs, loose, modal, f"at rtol {10 * REFERENCE_RTOL:g} ")
-    gain = 10.0**REFERENCE_ORDER
+    gain = 10.0**order
     reference, error = {}, {}
     for name in model.outputs:
         step = runs.outputs[name][tight] - runs.outputs[name][loose]

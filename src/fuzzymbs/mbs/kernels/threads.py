@@ -138,7 +138,12 @@ def round_robin(
     share it (4.5 each). With one thread, each block runs whole, in order.
     """
     if min(numba.get_num_threads(), n_blocks) <= 1:
-        _share(1, lambda: [advance(b, start(b), 0, n_steps) for b in range(n_blocks)])
+
+        def whole() -> None:
+            for block in range(n_blocks):
+                advance(block, start(block), 0, n_steps)
+
+        _share(1, whole)
         return
     queue = deque((block, None, 0) for block in range(n_blocks))
     lock = threading.Lock()
