@@ -167,6 +167,7 @@ def test_ros_accuracy_table_runs():
         assert figures[sample]["rk4_1us"]["steps"] == 50
 
 
+@pytest.mark.slow
 def test_compare_checkouts_runs_both_sides():
     # the script behind the before/after tables of docs/benchmarks.md, this checkout
     # against itself on a 0.1 ms study: both sides report two timed studies per round
@@ -179,6 +180,7 @@ def test_compare_checkouts_runs_both_sides():
     assert figures["study1_wall_this_over_other"] > 0
 
 
+@pytest.mark.slow
 def test_ros_parts_runs():
     # the script behind the split of a ROS34PW2 step in docs/theory.md and benchmarks.md
     import ros_parts
@@ -188,6 +190,7 @@ def test_ros_parts_runs():
     assert all(value > 0 for value in figures.values())
 
 
+@pytest.mark.slow
 def test_work_precision_diagram_runs(tmp_path):
     import brake_work_precision
 
@@ -202,6 +205,7 @@ def test_work_precision_diagram_runs(tmp_path):
     assert (tmp_path / "wp.png").stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_memory_scaling_quick_reports_both_cases():
     import memory_scaling
 
@@ -211,6 +215,7 @@ def test_memory_scaling_quick_reports_both_cases():
     assert row["peak_mb"] >= row["baseline_peak_mb"] > 0
 
 
+@pytest.mark.slow
 def test_dask_scaling_quick_runs():
     # 3^5 = 243 gear runs inline and on small local clusters: structure and bit-identity
     pytest.importorskip("distributed")
@@ -237,6 +242,7 @@ def test_external_models_quick_reproduces_the_cvode_table():
     assert figures["fmi2_reuse_factor"] > 1.0 and figures["command_run_ms"] > 0.0
 
 
+@pytest.mark.slow
 def test_tolerance_study_quick_is_identical_on_dask():
     pytest.importorskip("distributed")
     import tolerance_study
@@ -262,6 +268,7 @@ def test_reference_extrapolation_runs():
     assert figures["steps"]["1e-07"] > figures["steps"]["1e-05"] > figures["steps"]["0.0001"]
 
 
+@pytest.mark.slow
 def test_brake_bands_quick_runs():
     # 1 ms: a sample alone and beside others is bit-identical; the bands' error against
     # rtol 1e-6 falls with the tolerance (ROS34PW2's error ~ rtol^0.88, docs/brake.md)

@@ -61,3 +61,39 @@ def test_report_command_refuses_what_is_not_a_result(tmp_path):
     (tmp_path / "result.nc").write_text("not netcdf")
     result = runner.invoke(app, ["report", str(tmp_path)])
     assert result.exit_code == 1 and "not a readable result file" in result.output
+
+
+def test_report_embeds_the_plot_files_and_pdf_is_written_only_when_asked(tmp_path):
+    import base64
+    import re
+
+    study_file = _product_file(tmp_path)
+    plain, both = tmp_path / "plain", tmp_path / "both"
+    result = runner.invoke(app, ["run", str(study_file), "--out", str(plain), "-q"])
+    assert result.exit_code == 0, result.output
+    pngs = sorted(plain.glob("*.png"))
+    assert pngs and not list(plain.glob("*.pdf"))  # PNG only by default
+    page = (plain / "report.html").read_text(encoding="utf-8")
+    embedded = re.findall(r'src="data:image/png;base64,([^"]+)"', page)
+    # every figure of the page is a plot file, byte for byte: drawn once, not twice
+    assert sorted(embedded) == sorted(base64.b64encode(p.read_bytes()).decode() for p in pngs)
+    arguments = ["run", str(study_file), "--out", str(both), "-q", "--format", "pdf"]
+    result = runner.invoke(app, [*arguments, "--format", "png"])
+    assert result.exit_code == 0, result.output
+    assert {p.stem for p in both.glob("*.pdf")} == {p.stem for p in pngs}
+    assert all(p.read_bytes().startswith(b"%PDF") for p in both.glob("*.pdf"))
+    # without PNG files the report draws its figures itself: the same images
+    result = runner.invoke(app, [*arguments[:-2], "--fresh", "--format", "pdf"])
+    assert result.exit_code == 0, result.output
+    assert not list(both.glob("*.png"))
+    page = (both / "report.html").read_text(encoding="utf-8")
+    assert len(re.findall(r'src="data:image/png;base64,', page)) == len(pngs)
+
+
+def test_unknown_plot_format_is_refused_before_the_run(tmp_path):
+    study_file = _product_file(tmp_path)
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["run", str(study_file), "--out", str(out), "--format", "gif"])
+    assert result.exit_code == 1
+    assert "--format ['gif']; allowed: png, pdf, svg" in result.output
+    assert not (out / "result.nc").exists()

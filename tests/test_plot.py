@@ -29,7 +29,10 @@ def oscillator():
 
 def test_write_plots_png_and_pdf(oscillator, tmp_path):
     written = write_plots(
-        oscillator, tmp_path, membership=[{"output": "displacement", "coord": "time", "value": 0.1}]
+        oscillator,
+        tmp_path,
+        membership=[{"output": "displacement", "coord": "time", "value": 0.1}],
+        formats=("png", "pdf"),
     )
     names = {p.name for p in written}
     for stem in (

@@ -124,6 +124,7 @@ def _console_errors(stderr: str) -> list[str]:
     ]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(CHROMIUM is None, reason="chromium not installed (apt-get install chromium)")
 def test_chromium_renders_the_report_without_console_errors(oscillator, tmp_path):
     from matplotlib.image import imread

@@ -159,6 +159,21 @@ QuietOption = Annotated[
     bool, typer.Option("--quiet", "-q", help="No progress bar; warnings and errors only.")
 ]
 VerboseOption = Annotated[bool, typer.Option("--verbose", "-v", help="Debug logging.")]
+FormatOption = Annotated[
+    list[str] | None,
+    typer.Option("--format", help="Plot file format: png (the default), pdf, svg; repeatable."),
+]
+
+
+def _formats(fmt: list[str] | None) -> tuple[str, ...]:
+    """The plot formats asked for (PNG when none), checked before anything runs."""
+    from fuzzymbs.plot import DEFAULT_FORMATS, FORMATS
+
+    formats = tuple(dict.fromkeys(fmt)) if fmt else DEFAULT_FORMATS
+    unknown = [f for f in formats if f not in FORMATS]
+    if unknown:
+        raise _fail(f"--format {unknown}; allowed: {', '.join(FORMATS)}")
+    return formats
 
 
 @app.command()
@@ -180,6 +195,7 @@ def run(
         bool, typer.Option("--fresh", help="Discard stored chunks of this study; do not resume.")
     ] = False,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the plots.")] = False,
+    fmt: FormatOption = None,
     no_report: Annotated[
         bool, typer.Option("--no-report", help="Skip OUT/report.html (the HTML report).")
     ] = False,
@@ -222,6 +238,7 @@ def run(
     _setup_logging(quiet, verbose)
     if on_failure is not None and on_failure not in ON_FAILURE:
         raise _fail(f"--on-failure {on_failure!r}; allowed: {', '.join(ON_FAILURE)}")
+    formats = _formats(fmt)
     _run_one(
         study_file,
         out,
@@ -231,6 +248,7 @@ def run(
         resume=not fresh,
         progress=not quiet,
         plots=not no_plots,
+        formats=formats,
         allow_code=allow_code,
         max_runs=max_runs,
         timeout=timeout,
@@ -258,6 +276,7 @@ def demo(
     fresh: Annotated[
         bool, typer.Option("--fresh", help="Discard stored chunks; do not resume.")
     ] = False,
+    fmt: FormatOption = None,
     quiet: QuietOption = False,
     verbose: VerboseOption = False,
 ) -> None:
@@ -270,6 +289,7 @@ def demo(
     from fuzzymbs.study.studyfile import load_study_file
 
     _setup_logging(quiet, verbose)
+    formats = _formats(fmt)
     try:
         files = demo_files(name)
     except FuzzymbsError as exc:
@@ -290,6 +310,7 @@ def demo(
                     executor=executor,
                     resume=not fresh,
                     progress=not quiet,
+                    formats=formats,
                     command=_command("demo", name, "--out", str(out), executor=executor),
                 )
 
@@ -301,9 +322,7 @@ def plot(
     out: Annotated[
         Path | None, typer.Option("--out", "-o", help="Folder for the plots (default: beside).")
     ] = None,
-    fmt: Annotated[
-        list[str] | None, typer.Option("--format", help="png and/or pdf (repeatable).")
-    ] = None,
+    fmt: FormatOption = None,
 ) -> None:
     """(Re)draw the plots of a result file."""
     from fuzzymbs.errors import FuzzymbsError
@@ -312,10 +331,7 @@ def plot(
 
     if not result_file.is_file():
         raise _fail(f"{result_file}: no such file")
-    formats = tuple(fmt or ("png", "pdf"))
-    unknown = [f for f in formats if f not in ("png", "pdf", "svg")]
-    if unknown:
-        raise _fail(f"--format {unknown}; allowed: png, pdf, svg")
+    formats = _formats(fmt)
     try:  # checks every name that becomes a file name (a result file is data from anywhere)
         result = StudyResult.open(result_file)
     except FuzzymbsError as exc:

@@ -3,14 +3,16 @@
 Every function takes the result dataset (layout in :mod:`fuzzymbs.study.result`)
 and returns a :class:`matplotlib.figure.Figure` built without pyplot (no GUI
 backend, safe in worker threads). :func:`write_plots` writes the standard set
-as PNG and PDF.
+(:func:`standard_figures`) as PNG, and as PDF or SVG on request.
 """
 
 from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -445,13 +447,92 @@ def plot_influence(dataset: xarray.Dataset, output: str) -> Figure:
     return figure
 
 
+#: What :func:`write_plots` writes unless asked for more: PNG only (PDF and SVG on request;
+#: a PDF costs as much again as the PNG, and the report embeds the PNG).
+DEFAULT_FORMATS: tuple[str, ...] = ("png",)
+#: Every format :func:`write_plots` can write.
+FORMATS: tuple[str, ...] = ("png", "pdf", "svg")
+#: Resolution of the PNG files (the report embeds these very images).
+PNG_DPI = 120
+#: File stem of the input memberships figure.
+INPUTS_STEM = "inputs_membership"
+
+
+def membership_stem(output: str, coord: str | None = None, value: float | None = None) -> str:
+    """File stem of the membership figure of ``output`` (at ``coord = value``)."""
+    return f"{output}_membership" + ("" if coord is None else f"_{coord}_{value:g}")
+
+
+def bands_stem(output: str) -> str:
+    """File stem of the alpha-level bands figure of the signal ``output``."""
+    return f"{output}_bands"
+
+
+def influence_stem(output: str) -> str:
+    """File stem of the influence figure of ``output``."""
+    return f"{output}_influence"
+
+
+@dataclass(frozen=True)
+class StandardFigure:
+    """One figure of a result's standard set, built only when asked for."""
+
+    stem: str
+    build: Callable[[], Figure]
+
+
+def standard_figures(
+    dataset: xarray.Dataset, membership: Sequence[Mapping[str, Any]] | None = None
+) -> list[StandardFigure]:
+    """The standard figures of a result, in the order they are written.
+
+    Input memberships; per scalar output its membership; per signal the
+    alpha-level bands; influence where the dataset holds it; and one membership
+    figure per entry of ``membership`` (``{"output", "coord", "value"}``;
+    default: the ``plots`` attribute of the dataset, i.e. the study file's
+    ``[[plots.membership]]``). Nothing is drawn until a figure's ``build`` is called.
+    """
+    figures = [StandardFigure(INPUTS_STEM, partial(plot_input_memberships, dataset))]
+    outputs = json.loads(dataset.attrs["outputs"])
+    influence_outputs = set(json.loads(dataset.attrs.get("influence_outputs", "[]")))
+    for output in outputs:
+        ndim = dataset[f"{output}_lower"].ndim - 1
+        if ndim == 0:
+            figures.append(
+                StandardFigure(
+                    membership_stem(output), partial(plot_output_membership, dataset, output)
+                )
+            )
+        elif ndim == 1:
+            figures.append(
+                StandardFigure(bands_stem(output), partial(plot_fuzzy_signal, dataset, output))
+            )
+        else:
+            logger.info("output %r has %d coordinates; no standard plot", output, ndim)
+        if output in influence_outputs and ndim <= 1:
+            figures.append(
+                StandardFigure(influence_stem(output), partial(plot_influence, dataset, output))
+            )
+    if membership is None:
+        membership = json.loads(dataset.attrs.get("plots", "{}")).get("membership", [])
+    for spec in membership:
+        coord, value = spec.get("coord"), spec.get("value")
+        figures.append(
+            StandardFigure(
+                membership_stem(spec["output"], coord, value),
+                partial(plot_output_membership, dataset, spec["output"], coord, value),
+            )
+        )
+    return figures
+
+
 def _save(figure: Figure, directory: Path, stem: str, formats: Sequence[str]) -> list[Path]:
     written = []
     for extension in formats:
         path = directory / f"{stem}.{extension}"
         if path.parent != directory or path.name.startswith("."):  # never outside directory
             raise ValueError(f"plot name {stem!r} is not a plain file name")
-        figure.savefig(path, dpi=120)
+        figure.savefig(path, dpi=PNG_DPI)
         # the first save placed the axes; keep that layout instead of solving it again
         figure.set_layout_engine("none")
         written.append(path)
@@ -462,48 +543,23 @@ def write_plots(
     dataset: xarray.Dataset,
     directory: str | Path,
     membership: Sequence[Mapping[str, Any]] | None = None,
-    formats: Sequence[str] = ("png", "pdf"),
+    formats: Sequence[str] = DEFAULT_FORMATS,
 ) -> list[Path]:
-    """Write the standard plots of a result into ``directory``.
+    """Write the standard plots of a result (:func:`standard_figures`) into ``directory``.
 
-    Written: input memberships; per scalar output its membership; per signal
-    the alpha-level bands; influence where the dataset holds it; and one
-    membership plot per entry of ``membership`` (``{"output", "coord",
-    "value"}``; default: the ``plots`` attribute of the dataset, i.e. the
-    study file's ``[[plots.membership]]``).
+    ``formats``: any of :data:`FORMATS`; PNG only by default.
 
     Returns
     -------
     list of Path
         The files written.
     """
+    unknown = [f for f in formats if f not in FORMATS]
+    if unknown:
+        raise InvalidParameterError(f"plot formats {unknown}; allowed: {', '.join(FORMATS)}")
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    written = _save(plot_input_memberships(dataset), directory, "inputs_membership", formats)
-    outputs = json.loads(dataset.attrs["outputs"])
-    influence_outputs = set(json.loads(dataset.attrs.get("influence_outputs", "[]")))
-    for output in outputs:
-        ndim = dataset[f"{output}_lower"].ndim - 1
-        if ndim == 0:
-            figure = plot_output_membership(dataset, output)
-            written += _save(figure, directory, f"{output}_membership", formats)
-        elif ndim == 1:
-            written += _save(
-                plot_fuzzy_signal(dataset, output), directory, f"{output}_bands", formats
-            )
-        else:
-            logger.info("output %r has %d coordinates; no standard plot", output, ndim)
-        if output in influence_outputs and ndim <= 1:
-            written += _save(
-                plot_influence(dataset, output), directory, f"{output}_influence", formats
-            )
-    if membership is None:
-        membership = json.loads(dataset.attrs.get("plots", "{}")).get("membership", [])
-    for spec in membership:
-        coord, value = spec.get("coord"), spec.get("value")
-        figure = plot_output_membership(dataset, spec["output"], coord, value)
-        stem = f"{spec['output']}_membership"
-        if coord is not None:
-            stem += f"_{coord}_{value:g}"
-        written += _save(figure, directory, stem, formats)
+    written: list[Path] = []
+    for figure in standard_figures(dataset, membership):
+        written += _save(figure.build(), directory, figure.stem, formats)
     return written

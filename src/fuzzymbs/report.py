@@ -14,8 +14,9 @@ import base64
 import html
 import io
 import json
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -60,11 +61,19 @@ def _e(value: Any) -> str:
     return html.escape(str(value))
 
 
-def _figure_html(figure: Figure, caption: str) -> str:
-    """The figure as an embedded PNG with its caption."""
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
-    data = base64.b64encode(buffer.getvalue()).decode("ascii")
+def _figure_html(
+    stem: str, build: Callable[[], Figure], caption: str, images: Mapping[str, bytes]
+) -> str:
+    """The figure as an embedded PNG with its caption: the PNG in ``images`` under its
+    file stem (the plot file already written), else drawn now."""
+    png = images.get(stem)
+    if png is None:
+        from fuzzymbs.plot import PNG_DPI
+
+        buffer = io.BytesIO()
+        build().savefig(buffer, format="png", dpi=PNG_DPI)
+        png = buffer.getvalue()
+    data = base64.b64encode(png).decode("ascii")
     return (
         f'<figure><img alt="{_e(caption)}" src="data:image/png;base64,{data}">'
         f"<figcaption>{_e(caption)}</figcaption></figure>"
@@ -157,8 +166,8 @@ def reproduce_command(dataset: xarray.Dataset, directory: str | Path | None = No
     return f"fuzzymbs run {study_file} --out {directory or 'OUT'}"
 
 
-def _inputs_section(dataset: xarray.Dataset) -> str:
-    from fuzzymbs.plot import plot_input_memberships
+def _inputs_section(dataset: xarray.Dataset, images: Mapping[str, bytes]) -> str:
+    from fuzzymbs.plot import INPUTS_STEM, plot_input_memberships
 
     units = json.loads(dataset.attrs.get("parameter_units", "{}"))
     lower, upper = dataset["parameter_lower"].values, dataset["parameter_upper"].values
@@ -170,7 +179,12 @@ def _inputs_section(dataset: xarray.Dataset) -> str:
     table = _table(
         ["parameter", "support lower", "core lower", "core upper", "support upper"], rows, 4
     )
-    figure = _figure_html(plot_input_memberships(dataset), "Membership functions of the inputs.")
+    figure = _figure_html(
+        INPUTS_STEM,
+        partial(plot_input_memberships, dataset),
+        "Membership functions of the inputs.",
+        images,
+    )
     return f"<h2>Fuzzy inputs</h2>{table}{figure}"
 
 
@@ -230,8 +244,8 @@ def _signal_table(
     return _table(header, rows) + note
 
 
-def _influence_html(dataset: xarray.Dataset, name: str) -> str:
-    from fuzzymbs.plot import plot_influence
+def _influence_html(dataset: xarray.Dataset, name: str, images: Mapping[str, bytes]) -> str:
+    from fuzzymbs.plot import influence_stem, plot_influence
 
     absolute = dataset[f"{name}_absolute_influence"].values
     unit = str(dataset[f"{name}_lower"].attrs.get("units", ""))
@@ -256,12 +270,27 @@ def _influence_html(dataset: xarray.Dataset, name: str) -> str:
         )
     if absolute.ndim > 2:
         return f"<h4>Influence</h4>{table}"
-    figure = _figure_html(plot_influence(dataset, name), f"Influence of the inputs on {name}.")
+    figure = _figure_html(
+        influence_stem(name),
+        partial(plot_influence, dataset, name),
+        f"Influence of the inputs on {name}.",
+        images,
+    )
     return f"<h4>Influence</h4>{table}{figure}"
 
 
-def _output_section(dataset: xarray.Dataset, name: str, memberships: Sequence[dict]) -> str:
-    from fuzzymbs.plot import plot_fuzzy_signal, plot_output_membership
+def _output_section(
+    dataset: xarray.Dataset,
+    name: str,
+    memberships: Sequence[dict],
+    images: Mapping[str, bytes],
+) -> str:
+    from fuzzymbs.plot import (
+        bands_stem,
+        membership_stem,
+        plot_fuzzy_signal,
+        plot_output_membership,
+    )
 
     lower = dataset[f"{name}_lower"]
     unit = str(lower.attrs.get("units", ""))
@@ -271,7 +300,12 @@ def _output_section(dataset: xarray.Dataset, name: str, memberships: Sequence[di
     if not dims:
         parts.append(_table(["μ", "lower", "upper"], _cut_rows(dataset, lower.values, upper, unit)))
         parts.append(
-            _figure_html(plot_output_membership(dataset, name), f"Membership function of {name}.")
+            _figure_html(
+                membership_stem(name),
+                partial(plot_output_membership, dataset, name),
+                f"Membership function of {name}.",
+                images,
+            )
         )
     else:
         shape = " × ".join(f"{d} ({dataset.sizes[d]})" for d in dims)
@@ -280,22 +314,30 @@ def _output_section(dataset: xarray.Dataset, name: str, memberships: Sequence[di
         if len(dims) == 1:
             parts.append(
                 _figure_html(
-                    plot_fuzzy_signal(dataset, name),
+                    bands_stem(name),
+                    partial(plot_fuzzy_signal, dataset, name),
                     f"{name}: alpha-level bands over {dims[0]}, light (μ = 0) to dark (μ = 1).",
+                    images,
                 )
             )
         for spec in memberships:
             if spec.get("output") != name:
                 continue
             coord, value = spec.get("coord"), spec.get("value")
-            figure = plot_output_membership(dataset, name, coord, value)
             where = ""
             if coord is not None:
                 unit = dataset[coord].attrs.get("units") if coord in dataset.coords else None
                 where = f" at {coord} = {format_quantity(float(value), unit)}"
-            parts.append(_figure_html(figure, f"Membership function of {name}{where}."))
+            parts.append(
+                _figure_html(
+                    membership_stem(name, coord, value),
+                    partial(plot_output_membership, dataset, name, coord, value),
+                    f"Membership function of {name}{where}.",
+                    images,
+                )
+            )
     if name in json.loads(dataset.attrs.get("influence_outputs", "[]")):
-        parts.append(_influence_html(dataset, name))
+        parts.append(_influence_html(dataset, name, images))
     return "".join(parts)
 
 
@@ -360,7 +402,11 @@ def _provenance_section(dataset: xarray.Dataset, command: str) -> str:
     )
 
 
-def render_report(dataset: xarray.Dataset, directory: str | Path | None = None) -> str:
+def render_report(
+    dataset: xarray.Dataset,
+    directory: str | Path | None = None,
+    images: Mapping[str, bytes] | None = None,
+) -> str:
     """The HTML report of a study result.
 
     Parameters
@@ -370,6 +416,10 @@ def render_report(dataset: xarray.Dataset, directory: str | Path | None = None) 
     directory : str or Path, optional
         The result's folder, used in the reproduce command when the result
         does not record the command that made it.
+    images : mapping of str to bytes, optional
+        PNG images of the standard figures already drawn, by file stem
+        (:func:`fuzzymbs.plot.standard_figures`): embedded as they are instead of
+        drawn again. Figures not in it are drawn.
 
     Returns
     -------
@@ -405,18 +455,22 @@ def render_report(dataset: xarray.Dataset, directory: str | Path | None = None) 
     if warnings:
         items = "".join(f"<li>{_e(w)}</li>" for w in warnings)
         parts.append(f"<h3>Warnings</h3><ul>{items}</ul>")
-    parts.append(_inputs_section(dataset))
+    images = images or {}
+    parts.append(_inputs_section(dataset, images))
     parts.append("<h2>Outputs</h2>")
-    parts += [_output_section(dataset, name, memberships) for name in outputs]
+    parts += [_output_section(dataset, name, memberships, images) for name in outputs]
     parts.append(_failures_section(dataset))
     parts.append(_provenance_section(dataset, command))
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"
 
 
-def write_report(dataset: xarray.Dataset, path: str | Path) -> Path:
-    """Write :func:`render_report` of ``dataset`` to ``path`` (UTF-8); returns the path."""
+def write_report(
+    dataset: xarray.Dataset, path: str | Path, images: Mapping[str, bytes] | None = None
+) -> Path:
+    """Write :func:`render_report` of ``dataset`` (embedding ``images``, PNG by file stem,
+    where given) to ``path`` (UTF-8); returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(render_report(dataset, path.parent), encoding="utf-8")
+    path.write_text(render_report(dataset, path.parent, images), encoding="utf-8")
     return path

@@ -13,6 +13,8 @@ from fuzzymbs.fuzzy.chebyshev_grid import ChebyshevSparseGrid, evaluate_series, 
 from fuzzymbs.models.closed_form.hard_cases import HardCase, dense_truth, hard_cases
 
 LEVELS = np.linspace(0.0, 1.0, 6)
+# the oscillating signal's dense truth and runs take about 5 s a test: the slow suite
+_SLOW = {"ringing3": pytest.mark.slow}
 
 
 def _run(case: HardCase, **options) -> tuple[AdaptivePlan, dict, float]:
@@ -28,8 +30,10 @@ def _run(case: HardCase, **options) -> tuple[AdaptivePlan, dict, float]:
     "case, budget",
     # the cost targets of the method (about 250 runs for a three-parameter scalar, 400 for
     # the oscillating signal); measured (benchmarks/method_misses.py): 221, 198, 75
-    [(c, b) for c, b in zip(hard_cases(), (250, 400, 100), strict=True)],
-    ids=lambda v: getattr(v, "name", str(v)),
+    [
+        pytest.param(c, b, id=f"{c.name}-{b}", marks=_SLOW.get(c.name, ()))
+        for c, b in zip(hard_cases(), (250, 400, 100), strict=True)
+    ],
 )
 def test_hard_cases_reach_the_tolerance_against_dense_truth(case, budget):
     # dense_truth resolves the true cuts to 0.1 % of the width (test_hard_cases.py), so a
@@ -42,7 +46,9 @@ def test_hard_cases_reach_the_tolerance_against_dense_truth(case, budget):
     assert outcome.runs <= budget
 
 
-@pytest.mark.parametrize("case", hard_cases(), ids=lambda c: c.name)
+@pytest.mark.parametrize(
+    "case", [pytest.param(c, id=c.name, marks=_SLOW.get(c.name, ())) for c in hard_cases()]
+)
 def test_reported_error_is_honest_when_stopped_early(case):
     # a budget too small for the tolerance: the reported (certified) error must be at
     # least half the true miss whenever that miss exceeds the tolerance

@@ -9,9 +9,13 @@ from fuzzymbs.fuzzy.band_scale import band_miss, width_relative
 from fuzzymbs.models.closed_form.hard_cases import bump3, dense_truth, hard_cases, ringing3
 
 LEVELS = np.linspace(0.0, 1.0, 6)
+# the oscillating signal's dense truth and runs take about 5 s a test: the slow suite
+_SLOW = {"ringing3": pytest.mark.slow}
 
 
-@pytest.mark.parametrize("case", hard_cases(), ids=lambda c: c.name)
+@pytest.mark.parametrize(
+    "case", [pytest.param(c, id=c.name, marks=_SLOW.get(c.name, ())) for c in hard_cases()]
+)
 def test_dense_truth_is_resolved_to_a_tenth_of_a_percent_of_the_cut_width(case):
     # halving the grid's spacing moves no bound by more than 0.1 % of the cut width
     coarse = dense_truth(case, LEVELS)

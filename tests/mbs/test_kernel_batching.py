@@ -58,12 +58,19 @@ def test_a_call_beside_a_running_one_takes_only_the_free_threads():
         pytest.skip("needs two threads")
     inside, release = threading.Event(), threading.Event()
     seen = {}
+    entered = []
+    entered_lock = threading.Lock()
 
     def slow_start(block):
         return block
 
     def slow_advance(block, state, begin, end):
-        inside.set()
+        # the first call holds every thread once each of its blocks is inside (its helper
+        # joins a moment after the caller's block starts: waiting for one block races it)
+        with entered_lock:
+            entered.append(block)
+            if len(entered) == threads:
+                inside.set()
         release.wait(10.0)
         return False
 

@@ -176,6 +176,7 @@ def _ros_run(brake, samples, order, kernel="lanes", chunk_size=64):
     )
 
 
+@pytest.mark.slow
 def test_ros34pw2_sample_is_independent_of_its_block(brake):
     # 9 samples that differ in every parameter, with frictionless lanes and disc speeds
     # 1 and 400 rad/s side by side (the per-lane contact path); the reference is each

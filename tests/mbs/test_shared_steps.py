@@ -92,6 +92,7 @@ def test_the_modal_sample_becomes_the_reference(scheme, shared):
         assert deviation < 1e-14
 
 
+@pytest.mark.slow
 def test_the_pilots_runs_are_kept_for_the_plan(scheme, monkeypatch):
     # runs through deviations (a study's pilot) are kept, and a later call takes them
     # instead of running them again: bit for bit what the call would have run (a
@@ -154,6 +155,7 @@ def test_tightened_keeps_the_reference_and_logs_its_own_sequence(shared):
     assert shared.shares_steps and not DiscBrake(t_end=T_END).shares_steps
 
 
+@pytest.mark.slow
 def test_the_check_sequence_logged_beside_the_reference_is_its_own_logging_run(
     scheme, shared, monkeypatch
 ):
@@ -281,6 +283,7 @@ def test_the_reference_is_the_two_runs_extrapolated_with_the_error_law():
         _extrapolated(model, {"k": 1.0}, runs, (1, 0))
 
 
+@pytest.mark.slow
 def test_runs_ahead_are_kept_and_waited_for(scheme, monkeypatch):
     # run_ahead runs its samples in the background and keeps them; the next call waits
     # for them and runs only the others, bit for bit as without them
@@ -330,6 +333,7 @@ def test_deviations_are_the_outputs_less_the_modal_sample(scheme, shared):
         DiscBrake(t_end=T_END).deviations(samples)
 
 
+@pytest.mark.slow
 def test_a_pickled_model_takes_its_pending_reference_along(scheme):
     # a model whose reference runs are still going pickles with their result (waiting
     # for it), so that worker processes get the same correction
@@ -343,6 +347,7 @@ def test_a_pickled_model_takes_its_pending_reference_along(scheme):
         np.testing.assert_array_equal(copy(samples)[name], shared(samples)[name])
 
 
+@pytest.mark.slow
 def test_a_prepared_tightened_model_is_the_tightened_model(scheme, shared):
     # the check's tighter model, built in the background: the same outputs as one built
     # on the spot; a copy (or a pickled model) builds its own
@@ -360,6 +365,7 @@ def test_a_prepared_tightened_model_is_the_tightened_model(scheme, shared):
         np.testing.assert_array_equal(prepared(samples)[name], direct.simulation(samples)[name])
 
 
+@pytest.mark.slow
 def test_a_sequence_too_coarse_for_the_tolerance_is_left():
     # the error control still guards the steps along a sequence (up to SHARED_ACCEPT):
     # on a sequence logged at rtol 1e-1 (itself 10 % of the pads' peak off a converged
@@ -401,6 +407,7 @@ def test_background_results_errors_and_pickling():
             failing.result()
 
 
+@pytest.mark.slow
 def test_samples_of_one_batch_at_their_own_tolerances():
     # one rtol per sample: each lane keeps its own error control, so each sample's
     # outputs are bit for bit those of its run alone (the reference and its companion

@@ -33,6 +33,7 @@ def test_registered_defaults_are_the_identified_values():
             )
 
 
+@pytest.mark.slow
 def test_adaptive_demo_study(tmp_path):
     import tomllib
 
@@ -88,6 +89,7 @@ def test_adaptive_demo_study(tmp_path):
     assert "ste_reference" in result
 
 
+@pytest.mark.slow
 def test_dynamic_model_runs_as_a_study():
     # The registered dynamic variant through the study runner: reduced method, one
     # fuzzy parameter, one level -> 3 samples; outputs labelled by time and harmonic.

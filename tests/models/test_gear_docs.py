@@ -4,6 +4,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 GUIDE = Path(__file__).resolve().parents[2] / "docs" / "gears.md"
 
@@ -21,6 +22,7 @@ def test_gears_guide_example_runs():
     assert np.all(out["ste"][1] < out["ste"][0])
 
 
+@pytest.mark.slow
 def test_gears_guide_fe_example_runs(tmp_path, monkeypatch):
     monkeypatch.setenv("FUZZYMBS_CACHE_DIR", str(tmp_path))
     blocks = re.findall(r"```python\n(.*?)```", GUIDE.read_text(), flags=re.S)

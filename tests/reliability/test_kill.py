@@ -53,6 +53,7 @@ def _descendants(root: int) -> set[int]:
     return found
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 def test_kill_9_of_the_cli_leaves_no_worker_and_no_resource_tracker(tmp_path):
     study = tmp_path / "slow.toml"

@@ -77,6 +77,7 @@ def test_second_run_into_a_busy_folder_stops_with_one_line(tmp_path):
     assert _run(study, out).exit_code == 0  # the lock ends with the run that held it
 
 
+@pytest.mark.slow
 def test_concurrent_processes_one_runs_one_is_refused(tmp_path):
     study = _file(
         tmp_path,
@@ -131,6 +132,7 @@ def test_failing_model_run_marks_the_folder_failed(tmp_path):
     assert not (out / "result.nc").exists()
 
 
+@pytest.mark.slow
 def test_plots_of_an_earlier_study_are_removed(tmp_path):
     out = tmp_path / "out"
     assert _run(_file(tmp_path, "a.toml", PRODUCT.format(name="a", x2=3.0)), out).exit_code == 0

@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 import xarray as xr
 from same_results import assert_identical
 
@@ -101,6 +102,7 @@ def _kill_after_stored(study: Path, out: Path, log: Path, pattern: str) -> None:
     assert not (out / "result.nc").exists()
 
 
+@pytest.mark.slow
 def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
     study = tmp_path / "slow.toml"
     study.write_text(
@@ -144,6 +146,7 @@ def test_killed_run_resumes_and_matches_uninterrupted(tmp_path, monkeypatch):
         assert provenance["evaluated"] == count - provenance["reused_from_store"]
 
 
+@pytest.mark.slow
 def test_killed_adaptive_run_resumes_its_rounds_and_matches_uninterrupted(tmp_path, monkeypatch):
     # the adaptive method's rounds are stored chunk by chunk under
     # STORE/adaptive-<round>-<fingerprint>/; a SIGKILL inside a round loses only the

@@ -164,6 +164,7 @@ def run_study_file(
     timeout: float | None = None,
     report: bool = True,
     command: str | None = None,
+    formats: tuple[str, ...] = ("png",),
 ) -> StudyOutput:
     """Load a study file, run it with ``out/chunks`` as store, and write the results.
 
@@ -172,7 +173,8 @@ def run_study_file(
     lets the file run code its author named (a module reference, an FMU, a
     program; :mod:`fuzzymbs.study.trust`). ``report`` writes ``out/report.html``
     (:mod:`fuzzymbs.report`); ``command``, the command line that ran the study, is
-    recorded in the result for its reproduction.
+    recorded in the result for its reproduction. ``formats``: the plot files' formats
+    (png, pdf, svg); the report embeds the PNG images (drawn for it if png is not asked).
 
     Raises
     ------
@@ -214,6 +216,7 @@ def run_study_file(
             timeout,
             report,
             command,
+            formats,
         )
 
 
@@ -230,6 +233,7 @@ def _run_locked(
     timeout: float | None,
     report: bool = True,
     command: str | None = None,
+    formats: tuple[str, ...] = ("png",),
 ) -> StudyOutput:
     """:func:`run_study_file` once the output folder is locked."""
     from fuzzymbs.study.store import remove_orphans
@@ -261,12 +265,14 @@ def _run_locked(
         if command:
             result.dataset.attrs["command"] = command
         result.to_netcdf(result_path)
-        written = result.plot(out) if plots else []
+        written = result.plot(out, formats) if plots else []
         report_path = None
         if report:
             from fuzzymbs.report import REPORT_FILE, write_report
 
-            report_path = write_report(result.dataset, out / REPORT_FILE)
+            # the report embeds the PNG files just written instead of drawing them again
+            images = {p.stem: p.read_bytes() for p in written if p.suffix == ".png"}
+            report_path = write_report(result.dataset, out / REPORT_FILE, images)
         listed = written + ([report_path] if report_path is not None else [])
         _write_text(out / PLOT_LIST, "".join(f"{p.name}\n" for p in listed))
         _write_text(summary_path, result.summary())

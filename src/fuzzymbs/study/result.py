@@ -567,8 +567,9 @@ class StudyResult:
 
         return summarize(self.dataset)
 
-    def plot(self, directory: str | Path, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
-        """Write the standard plots into ``directory``; returns the files written."""
+    def plot(self, directory: str | Path, formats: tuple[str, ...] = ("png",)) -> list[Path]:
+        """Write the standard plots into ``directory`` (``formats``: any of png, pdf,
+        svg); returns the files written."""
         from fuzzymbs.plot import write_plots
 
         return write_plots(self.dataset, directory, formats=formats)

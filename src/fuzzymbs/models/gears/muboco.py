@@ -341,11 +341,15 @@ def solve_static_batch(g, positions, pairs, torque, k_con, m1, kt1, kt2):
     )
 
 
-@numba.njit(cache=True, parallel=True)
 def solve_static_batch_tolerances(
     g, positions, pairs, torque, k_con, m1, kt1, kt2, center_deviation, tip_relief
 ):
     """Quasi-static STE of a batch of samples over the mesh positions.
+
+    The arrays go to the compiled kernel as C-contiguous, writable float64 (pairs:
+    int64), whatever the caller holds (a column view, a read-only array): the kernel is
+    then compiled for one signature only, not once per memory layout (each costs about
+    10 s of compilation on the first run).
 
     Parameters
     ----------
@@ -366,6 +370,30 @@ def solve_static_batch_tolerances(
     (``GEOMETRY_TEXT``), and the hinge angles (B, K) of both gears' teeth at the
     last position.
     """
+
+    def floats(values, dtype=np.float64):
+        array = np.ascontiguousarray(values, dtype=dtype)
+        return array if array.flags.writeable else array.copy()
+
+    return _solve_static_batch(
+        floats(g),
+        floats(positions),
+        floats(pairs, np.int64),
+        floats(torque),
+        floats(k_con),
+        float(m1),
+        floats(kt1),
+        floats(kt2),
+        floats(center_deviation),
+        floats(tip_relief),
+    )
+
+
+@numba.njit(cache=True, parallel=True)
+def _solve_static_batch(
+    g, positions, pairs, torque, k_con, m1, kt1, kt2, center_deviation, tip_relief
+):
+    """:func:`solve_static_batch_tolerances` compiled (arrays as it passes them)."""
     n_samples = torque.shape[0]
     n_pos = positions.shape[0]
     n_pairs = pairs.shape[0]
