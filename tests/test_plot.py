@@ -254,3 +254,36 @@ def test_a_signal_without_any_bounded_level_is_drawn_empty_without_warnings():
         figure = plot_fuzzy_signal(dataset, "y")
     assert len(figure.axes) == 1 and not figure.axes[0].collections
     assert "PARTIAL" in figure._suptitle.get_text()
+
+
+def test_figure_cache_copies_the_figures_of_an_unchanged_result(oscillator, tmp_path, monkeypatch):
+    import fuzzymbs.plot as plot_module
+
+    cache = tmp_path / "cache"
+    first = write_plots(oscillator, tmp_path / "a", cache=cache)
+    drawn = {p.name: p.read_bytes() for p in first}
+    kept = sorted(cache.iterdir())
+    assert len(kept) == len(first)
+
+    def no_drawing(*args, **kwargs):
+        raise AssertionError("a figure was drawn although its result is in the cache")
+
+    with monkeypatch.context() as patched:
+        patched.setattr(plot_module, "_save", no_drawing)
+        # the run's own record changes from run to run; the figures do not draw it
+        again = oscillator.copy()
+        again.attrs["provenance"] = '{"wall_time_s": 1.0}'
+        second = write_plots(again, tmp_path / "b", cache=cache)
+    assert {p.name: p.read_bytes() for p in second} == drawn
+    # a changed result is drawn anew and replaces the cache's entries
+    changed = oscillator.copy(deep=True)
+    changed["displacement_upper"] = changed["displacement_upper"] * 1.5
+    third = write_plots(changed, tmp_path / "c", cache=cache)
+    assert (tmp_path / "c" / "displacement_bands.png").read_bytes() != drawn[
+        "displacement_bands.png"
+    ]
+    assert (tmp_path / "c" / "inputs_membership.png").read_bytes() == drawn[
+        "inputs_membership.png"
+    ]  # the inputs' figure is drawn from unchanged data: the same image
+    assert len(list(cache.iterdir())) == len(third)
+    assert not set(kept) & set(cache.iterdir())  # the earlier result's entries are gone

@@ -286,7 +286,7 @@ def demo(
 
     from fuzzymbs.errors import FuzzymbsError
     from fuzzymbs.study.pipeline import demo_files
-    from fuzzymbs.study.studyfile import load_study_file
+    from fuzzymbs.study.studyfile import study_file_name
 
     _setup_logging(quiet, verbose)
     formats = _formats(fmt)
@@ -297,7 +297,7 @@ def demo(
     for entry in files:
         with resources.as_file(entry) as path:
             try:
-                study_name = load_study_file(path).name
+                study_name = study_file_name(path)  # the model is built once, by the run
             except FuzzymbsError as exc:
                 raise _fail(str(exc)) from None
             # a copy keeps the shipped file untouched and gives errors a readable name

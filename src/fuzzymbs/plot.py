@@ -526,12 +526,45 @@ def standard_figures(
     return figures
 
 
+#: Attributes of a result that change from run to run but are drawn in no figure.
+_UNDRAWN_ATTRIBUTES = frozenset({"provenance", "command"})
+
+
+def result_digest(dataset: xarray.Dataset) -> str:
+    """A digest of everything a figure of ``dataset`` may draw: every variable and
+    coordinate (name, type, shape, values, attributes) and the dataset's attributes but
+    the run's own record (provenance, command), with the versions of fuzzymbs and
+    matplotlib. Two results with equal digests give the same figures."""
+    import hashlib
+    from importlib.metadata import version
+
+    from fuzzymbs import __version__
+
+    digest = hashlib.sha256(f"{__version__} {version('matplotlib')} {PNG_DPI}".encode())
+    for name in sorted(map(str, dataset.variables)):
+        array = dataset.variables[name]
+        values = np.asarray(array.values)
+        header = (name, str(values.dtype), values.shape, array.dims, sorted(array.attrs.items()))
+        digest.update(repr(header).encode())
+        digest.update(
+            repr(values.tolist()).encode() if values.dtype == object else values.tobytes()
+        )
+    attributes = {k: v for k, v in dataset.attrs.items() if k not in _UNDRAWN_ATTRIBUTES}
+    digest.update(repr(sorted((k, str(v)) for k, v in attributes.items())).encode())
+    return digest.hexdigest()
+
+
+def _target(directory: Path, stem: str, extension: str) -> Path:
+    path = directory / f"{stem}.{extension}"
+    if path.parent != directory or path.name.startswith("."):  # never outside directory
+        raise ValueError(f"plot name {stem!r} is not a plain file name")
+    return path
+
+
 def _save(figure: Figure, directory: Path, stem: str, formats: Sequence[str]) -> list[Path]:
     written = []
     for extension in formats:
-        path = directory / f"{stem}.{extension}"
-        if path.parent != directory or path.name.startswith("."):  # never outside directory
-            raise ValueError(f"plot name {stem!r} is not a plain file name")
+        path = _target(directory, stem, extension)
         figure.savefig(path, dpi=PNG_DPI)
         # the first save placed the axes; keep that layout instead of solving it again
         figure.set_layout_engine("none")
@@ -544,10 +577,25 @@ def write_plots(
     directory: str | Path,
     membership: Sequence[Mapping[str, Any]] | None = None,
     formats: Sequence[str] = DEFAULT_FORMATS,
+    cache: str | Path | None = None,
 ) -> list[Path]:
     """Write the standard plots of a result (:func:`standard_figures`) into ``directory``.
 
-    ``formats``: any of :data:`FORMATS`; PNG only by default.
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        A study result.
+    directory : str or Path
+        Where the files go (created if missing).
+    membership : sequence of mapping, optional
+        Membership figures at given coordinates (see :func:`standard_figures`).
+    formats : sequence of str
+        Any of :data:`FORMATS`; PNG only by default.
+    cache : str or Path, optional
+        A folder of figure files by content (:func:`result_digest`): a figure whose
+        result, stem and format it holds is copied from it instead of drawn (a rerun
+        that resumes every run draws nothing), and what is drawn is kept there.
+        Entries this call did not use are removed, so the folder holds one result's.
 
     Returns
     -------
@@ -559,7 +607,44 @@ def write_plots(
         raise InvalidParameterError(f"plot formats {unknown}; allowed: {', '.join(FORMATS)}")
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
+    if cache is None:
+        written: list[Path] = []
+        for figure in standard_figures(dataset, membership):
+            written += _save(figure.build(), directory, figure.stem, formats)
+        return written
+    return _write_cached(dataset, directory, membership, formats, Path(cache))
+
+
+def _write_cached(
+    dataset: xarray.Dataset,
+    directory: Path,
+    membership: Sequence[Mapping[str, Any]] | None,
+    formats: Sequence[str],
+    cache: Path,
+) -> list[Path]:
+    """:func:`write_plots` through the figure cache ``cache``."""
+    import hashlib
+
+    from fuzzymbs.files import write_bytes_atomically
+
+    cache.mkdir(parents=True, exist_ok=True)
+    result = result_digest(dataset)
+    written, used = [], set()
     for figure in standard_figures(dataset, membership):
-        written += _save(figure.build(), directory, figure.stem, formats)
+        key = hashlib.sha256(f"{result} {figure.stem}".encode()).hexdigest()[:32]
+        kept = {extension: cache / f"{key}.{extension}" for extension in formats}
+        used.update(path.name for path in kept.values())
+        missing = [extension for extension, path in kept.items() if not path.is_file()]
+        if missing:
+            drawn = _save(figure.build(), directory, figure.stem, missing)
+            for path in drawn:
+                write_bytes_atomically(kept[path.suffix[1:]], path.read_bytes())
+        for extension, path in kept.items():
+            target = _target(directory, figure.stem, extension)
+            if extension not in missing:
+                write_bytes_atomically(target, path.read_bytes())
+            written.append(target)
+    for entry in cache.iterdir():
+        if entry.is_file() and entry.name not in used and not entry.name.startswith("."):
+            entry.unlink(missing_ok=True)
     return written

@@ -11,6 +11,10 @@ earlier ``result.nc`` is moved to ``previous-result.nc`` and the plots the
 earlier run wrote (listed in ``DIR/.plots``) are removed, and ``summary.txt``
 says the run is under way; a run that fails says so in ``summary.txt`` and
 writes no ``result.nc``; a run that succeeds removes ``previous-result.nc``.
+
+``DIR/.figures`` keeps the figures of the last result by content: a rerun whose
+result is the same (every run resumed from the store) copies them instead of
+drawing them again.
 """
 
 from __future__ import annotations
@@ -38,6 +42,8 @@ PREVIOUS_RESULT_FILE = "previous-result.nc"
 #: the plot files the last run wrote (one name a line), removed when the next run starts
 PLOT_LIST = ".plots"
 LOCK_FILE = ".fuzzymbs.lock"
+#: the figures of the folder's last result by content (:func:`fuzzymbs.plot.write_plots`)
+FIGURE_CACHE = ".figures"
 
 
 def prepare_output_folder(out: Path) -> None:
@@ -265,7 +271,12 @@ def _run_locked(
         if command:
             result.dataset.attrs["command"] = command
         result.to_netcdf(result_path)
-        written = result.plot(out, formats) if plots else []
+        written = []
+        if plots:
+            from fuzzymbs.plot import write_plots
+
+            # a rerun whose result is unchanged (every run resumed) copies its figures
+            written = write_plots(result.dataset, out, formats=formats, cache=out / FIGURE_CACHE)
         report_path = None
         if report:
             from fuzzymbs.report import REPORT_FILE, write_report

@@ -270,6 +270,48 @@ def _model_options(path: Path, model: str, options: dict[str, Any]) -> dict[str,
     return options
 
 
+def _parse(path: Path) -> StudyFileModel:
+    """The study file read and checked against its schema (nothing resolved yet).
+
+    Raises
+    ------
+    StudyFileError
+        The file cannot be read, is not TOML, or does not match the schema.
+    """
+    try:
+        with path.open("rb") as handle:
+            raw = tomllib.load(handle)
+    except FileNotFoundError:
+        raise StudyFileError(f"{path}: study file not found") from None
+    except IsADirectoryError:
+        raise StudyFileError(f"{path}: is a directory; give a study file (TOML)") from None
+    except OSError as exc:
+        raise StudyFileError(f"{path}: cannot read the study file ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise StudyFileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyFileError(f"{path}: not valid TOML: {exc}") from None
+    try:
+        parsed = StudyFileModel.model_validate(raw)
+    except ValidationError as exc:
+        messages = [_describe_error(path, error) for error in exc.errors()]
+        raise StudyFileError("; ".join(messages)) from None
+    return parsed
+
+
+def study_file_name(path: str | Path) -> str:
+    """The study's name (``[study] name``, else the file's stem) from a study file checked
+    against its schema, without building its model (a demo names its output folders so).
+
+    Raises
+    ------
+    StudyFileError
+        As :func:`load_study_file` for a file that cannot be read or is malformed.
+    """
+    path = Path(path)
+    return _parse(path).study.name or path.stem
+
+
 def load_study_file(
     path: str | Path,
     allow_code: bool = False,
@@ -314,24 +356,7 @@ def load_study_file(
     from fuzzymbs.study.trust import check_study_code
 
     path = Path(path)
-    try:
-        with path.open("rb") as handle:
-            raw = tomllib.load(handle)
-    except FileNotFoundError:
-        raise StudyFileError(f"{path}: study file not found") from None
-    except IsADirectoryError:
-        raise StudyFileError(f"{path}: is a directory; give a study file (TOML)") from None
-    except OSError as exc:
-        raise StudyFileError(f"{path}: cannot read the study file ({exc.strerror})") from None
-    except UnicodeDecodeError as exc:
-        raise StudyFileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyFileError(f"{path}: not valid TOML: {exc}") from None
-    try:
-        parsed = StudyFileModel.model_validate(raw)
-    except ValidationError as exc:
-        messages = [_describe_error(path, error) for error in exc.errors()]
-        raise StudyFileError("; ".join(messages)) from None
+    parsed = _parse(path)
     if not parsed.parameters:
         raise StudyFileError(f"{path}: [parameters] is empty; give at least one fuzzy parameter")
     definitions = _parameter_definitions(path, parsed.parameters)
