@@ -285,7 +285,7 @@ def demo(
     from importlib import resources
 
     from fuzzymbs.errors import FuzzymbsError
-    from fuzzymbs.study.pipeline import demo_files
+    from fuzzymbs.study.pipeline import demo_estimate, demo_files, demo_has_timing
     from fuzzymbs.study.studyfile import study_file_name
 
     _setup_logging(quiet, verbose)
@@ -294,6 +294,13 @@ def demo(
         files = demo_files(name)
     except FuzzymbsError as exc:
         raise _fail(str(exc)) from None
+    if not quiet and demo_has_timing(name):
+        typer.echo(
+            f"fuzzymbs demo {name}: timing one sample-step of its model here (on the first run "
+            "after the install, Numba compiles its kernels first: about a minute)",
+            err=True,
+        )
+        typer.echo(f"fuzzymbs demo {name}: {demo_estimate(name).describe()}", err=True)
     for entry in files:
         with resources.as_file(entry) as path:
             try:

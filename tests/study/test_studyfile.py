@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fuzzymbs.errors import StudyFileError
-from fuzzymbs.study.studyfile import load_study_file
+from fuzzymbs.study.studyfile import load_study_file, study_file_name
 
 VALID = """
 [study]
@@ -215,3 +215,15 @@ def test_literal_choices_match_the_engine():
 
     assert get_args(StudySection.model_fields["method"].annotation) == ALL_METHODS
     assert get_args(RunSection.model_fields["on_failure"].annotation) == ON_FAILURE
+
+
+def test_study_file_name_without_building_the_model(tmp_path):
+    # the name load_study_file gives, read without building the model (the demo's folders)
+    assert study_file_name(write(tmp_path, VALID)) == load_study_file(write(tmp_path, VALID)).name
+    nameless = VALID.replace('name = "demo"\n', "")
+    assert study_file_name(write(tmp_path, nameless, "my-study.toml")) == "my-study"
+    # a malformed file is refused as load_study_file refuses it
+    with pytest.raises(StudyFileError, match="not valid TOML"):
+        study_file_name(write(tmp_path, "[model\nname = 1", "bad.toml"))
+    with pytest.raises(StudyFileError, match=r"unknown key 'study\.methd'"):
+        study_file_name(write(tmp_path, VALID.replace("method =", "methd ="), "typo.toml"))

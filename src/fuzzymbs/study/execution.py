@@ -29,6 +29,7 @@ __all__ = [
     "check_run_settings",
     "evaluate_chunks",
     "progress_bar",
+    "progress_phase",
 ]
 
 logger = logging.getLogger(__name__)
@@ -322,3 +323,22 @@ def progress_bar(
     with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
         task = bar.add_task(label, total=total, completed=already)
         yield lambda n: bar.advance(task, n)
+
+
+@contextmanager
+def progress_phase(enabled: bool, label: str, total: int | None = None) -> Iterator[None]:
+    """A progress line on stderr for work done in one call (a study's choice of the
+    integrator tolerance, its time-integration check): a pulsing bar and the elapsed
+    time while it runs, full when it returns (``total``: its samples, if known). A
+    no-op when disabled."""
+    if not enabled:
+        yield
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    columns = (TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
+        task = bar.add_task(label, total=None)
+        yield
+        bar.update(task, total=total or 1, completed=total or 1)

@@ -38,6 +38,7 @@ from fuzzymbs.study.execution import (
     assemble_chunks,
     check_run_settings,
     evaluate_chunks,
+    progress_phase,
 )
 from fuzzymbs.study.integration_check import (
     IntegrationCheck,
@@ -111,22 +112,27 @@ class StudyRuns:
         digest.update(np.ascontiguousarray(screening.samples, dtype="<f8").tobytes())
         return {"screening_fingerprint": digest.hexdigest(), **self._model_identity()}
 
-    def _choose_integration(self) -> None:
-        """Once per study: the model's integrator tolerance chosen for the cut widths."""
+    def _choose_integration(self, progress: bool = False) -> None:
+        """Once per study: the model's integrator tolerance chosen for the cut widths
+        (``progress``: a progress line while the pilot and reference runs go on)."""
         if not self.choose_integration or self.integration_choice is not None:
             return
+        if not getattr(self.model, "scalable_tolerance", False):
+            return  # choose_tolerance leaves such a model as it is, and records nothing
         plan = self.plan
-        self.model, self.integration_choice = choose_tolerance(
-            self.model,
-            lambda table: self._columns(table, 0, len(table)),
-            plan.cut_lower,
-            plan.cut_upper,
-            plan.samples[plan.nominal_index],
-            self.output_names,
-            self.integration_tolerance,
-            self.shared_steps,
-            self._first_points(),
-        )
+        label = f"{self.name} (integrator tolerance: pilot and reference runs)"
+        with progress_phase(progress, label):
+            self.model, self.integration_choice = choose_tolerance(
+                self.model,
+                lambda table: self._columns(table, 0, len(table)),
+                plan.cut_lower,
+                plan.cut_upper,
+                plan.samples[plan.nominal_index],
+                self.output_names,
+                self.integration_tolerance,
+                self.shared_steps,
+                self._first_points(),
+            )
 
     def _first_points(self) -> np.ndarray:
         """The plan's first runs (run ahead while a shared-steps reference finishes): the
@@ -338,6 +344,7 @@ class StudyRuns:
         feed: ChunkFeed,
         failed: np.ndarray,
         outputs: Mapping[str, np.ndarray] | None = None,
+        progress: bool = False,
     ) -> IntegrationCheck | None:
         """The samples that give the bounds re-run by a time-integrated model at a tighter
         tolerance (:mod:`fuzzymbs.study.integration_check`); ``outputs`` (every run's, of
@@ -359,16 +366,18 @@ class StudyRuns:
                 tallies, plan.nominal_index, failed, self.integration_runs, include_nominal
             )
             bounds = {name: run_bounds.get(name) for name in self.output_names}
-        return check_time_integration(
-            self.model,
-            lambda rows: self._columns(self.plan.samples[rows], 0, len(rows)),
-            samples,
-            bounds,
-            feed.nominal(),
-            self.plan.nominal_index,
-            self.plan.levels,
-            self.integration_tolerance,
-        )
+        label = f"{self.name} (time-integration check: {len(samples)} samples, tolerance / 10)"
+        with progress_phase(progress, label, len(samples)):
+            return check_time_integration(
+                self.model,
+                lambda rows: self._columns(self.plan.samples[rows], 0, len(rows)),
+                samples,
+                bounds,
+                feed.nominal(),
+                self.plan.nominal_index,
+                self.plan.levels,
+                self.integration_tolerance,
+            )
 
     def screen(
         self,

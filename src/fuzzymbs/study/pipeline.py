@@ -351,3 +351,74 @@ def demo_files(name: str) -> list[Any]:
             f"unknown demo {name!r}; shipped demos: {', '.join(demo_names()) or '(none)'}"
         )
     return files
+
+
+#: A demo's recorded cost (beside its study files), for the estimate printed before it runs.
+DEMO_TIMING_FILE = "timing.json"
+
+
+@dataclass(frozen=True)
+class DemoEstimate:
+    """How long a demo takes here: its recorded wall time scaled by the cost of one
+    sample-step here against the cost when it was recorded."""
+
+    seconds: float
+    recorded_seconds: float
+    sample_step_seconds: float
+    recorded_sample_step_seconds: float
+
+    def describe(self) -> str:
+        """One line for the user."""
+        return (
+            f"about {_duration(self.seconds)} on this machine (measured "
+            f"{_duration(self.recorded_seconds)} where a sample-step took "
+            f"{self.recorded_sample_step_seconds * 1e6:.3g} us; here it takes "
+            f"{self.sample_step_seconds * 1e6:.3g} us)"
+        )
+
+
+def _duration(seconds: float) -> str:
+    minutes, rest = divmod(round(seconds), 60)
+    return f"{minutes} min {rest} s" if minutes else f"{rest} s"
+
+
+def _brake_sample_step() -> float:
+    from fuzzymbs.models.brake.calibration import seconds_per_sample_step
+
+    return seconds_per_sample_step()
+
+
+#: Calibrations a demo's timing file may name: the seconds of one sample-step here.
+CALIBRATIONS = {"brake": _brake_sample_step}
+
+
+def _timing_entry(name: str) -> Any | None:
+    from importlib import resources
+
+    entry = resources.files("fuzzymbs") / "demos" / name / DEMO_TIMING_FILE
+    return entry if name in demo_names() and entry.is_file() else None
+
+
+def demo_has_timing(name: str) -> bool:
+    """Whether demo ``name`` has a recorded timing (and :func:`demo_estimate` an estimate)."""
+    return _timing_entry(name) is not None
+
+
+def demo_estimate(name: str) -> DemoEstimate | None:
+    """How long demo ``name`` will take on this machine, or None for a demo without a
+    recorded timing (``fuzzymbs/demos/NAME/timing.json``: its wall time ``seconds``,
+    the ``calibration`` it was measured with and that calibration's
+    ``sample_step_seconds`` then). Runs the calibration (a second or less, after the
+    compilation of its kernels on a first run, which the demo needs anyway)."""
+    entry = _timing_entry(name)
+    if entry is None:
+        return None
+    recorded = json.loads(entry.read_text(encoding="utf-8"))
+    now = CALIBRATIONS[recorded["calibration"]]()
+    ratio = now / float(recorded["sample_step_seconds"])
+    return DemoEstimate(
+        float(recorded["seconds"]) * ratio,
+        float(recorded["seconds"]),
+        now,
+        float(recorded["sample_step_seconds"]),
+    )

@@ -467,7 +467,7 @@ class Study(StudyRuns):
         try:
             if self._plan is None:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
-            self._choose_integration()
+            self._choose_integration(progress)
             if self.plan.method == "adaptive":
                 return self._run_adaptive(
                     work,
@@ -537,7 +537,7 @@ class Study(StudyRuns):
         touched = self.plan.levels_touched(failed)
         if failed.any() and (on_failure != "partial" or touched.all()):
             raise IncompleteResultError(self._failure_message(failed, reasons, touched))
-        integration = self._check_time_integration(feed, failed)
+        integration = self._check_time_integration(feed, failed, progress=progress)
         wall_time = time.perf_counter() - started
         dataset = build_dataset(
             self,
@@ -579,7 +579,7 @@ class Study(StudyRuns):
         reasons = np.full(count, "", dtype=object)
         feed = ChunkFeed(plan, count, count, (), None, keep_raw, self._output_check)
         feed.add(0, ChunkResult(0, count, outputs, failed, reasons))
-        integration = self._check_time_integration(feed, failed, outputs)
+        integration = self._check_time_integration(feed, failed, outputs, progress)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", AdaptiveWarning)  # build_dataset would repeat it
             dataset = build_dataset(
