@@ -179,11 +179,13 @@ def simulate(
     out_w = np.array([compiled.output_functional(spec) for spec in outputs.values()])
     if not displacement_bound > 0:
         raise InvalidParameterError(f"displacement_bound must be > 0 m, got {displacement_bound!r}")
+    # float64 whatever the caller's number: an int bound would compile the kernels again
     bounds = np.array(
         [
             np.inf if getattr(spec, "velocity", False) else displacement_bound
             for spec in outputs.values()
-        ]
+        ],
+        dtype=np.float64,
     )
     n_rec = n_steps // every + 1
     # the kernel's final time, computed as it computes it
@@ -341,7 +343,9 @@ def _initial(compiled: CompiledSystem, initial_state, batch: int) -> NDArray[np.
             f"initial_state must be finite of shape ({compiled.n_state},) or "
             f"({batch}, {compiled.n_state}), got {np.shape(initial_state)}"
         )
-    return np.ascontiguousarray(x0)
+    # a writable copy: a read-only array (a broadcast row) is another kernel signature,
+    # compiled again at the full cost
+    return np.array(x0, dtype=np.float64, order="C")
 
 
 def evaluate_rhs(
