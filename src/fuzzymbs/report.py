@@ -14,9 +14,8 @@ import base64
 import html
 import io
 import json
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -26,7 +25,8 @@ from fuzzymbs.units import Scale, engineering_scale, format_quantity
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray
-    from matplotlib.figure import Figure
+
+    from fuzzymbs.plot import StandardFigure
 
 REPORT_FILE = "report.html"
 _VERDICTS = {"pass": "OK", "fail": "FAILED", "none": "—"}
@@ -61,23 +61,28 @@ def _e(value: Any) -> str:
     return html.escape(str(value))
 
 
-def _figure_html(
-    stem: str, build: Callable[[], Figure], caption: str, images: Mapping[str, bytes]
-) -> str:
-    """The figure as an embedded PNG with its caption: the PNG in ``images`` under its
-    file stem (the plot file already written), else drawn now."""
-    png = images.get(stem)
-    if png is None:
-        from fuzzymbs.plot import PNG_DPI
+@dataclass(frozen=True)
+class _Figures:
+    """The result's standard figures (:func:`fuzzymbs.plot.standard_figures`) by file
+    stem, and the PNG images of those already drawn (the plot files just written)."""
 
-        buffer = io.BytesIO()
-        build().savefig(buffer, format="png", dpi=PNG_DPI)
-        png = buffer.getvalue()
-    data = base64.b64encode(png).decode("ascii")
-    return (
-        f'<figure><img alt="{_e(caption)}" src="data:image/png;base64,{data}">'
-        f"<figcaption>{_e(caption)}</figcaption></figure>"
-    )
+    standard: Mapping[str, StandardFigure]
+    images: Mapping[str, bytes]
+
+    def html(self, stem: str, caption: str) -> str:
+        """The figure as an embedded PNG with its caption (drawn now if not drawn yet)."""
+        png = self.images.get(stem)
+        if png is None:
+            from fuzzymbs.plot import PNG_DPI
+
+            buffer = io.BytesIO()
+            self.standard[stem].build().savefig(buffer, format="png", dpi=PNG_DPI)
+            png = buffer.getvalue()
+        data = base64.b64encode(png).decode("ascii")
+        return (
+            f'<figure><img alt="{_e(caption)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{_e(caption)}</figcaption></figure>"
+        )
 
 
 def _table(header: Sequence[str], rows: Iterable[Sequence[Any]], numeric: int = 0) -> str:
@@ -166,8 +171,8 @@ def reproduce_command(dataset: xarray.Dataset, directory: str | Path | None = No
     return f"fuzzymbs run {study_file} --out {directory or 'OUT'}"
 
 
-def _inputs_section(dataset: xarray.Dataset, images: Mapping[str, bytes]) -> str:
-    from fuzzymbs.plot import INPUTS_STEM, plot_input_memberships
+def _inputs_section(dataset: xarray.Dataset, figures: _Figures) -> str:
+    from fuzzymbs.plot import INPUTS_STEM
 
     units = json.loads(dataset.attrs.get("parameter_units", "{}"))
     lower, upper = dataset["parameter_lower"].values, dataset["parameter_upper"].values
@@ -179,12 +184,7 @@ def _inputs_section(dataset: xarray.Dataset, images: Mapping[str, bytes]) -> str
     table = _table(
         ["parameter", "support lower", "core lower", "core upper", "support upper"], rows, 4
     )
-    figure = _figure_html(
-        INPUTS_STEM,
-        partial(plot_input_memberships, dataset),
-        "Membership functions of the inputs.",
-        images,
-    )
+    figure = figures.html(INPUTS_STEM, "Membership functions of the inputs.")
     return f"<h2>Fuzzy inputs</h2>{table}{figure}"
 
 
@@ -244,8 +244,8 @@ def _signal_table(
     return _table(header, rows) + note
 
 
-def _influence_html(dataset: xarray.Dataset, name: str, images: Mapping[str, bytes]) -> str:
-    from fuzzymbs.plot import influence_stem, plot_influence
+def _influence_html(dataset: xarray.Dataset, name: str, figures: _Figures) -> str:
+    from fuzzymbs.plot import influence_stem
 
     absolute = dataset[f"{name}_absolute_influence"].values
     unit = str(dataset[f"{name}_lower"].attrs.get("units", ""))
@@ -270,12 +270,7 @@ def _influence_html(dataset: xarray.Dataset, name: str, images: Mapping[str, byt
         )
     if absolute.ndim > 2:
         return f"<h4>Influence</h4>{table}"
-    figure = _figure_html(
-        influence_stem(name),
-        partial(plot_influence, dataset, name),
-        f"Influence of the inputs on {name}.",
-        images,
-    )
+    figure = figures.html(influence_stem(name), f"Influence of the inputs on {name}.")
     return f"<h4>Influence</h4>{table}{figure}"
 
 
@@ -283,14 +278,9 @@ def _output_section(
     dataset: xarray.Dataset,
     name: str,
     memberships: Sequence[dict],
-    images: Mapping[str, bytes],
+    figures: _Figures,
 ) -> str:
-    from fuzzymbs.plot import (
-        bands_stem,
-        membership_stem,
-        plot_fuzzy_signal,
-        plot_output_membership,
-    )
+    from fuzzymbs.plot import bands_stem, membership_stem
 
     lower = dataset[f"{name}_lower"]
     unit = str(lower.attrs.get("units", ""))
@@ -299,25 +289,16 @@ def _output_section(
     upper = dataset[f"{name}_upper"].values
     if not dims:
         parts.append(_table(["μ", "lower", "upper"], _cut_rows(dataset, lower.values, upper, unit)))
-        parts.append(
-            _figure_html(
-                membership_stem(name),
-                partial(plot_output_membership, dataset, name),
-                f"Membership function of {name}.",
-                images,
-            )
-        )
+        parts.append(figures.html(membership_stem(name), f"Membership function of {name}."))
     else:
         shape = " × ".join(f"{d} ({dataset.sizes[d]})" for d in dims)
         parts.append(f"<p>A signal over {_e(shape)}.</p>")
         parts.append(_signal_table(dataset, name, lower.values, upper, unit))
         if len(dims) == 1:
             parts.append(
-                _figure_html(
+                figures.html(
                     bands_stem(name),
-                    partial(plot_fuzzy_signal, dataset, name),
                     f"{name}: alpha-level bands over {dims[0]}, light (μ = 0) to dark (μ = 1).",
-                    images,
                 )
             )
         for spec in memberships:
@@ -329,15 +310,12 @@ def _output_section(
                 unit = dataset[coord].attrs.get("units") if coord in dataset.coords else None
                 where = f" at {coord} = {format_quantity(float(value), unit)}"
             parts.append(
-                _figure_html(
-                    membership_stem(name, coord, value),
-                    partial(plot_output_membership, dataset, name, coord, value),
-                    f"Membership function of {name}{where}.",
-                    images,
+                figures.html(
+                    membership_stem(name, coord, value), f"Membership function of {name}{where}."
                 )
             )
     if name in json.loads(dataset.attrs.get("influence_outputs", "[]")):
-        parts.append(_influence_html(dataset, name, images))
+        parts.append(_influence_html(dataset, name, figures))
     return "".join(parts)
 
 
@@ -455,10 +433,13 @@ def render_report(
     if warnings:
         items = "".join(f"<li>{_e(w)}</li>" for w in warnings)
         parts.append(f"<h3>Warnings</h3><ul>{items}</ul>")
-    images = images or {}
-    parts.append(_inputs_section(dataset, images))
+    from fuzzymbs.plot import standard_figures
+
+    standard = {figure.stem: figure for figure in standard_figures(dataset, memberships)}
+    figures = _Figures(standard, images or {})
+    parts.append(_inputs_section(dataset, figures))
     parts.append("<h2>Outputs</h2>")
-    parts += [_output_section(dataset, name, memberships, images) for name in outputs]
+    parts += [_output_section(dataset, name, memberships, figures) for name in outputs]
     parts.append(_failures_section(dataset))
     parts.append(_provenance_section(dataset, command))
     parts.append("</body></html>")

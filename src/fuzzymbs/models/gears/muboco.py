@@ -371,21 +371,21 @@ def solve_static_batch_tolerances(
     last position.
     """
 
-    def floats(values, dtype=np.float64):
+    def kernel_array(values, dtype=np.float64):
         array = np.ascontiguousarray(values, dtype=dtype)
         return array if array.flags.writeable else array.copy()
 
     return _solve_static_batch(
-        floats(g),
-        floats(positions),
-        floats(pairs, np.int64),
-        floats(torque),
-        floats(k_con),
+        kernel_array(g),
+        kernel_array(positions),
+        kernel_array(pairs, np.int64),
+        kernel_array(torque),
+        kernel_array(k_con),
         float(m1),
-        floats(kt1),
-        floats(kt2),
-        floats(center_deviation),
-        floats(tip_relief),
+        kernel_array(kt1),
+        kernel_array(kt2),
+        kernel_array(center_deviation),
+        kernel_array(tip_relief),
     )
 
 
