@@ -546,8 +546,11 @@ def result_digest(dataset: xarray.Dataset) -> str:
         values = np.asarray(array.values)
         header = (name, str(values.dtype), values.shape, array.dims, sorted(array.attrs.items()))
         digest.update(repr(header).encode())
+        # the array's own buffer (no copy: a large study's raw outputs are hundreds of MB)
         digest.update(
-            repr(values.tolist()).encode() if values.dtype == object else values.tobytes()
+            repr(values.tolist()).encode()
+            if values.dtype == object
+            else np.ascontiguousarray(values).data
         )
     attributes = {k: v for k, v in dataset.attrs.items() if k not in _UNDRAWN_ATTRIBUTES}
     digest.update(repr(sorted((k, str(v)) for k, v in attributes.items())).encode())
