@@ -1,0 +1,301 @@
+"""Planar Euler-Bernoulli beams, reduced to modes for a floating frame.
+
+A straight beam along the body's x axis from x = 0 to x = ``length``, meshed
+with two-node elements: linear axial displacement u and cubic (Hermite)
+transverse displacement w with the slope phi = w' as the third nodal degree of
+freedom. Element matrices (any FE text, e.g. Przemieniecki, Theory of Matrix
+Structural Analysis, ch. 5 and 11)::
+
+    axial:   K = EA/h [[1, -1], [-1, 1]]          M = rho A h / 6 [[2, 1], [1, 2]]
+    bending: K = EI/h^3 [[12, 6h, -12, 6h], ...]  M = rho A h / 420 [[156, 22h, 54, -13h], ...]
+
+The modes are those of the beam held at ``support``: ``"clamped"`` holds the
+root (u, w, phi at x = 0; the frame is the root's tangent frame, as for a
+beam clamped to a hub or a pendulum whose frame turns with its root),
+``"pinned-pinned"`` holds u and w at the root and w at the tip (the frame is
+the chord, as for a connecting rod). The modes are mass-normalised.
+
+Everything the floating-frame equations need is integrated here once, with
+the same shape functions and a Gauss rule exact for them (the inertia shape
+integrals, Shabana, Dynamics of Multibody Systems, ch. 5), and so is the
+geometric stiffness of two unit load states (Schwertassek & Wallrapp,
+Dynamik flexibler Mehrkoerpersysteme, ch. 6; Wallrapp's SID): the
+centrifugal load of a unit frame angular velocity, N(x) = rho A (L^2 - x^2)/2,
+and a unit body-frame axial acceleration field, N(x) = rho A (L - x). At run
+time the engine scales them by omega^2 and the axial field (gravity), so a
+spinning or hanging beam stiffens as a geometrically nonlinear beam does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from fuzzymbs.errors import InvalidParameterError
+
+#: Gauss-Legendre rule on [0, 1] with 4 points: exact to degree 7, enough for
+#: products of two cubics (mass integrals) and of two quadratic slopes.
+_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(4)
+_GAUSS_X = 0.5 * (_GAUSS_X + 1.0)
+_GAUSS_W = 0.5 * _GAUSS_W
+
+SUPPORTS = ("clamped", "pinned-pinned")
+
+
+def _hermite(xi: NDArray[np.float64], h: float) -> tuple[NDArray, NDArray]:
+    """Cubic Hermite shape functions and their x-derivatives at ``xi`` in [0, 1].
+
+    Order: (w_i, phi_i, w_j, phi_j).
+    """
+    n = np.stack(
+        [
+            1 - 3 * xi**2 + 2 * xi**3,
+            h * (xi - 2 * xi**2 + xi**3),
+            3 * xi**2 - 2 * xi**3,
+            h * (-(xi**2) + xi**3),
+        ],
+        axis=-1,
+    )
+    dn = (
+        np.stack(
+            [
+                -6 * xi + 6 * xi**2,
+                h * (1 - 4 * xi + 3 * xi**2),
+                6 * xi - 6 * xi**2,
+                h * (-2 * xi + 3 * xi**2),
+            ],
+            axis=-1,
+        )
+        / h
+    )
+    return n, dn
+
+
+@dataclass(frozen=True)
+class ReducedBeam:
+    """A planar beam reduced to mass-normalised modes, with its inertia invariants.
+
+    Attributes (body frame, SI units; m = mode count, k = node count)
+    ------------------------------------------------------------------
+    nodes : (k,) x of the nodes [m].
+    node_modes : (k, 3, m) u, w, phi of each mode at each node [m, m, rad per unit q].
+    frequencies : (m,) natural angular frequencies of the held beam [rad/s].
+    mass : total mass [kg].
+    first_moment : (2,) integral of rho A x_bar [kg m].
+    inertia : integral of rho A |x_bar|^2 about the frame origin [kg m^2].
+    modal_first_moment : (2, m) C1 = integral of rho A Phi [kg^0.5 m^0.5 ... per unit q].
+    modal_position : (m,) a = integral of rho A Phi^T x_bar.
+    modal_turned_position : (m,) b = integral of rho A Phi^T R x_bar, R the +90 deg rotation.
+    modal_mass : (m, m) integral of rho A Phi^T Phi (identity for these modes).
+    modal_gyroscopic : (m, m) integral of rho A Phi^T R Phi (skew).
+    stiffness : (m, m) modal stiffness diag(omega^2) [1/s^2].
+    geometric_spin : (m, m) geometric stiffness per unit omega^2 [-].
+    geometric_axial : (m, m) geometric stiffness per unit axial acceleration [1/m].
+    """
+
+    nodes: NDArray[np.float64]
+    node_modes: NDArray[np.float64]
+    frequencies: NDArray[np.float64]
+    mass: float
+    first_moment: NDArray[np.float64]
+    inertia: float
+    modal_first_moment: NDArray[np.float64]
+    modal_position: NDArray[np.float64]
+    modal_turned_position: NDArray[np.float64]
+    modal_mass: NDArray[np.float64]
+    modal_gyroscopic: NDArray[np.float64]
+    stiffness: NDArray[np.float64]
+    geometric_spin: NDArray[np.float64]
+    geometric_axial: NDArray[np.float64]
+
+    @property
+    def mode_count(self) -> int:
+        return self.frequencies.size
+
+
+@dataclass(frozen=True)
+class PlanarBeam:
+    """A uniform straight Euler-Bernoulli beam in the plane.
+
+    Parameters
+    ----------
+    length : float
+        L [m].
+    youngs_modulus : float
+        E [Pa].
+    density : float
+        rho [kg/m^3].
+    area : float
+        Cross-section area A [m^2].
+    second_moment : float
+        Second moment of area about the bending axis I [m^4].
+    elements : int
+        Number of elements (the default 16 puts the 6th clamped frequency within
+        0.1 % of the converged mesh: docs/embs.md).
+    support : {"clamped", "pinned-pinned"}
+        How the beam is held for its modes (which frame the modes belong to).
+    """
+
+    length: float
+    youngs_modulus: float
+    density: float
+    area: float
+    second_moment: float
+    elements: int = 16
+    support: str = "clamped"
+
+    def __post_init__(self) -> None:
+        for name in ("length", "youngs_modulus", "density", "area", "second_moment"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InvalidParameterError(f"PlanarBeam {name} must be finite and > 0, got {value!r}")
+        if int(self.elements) != self.elements or self.elements < 1:
+            raise InvalidParameterError(f"PlanarBeam elements must be an integer >= 1, got {self.elements!r}")
+        if self.support not in SUPPORTS:
+            raise InvalidParameterError(f"PlanarBeam support must be one of {SUPPORTS}, got {self.support!r}")
+
+    @property
+    def mass_per_length(self) -> float:
+        return self.density * self.area
+
+    def matrices(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Global mass and stiffness matrices, dofs (u, w, phi) per node, unsupported."""
+        ne = int(self.elements)
+        h = self.length / ne
+        ea = self.youngs_modulus * self.area
+        ei = self.youngs_modulus * self.second_moment
+        mu = self.mass_per_length
+        ka = ea / h * np.array([[1.0, -1.0], [-1.0, 1.0]])
+        ma = mu * h / 6.0 * np.array([[2.0, 1.0], [1.0, 2.0]])
+        kb = (
+            ei
+            / h**3
+            * np.array(
+                [
+                    [12, 6 * h, -12, 6 * h],
+                    [6 * h, 4 * h**2, -6 * h, 2 * h**2],
+                    [-12, -6 * h, 12, -6 * h],
+                    [6 * h, 2 * h**2, -6 * h, 4 * h**2],
+                ]
+            )
+        )
+        mb = (
+            mu
+            * h
+            / 420.0
+            * np.array(
+                [
+                    [156, 22 * h, 54, -13 * h],
+                    [22 * h, 4 * h**2, 13 * h, -3 * h**2],
+                    [54, 13 * h, 156, -22 * h],
+                    [-13 * h, -3 * h**2, -22 * h, 4 * h**2],
+                ]
+            )
+        )
+        n = 3 * (ne + 1)
+        k = np.zeros((n, n))
+        m = np.zeros((n, n))
+        for e in range(ne):
+            axial = [3 * e, 3 * e + 3]
+            bend = [3 * e + 1, 3 * e + 2, 3 * e + 4, 3 * e + 5]
+            k[np.ix_(axial, axial)] += ka
+            m[np.ix_(axial, axial)] += ma
+            k[np.ix_(bend, bend)] += kb
+            m[np.ix_(bend, bend)] += mb
+        return m, k
+
+    def held_dofs(self) -> list[int]:
+        """Degrees of freedom the support holds."""
+        if self.support == "clamped":
+            return [0, 1, 2]
+        return [0, 1, 3 * int(self.elements) + 1]
+
+    def reduce(self, modes: int) -> ReducedBeam:
+        """The beam reduced to its ``modes`` lowest modes, with every invariant.
+
+        Parameters
+        ----------
+        modes : int
+            Number of modes kept (>= 0; 0 gives a rigid beam).
+        """
+        ne = int(self.elements)
+        m_full, k_full = self.matrices()
+        n = m_full.shape[0]
+        held = self.held_dofs()
+        free = np.setdiff1d(np.arange(n), held)
+        if int(modes) != modes or not 0 <= modes <= free.size:
+            raise InvalidParameterError(
+                f"modes must be an integer from 0 to {free.size} for this mesh, got {modes!r}"
+            )
+        modes = int(modes)
+        shapes = np.zeros((n, modes))
+        omega = np.zeros(modes)
+        if modes:
+            values, vectors = scipy.linalg.eigh(
+                k_full[np.ix_(free, free)], m_full[np.ix_(free, free)], subset_by_index=[0, modes - 1]
+            )
+            omega = np.sqrt(np.maximum(values, 0.0))
+            shapes[free] = vectors
+            # a deterministic sign: each mode's largest nodal displacement is positive
+            for j in range(modes):
+                big = np.argmax(np.abs(shapes[:, j]))
+                if shapes[big, j] < 0:
+                    shapes[:, j] *= -1.0
+        h = self.length / ne
+        mu = self.mass_per_length
+        # quadrature of every invariant over the elements
+        mass = 0.0
+        s0 = np.zeros(2)
+        j0 = 0.0
+        c1 = np.zeros((2, modes))
+        a = np.zeros(modes)
+        b = np.zeros(modes)
+        mqq = np.zeros((modes, modes))
+        gyro = np.zeros((modes, modes))
+        kg_spin = np.zeros((modes, modes))
+        kg_axial = np.zeros((modes, modes))
+        hn, hdn = _hermite(_GAUSS_X, h)
+        for e in range(ne):
+            x = (e + _GAUSS_X) * h
+            weight = _GAUSS_W * h
+            du = shapes[[3 * e, 3 * e + 3]]  # (2, m)
+            dw = shapes[[3 * e + 1, 3 * e + 2, 3 * e + 4, 3 * e + 5]]  # (4, m)
+            ux = np.outer(1 - _GAUSS_X, du[0]) + np.outer(_GAUSS_X, du[1])  # (g, m)
+            wy = hn @ dw
+            slope = hdn @ dw
+            for g in range(_GAUSS_X.size):
+                wg = weight[g] * mu
+                phi = np.stack([ux[g], wy[g]])  # (2, m)
+                xbar = np.array([x[g], 0.0])
+                turned_phi = np.stack([-phi[1], phi[0]])
+                mass += wg
+                s0 += wg * xbar
+                j0 += wg * xbar @ xbar
+                c1 += wg * phi
+                a += wg * phi.T @ xbar
+                b += wg * phi.T @ np.array([-xbar[1], xbar[0]])
+                mqq += wg * phi.T @ phi
+                gyro += wg * phi.T @ turned_phi
+                spin_force = 0.5 * mu * (self.length**2 - x[g] ** 2)
+                axial_force = mu * (self.length - x[g])
+                kg_spin += weight[g] * spin_force * np.outer(slope[g], slope[g])
+                kg_axial += weight[g] * axial_force * np.outer(slope[g], slope[g])
+        return ReducedBeam(
+            nodes=np.arange(ne + 1) * h,
+            node_modes=shapes.reshape(ne + 1, 3, modes),
+            frequencies=omega,
+            mass=mass,
+            first_moment=s0,
+            inertia=j0,
+            modal_first_moment=c1,
+            modal_position=a,
+            modal_turned_position=b,
+            modal_mass=mqq,
+            modal_gyroscopic=gyro,
+            stiffness=np.diag(omega**2),
+            geometric_spin=kg_spin,
+            geometric_axial=kg_axial,
+        )

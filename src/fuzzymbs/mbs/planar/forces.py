@@ -1,0 +1,187 @@
+"""Force elements between markers: springs and dampers, applied loads, user laws.
+
+Every element acts on marker i, and with the opposite force and torque on
+marker j when it has one. Gravity is a property of the mechanism
+(:class:`fuzzymbs.mbs.planar.system.Mechanism`), applied to every body with
+its modal part.
+
+A user force element is a Numba ``cfunc`` with the signature
+:data:`fuzzymbs.mbs.planar.kernels.USER_FORCE_SIGNATURE`, made with
+:func:`user_force`: it runs inside the batched kernels, so a tyre, a bearing
+or a friction law costs no Python call per step::
+
+    @user_force
+    def cubic_spring(element, t, marker_i, marker_j, parameters, out):
+        # marker_* = x, y, angle, vx, vy, angular velocity (global frame)
+        stretch = marker_j[0] - marker_i[0]
+        out[0] = parameters[0] * stretch + parameters[1] * stretch**3  # force on i, N
+        out[1] = 0.0
+        out[2] = 0.0  # torque on i, N m
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.planar import kernels
+from fuzzymbs.mbs.planar.bodies import Marker
+from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
+
+
+def user_force(function: Callable) -> object:
+    """Compile ``function`` as a user force element (a cached Numba cfunc)."""
+    return nb.cfunc(kernels.USER_FORCE_SIGNATURE, cache=True)(function)
+
+
+def _check_marker(owner: str, marker: Marker | None, optional: bool = False) -> None:
+    if marker is None and optional:
+        return
+    if not isinstance(marker, Marker):
+        raise InvalidParameterError(f"{owner} needs a marker, got {marker!r}")
+
+
+def _non_negative(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        if not (np.isfinite(value) and value >= 0):
+            raise InvalidParameterError(f"{owner} {name} must be finite and >= 0, got {value!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class SpringDamper:
+    """A linear spring and damper along the line between two markers.
+
+    Tension = stiffness (l - free_length) + damping l' on marker i towards j.
+    ``free_length`` None takes the initial distance.
+    """
+
+    marker_i: Marker
+    marker_j: Marker
+    stiffness: float
+    damping: float = 0.0
+    free_length: float | None = None
+    kind = kernels.SPRING_DAMPER
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        _check_marker("SpringDamper", self.marker_i)
+        _check_marker("SpringDamper", self.marker_j)
+        _non_negative("SpringDamper", stiffness=self.stiffness, damping=self.damping)
+        if self.free_length is not None:
+            _non_negative("SpringDamper", free_length=self.free_length)
+
+    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+        length = initial_length if self.free_length is None else self.free_length
+        if initial_length == 0.0:
+            raise InvalidParameterError(
+                "SpringDamper between coincident markers has no direction; use a bushing "
+                "(two springs) or a RotationalSpringDamper"
+            )
+        return [self.stiffness, self.damping, length]
+
+
+@dataclass(frozen=True, eq=False)
+class RotationalSpringDamper:
+    """A torsion spring and damper on the relative angle of two markers.
+
+    Torque on marker i = stiffness (angle_j - angle_i - free_angle) + damping
+    (angular velocity_j - angular velocity_i); ``free_angle`` None takes the
+    initial relative angle.
+    """
+
+    marker_i: Marker
+    marker_j: Marker
+    stiffness: float
+    damping: float = 0.0
+    free_angle: float | None = None
+    kind = kernels.ROTATIONAL_SPRING_DAMPER
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        _check_marker("RotationalSpringDamper", self.marker_i)
+        _check_marker("RotationalSpringDamper", self.marker_j)
+        _non_negative("RotationalSpringDamper", stiffness=self.stiffness, damping=self.damping)
+
+    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+        angle = initial_angle if self.free_angle is None else float(self.free_angle)
+        return [self.stiffness, self.damping, angle]
+
+
+@dataclass(frozen=True, eq=False)
+class MarkerLoad:
+    """A force (fx, fy) [N] and a torque [N m] on one marker, times a profile of time.
+
+    ``in_marker_frame`` turns the force with the marker (a follower load).
+    """
+
+    marker_i: Marker
+    force: Sequence[float] = (0.0, 0.0)
+    torque: float = 0.0
+    profile: Profile | None = None
+    in_marker_frame: bool = False
+    kind = kernels.MARKER_LOAD
+    marker_j = None
+
+    def __post_init__(self) -> None:
+        _check_marker("MarkerLoad", self.marker_i)
+        values = np.asarray([*self.force, self.torque], dtype=float)
+        if values.shape != (3,) or not np.isfinite(values).all():
+            raise InvalidParameterError(
+                f"MarkerLoad force must be two finite numbers and torque one, got {self.force!r}, "
+                f"{self.torque!r}"
+            )
+
+    @property
+    def profile_code(self) -> int:
+        return -1 if self.profile is None else self.profile.code
+
+    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+        profile = self.profile.pack() if self.profile is not None else [0.0] * PROFILE_SIZE
+        return [*self.force, self.torque, float(self.in_marker_frame), *profile]
+
+
+@dataclass(frozen=True, eq=False)
+class UserForce:
+    """A force law written by the user, compiled into the kernels.
+
+    Parameters
+    ----------
+    marker_i, marker_j : Marker
+        The markers it acts on (j may be None).
+    function : cfunc
+        Made with :func:`user_force`. It receives the element's index, t, both
+        markers' states (x, y, angle, vx, vy, angular velocity) and
+        ``parameters``, and writes (fx, fy, torque) on marker i into ``out``.
+    parameters : sequence of float
+        Numbers the law reads (stiffnesses, coefficients), per sample.
+    """
+
+    marker_i: Marker
+    marker_j: Marker | None
+    function: object
+    parameters: Sequence[float] = ()
+    kind = kernels.USER_FORCE
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        _check_marker("UserForce", self.marker_i)
+        _check_marker("UserForce", self.marker_j, optional=True)
+        if not hasattr(self.function, "address") or not hasattr(self.function, "ctypes"):
+            raise InvalidParameterError(
+                "UserForce function must be compiled with fuzzymbs.mbs.planar.user_force, got "
+                f"{self.function!r}"
+            )
+        values = np.asarray(self.parameters, dtype=float).ravel()
+        if not np.isfinite(values).all():
+            raise InvalidParameterError(f"UserForce parameters must be finite, got {self.parameters!r}")
+
+    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+        values = [float(v) for v in np.asarray(self.parameters, dtype=float).ravel()]
+        return [float(len(values)), *values]
+
+
+ForceElement = SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce

@@ -1,0 +1,654 @@
+"""Compiled physics of planar mechanisms: one sample per call, a batch per kernel.
+
+State of a mechanism: the absolute coordinates z of every body (frame
+position x, y, frame angle theta, modal coordinates q) and their rates v.
+The constrained equations of motion (index-1 form, Lagrange multipliers
+lambda; Haug, Computer Aided Kinematics and Dynamics of Mechanical Systems,
+ch. 11; Shabana, Dynamics of Multibody Systems, ch. 5 for the floating-frame
+terms) are solved for the accelerations at every evaluation::
+
+    [ M(z)  G(z)^T ] [ z'' ]   [ Q(t, z, v)                 ]
+    [ G(z)  0      ] [ lam ] = [ -zeta(z, v) + f''(t)       ]
+
+with g(z, t) = 0 the joint equations, G = dg/dz and zeta the part of g''
+quadratic in the velocities. Drift is removed by projecting the positions
+onto g = 0 and the velocities onto G v = f'(t) after every accepted step, so
+the stored trajectory satisfies the joints to the projection tolerance.
+
+The layout arrays (int64) say which numbers of a sample's ``data`` row
+belong to which body, marker, joint and force
+(:mod:`fuzzymbs.mbs.planar.assembly` writes them):
+
+- bodies  (nb, 4): coordinate offset, mode count, data offset, stiffening flag
+- markers (nk, 3): body (-1 ground), data offset, mode count
+- joints  (nj, 6): kind, marker i, marker j, first equation row, data offset,
+  drive profile (-1 none)
+- forces  (nf, 5): kind, marker i, marker j (-1 none), data offset, profile (-1 none)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+from numba import types
+
+# joint kinds
+REVOLUTE = 0
+PRISMATIC = 1
+FIXED = 2
+# force kinds
+SPRING_DAMPER = 0
+ROTATIONAL_SPRING_DAMPER = 1
+MARKER_LOAD = 2
+USER_FORCE = 3
+# run status
+RUNNING = 0
+FINISHED = 1
+NOT_FINITE = 2
+STEP_TOO_SMALL = 3
+TOO_MANY_STEPS = 4
+PROJECTION_FAILED = 5
+
+#: Signature of a user force element (see :func:`fuzzymbs.mbs.planar.forces.user_force`):
+#: (element, t, marker_i state, marker_j state, parameters, out) -> None.
+USER_FORCE_SIGNATURE = types.void(
+    types.int64,
+    types.float64,
+    types.float64[::1],
+    types.float64[::1],
+    types.float64[::1],
+    types.float64[::1],
+)
+
+
+@nb.cfunc(USER_FORCE_SIGNATURE, cache=True)
+def no_user_force(element, t, marker_i, marker_j, parameters, out):  # pragma: no cover - compiled
+    out[0] = 0.0
+    out[1] = 0.0
+    out[2] = 0.0
+
+
+@nb.njit(cache=True)
+def profile(code, p, off, t):
+    """(f, f', f'') of the profile ``code`` with parameters ``p[off:off + 4]`` at ``t``."""
+    start = p[off]
+    if code == 0:  # constant rate
+        return start + p[off + 1] * t, p[off + 1], 0.0
+    if code == 1:  # spin-up (Kane, Ryan & Banerjee 1987)
+        speed = p[off + 1]
+        duration = p[off + 2]
+        if t < duration:
+            w = 2.0 * math.pi / duration
+            f = speed / duration * (0.5 * t * t + (math.cos(w * t) - 1.0) / (w * w))
+            fd = speed / duration * (t - math.sin(w * t) / w)
+            fdd = speed / duration * (1.0 - math.cos(w * t))
+            return start + f, fd, fdd
+        return start + speed * (t - 0.5 * duration), speed, 0.0
+    # harmonic
+    amplitude = p[off + 1]
+    frequency = p[off + 2]
+    arg = frequency * t + p[off + 3]
+    return (
+        start + amplitude * math.sin(arg),
+        amplitude * frequency * math.cos(arg),
+        -amplitude * frequency * frequency * math.sin(arg),
+    )
+
+
+@nb.njit(cache=True)
+def marker_state(k, markers, bodies, data, z, v, out):
+    """Kinematics of marker ``k`` into ``out`` (10,).
+
+    out = x, y, angle, vx, vy, angular velocity, the velocity-quadratic part of
+    the acceleration (2), and A R u (2): the point's position relative to its
+    frame origin turned by +90 degrees (its derivative by the frame angle).
+    """
+    body = markers[k, 0]
+    d = markers[k, 1]
+    m = markers[k, 2]
+    ux = data[d]
+    uy = data[d + 1]
+    if body < 0:
+        out[0] = ux
+        out[1] = uy
+        out[2] = data[d + 2]
+        for i in range(3, 10):
+            out[i] = 0.0
+        return
+    o = bodies[body, 0]
+    angle = data[d + 2]
+    rate = 0.0
+    dux = 0.0
+    duy = 0.0
+    for j in range(m):
+        qj = z[o + 3 + j]
+        vj = v[o + 3 + j]
+        px = data[d + 3 + j]
+        py = data[d + 3 + m + j]
+        ps = data[d + 3 + 2 * m + j]
+        ux += px * qj
+        uy += py * qj
+        dux += px * vj
+        duy += py * vj
+        angle += ps * qj
+        rate += ps * vj
+    th = z[o + 2]
+    w = v[o + 2]
+    c = math.cos(th)
+    s = math.sin(th)
+    aux = c * ux - s * uy  # A u
+    auy = s * ux + c * uy
+    adx = c * dux - s * duy  # A Phi q'
+    ady = s * dux + c * duy
+    out[0] = z[o] + aux
+    out[1] = z[o + 1] + auy
+    out[2] = th + angle
+    out[3] = v[o] - w * auy + adx
+    out[4] = v[o + 1] + w * aux + ady
+    out[5] = w + rate
+    # -w^2 A u + 2 w A R Phi q'
+    out[6] = -w * w * aux - 2.0 * w * ady
+    out[7] = -w * w * auy + 2.0 * w * adx
+    out[8] = -auy
+    out[9] = aux
+
+
+@nb.njit(cache=True)
+def add_point_load(k, markers, bodies, data, z, state, fx, fy, target):
+    """target[body coordinates] += (dp/dz)^T (fx, fy) for marker ``k``.
+
+    The same product gives a force's generalised force and a position
+    equation's Jacobian row. ``state`` is the marker's :func:`marker_state`.
+    """
+    body = markers[k, 0]
+    if body < 0:
+        return
+    d = markers[k, 1]
+    m = markers[k, 2]
+    o = bodies[body, 0]
+    target[o] += fx
+    target[o + 1] += fy
+    target[o + 2] += state[8] * fx + state[9] * fy
+    c = math.cos(z[o + 2])
+    s = math.sin(z[o + 2])
+    for j in range(m):
+        px = data[d + 3 + j]
+        py = data[d + 3 + m + j]
+        target[o + 3 + j] += (c * px - s * py) * fx + (s * px + c * py) * fy
+
+
+@nb.njit(cache=True)
+def add_angle_load(k, markers, bodies, data, torque, target):
+    """target[body coordinates] += (d angle/dz)^T torque for marker ``k``."""
+    body = markers[k, 0]
+    if body < 0:
+        return
+    d = markers[k, 1]
+    m = markers[k, 2]
+    o = bodies[body, 0]
+    target[o + 2] += torque
+    for j in range(m):
+        target[o + 3 + j] += data[d + 3 + 2 * m + j] * torque
+
+
+@nb.njit(cache=True)
+def body_terms(bodies, data, z, v, mass_matrix, forces):
+    """Every body's mass-matrix block and its generalised forces (quadratic
+    velocity terms, gravity, elastic, damping and geometric stiffness)."""
+    gx = data[0]
+    gy = data[1]
+    for b in range(bodies.shape[0]):
+        o = bodies[b, 0]
+        m = bodies[b, 1]
+        d = bodies[b, 2]
+        stiffening = bodies[b, 3]
+        mass = data[d]
+        ia = d + 4
+        ib = ia + m
+        icx = ib + m
+        icy = icx + m
+        imq = icy + m
+        igy = imq + m * m
+        ik = igy + m * m
+        idp = ik + m * m
+        ikgs = idp + m * m
+        ikga = ikgs + m * m
+        th = z[o + 2]
+        w = v[o + 2]
+        c = math.cos(th)
+        s = math.sin(th)
+        # first moment S = s0 + C1 q, and C1 q'
+        sx = data[d + 1]
+        sy = data[d + 2]
+        cvx = 0.0
+        cvy = 0.0
+        for j in range(m):
+            sx += data[icx + j] * z[o + 3 + j]
+            sy += data[icy + j] * z[o + 3 + j]
+            cvx += data[icx + j] * v[o + 3 + j]
+            cvy += data[icy + j] * v[o + 3 + j]
+        arsx = -(s * sx + c * sy)  # A R S
+        arsy = c * sx - s * sy
+        mass_matrix[o, o] += mass
+        mass_matrix[o + 1, o + 1] += mass
+        mass_matrix[o, o + 2] += arsx
+        mass_matrix[o + 2, o] += arsx
+        mass_matrix[o + 1, o + 2] += arsy
+        mass_matrix[o + 2, o + 1] += arsy
+        inertia = data[d + 3]
+        spin = 0.0
+        for i in range(m):
+            qi = z[o + 3 + i]
+            # a + Mqq q, and Gy q
+            aq = data[ia + i]
+            gq = 0.0
+            gv = 0.0
+            kq = 0.0
+            for j in range(m):
+                qj = z[o + 3 + j]
+                aq += data[imq + m * i + j] * qj
+                gq += data[igy + m * i + j] * qj
+                gv += data[igy + m * i + j] * v[o + 3 + j]
+                mass_matrix[o + 3 + i, o + 3 + j] += data[imq + m * i + j]
+                stiffness = data[ik + m * i + j]
+                if stiffening:
+                    stiffness += w * w * data[ikgs + m * i + j] + (c * gx + s * gy) * data[ikga + m * i + j]
+                kq += stiffness * qj + data[idp + m * i + j] * v[o + 3 + j]
+            inertia += 2.0 * data[ia + i] * qi + (aq - data[ia + i]) * qi
+            acx = c * data[icx + i] - s * data[icy + i]  # A C1_i
+            acy = s * data[icx + i] + c * data[icy + i]
+            mass_matrix[o, o + 3 + i] += acx
+            mass_matrix[o + 3 + i, o] += acx
+            mass_matrix[o + 1, o + 3 + i] += acy
+            mass_matrix[o + 3 + i, o + 1] += acy
+            coupling = data[ib + i] + gq
+            mass_matrix[o + 2, o + 3 + i] += coupling
+            mass_matrix[o + 3 + i, o + 2] += coupling
+            spin += aq * v[o + 3 + i]
+            forces[o + 3 + i] += w * w * aq - 2.0 * w * gv + acx * gx + acy * gy - kq
+        mass_matrix[o + 2, o + 2] += inertia
+        # w^2 A S - 2 w A R C1 q'
+        forces[o] += w * w * (c * sx - s * sy) + 2.0 * w * (s * cvx + c * cvy) + mass * gx
+        forces[o + 1] += w * w * (s * sx + c * sy) - 2.0 * w * (c * cvx - s * cvy) + mass * gy
+        forces[o + 2] += -2.0 * w * spin + arsx * gx + arsy * gy
+
+
+@nb.njit(cache=True)
+def joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration):
+    """Rows of every joint: residual g, Jacobian G, quadratic part zeta, and the
+    drive's f'(t) (``rate``) and f''(t) (``acceleration``)."""
+    bodies, markers, joints = layout[0], layout[1], layout[2]
+    si = np.empty(10)
+    sj = np.empty(10)
+    for jn in range(joints.shape[0]):
+        kind = joints[jn, 0]
+        ki = joints[jn, 1]
+        kj = joints[jn, 2]
+        row = joints[jn, 3]
+        d = joints[jn, 4]
+        drive = joints[jn, 5]
+        marker_state(ki, markers, bodies, data, z, v, si)
+        marker_state(kj, markers, bodies, data, z, v, sj)
+        dx = sj[0] - si[0]
+        dy = sj[1] - si[1]
+        if kind == REVOLUTE or kind == FIXED:
+            for r in range(2):
+                residual[row + r] = -dx if r == 0 else -dy
+                quadratic[row + r] = si[6 + r] - sj[6 + r]
+                rate[row + r] = 0.0
+                acceleration[row + r] = 0.0
+            add_point_load(ki, markers, bodies, data, z, si, 1.0, 0.0, jac[row])
+            add_point_load(kj, markers, bodies, data, z, sj, -1.0, 0.0, jac[row])
+            add_point_load(ki, markers, bodies, data, z, si, 0.0, 1.0, jac[row + 1])
+            add_point_load(kj, markers, bodies, data, z, sj, 0.0, -1.0, jac[row + 1])
+            r = row + 2
+        else:  # prismatic: marker j slides along marker i's x axis
+            ca = math.cos(si[2])
+            sa = math.sin(si[2])
+            along = ca * dx + sa * dy
+            across = -sa * dx + ca * dy
+            dvx = sj[3] - si[3]
+            dvy = sj[4] - si[4]
+            wi = si[5]
+            residual[row] = across
+            quadratic[row] = (
+                -sa * (sj[6] - si[6])
+                + ca * (sj[7] - si[7])
+                - 2.0 * wi * (ca * dvx + sa * dvy)
+                - wi * wi * across
+            )
+            rate[row] = 0.0
+            acceleration[row] = 0.0
+            add_point_load(kj, markers, bodies, data, z, sj, -sa, ca, jac[row])
+            add_point_load(ki, markers, bodies, data, z, si, sa, -ca, jac[row])
+            add_angle_load(ki, markers, bodies, data, -along, jac[row])
+            r = row + 1
+        if kind != REVOLUTE:  # the relative angle held at its initial value
+            residual[r] = sj[2] - si[2] - data[d]
+            quadratic[r] = 0.0
+            rate[r] = 0.0
+            acceleration[r] = 0.0
+            add_angle_load(kj, markers, bodies, data, 1.0, jac[r])
+            add_angle_load(ki, markers, bodies, data, -1.0, jac[r])
+            r += 1
+        if drive >= 0:
+            f, fd, fdd = profile(drive, data, d + 1, t)
+            rate[r] = fd
+            acceleration[r] = fdd
+            if kind == PRISMATIC:  # the slide along the axis
+                ca = math.cos(si[2])
+                sa = math.sin(si[2])
+                along = ca * dx + sa * dy
+                across = -sa * dx + ca * dy
+                dvx = sj[3] - si[3]
+                dvy = sj[4] - si[4]
+                wi = si[5]
+                residual[r] = along - f
+                quadratic[r] = (
+                    ca * (sj[6] - si[6])
+                    + sa * (sj[7] - si[7])
+                    + 2.0 * wi * (-sa * dvx + ca * dvy)
+                    - wi * wi * along
+                )
+                add_point_load(kj, markers, bodies, data, z, sj, ca, sa, jac[r])
+                add_point_load(ki, markers, bodies, data, z, si, -ca, -sa, jac[r])
+                add_angle_load(ki, markers, bodies, data, across, jac[r])
+            else:  # the relative angle
+                residual[r] = sj[2] - si[2] - f
+                quadratic[r] = 0.0
+                add_angle_load(kj, markers, bodies, data, 1.0, jac[r])
+                add_angle_load(ki, markers, bodies, data, -1.0, jac[r])
+
+
+@nb.njit(cache=True)
+def force_terms(t, layout, data, z, v, user_force, forces):
+    """Generalised forces of every force element, added to ``forces``."""
+    bodies, markers, elements = layout[0], layout[1], layout[3]
+    si = np.empty(10)
+    sj = np.empty(10)
+    out = np.zeros(3)
+    for e in range(elements.shape[0]):
+        kind = elements[e, 0]
+        ki = elements[e, 1]
+        kj = elements[e, 2]
+        d = elements[e, 3]
+        code = elements[e, 4]
+        marker_state(ki, markers, bodies, data, z, v, si)
+        if kj >= 0:
+            marker_state(kj, markers, bodies, data, z, v, sj)
+        else:
+            sj[:] = 0.0
+        if kind == SPRING_DAMPER:
+            dx = sj[0] - si[0]
+            dy = sj[1] - si[1]
+            length = math.sqrt(dx * dx + dy * dy)
+            ex = dx / length
+            ey = dy / length
+            lengthening = ex * (sj[3] - si[3]) + ey * (sj[4] - si[4])
+            tension = data[d] * (length - data[d + 2]) + data[d + 1] * lengthening
+            out[0] = tension * ex
+            out[1] = tension * ey
+            out[2] = 0.0
+        elif kind == ROTATIONAL_SPRING_DAMPER:
+            out[0] = 0.0
+            out[1] = 0.0
+            out[2] = data[d] * (sj[2] - si[2] - data[d + 2]) + data[d + 1] * (sj[5] - si[5])
+        elif kind == MARKER_LOAD:
+            scale = 1.0
+            if code >= 0:
+                scale, _, _ = profile(code, data, d + 4, t)
+            fx = data[d] * scale
+            fy = data[d + 1] * scale
+            if data[d + 3] != 0.0:  # given in the marker's frame
+                ca = math.cos(si[2])
+                sa = math.sin(si[2])
+                fx, fy = ca * fx - sa * fy, sa * fx + ca * fy
+            out[0] = fx
+            out[1] = fy
+            out[2] = data[d + 2] * scale
+        else:
+            count = int(data[d])
+            user_force(e, t, si[:6].copy(), sj[:6].copy(), data[d + 1 : d + 1 + count].copy(), out)
+        add_point_load(ki, markers, bodies, data, z, si, out[0], out[1], forces)
+        add_angle_load(ki, markers, bodies, data, out[2], forces)
+        if kj >= 0:
+            add_point_load(kj, markers, bodies, data, z, sj, -out[0], -out[1], forces)
+            add_angle_load(kj, markers, bodies, data, -out[2], forces)
+
+
+@nb.njit(cache=True)
+def accelerations(t, z, v, layout, data, user_force, system, solution):
+    """Solve the constrained equations at (t, z, v) into ``solution`` = (z'', lambda).
+
+    ``system`` is an (n + c, n + c) scratch matrix. Returns False if the
+    matrix is singular or the result not finite.
+    """
+    sizes = layout[4]
+    n = sizes[0]
+    c = sizes[1]
+    system[:, :] = 0.0
+    solution[:] = 0.0
+    body_terms(layout[0], data, z, v, system[:n, :n], solution[:n])
+    force_terms(t, layout, data, z, v, user_force, solution[:n])
+    if c:
+        residual = np.empty(c)
+        quadratic = np.empty(c)
+        rate = np.empty(c)
+        acceleration = np.empty(c)
+        jac = np.zeros((c, n))
+        joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
+        system[n:, :n] = jac
+        system[:n, n:] = jac.T
+        for r in range(c):
+            solution[n + r] = -quadratic[r] + acceleration[r]
+    result = np.linalg.solve(system, solution)
+    for i in range(n + c):
+        if not math.isfinite(result[i]):
+            return False
+    solution[:] = result
+    return True
+
+
+@nb.njit(cache=True)
+def project(t, z, v, layout, data, tolerance):
+    """Move (z, v) onto the joints' position and velocity manifolds (least change).
+
+    Newton steps z <- z - G^T (G G^T)^-1 g until max|g| <= tolerance, then
+    v <- v - G^T (G G^T)^-1 (G v - f'). Returns the largest |g| left, or inf
+    if the projection does not converge.
+    """
+    sizes = layout[4]
+    n = sizes[0]
+    c = sizes[1]
+    if c == 0:
+        return 0.0
+    residual = np.empty(c)
+    quadratic = np.empty(c)
+    rate = np.empty(c)
+    acceleration = np.empty(c)
+    jac = np.zeros((c, n))
+    worst = np.inf
+    for _ in range(6):
+        jac[:, :] = 0.0
+        joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
+        worst = np.max(np.abs(residual))
+        if worst <= tolerance:
+            break
+        step = jac.T @ np.linalg.solve(jac @ jac.T, residual)
+        z -= step
+    if not worst <= tolerance:
+        return np.inf
+    jac[:, :] = 0.0
+    joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
+    excess = jac @ v - rate
+    v -= jac.T @ np.linalg.solve(jac @ jac.T, excess)
+    return worst
+
+
+# Dormand-Prince 5(4) (Hairer, Norsett & Wanner, Solving ODEs I, table II.5.2)
+_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
+_A = np.array(
+    [
+        [0, 0, 0, 0, 0, 0],
+        [1 / 5, 0, 0, 0, 0, 0],
+        [3 / 40, 9 / 40, 0, 0, 0, 0],
+        [44 / 45, -56 / 15, 32 / 9, 0, 0, 0],
+        [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0],
+        [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0],
+        [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
+    ]
+)
+_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0])
+_E = _B - np.array([5179 / 57600, 0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40])
+
+
+@nb.njit(cache=True)
+def _derivative(t, x, n, layout, data, user_force, system, solution, out):
+    ok = accelerations(t, x[:n], x[n:], layout, data, user_force, system, solution)
+    out[:n] = x[n:]
+    out[n:] = solution[:n]
+    return ok
+
+
+@nb.njit(cache=True)
+def integrate_sample(times, x0, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states):
+    """Integrate one sample from ``times[0]``, storing (z, v) at every time.
+
+    Returns (status, accepted steps, rejected steps, largest joint residual).
+    Rows of ``states`` after a failure stay NaN.
+    """
+    sizes = layout[4]
+    n = sizes[0]
+    c = sizes[1]
+    size = 2 * n
+    system = np.empty((n + c, n + c))
+    solution = np.empty(n + c)
+    x = x0.copy()
+    k = np.empty((7, size))
+    trial = np.empty(size)
+    t = times[0]
+    worst = project(t, x[:n], x[n:], layout, data, tolerance)
+    if not worst <= tolerance:
+        return PROJECTION_FAILED, 0, 0, worst
+    states[0, :] = x
+    if not _derivative(t, x, n, layout, data, user_force, system, solution, k[0]):
+        return NOT_FINITE, 0, 0, worst
+    h = first_step
+    accepted = 0
+    rejected = 0
+    for out in range(1, times.size):
+        target = times[out]
+        while t < target:
+            last = h >= target - t
+            step = target - t if last else h
+            for stage in range(1, 7):
+                for i in range(size):
+                    acc = 0.0
+                    for j in range(stage):
+                        acc += _A[stage, j] * k[j, i]
+                    trial[i] = x[i] + step * acc
+                if not _derivative(
+                    t + _C[stage] * step, trial, n, layout, data, user_force, system, solution, k[stage]
+                ):
+                    return NOT_FINITE, accepted, rejected, worst
+            # trial holds the 5th-order solution (stage 7 is evaluated at it: FSAL)
+            err = 0.0
+            for i in range(size):
+                e = 0.0
+                for j in range(7):
+                    e += _E[j] * k[j, i]
+                scale = atol + rtol * max(abs(x[i]), abs(trial[i]))
+                err += (step * e / scale) ** 2
+            err = math.sqrt(err / size)
+            if not math.isfinite(err):
+                return NOT_FINITE, accepted, rejected, worst
+            factor = min(5.0, max(0.2, 0.9 * err ** (-0.2))) if err > 0.0 else 5.0
+            if err <= 1.0:
+                t = target if last else t + step
+                x[:] = trial
+                accepted += 1
+                if c:
+                    residual = project(t, x[:n], x[n:], layout, data, tolerance)
+                    if not residual <= tolerance:
+                        return PROJECTION_FAILED, accepted, rejected, residual
+                    worst = max(worst, residual)
+                    if not _derivative(t, x, n, layout, data, user_force, system, solution, k[0]):
+                        return NOT_FINITE, accepted, rejected, worst
+                else:
+                    k[0, :] = k[6]
+                if not last or factor < 1.0:
+                    h = step * factor
+            else:
+                rejected += 1
+                h = step * min(1.0, factor)
+            if h < 1e-14 * max(1.0, abs(t)):
+                return STEP_TOO_SMALL, accepted, rejected, worst
+            if accepted + rejected > max_steps:
+                return TOO_MANY_STEPS, accepted, rejected, worst
+        states[out, :] = x
+    return FINISHED, accepted, rejected, worst
+
+
+@nb.njit(cache=True, parallel=True)
+def integrate_batch(
+    times, initial, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states, report
+):
+    """:func:`integrate_sample` for every sample row, one thread per sample.
+
+    ``report`` (B, 4) receives status, accepted and rejected steps and the
+    largest joint residual of each sample.
+    """
+    for s in nb.prange(initial.shape[0]):
+        status, accepted, rejected, worst = integrate_sample(
+            times,
+            initial[s],
+            layout,
+            data[s],
+            user_force,
+            rtol,
+            atol,
+            first_step,
+            max_steps,
+            tolerance,
+            states[s],
+        )
+        report[s, 0] = status
+        report[s, 1] = accepted
+        report[s, 2] = rejected
+        report[s, 3] = worst
+
+
+@nb.njit(cache=True, parallel=True)
+def solve_batch(times, states, layout, data, user_force, out):
+    """z'' and lambda at every stored state (B, T, 2n) into ``out`` (B, T, n + c)."""
+    sizes = layout[4]
+    n = sizes[0]
+    c = sizes[1]
+    for s in nb.prange(states.shape[0]):
+        system = np.empty((n + c, n + c))
+        solution = np.empty(n + c)
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if not math.isfinite(x[0]):
+                out[s, i, :] = np.nan
+                continue
+            if accelerations(times[i], x[:n], x[n:], layout, data[s], user_force, system, solution):
+                out[s, i, :] = solution
+            else:
+                out[s, i, :] = np.nan
+
+
+@nb.njit(cache=True)
+def markers_at(markers_wanted, states, layout, data, out):
+    """State of the wanted markers at every stored state: out (B, T, K, 6)."""
+    bodies, markers = layout[0], layout[1]
+    n = layout[4][0]
+    s10 = np.empty(10)
+    for s in range(states.shape[0]):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            for w in range(markers_wanted.size):
+                marker_state(markers_wanted[w], markers, bodies, data[s], x[:n], x[n:], s10)
+                out[s, i, w, :] = s10[:6]

@@ -1,0 +1,100 @@
+"""Motion and load profiles of time: the prescribed angle of a drive, a force history.
+
+Each profile gives f(t) and its first two derivatives (a driving constraint
+needs the acceleration f''). The kernels evaluate them by code
+(:func:`fuzzymbs.mbs.planar.kernels.profile`); the classes here hold the
+numbers and say which code they are.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fuzzymbs.errors import InvalidParameterError
+
+CONSTANT_RATE = 0
+SPIN_UP = 1
+HARMONIC = 2
+
+
+def _finite(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        if not np.isfinite(value):
+            raise InvalidParameterError(f"{owner} {name} must be finite, got {value!r}")
+
+
+@dataclass(frozen=True)
+class ConstantRate:
+    """f(t) = start + rate t (a crank at constant speed: rate in rad/s)."""
+
+    rate: float
+    start: float = 0.0
+    code = CONSTANT_RATE
+
+    def __post_init__(self) -> None:
+        _finite("ConstantRate", rate=self.rate, start=self.start)
+
+    def pack(self) -> list[float]:
+        return [self.start, self.rate, 0.0, 0.0]
+
+
+@dataclass(frozen=True)
+class SpinUp:
+    """Smooth spin-up to ``speed`` in ``duration`` (Kane, Ryan & Banerjee 1987).
+
+    f(t) = (W/T) (t^2/2 + (T/(2 pi))^2 (cos(2 pi t/T) - 1)) for t < T, then
+    W (t - T/2): the speed rises from 0 to W with zero acceleration at both ends.
+    """
+
+    speed: float
+    duration: float
+    start: float = 0.0
+    code = SPIN_UP
+
+    def __post_init__(self) -> None:
+        _finite("SpinUp", speed=self.speed, start=self.start)
+        if not (np.isfinite(self.duration) and self.duration > 0):
+            raise InvalidParameterError(f"SpinUp duration must be > 0 s, got {self.duration!r}")
+
+    def pack(self) -> list[float]:
+        return [self.start, self.speed, self.duration, 0.0]
+
+
+@dataclass(frozen=True)
+class Harmonic:
+    """f(t) = start + amplitude sin(frequency t + phase) (frequency in rad/s)."""
+
+    amplitude: float
+    frequency: float
+    phase: float = 0.0
+    start: float = 0.0
+    code = HARMONIC
+
+    def __post_init__(self) -> None:
+        _finite(
+            "Harmonic",
+            amplitude=self.amplitude,
+            frequency=self.frequency,
+            phase=self.phase,
+            start=self.start,
+        )
+
+    def pack(self) -> list[float]:
+        return [self.start, self.amplitude, self.frequency, self.phase]
+
+
+Profile = ConstantRate | SpinUp | Harmonic
+
+#: Floats a profile packs (every profile packs this many).
+PROFILE_SIZE = 4
+
+
+def evaluate(profile: Profile, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """f, f', f'' at times ``t`` (NumPy, for checks and plots)."""
+    from fuzzymbs.mbs.planar.kernels import profile as kernel_profile
+
+    params = np.asarray(profile.pack(), dtype=float)
+    out = np.array([kernel_profile(profile.code, params, 0, float(s)) for s in np.atleast_1d(t)])
+    return out[:, 0], out[:, 1], out[:, 2]
