@@ -21,9 +21,12 @@ integrals, Shabana, Dynamics of Multibody Systems, ch. 5), and so is the
 geometric stiffness of two unit load states (Schwertassek & Wallrapp,
 Dynamik flexibler Mehrkoerpersysteme, ch. 6; Wallrapp's SID): the
 centrifugal load of a unit frame angular velocity, N(x) = rho A (L^2 - x^2)/2,
-and a unit body-frame axial acceleration field, N(x) = rho A (L - x). At run
-time the engine scales them by omega^2 and the axial field (gravity), so a
-spinning or hanging beam stiffens as a geometrically nonlinear beam does.
+a unit body-frame axial acceleration field, N(x) = rho A (L - x), and a unit
+axial force at each node, N(x) = 1 between the root and the node. At run time
+the engine scales them by omega^2, by the axial field (gravity less the
+frame's acceleration) and by the axial forces of the joints and force
+elements at the nodes, so a spinning, hanging or pushed beam stiffens (or
+softens) as a geometrically nonlinear beam does.
 """
 
 from __future__ import annotations
@@ -94,6 +97,8 @@ class ReducedBeam:
     stiffness : (m, m) modal stiffness diag(omega^2) [1/s^2].
     geometric_spin : (m, m) geometric stiffness per unit omega^2 [-].
     geometric_axial : (m, m) geometric stiffness per unit axial acceleration [1/m].
+    geometric_node : (k, m, m) geometric stiffness per unit axial tension between the root
+        and each node (a force along the beam applied at that node) [1/kg].
     """
 
     nodes: NDArray[np.float64]
@@ -110,6 +115,7 @@ class ReducedBeam:
     stiffness: NDArray[np.float64]
     geometric_spin: NDArray[np.float64]
     geometric_axial: NDArray[np.float64]
+    geometric_node: NDArray[np.float64]
 
     @property
     def mode_count(self) -> int:
@@ -257,6 +263,7 @@ class PlanarBeam:
         gyro = np.zeros((modes, modes))
         kg_spin = np.zeros((modes, modes))
         kg_axial = np.zeros((modes, modes))
+        kg_node = np.zeros((ne + 1, modes, modes))
         hn, hdn = _hermite(_GAUSS_X, h)
         for e in range(ne):
             x = (e + _GAUSS_X) * h
@@ -266,6 +273,7 @@ class PlanarBeam:
             ux = np.outer(1 - _GAUSS_X, du[0]) + np.outer(_GAUSS_X, du[1])  # (g, m)
             wy = hn @ dw
             slope = hdn @ dw
+            kg_node[e + 1] = kg_node[e] + (slope.T * weight) @ slope
             for g in range(_GAUSS_X.size):
                 wg = weight[g] * mu
                 phi = np.stack([ux[g], wy[g]])  # (2, m)
@@ -298,4 +306,5 @@ class PlanarBeam:
             stiffness=np.diag(omega**2),
             geometric_spin=kg_spin,
             geometric_axial=kg_axial,
+            geometric_node=kg_node,
         )

@@ -54,9 +54,17 @@ class Marker:
             return np.zeros((3, count))
         return body.beam.node_modes[self.node]
 
+    def geometric(self) -> NDArray[np.float64]:
+        """(m, m) geometric stiffness per unit axial tension at the marker's node."""
+        body = self.body
+        count = body.mode_count if body is not None else 0
+        if self.node is None or count == 0:
+            return np.zeros((count, count))
+        return body.beam.geometric_node[self.node]
+
     def pack(self) -> list[float]:
         shapes = self.modes()
-        return [*self.position, self.angle, *shapes[0], *shapes[1], *shapes[2]]
+        return [*self.position, self.angle, *shapes[0], *shapes[1], *shapes[2], *self.geometric().ravel()]
 
     @property
     def name(self) -> str:

@@ -71,6 +71,66 @@ def no_user_force(element, t, marker_i, marker_j, parameters, out):  # pragma: n
 
 
 @nb.njit(cache=True)
+def solve_in_place(a, b):
+    """Solve a x = b by Gaussian elimination with partial pivoting; x into ``b``.
+
+    ``a`` is overwritten. Returns False if a pivot is zero or not finite. (The
+    systems are small, tens of rows; a loop compiles in a fraction of the time
+    NumPy's LAPACK wrapper takes.)
+    """
+    n = b.size
+    for k in range(n):
+        best = k
+        largest = abs(a[k, k])
+        for i in range(k + 1, n):
+            if abs(a[i, k]) > largest:
+                best = i
+                largest = abs(a[i, k])
+        if not (largest > 0.0 and math.isfinite(largest)):
+            return False
+        if best != k:
+            for j in range(n):
+                a[k, j], a[best, j] = a[best, j], a[k, j]
+            b[k], b[best] = b[best], b[k]
+        inverse = 1.0 / a[k, k]
+        for i in range(k + 1, n):
+            factor = a[i, k] * inverse
+            if factor == 0.0:
+                continue
+            for j in range(k + 1, n):
+                a[i, j] -= factor * a[k, j]
+            b[i] -= factor * b[k]
+    for i in range(n - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, n):
+            acc -= a[i, j] * b[j]
+        b[i] = acc / a[i, i]
+    return True
+
+
+@nb.njit(cache=True)
+def project_rows(jac, excess, target):
+    """target -= G^T (G G^T)^-1 excess (the least change that removes ``excess``)."""
+    c, n = jac.shape
+    gram = np.empty((c, c))
+    for i in range(c):
+        for j in range(c):
+            acc = 0.0
+            for k in range(n):
+                acc += jac[i, k] * jac[j, k]
+            gram[i, j] = acc
+    weights = excess.copy()
+    if not solve_in_place(gram, weights):
+        return False
+    for k in range(n):
+        acc = 0.0
+        for i in range(c):
+            acc += jac[i, k] * weights[i]
+        target[k] -= acc
+    return True
+
+
+@nb.njit(cache=True)
 def profile(code, p, off, t):
     """(f, f', f'') of the profile ``code`` with parameters ``p[off:off + 4]`` at ``t``."""
     start = p[off]
@@ -191,6 +251,92 @@ def add_angle_load(k, markers, bodies, data, torque, target):
     target[o + 2] += torque
     for j in range(m):
         target[o + 3 + j] += data[d + 3 + 2 * m + j] * torque
+
+
+@nb.njit(cache=True)
+def add_axial_stiffening(k, markers, bodies, data, z, fx, fy, target):
+    """target[modal rows] -= F_axial K_G,node q for a force (fx, fy) on marker ``k``.
+
+    The force's component along the beam (body x) is an axial tension between
+    the root and the marker's node; its geometric stiffness acts on the body's
+    modes (nothing for a rigid body, a frame point, or a body without stiffening).
+    """
+    body = markers[k, 0]
+    if body < 0 or bodies[body, 3] == 0:
+        return
+    m = markers[k, 2]
+    d = markers[k, 1] + 3 + 3 * m
+    o = bodies[body, 0]
+    th = z[o + 2]
+    axial = math.cos(th) * fx + math.sin(th) * fy
+    if axial == 0.0:
+        return
+    for i in range(m):
+        acc = 0.0
+        for j in range(m):
+            acc += data[d + m * i + j] * z[o + 3 + j]
+        target[o + 3 + i] -= axial * acc
+
+
+@nb.njit(cache=True)
+def joint_rows(kind, drive):
+    """Number of equations of a joint."""
+    return (3 if kind == FIXED else 2) + (1 if drive >= 0 else 0)
+
+
+@nb.njit(cache=True)
+def stiffening_terms(layout, data, z, jac, system):
+    """The geometric stiffness of loads that are unknowns of the solve, in its matrix.
+
+    A flexible body's axial load depends on its frame's acceleration r'' (the
+    axial inertia field rho A (A^T r'')_x) and on the joint forces at its nodes
+    (-G^T lambda): both are linear in the unknowns, so their geometric-stiffness
+    terms K_G q are columns of the matrix (which is then no longer symmetric).
+    """
+    bodies, markers, joints = layout[0], layout[1], layout[2]
+    n = layout[4][0]
+    for b in range(bodies.shape[0]):
+        if bodies[b, 3] == 0 or bodies[b, 1] == 0:
+            continue
+        o = bodies[b, 0]
+        m = bodies[b, 1]
+        ikga = bodies[b, 2] + 4 + 4 * m + 5 * m * m
+        c = math.cos(z[o + 2])
+        s = math.sin(z[o + 2])
+        for i in range(m):
+            acc = 0.0
+            for j in range(m):
+                acc += data[ikga + m * i + j] * z[o + 3 + j]
+            system[o + 3 + i, o] -= c * acc
+            system[o + 3 + i, o + 1] -= s * acc
+    kq = np.empty(16)
+    for jn in range(joints.shape[0]):
+        rows = joint_rows(joints[jn, 0], joints[jn, 5])
+        row = joints[jn, 3]
+        for side in range(2):
+            k = joints[jn, 1 + side]
+            body = markers[k, 0]
+            if body < 0 or bodies[body, 3] == 0 or markers[k, 2] == 0:
+                continue
+            m = markers[k, 2]
+            if kq.size < m:
+                kq = np.empty(m)
+            d = markers[k, 1] + 3 + 3 * m
+            o = bodies[body, 0]
+            c = math.cos(z[o + 2])
+            s = math.sin(z[o + 2])
+            for i in range(m):
+                acc = 0.0
+                for j in range(m):
+                    acc += data[d + m * i + j] * z[o + 3 + j]
+                kq[i] = acc
+            for r in range(row, row + rows):
+                # the row's force on this marker is -lambda_r (G[r, x], G[r, y])
+                axial = c * jac[r, o] + s * jac[r, o + 1]
+                if axial == 0.0:
+                    continue
+                for i in range(m):
+                    system[o + 3 + i, n + r] -= axial * kq[i]
 
 
 @nb.njit(cache=True)
@@ -413,9 +559,11 @@ def force_terms(t, layout, data, z, v, user_force, forces):
             user_force(e, t, si[:6].copy(), sj[:6].copy(), data[d + 1 : d + 1 + count].copy(), out)
         add_point_load(ki, markers, bodies, data, z, si, out[0], out[1], forces)
         add_angle_load(ki, markers, bodies, data, out[2], forces)
+        add_axial_stiffening(ki, markers, bodies, data, z, out[0], out[1], forces)
         if kj >= 0:
             add_point_load(kj, markers, bodies, data, z, sj, -out[0], -out[1], forces)
             add_angle_load(kj, markers, bodies, data, -out[2], forces)
+            add_axial_stiffening(kj, markers, bodies, data, z, -out[0], -out[1], forces)
 
 
 @nb.njit(cache=True)
@@ -432,22 +580,23 @@ def accelerations(t, z, v, layout, data, user_force, system, solution):
     solution[:] = 0.0
     body_terms(layout[0], data, z, v, system[:n, :n], solution[:n])
     force_terms(t, layout, data, z, v, user_force, solution[:n])
+    jac = np.zeros((c, n))
     if c:
         residual = np.empty(c)
         quadratic = np.empty(c)
         rate = np.empty(c)
         acceleration = np.empty(c)
-        jac = np.zeros((c, n))
         joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
         system[n:, :n] = jac
         system[:n, n:] = jac.T
         for r in range(c):
             solution[n + r] = -quadratic[r] + acceleration[r]
-    result = np.linalg.solve(system, solution)
+    stiffening_terms(layout, data, z, jac, system)
+    if not solve_in_place(system, solution):
+        return False
     for i in range(n + c):
-        if not math.isfinite(result[i]):
+        if not math.isfinite(solution[i]):
             return False
-    solution[:] = result
     return True
 
 
@@ -473,17 +622,24 @@ def project(t, z, v, layout, data, tolerance):
     for _ in range(6):
         jac[:, :] = 0.0
         joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
-        worst = np.max(np.abs(residual))
+        worst = 0.0
+        for r in range(c):
+            worst = max(worst, abs(residual[r]))
         if worst <= tolerance:
             break
-        step = jac.T @ np.linalg.solve(jac @ jac.T, residual)
-        z -= step
+        if not project_rows(jac, residual, z):
+            return np.inf
     if not worst <= tolerance:
         return np.inf
     jac[:, :] = 0.0
     joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
-    excess = jac @ v - rate
-    v -= jac.T @ np.linalg.solve(jac @ jac.T, excess)
+    for r in range(c):
+        acc = -rate[r]
+        for k in range(n):
+            acc += jac[r, k] * v[k]
+        residual[r] = acc
+    if not project_rows(jac, residual, v):
+        return np.inf
     return worst
 
 
@@ -591,16 +747,18 @@ def integrate_sample(times, x0, layout, data, user_force, rtol, atol, first_step
     return FINISHED, accepted, rejected, worst
 
 
-@nb.njit(cache=True, parallel=True)
-def integrate_batch(
-    times, initial, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states, report
+@nb.njit(cache=True, nogil=True)
+def integrate_range(
+    start, stop, times, initial, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states,
+    report,
 ):
-    """:func:`integrate_sample` for every sample row, one thread per sample.
+    """:func:`integrate_sample` for sample rows ``start:stop`` (the GIL released, so
+    :func:`fuzzymbs.mbs.kernels.threads.for_each_range` runs ranges side by side).
 
     ``report`` (B, 4) receives status, accepted and rejected steps and the
     largest joint residual of each sample.
     """
-    for s in nb.prange(initial.shape[0]):
+    for s in range(start, stop):
         status, accepted, rejected, worst = integrate_sample(
             times,
             initial[s],
@@ -620,15 +778,15 @@ def integrate_batch(
         report[s, 3] = worst
 
 
-@nb.njit(cache=True, parallel=True)
-def solve_batch(times, states, layout, data, user_force, out):
-    """z'' and lambda at every stored state (B, T, 2n) into ``out`` (B, T, n + c)."""
+@nb.njit(cache=True, nogil=True)
+def solve_range(start, stop, times, states, layout, data, user_force, out):
+    """z'' and lambda at every stored state of rows ``start:stop`` into ``out`` (B, T, n + c)."""
     sizes = layout[4]
     n = sizes[0]
     c = sizes[1]
-    for s in nb.prange(states.shape[0]):
-        system = np.empty((n + c, n + c))
-        solution = np.empty(n + c)
+    system = np.empty((n + c, n + c))
+    solution = np.empty(n + c)
+    for s in range(start, stop):
         for i in range(states.shape[1]):
             x = states[s, i]
             if not math.isfinite(x[0]):

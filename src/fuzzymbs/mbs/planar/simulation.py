@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.kernels.threads import for_each_range
 from fuzzymbs.mbs.planar import kernels
 from fuzzymbs.mbs.planar.system import Mechanism, PackedBatch, pack_batch
 
@@ -106,9 +107,14 @@ class PlanarResult:
         """(B, T, n + c): accelerations and multipliers at every stored state."""
         n, c = (int(s) for s in self.batch.layout.sizes)
         out = np.empty((*self.states.shape[:2], n + c))
-        kernels.solve_batch(
-            self.times, self.states, self.batch.layout.arrays(), self.batch.data, self.batch.user_force, out
-        )
+        arrays = self.batch.layout.arrays()
+
+        def run(start: int, stop: int) -> None:
+            kernels.solve_range(
+                start, stop, self.times, self.states, arrays, self.batch.data, self.batch.user_force, out
+            )
+
+        for_each_range(self.states.shape[0], run)
         return out
 
     def reaction(self, joint: str) -> NDArray[np.float64]:
@@ -164,20 +170,28 @@ def simulate(
     samples = batch.data.shape[0]
     states = np.full((samples, t.size, batch.initial.shape[1]), np.nan)
     report = np.zeros((samples, 4))
-    kernels.integrate_batch(
-        t,
-        batch.initial.copy(),
-        batch.layout.arrays(),
-        batch.data,
-        batch.user_force,
-        float(rtol),
-        float(atol),
-        step,
-        int(max_steps),
-        PROJECTION_TOLERANCE,
-        states,
-        report,
-    )
+    initial = batch.initial.copy()
+    arrays = batch.layout.arrays()
+
+    def run(start: int, stop: int) -> None:
+        kernels.integrate_range(
+            start,
+            stop,
+            t,
+            initial,
+            arrays,
+            batch.data,
+            batch.user_force,
+            float(rtol),
+            float(atol),
+            step,
+            int(max_steps),
+            PROJECTION_TOLERANCE,
+            states,
+            report,
+        )
+
+    for_each_range(samples, run)
     return PlanarResult(
         t,
         states,
