@@ -31,6 +31,7 @@ BUILTIN_PACKAGES: tuple[str, ...] = (
     "fuzzymbs.models.closed_form",
     "fuzzymbs.models.gears",
     "fuzzymbs.models.brake",
+    "fuzzymbs.models.mechanisms",
     "fuzzymbs.models.external",
 )
 
