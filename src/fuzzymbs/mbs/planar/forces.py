@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
+from numba.core.ccallback import CFunc
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.planar import kernels
@@ -170,7 +171,7 @@ class UserForce:
     def __post_init__(self) -> None:
         _check_marker("UserForce", self.marker_i)
         _check_marker("UserForce", self.marker_j, optional=True)
-        if not hasattr(self.function, "address") or not hasattr(self.function, "ctypes"):
+        if not isinstance(self.function, CFunc) or self.function._sig != kernels.USER_FORCE_SIGNATURE:
             raise InvalidParameterError(
                 "UserForce function must be compiled with fuzzymbs.mbs.planar.user_force, got "
                 f"{self.function!r}"
