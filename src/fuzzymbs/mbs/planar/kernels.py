@@ -158,12 +158,42 @@ def profile(code, p, off, t):
 
 
 @nb.njit(cache=True)
+def _foreshortening(k, markers, bodies, data, z, v):
+    """(-1/2 q^T K_n q, (K_n q) . q', q'^T K_n q') of marker ``k``'s node, or zeros.
+
+    K_n is the node's geometric matrix (integral of Phi'^T Phi' from the root to
+    the node): the node moves along the beam by u_f = -1/2 q^T K_n q as the beam
+    bends (it foreshortens), which is where geometric stiffening comes from.
+    """
+    body = markers[k, 0]
+    m = markers[k, 2]
+    if body < 0 or m == 0 or bodies[body, 3] == 0:
+        return 0.0, 0.0, 0.0
+    d = markers[k, 1] + 3 + 3 * m
+    o = bodies[body, 0]
+    shift = 0.0
+    rate = 0.0
+    curvature = 0.0
+    for i in range(m):
+        kq = 0.0
+        kv = 0.0
+        for j in range(m):
+            kq += data[d + m * i + j] * z[o + 3 + j]
+            kv += data[d + m * i + j] * v[o + 3 + j]
+        shift -= 0.5 * z[o + 3 + i] * kq
+        rate += kq * v[o + 3 + i]
+        curvature += v[o + 3 + i] * kv
+    return shift, rate, curvature
+
+
+@nb.njit(cache=True)
 def marker_state(k, markers, bodies, data, z, v, out):
     """Kinematics of marker ``k`` into ``out`` (10,).
 
     out = x, y, angle, vx, vy, angular velocity, the velocity-quadratic part of
     the acceleration (2), and A R u (2): the point's position relative to its
     frame origin turned by +90 degrees (its derivative by the frame angle).
+    On a stiffened flexible body the node's foreshortening is part of u.
     """
     body = markers[k, 0]
     d = markers[k, 1]
@@ -194,13 +224,16 @@ def marker_state(k, markers, bodies, data, z, v, out):
         duy += py * vj
         angle += ps * qj
         rate += ps * vj
+    shift, shift_rate, curvature = _foreshortening(k, markers, bodies, data, z, v)
+    ux += shift
+    dux -= shift_rate
     th = z[o + 2]
     w = v[o + 2]
     c = math.cos(th)
     s = math.sin(th)
     aux = c * ux - s * uy  # A u
     auy = s * ux + c * uy
-    adx = c * dux - s * duy  # A Phi q'
+    adx = c * dux - s * duy  # A u'
     ady = s * dux + c * duy
     out[0] = z[o] + aux
     out[1] = z[o + 1] + auy
@@ -208,9 +241,9 @@ def marker_state(k, markers, bodies, data, z, v, out):
     out[3] = v[o] - w * auy + adx
     out[4] = v[o + 1] + w * aux + ady
     out[5] = w + rate
-    # -w^2 A u + 2 w A R Phi q'
-    out[6] = -w * w * aux - 2.0 * w * ady
-    out[7] = -w * w * auy + 2.0 * w * adx
+    # -w^2 A u + 2 w A R u' + A (-q'^T K_n q', 0)
+    out[6] = -w * w * aux - 2.0 * w * ady - c * curvature
+    out[7] = -w * w * auy + 2.0 * w * adx - s * curvature
     out[8] = -auy
     out[9] = aux
 
@@ -221,6 +254,9 @@ def add_point_load(k, markers, bodies, data, z, state, fx, fy, target):
 
     The same product gives a force's generalised force and a position
     equation's Jacobian row. ``state`` is the marker's :func:`marker_state`.
+    On a stiffened flexible body dp/dq holds the foreshortening -(K_n q) along
+    the beam, so that an axial force at the node stiffens (tension) or
+    softens (compression) the modes.
     """
     body = markers[k, 0]
     if body < 0:
@@ -233,10 +269,19 @@ def add_point_load(k, markers, bodies, data, z, state, fx, fy, target):
     target[o + 2] += state[8] * fx + state[9] * fy
     c = math.cos(z[o + 2])
     s = math.sin(z[o + 2])
+    axial = c * fx + s * fy  # the force along the body's x axis
+    stiffened = bodies[body, 3] != 0
+    dk = d + 3 + 3 * m
     for j in range(m):
         px = data[d + 3 + j]
         py = data[d + 3 + m + j]
-        target[o + 3 + j] += (c * px - s * py) * fx + (s * px + c * py) * fy
+        value = (c * px - s * py) * fx + (s * px + c * py) * fy
+        if stiffened:
+            kq = 0.0
+            for i in range(m):
+                kq += data[dk + m * j + i] * z[o + 3 + i]
+            value -= axial * kq
+        target[o + 3 + j] += value
 
 
 @nb.njit(cache=True)
@@ -254,102 +299,32 @@ def add_angle_load(k, markers, bodies, data, torque, target):
 
 
 @nb.njit(cache=True)
-def add_axial_stiffening(k, markers, bodies, data, z, fx, fy, target):
-    """target[modal rows] -= F_axial K_G,node q for a force (fx, fy) on marker ``k``.
-
-    The force's component along the beam (body x) is an axial tension between
-    the root and the marker's node; its geometric stiffness acts on the body's
-    modes (nothing for a rigid body, a frame point, or a body without stiffening).
-    """
-    body = markers[k, 0]
-    if body < 0 or bodies[body, 3] == 0:
-        return
-    m = markers[k, 2]
-    d = markers[k, 1] + 3 + 3 * m
-    o = bodies[body, 0]
-    th = z[o + 2]
-    axial = math.cos(th) * fx + math.sin(th) * fy
-    if axial == 0.0:
-        return
-    for i in range(m):
-        acc = 0.0
-        for j in range(m):
-            acc += data[d + m * i + j] * z[o + 3 + j]
-        target[o + 3 + i] -= axial * acc
-
-
-@nb.njit(cache=True)
 def joint_rows(kind, drive):
     """Number of equations of a joint."""
     return (3 if kind == FIXED else 2) + (1 if drive >= 0 else 0)
 
 
 @nb.njit(cache=True)
-def stiffening_terms(layout, data, z, jac, system):
-    """The geometric stiffness of loads that are unknowns of the solve, in its matrix.
-
-    A flexible body's axial load depends on its frame's acceleration r'' (the
-    axial inertia field rho A (A^T r'')_x) and on the joint forces at its nodes
-    (-G^T lambda): both are linear in the unknowns, so their geometric-stiffness
-    terms K_G q are columns of the matrix (which is then no longer symmetric).
-    """
-    bodies, markers, joints = layout[0], layout[1], layout[2]
-    n = layout[4][0]
-    for b in range(bodies.shape[0]):
-        if bodies[b, 3] == 0 or bodies[b, 1] == 0:
-            continue
-        o = bodies[b, 0]
-        m = bodies[b, 1]
-        ikga = bodies[b, 2] + 4 + 4 * m + 5 * m * m
-        c = math.cos(z[o + 2])
-        s = math.sin(z[o + 2])
-        for i in range(m):
-            acc = 0.0
-            for j in range(m):
-                acc += data[ikga + m * i + j] * z[o + 3 + j]
-            system[o + 3 + i, o] -= c * acc
-            system[o + 3 + i, o + 1] -= s * acc
-    kq = np.empty(16)
-    for jn in range(joints.shape[0]):
-        rows = joint_rows(joints[jn, 0], joints[jn, 5])
-        row = joints[jn, 3]
-        for side in range(2):
-            k = joints[jn, 1 + side]
-            body = markers[k, 0]
-            if body < 0 or bodies[body, 3] == 0 or markers[k, 2] == 0:
-                continue
-            m = markers[k, 2]
-            if kq.size < m:
-                kq = np.empty(m)
-            d = markers[k, 1] + 3 + 3 * m
-            o = bodies[body, 0]
-            c = math.cos(z[o + 2])
-            s = math.sin(z[o + 2])
-            for i in range(m):
-                acc = 0.0
-                for j in range(m):
-                    acc += data[d + m * i + j] * z[o + 3 + j]
-                kq[i] = acc
-            for r in range(row, row + rows):
-                # the row's force on this marker is -lambda_r (G[r, x], G[r, y])
-                axial = c * jac[r, o] + s * jac[r, o + 1]
-                if axial == 0.0:
-                    continue
-                for i in range(m):
-                    system[o + 3 + i, n + r] -= axial * kq[i]
-
-
-@nb.njit(cache=True)
 def body_terms(bodies, data, z, v, mass_matrix, forces):
     """Every body's mass-matrix block and its generalised forces (quadratic
-    velocity terms, gravity, elastic, damping and geometric stiffness)."""
+    velocity terms, gravity, elastic and damping forces).
+
+    A stiffened flexible body carries the foreshortening of its points,
+    u_f = -1/2 q^T G(x) q along the beam: its first moment is
+    S(q) = s0 + C1 q - 1/2 (q^T K_a q) e_x and its inertia about the frame
+    origin J(q) = J0 + 2 a q + q^T (M_qq - K_s) q, with K_a and K_s the geometric
+    matrices of the axial and centrifugal unit loads. Lagrange's equations of
+    that kinetic and potential energy give the geometric stiffening by gravity,
+    frame acceleration and spin, each with its reciprocal term, so the energy
+    is conserved (module docstring of :mod:`fuzzymbs.fe.beam` for K_a, K_s).
+    """
     gx = data[0]
     gy = data[1]
     for b in range(bodies.shape[0]):
         o = bodies[b, 0]
         m = bodies[b, 1]
         d = bodies[b, 2]
-        stiffening = bodies[b, 3]
+        stiffened = bodies[b, 3] != 0
         mass = data[d]
         ia = d + 4
         ib = ia + m
@@ -365,16 +340,26 @@ def body_terms(bodies, data, z, v, mass_matrix, forces):
         w = v[o + 2]
         c = math.cos(th)
         s = math.sin(th)
-        # first moment S = s0 + C1 q, and C1 q'
+        # S = s0 + C1 q (- 1/2 q^T K_a q e_x), and S_q q'
         sx = data[d + 1]
         sy = data[d + 2]
         cvx = 0.0
         cvy = 0.0
-        for j in range(m):
-            sx += data[icx + j] * z[o + 3 + j]
-            sy += data[icy + j] * z[o + 3 + j]
-            cvx += data[icx + j] * v[o + 3 + j]
-            cvy += data[icy + j] * v[o + 3 + j]
+        axial_curvature = 0.0  # q'^T K_a q'
+        for i in range(m):
+            sx += data[icx + i] * z[o + 3 + i]
+            sy += data[icy + i] * z[o + 3 + i]
+            cvx += data[icx + i] * v[o + 3 + i]
+            cvy += data[icy + i] * v[o + 3 + i]
+            if stiffened:
+                kaq = 0.0
+                kav = 0.0
+                for j in range(m):
+                    kaq += data[ikga + m * i + j] * z[o + 3 + j]
+                    kav += data[ikga + m * i + j] * v[o + 3 + j]
+                sx -= 0.5 * z[o + 3 + i] * kaq
+                cvx -= kaq * v[o + 3 + i]
+                axial_curvature += v[o + 3 + i] * kav
         arsx = -(s * sx + c * sy)  # A R S
         arsy = c * sx - s * sy
         mass_matrix[o, o] += mass
@@ -387,24 +372,29 @@ def body_terms(bodies, data, z, v, mass_matrix, forces):
         spin = 0.0
         for i in range(m):
             qi = z[o + 3 + i]
-            # a + Mqq q, and Gy q
+            # a + (M_qq - K_s) q, G q, G q', the elastic and damping forces, K_a q
             aq = data[ia + i]
             gq = 0.0
             gv = 0.0
             kq = 0.0
+            kaq = 0.0
             for j in range(m):
                 qj = z[o + 3 + j]
-                aq += data[imq + m * i + j] * qj
+                shape = data[imq + m * i + j]
+                if stiffened:
+                    shape -= data[ikgs + m * i + j]
+                    kaq += data[ikga + m * i + j] * qj
+                aq += shape * qj
                 gq += data[igy + m * i + j] * qj
                 gv += data[igy + m * i + j] * v[o + 3 + j]
                 mass_matrix[o + 3 + i, o + 3 + j] += data[imq + m * i + j]
-                stiffness = data[ik + m * i + j]
-                if stiffening:
-                    stiffness += w * w * data[ikgs + m * i + j] + (c * gx + s * gy) * data[ikga + m * i + j]
-                kq += stiffness * qj + data[idp + m * i + j] * v[o + 3 + j]
-            inertia += 2.0 * data[ia + i] * qi + (aq - data[ia + i]) * qi
-            acx = c * data[icx + i] - s * data[icy + i]  # A C1_i
-            acy = s * data[icx + i] + c * data[icy + i]
+                kq += data[ik + m * i + j] * qj + data[idp + m * i + j] * v[o + 3 + j]
+            inertia += data[ia + i] * qi + aq * qi
+            # A S_q[:, i], S_q = C1 - e_x (K_a q)^T
+            sqx = data[icx + i] - kaq
+            sqy = data[icy + i]
+            acx = c * sqx - s * sqy
+            acy = s * sqx + c * sqy
             mass_matrix[o, o + 3 + i] += acx
             mass_matrix[o + 3 + i, o] += acx
             mass_matrix[o + 1, o + 3 + i] += acy
@@ -415,9 +405,11 @@ def body_terms(bodies, data, z, v, mass_matrix, forces):
             spin += aq * v[o + 3 + i]
             forces[o + 3 + i] += w * w * aq - 2.0 * w * gv + acx * gx + acy * gy - kq
         mass_matrix[o + 2, o + 2] += inertia
-        # w^2 A S - 2 w A R C1 q'
-        forces[o] += w * w * (c * sx - s * sy) + 2.0 * w * (s * cvx + c * cvy) + mass * gx
-        forces[o + 1] += w * w * (s * sx + c * sy) - 2.0 * w * (c * cvx - s * cvy) + mass * gy
+        # w^2 A S - 2 w A R S_q q' + A e_x q'^T K_a q'
+        forces[o] += w * w * (c * sx - s * sy) + 2.0 * w * (s * cvx + c * cvy) + c * axial_curvature + mass * gx
+        forces[o + 1] += (
+            w * w * (s * sx + c * sy) - 2.0 * w * (c * cvx - s * cvy) + s * axial_curvature + mass * gy
+        )
         forces[o + 2] += -2.0 * w * spin + arsx * gx + arsy * gy
 
 
@@ -559,11 +551,9 @@ def force_terms(t, layout, data, z, v, user_force, forces):
             user_force(e, t, si[:6].copy(), sj[:6].copy(), data[d + 1 : d + 1 + count].copy(), out)
         add_point_load(ki, markers, bodies, data, z, si, out[0], out[1], forces)
         add_angle_load(ki, markers, bodies, data, out[2], forces)
-        add_axial_stiffening(ki, markers, bodies, data, z, out[0], out[1], forces)
         if kj >= 0:
             add_point_load(kj, markers, bodies, data, z, sj, -out[0], -out[1], forces)
             add_angle_load(kj, markers, bodies, data, -out[2], forces)
-            add_axial_stiffening(kj, markers, bodies, data, z, -out[0], -out[1], forces)
 
 
 @nb.njit(cache=True)
@@ -591,7 +581,6 @@ def accelerations(t, z, v, layout, data, user_force, system, solution):
         system[:n, n:] = jac.T
         for r in range(c):
             solution[n + r] = -quadratic[r] + acceleration[r]
-    stiffening_terms(layout, data, z, jac, system)
     if not solve_in_place(system, solution):
         return False
     for i in range(n + c):
