@@ -80,6 +80,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from scipy.integrate import solve_ivp
+from scipy.sparse.linalg import spsolve
 
 #: Elements used by default (shown converged, see the module docstring).
 DEFAULT_ELEMENTS = 64
@@ -811,17 +812,53 @@ class _SliderCrankRod:
         damping = sp.coo_matrix((spin, (self._pair_rows, self._pair_cols)), shape=(size, size))
         return sp.block_array([[None, sp.eye_array(size)], [stiffness, damping]], format="csc")
 
-    def initial_state(self) -> np.ndarray:
-        """The rigid mechanism's state at t = 0 (straight rod, zero deformation)."""
+    def rigid_velocities(self, z: np.ndarray) -> np.ndarray:
+        """Velocities w at t = 0 of configuration ``z`` turning rigidly, slider at rest.
+
+        At t = 0 (dead centre) the crank pin moves at (0, r w) and the frame is
+        unturned, so the rigid motion turns every node about the crank pin at
+        Omega = -r w / P_nx, P_n node n's position from the pin: the slider
+        then has no y velocity, and no x velocity either as P_ny = 0.
+        """
+        size = self.size
+        _, _, _, offset, slide, _, _ = self.kinematics(0.0)
+        rate = self.kinematics(0.0)[0]
+        xi = z[size - 2]
+        tip = np.array([self.length, 0.0]) + offset + xi * slide
+        spin = -self.crank_speed * self.crank_length / tip[0]
+        w = np.zeros(size)
+        # frame velocities (Omega - beta') G p of the inner nodes
+        w[self.tx] = -(spin - rate) * z[self.ty]
+        w[self.ty] = (spin - rate) * (self.reference + z[self.tx])
+        w[self.rotations] = spin - rate
+        w[size - 2] = -spin * tip[1]
+        return w
+
+    def initial_state(self, start: str = "undeformed") -> np.ndarray:
+        """State at t = 0: the straight rod in the rigid motion (see ``slider_crank_reference``).
+
+        ``start="undeformed"``: unstressed. ``start="prestressed"``: stretched
+        to the equilibrium of its initial inertia loads (d'Alembert, purely
+        axial at dead centre), so that the relative accelerations vanish;
+        found by Newton's method on the accelerations, the rigid velocities
+        following the stretched configuration.
+        """
+        if start not in ("undeformed", "prestressed"):
+            raise ValueError('start must be "undeformed" or "prestressed"')
         size = self.size
         y0 = np.zeros(2 * size)
-        rate, *_ = self.kinematics(0.0)
-        w, r, l = self.crank_speed, self.crank_length, self.length
-        # rigid field relative to the crank pin: (0, -r w s / l) at arc length s,
-        # every node turning at -r w / l; in the frame, less beta' G p
-        y0[size + self.ty] = -(r / l) * w * self.reference - rate * self.reference
-        y0[size + self.rotations] = -(r / l) * w - rate
-        return y0
+        y0[size:] = self.rigid_velocities(y0[:size])
+        if start == "undeformed":
+            return y0
+        for _ in range(50):
+            acc = self.rhs(0.0, y0)[size:]
+            tangent = self.jac(0.0, y0)[size:, :size]
+            step = spsolve(tangent.tocsc(), acc)
+            y0[:size] -= step
+            y0[size:] = self.rigid_velocities(y0[:size])
+            if np.abs(step).max() <= 1e-14 * np.abs(y0[:size]).max():
+                return y0
+        raise RuntimeError("the prestressed initial state did not converge")
 
     def outputs(self, t: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
         """Midpoint deflection, slider position and pin force along t, y (2 size, T)."""
@@ -831,15 +868,16 @@ class _SliderCrankRod:
         force = np.empty(t.size)
         mid = 3 * self.midpoint - 2  # z index of the midpoint's u
         for i, (ti, yi) in enumerate(zip(t, y.T, strict=True)):
-            _, _, _, offset, slide, slider_x, _ = self.kinematics(ti)
+            _, _, _, offset, slide, slider_x, slider_acc = self.kinematics(ti)
             xi = yi[size - 2]
+            # the chord from node 0 (the frame origin) to node n, and the
+            # midpoint's offset across it (all in the frame: invariant)
             chord = np.array([self.length, 0.0]) + offset + xi * slide
             px = self.midpoint * self.beam.l0 + yi[mid]
             py = yi[mid + 1]
             deflection[i] = (chord[0] * py - chord[1] * px) / np.hypot(*chord)
             slider[i] = slider_x + xi
-            # (x_s'' + xi'') = rhs's xi'' + x_s'' back
-            _, _, _, _, _, _, slider_acc = self.kinematics(ti)
+            # m_s (x_s'' + xi''), xi'' from the equations of motion
             force[i] = self.slider_mass * (self.rhs(ti, yi)[2 * size - 2] + slider_acc)
         return {
             "midpoint_deflection": deflection,
@@ -859,6 +897,7 @@ def slider_crank_reference(
     rtol: float = SLIDER_CRANK_RTOL,
     atol: float = SLIDER_CRANK_ATOL,
     frame: str = "rod",
+    start: str = "undeformed",
 ) -> dict[str, np.ndarray]:
     """Slider-crank with a geometrically nonlinear flexible rod.
 
@@ -880,6 +919,8 @@ def slider_crank_reference(
         Radau tolerances (``atol`` in m, rad, m/s and rad/s alike).
     frame : {"rod", "fixed"}, optional
         Frame of the coordinates (see ``_SliderCrankRod``).
+    start : {"undeformed", "prestressed"}, optional
+        Initial state (see ``_SliderCrankRod.initial_state``).
 
     Returns
     -------
@@ -901,7 +942,7 @@ def slider_crank_reference(
         rod_width * rod_height**3 / 12.0,
     )
     rod = _SliderCrankRod(beam, slider_mass, crank_speed, CRANK_LENGTH, frame)
-    y0 = rod.initial_state()
+    y0 = rod.initial_state(start)
     t_end = float(times[-1])
     if t_end == 0.0:
         return rod.outputs(times, np.repeat(y0[:, None], times.size, axis=1))

@@ -33,7 +33,7 @@ register_model(
     options={
         "duration": "simulated time [s] (default 4)",
         "time_steps": "number of output times (default 401)",
-        "modes": "clamped modes of the beam (default 4)",
+        "modes": "clamped modes of the beam (default 6, at most 8)",
         "elements": "beam elements (default 16)",
         **_TOLERANCES,
     },
@@ -66,7 +66,8 @@ register_model(
     "slider-crank",
     "fuzzymbs.models.mechanisms.slider_crank:slider_crank",
     parameters={
-        "crank_speed": ParameterInfo("rad/s", "crank speed", 150.0),
+        "crank_speed": ParameterInfo("rad/s", "crank speed after the spin-up", 150.0),
+        "spin_up_time": ParameterInfo("s", "time the crank takes from rest to its speed", 0.02),
         "youngs_modulus": ParameterInfo("Pa", "connecting rod's Young's modulus E", 2.0e11),
         "rod_width": ParameterInfo("m", "connecting rod's section width", 0.01),
         "rod_height": ParameterInfo("m", "connecting rod's section height (bending plane)", 0.006),
@@ -79,11 +80,11 @@ register_model(
         "slider_pin_force_y": "N",
         "crank_torque": "N m",
     },
-    description="slider-crank with a flexible connecting rod, crank at constant speed (planar engine)",
+    description="slider-crank with a flexible connecting rod, crank spun up to a constant speed (planar engine)",
     options={
         "duration": "simulated time [s] (default 0.1)",
         "time_steps": "number of output times (default 501)",
-        "modes": "pinned-pinned modes of the rod (default 4)",
+        "modes": "pinned-pinned modes of the rod (default 6: five bending, the first axial)",
         "elements": "rod elements, even (default 12)",
         **_TOLERANCES,
     },
