@@ -5,7 +5,8 @@ slider-crank) at its default parameters, the largest deviation of each output
 over the run from a finer setting:
 
 * tolerance: the default rtol 1e-6 / atol 1e-8 against rtol 1e-10 / atol 1e-12;
-* modes: the default mode count against twice as many (tight tolerance both);
+* modes: the default mode count against twice as many (tight tolerance both; the
+  pendulum's clamped modes on a pinned beam against 8, the most its mass matrix allows);
 * elements: the default element count against twice as many (tight tolerance both);
 
 each stated relative to the output's peak and to the width of the band a 5 %
@@ -21,9 +22,9 @@ from fuzzymbs.models.mechanisms import pendulum, slider_crank, spin_up_beam
 
 TIGHT = {"rtol": 1e-10, "atol": 1e-12}
 CASES = {
-    "flexible-pendulum": (pendulum.flexible_pendulum, pendulum.MODES, pendulum.ELEMENTS),
-    "spin-up-beam": (spin_up_beam.spin_up_beam, spin_up_beam.MODES, spin_up_beam.ELEMENTS),
-    "slider-crank": (slider_crank.slider_crank, slider_crank.MODES, slider_crank.ELEMENTS),
+    "flexible-pendulum": (pendulum.flexible_pendulum, pendulum.MODES, 8, pendulum.ELEMENTS),
+    "spin-up-beam": (spin_up_beam.spin_up_beam, spin_up_beam.MODES, 12, spin_up_beam.ELEMENTS),
+    "slider-crank": (slider_crank.slider_crank, slider_crank.MODES, 12, slider_crank.ELEMENTS),
 }
 
 
@@ -44,17 +45,17 @@ def band_width(factory, modes, elements) -> dict[str, float]:
 
 def main() -> None:
     print("largest deviation over the run: of the peak | of the 5 %-E band width")
-    for case, (factory, modes, elements) in CASES.items():
+    for case, (factory, modes, more_modes, elements) in CASES.items():
         fine = outputs(factory, **TIGHT)
         width = band_width(factory, modes, elements)
         settings = {
             "tolerance (rtol 1e-6)": outputs(factory),
-            f"modes ({modes} vs {2 * modes})": fine,
+            f"modes ({modes} vs {more_modes})": fine,
             f"elements ({elements} vs {2 * elements})": fine,
         }
         finer = {
             "tolerance (rtol 1e-6)": fine,
-            f"modes ({modes} vs {2 * modes})": outputs(factory, modes=2 * modes, **TIGHT),
+            f"modes ({modes} vs {more_modes})": outputs(factory, modes=more_modes, **TIGHT),
             f"elements ({elements} vs {2 * elements})": outputs(factory, elements=2 * elements, **TIGHT),
         }
         for setting, coarse in settings.items():
