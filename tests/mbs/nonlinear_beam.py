@@ -77,6 +77,8 @@ clamped-free value 1.8751^2 sqrt(EI / (rho A L^4)) = 2.91073 rad/s
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.integrate import solve_ivp
@@ -214,8 +216,11 @@ class CorotationalBeam:
         # node 0 is at the origin with rotation theta (and no displacement);
         # the chord is built from displacement differences so that the
         # stretch below keeps its digits (see there)
-        du = np.diff(nodes[:, 0], prepend=0.0)
-        dy = np.diff(nodes[:, 1], prepend=0.0)
+        du = np.empty(self.elements)
+        dy = np.empty(self.elements)
+        du[0], dy[0] = nodes[0, 0], nodes[0, 1]
+        np.subtract(nodes[1:, 0], nodes[:-1, 0], out=du[1:])
+        np.subtract(nodes[1:, 1], nodes[:-1, 1], out=dy[1:])
         dx = self.l0 + du
         phi = np.concatenate(([theta], nodes[:, 2]))
         l = np.sqrt(dx * dx + dy * dy)
@@ -721,9 +726,15 @@ class _SliderCrankRod:
         # inner nodes' (u, v) pairs
         self._pair_rows = np.concatenate((self.tx, self.ty, self.tx, self.ty))
         self._pair_cols = np.concatenate((self.tx, self.ty, self.ty, self.tx))
+        self.kinematics = functools.lru_cache(maxsize=16)(self._kinematics)
 
-    def kinematics(self, t: float):
-        """Frame angle and rates, R^T a_A, c, d and the slider's x_s, x_s''."""
+    def _kinematics(self, t: float):
+        """Frame angle and rates, R^T a_A, c, d and the slider's x_s, x_s''.
+
+        (Cached as ``kinematics``: Radau's Newton iteration calls the
+        right-hand side at the same few times over and over. The arrays
+        returned are shared, not to be modified.)
+        """
         rigid = rigid_slider_crank(t, self.crank_speed, self.crank_length, self.length)
         pin_acc = rigid["pin_acceleration"]
         if self.frame == "rod":
@@ -821,8 +832,7 @@ class _SliderCrankRod:
         then has no y velocity, and no x velocity either as P_ny = 0.
         """
         size = self.size
-        _, _, _, offset, slide, _, _ = self.kinematics(0.0)
-        rate = self.kinematics(0.0)[0]
+        rate, _, _, offset, slide, _, _ = self.kinematics(0.0)
         xi = z[size - 2]
         tip = np.array([self.length, 0.0]) + offset + xi * slide
         spin = -self.crank_speed * self.crank_length / tip[0]

@@ -21,6 +21,7 @@ or a friction law costs no Python call per step::
 
 from __future__ import annotations
 
+import pickle
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -35,8 +36,16 @@ from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
 
 
 def user_force(function: Callable) -> object:
-    """Compile ``function`` as a user force element (a cached Numba cfunc)."""
-    return nb.cfunc(kernels.USER_FORCE_SIGNATURE, cache=True)(function)
+    """Compile ``function`` as a user force element (a Numba cfunc).
+
+    Defined in a module file, it is cached like the kernels; defined where
+    Numba cannot cache it (an interactive session, ``exec``: no file to cache
+    beside, or globals that cannot be pickled), it is compiled without a cache.
+    """
+    try:
+        return nb.cfunc(kernels.USER_FORCE_SIGNATURE, cache=True)(function)
+    except (RuntimeError, TypeError, pickle.PicklingError):
+        return nb.cfunc(kernels.USER_FORCE_SIGNATURE)(function)
 
 
 def _check_marker(owner: str, marker: Marker | None, optional: bool = False) -> None:
