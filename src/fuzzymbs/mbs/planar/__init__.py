@@ -5,7 +5,7 @@ Public API (see docs/mechanisms.md)::
     from fuzzymbs.mbs.planar import (Mechanism, RigidBody, FlexibleBody, ground,
                                      Revolute, Prismatic, Fixed,
                                      SpringDamper, RotationalSpringDamper, MarkerLoad,
-                                     UserForce, user_force,
+                                     UserForce, user_force, Contact, contacts,
                                      ConstantRate, SpinUp, Harmonic,
                                      simulate, PlanarResult, linearize)
 """
@@ -29,6 +29,8 @@ _LAZY: dict[str, str] = {
     "MarkerLoad": "fuzzymbs.mbs.planar.forces",
     "UserForce": "fuzzymbs.mbs.planar.forces",
     "user_force": "fuzzymbs.mbs.planar.forces",
+    "Contact": "fuzzymbs.mbs.planar.forces",
+    "contacts": "fuzzymbs.mbs.planar.forces",
     "ConstantRate": "fuzzymbs.mbs.planar.profiles",
     "SpinUp": "fuzzymbs.mbs.planar.profiles",
     "Harmonic": "fuzzymbs.mbs.planar.profiles",

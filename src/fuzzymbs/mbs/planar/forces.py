@@ -194,4 +194,65 @@ class UserForce:
         return [float(len(values)), *values]
 
 
-ForceElement = SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce
+@dataclass(frozen=True, eq=False)
+class Contact:
+    """Penalty contact of a point (marker i) with a surface (marker j), with friction.
+
+    The surface is marker j's x axis, its outward normal marker j's y axis (a
+    straight edge, a floor, a guide) or, with ``radius``, the circle of that
+    radius about marker j (a roller, a cam, a pin in a slot's end). Its points
+    move with marker j's body frame (on a flexible body: the frame, not the
+    modes); marker i may be any marker, a beam node too.
+
+    Normal force f_N = stiffness max(0, -g) - damping g' (never pulling; g the
+    gap), friction -friction f_N v_t / sqrt(v_t^2 + regularization^2) against
+    the slip v_t (regularised Coulomb, as the brake's contact). For a node set,
+    add one Contact per node (:func:`contacts`).
+
+    Parameters
+    ----------
+    marker_i, marker_j : Marker
+    stiffness : float
+        Penalty stiffness [N/m], > 0.
+    damping : float
+        Normal damping [N s/m].
+    friction : float
+        Coulomb coefficient mu [-].
+    regularization : float
+        Slip speed eps of the regularised friction law [m/s], > 0.
+    radius : float, optional
+        Circle radius [m]; None for the straight surface.
+    """
+
+    marker_i: Marker
+    marker_j: Marker
+    stiffness: float
+    damping: float = 0.0
+    friction: float = 0.0
+    regularization: float = 1e-3
+    radius: float | None = None
+    kind = kernels.CONTACT
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        _check_marker("Contact", self.marker_i)
+        _check_marker("Contact", self.marker_j)
+        _non_negative("Contact", damping=self.damping, friction=self.friction)
+        for name in ("stiffness", "regularization"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InvalidParameterError(f"Contact {name} must be finite and > 0, got {value!r}")
+        if self.radius is not None and not (np.isfinite(self.radius) and self.radius > 0):
+            raise InvalidParameterError(f"Contact radius must be finite and > 0, got {self.radius!r}")
+
+    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+        radius = 0.0 if self.radius is None else float(self.radius)
+        return [self.stiffness, self.damping, self.friction, self.regularization, radius]
+
+
+def contacts(markers: Sequence[Marker], surface: Marker, **law: float) -> list[Contact]:
+    """One :class:`Contact` per marker of a node set against one surface."""
+    return [Contact(marker, surface, **law) for marker in markers]
+
+
+ForceElement = SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce | Contact

@@ -43,6 +43,7 @@ SPRING_DAMPER = 0
 ROTATIONAL_SPRING_DAMPER = 1
 MARKER_LOAD = 2
 USER_FORCE = 3
+CONTACT = 4
 # run status
 RUNNING = 0
 FINISHED = 1
@@ -282,6 +283,71 @@ def add_point_load(k, markers, bodies, data, z, state, fx, fy, target):
                 kq += data[dk + m * j + i] * z[o + 3 + i]
             value -= axial * kq
         target[o + 3 + j] += value
+
+
+@nb.njit(cache=True)
+def add_frame_point_load(body, bodies, z, px, py, fx, fy, target):
+    """target[body coordinates] += the generalised force of (fx, fy) at the global point
+    (px, py) moving with ``body``'s frame (no modal part)."""
+    if body < 0:
+        return
+    o = bodies[body, 0]
+    target[o] += fx
+    target[o + 1] += fy
+    target[o + 2] += -(py - z[o + 1]) * fx + (px - z[o]) * fy
+
+
+@nb.njit(cache=True)
+def contact_force(markers, bodies, data, d, kj, z, v, si, sj, out):
+    """Penalty contact of marker i's point with marker j's surface; returns the contact
+    point (x, y) on the surface and writes the force on marker i into ``out``.
+
+    The surface is marker j's x axis (outward normal: its y axis) or, with a radius
+    (``data[d + 4] > 0``), the circle of that radius about marker j (outward normal
+    radial). Normal force f_N = k max(0, -g) - c g' (never pulling), friction
+    -mu f_N v_t / sqrt(v_t^2 + eps^2) (regularised Coulomb) against the slip of
+    the point over the surface, whose points move with marker j's frame.
+    """
+    radius = data[d + 4]
+    dx = si[0] - sj[0]
+    dy = si[1] - sj[1]
+    if radius > 0.0:
+        distance = math.sqrt(dx * dx + dy * dy)
+        nx = dx / distance
+        ny = dy / distance
+        gap = distance - radius
+    else:
+        nx = -math.sin(sj[2])
+        ny = math.cos(sj[2])
+        gap = nx * dx + ny * dy
+    cx = si[0] - gap * nx
+    cy = si[1] - gap * ny
+    out[0] = 0.0
+    out[1] = 0.0
+    out[2] = 0.0
+    if gap >= 0.0:
+        return cx, cy
+    # velocity of the surface's material point at (cx, cy): the frame of marker j's body
+    vcx = 0.0
+    vcy = 0.0
+    body = markers[kj, 0] if kj >= 0 else -1
+    if body >= 0:
+        o = bodies[body, 0]
+        w = v[o + 2]
+        vcx = v[o] - w * (cy - z[o + 1])
+        vcy = v[o + 1] + w * (cx - z[o])
+    slip_x = si[3] - vcx
+    slip_y = si[4] - vcy
+    closing = nx * slip_x + ny * slip_y
+    tangential = -ny * slip_x + nx * slip_y
+    normal = -data[d] * gap - data[d + 1] * closing
+    if normal <= 0.0:
+        return cx, cy
+    eps = data[d + 3]
+    friction = -data[d + 2] * normal * tangential / math.sqrt(tangential * tangential + eps * eps)
+    out[0] = normal * nx - friction * ny
+    out[1] = normal * ny + friction * nx
+    return cx, cy
 
 
 @nb.njit(cache=True)
@@ -546,6 +612,12 @@ def force_terms(t, layout, data, z, v, user_force, forces):
             out[0] = fx
             out[1] = fy
             out[2] = data[d + 2] * scale
+        elif kind == CONTACT:
+            cx, cy = contact_force(markers, bodies, data, d, kj, z, v, si, sj, out)
+            add_point_load(ki, markers, bodies, data, z, si, out[0], out[1], forces)
+            body = markers[kj, 0] if kj >= 0 else -1
+            add_frame_point_load(body, bodies, z, cx, cy, -out[0], -out[1], forces)
+            continue
         else:
             count = int(data[d])
             user_force(e, t, si[:6].copy(), sj[:6].copy(), data[d + 1 : d + 1 + count].copy(), out)

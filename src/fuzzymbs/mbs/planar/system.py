@@ -23,7 +23,14 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.planar import kernels
 from fuzzymbs.mbs.planar.bodies import Body, FlexibleBody, Marker, RigidBody
-from fuzzymbs.mbs.planar.forces import ForceElement, MarkerLoad, RotationalSpringDamper, SpringDamper, UserForce
+from fuzzymbs.mbs.planar.forces import (
+    Contact,
+    ForceElement,
+    MarkerLoad,
+    RotationalSpringDamper,
+    SpringDamper,
+    UserForce,
+)
 from fuzzymbs.mbs.planar.joints import Fixed, Joint, Prismatic, Revolute
 
 #: Largest joint residual [m or rad] a mechanism may start with (its markers must meet).
@@ -80,7 +87,7 @@ class Mechanism:
                 self.bodies.append(element)
             elif isinstance(element, Revolute | Prismatic | Fixed):
                 self.joints.append(element)
-            elif isinstance(element, SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce):
+            elif isinstance(element, SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce | Contact):
                 self.forces.append(element)
             else:
                 raise InvalidParameterError(
