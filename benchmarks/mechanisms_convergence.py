@@ -56,7 +56,9 @@ def main() -> None:
         finer = {
             "tolerance (rtol 1e-6)": fine,
             f"modes ({modes} vs {more_modes})": outputs(factory, modes=more_modes, **TIGHT),
-            f"elements ({elements} vs {2 * elements})": outputs(factory, elements=2 * elements, **TIGHT),
+            f"elements ({elements} vs {2 * elements})": outputs(
+                factory, elements=2 * elements, **TIGHT
+            ),
         }
         for setting, coarse in settings.items():
             for name in coarse:

@@ -60,7 +60,9 @@ def test_flexible_pendulum_swings_at_its_linearised_period():
         angle = model({name: [value] for name, value in values.items()})["angle"][0]
         t = model.times
         index = np.flatnonzero(np.diff(np.sign(angle)) != 0)
-        crossings = t[index] - angle[index] * (t[index + 1] - t[index]) / (angle[index + 1] - angle[index])
+        crossings = t[index] - angle[index] * (t[index + 1] - t[index]) / (
+            angle[index + 1] - angle[index]
+        )
         return 2 * np.mean(np.diff(crossings))
 
     correction = 1 + 0.05**2 / 16

@@ -157,11 +157,17 @@ class PlanarBeam:
         for name in ("length", "youngs_modulus", "density", "area", "second_moment"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
-                raise InvalidParameterError(f"PlanarBeam {name} must be finite and > 0, got {value!r}")
+                raise InvalidParameterError(
+                    f"PlanarBeam {name} must be finite and > 0, got {value!r}"
+                )
         if int(self.elements) != self.elements or self.elements < 1:
-            raise InvalidParameterError(f"PlanarBeam elements must be an integer >= 1, got {self.elements!r}")
+            raise InvalidParameterError(
+                f"PlanarBeam elements must be an integer >= 1, got {self.elements!r}"
+            )
         if self.support not in SUPPORTS:
-            raise InvalidParameterError(f"PlanarBeam support must be one of {SUPPORTS}, got {self.support!r}")
+            raise InvalidParameterError(
+                f"PlanarBeam support must be one of {SUPPORTS}, got {self.support!r}"
+            )
 
     @property
     def mass_per_length(self) -> float:
@@ -241,7 +247,9 @@ class PlanarBeam:
         omega = np.zeros(modes)
         if modes:
             values, vectors = scipy.linalg.eigh(
-                k_full[np.ix_(free, free)], m_full[np.ix_(free, free)], subset_by_index=[0, modes - 1]
+                k_full[np.ix_(free, free)],
+                m_full[np.ix_(free, free)],
+                subset_by_index=[0, modes - 1],
             )
             omega = np.sqrt(np.maximum(values, 0.0))
             shapes[free] = vectors

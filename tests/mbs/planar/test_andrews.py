@@ -13,7 +13,15 @@ points are named after them).
 import numpy as np
 import pytest
 
-from fuzzymbs.mbs.planar import MarkerLoad, Mechanism, Revolute, RigidBody, SpringDamper, ground, simulate
+from fuzzymbs.mbs.planar import (
+    MarkerLoad,
+    Mechanism,
+    Revolute,
+    RigidBody,
+    SpringDamper,
+    ground,
+    simulate,
+)
 
 # the test set's data (SI)
 m1, m2, m3, m4, m5, m6, m7 = 0.04325, 0.00365, 0.02373, 0.00706, 0.07050, 0.00706, 0.05498
@@ -65,23 +73,33 @@ def squeezer() -> Mechanism:
     k1 = RigidBody("K1", mass=m1, inertia=i1, center=(ra, 0.0), angle=beta)
     k2 = RigidBody("K2", mass=m2, inertia=i2, center=(-da, 0.0), position=f, angle=beta + theta)
     k3 = RigidBody("K3", mass=m3, inertia=i3, center=(sa, sb), position=b, angle=gamma)
-    k4 = RigidBody("K4", mass=m4, inertia=i4, center=(0.0, -(e - ea)), position=g, angle=phi + delta)
+    k4 = RigidBody(
+        "K4", mass=m4, inertia=i4, center=(0.0, -(e - ea)), position=g, angle=phi + delta
+    )
     k5 = RigidBody("K5", mass=m5, inertia=i5, center=(ta, tb), position=a, angle=delta)
-    k6 = RigidBody("K6", mass=m6, inertia=i6, center=(zf - fa, 0.0), position=h, angle=omega + epsilon)
+    k6 = RigidBody(
+        "K6", mass=m6, inertia=i6, center=(zf - fa, 0.0), position=h, angle=omega + epsilon
+    )
     k7 = RigidBody("K7", mass=m7, inertia=i7, center=(ua, ub), position=a, angle=epsilon)
     mechanism = Mechanism()
     mechanism.add(
-        k1, k2, k3, k4, k5, k6, k7,
+        k1,
+        k2,
+        k3,
+        k4,
+        k5,
+        k6,
+        k7,
         Revolute(ground.point(), k1.point()),
         Revolute(k1.point(rr, 0.0), k2.point()),
-        Revolute(k2.point(-d, 0.0), k3.point(0.0, -ss)),        # E
-        Revolute(k2.point(-d, 0.0), k4.point(0.0, -e)),         # E
-        Revolute(k2.point(-d, 0.0), k6.point(zf, 0.0)),         # E
-        Revolute(ground.point(*b), k3.point()),                  # B
-        Revolute(ground.point(*a), k5.point()),                  # A
-        Revolute(k5.point(zt, 0.0), k4.point()),                 # G
-        Revolute(ground.point(*a), k7.point()),                  # A
-        Revolute(k7.point(0.0, -u), k6.point()),                 # H
+        Revolute(k2.point(-d, 0.0), k3.point(0.0, -ss)),  # E
+        Revolute(k2.point(-d, 0.0), k4.point(0.0, -e)),  # E
+        Revolute(k2.point(-d, 0.0), k6.point(zf, 0.0)),  # E
+        Revolute(ground.point(*b), k3.point()),  # B
+        Revolute(ground.point(*a), k5.point()),  # A
+        Revolute(k5.point(zt, 0.0), k4.point()),  # G
+        Revolute(ground.point(*a), k7.point()),  # A
+        Revolute(k7.point(0.0, -u), k6.point()),  # H
         SpringDamper(ground.point(*c), k3.point(sd, -sc), stiffness=c0, free_length=l0),
         MarkerLoad(k1.point(), torque=mom),
     )
@@ -91,7 +109,10 @@ def squeezer() -> Mechanism:
 def test_andrews_squeezer_matches_the_test_set_at_30_ms():
     result = simulate(squeezer(), [0.0, 0.03], rtol=1e-10, atol=1e-12)
     assert not result.failed.any()
-    angle = {name: result.coordinates(name)[0, -1, 2] for name in ("K1", "K2", "K3", "K4", "K5", "K6", "K7")}
+    angle = {
+        name: result.coordinates(name)[0, -1, 2]
+        for name in ("K1", "K2", "K3", "K4", "K5", "K6", "K7")
+    }
     relative = (
         angle["K1"],
         angle["K2"] - angle["K1"],

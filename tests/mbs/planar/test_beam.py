@@ -7,12 +7,16 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.fe.beam import PlanarBeam
 
 # Kane, Ryan & Banerjee (1987) spin-up beam data
-KANE = dict(length=8.0, youngs_modulus=6.8952e10, density=2766.7, area=7.2968e-5, second_moment=8.2189e-9)
+KANE = dict(
+    length=8.0, youngs_modulus=6.8952e10, density=2766.7, area=7.2968e-5, second_moment=8.2189e-9
+)
 
 
 def reference_frequency(beam: PlanarBeam) -> float:
     """sqrt(EI / (rho A L^4)) [rad/s]."""
-    return np.sqrt(beam.youngs_modulus * beam.second_moment / (beam.mass_per_length * beam.length**4))
+    return np.sqrt(
+        beam.youngs_modulus * beam.second_moment / (beam.mass_per_length * beam.length**4)
+    )
 
 
 def test_clamped_frequencies_match_euler_bernoulli():
@@ -27,8 +31,14 @@ def test_clamped_frequencies_match_euler_bernoulli():
 
 def test_pinned_pinned_frequencies_match_euler_bernoulli():
     # simply supported: (n pi)^2 sqrt(EI / (rho A L^4)) (Blevins, table 8-1)
-    beam = PlanarBeam(length=0.3, youngs_modulus=2e11, density=7800, area=5e-5, second_moment=1e-11,
-                      support="pinned-pinned")
+    beam = PlanarBeam(
+        length=0.3,
+        youngs_modulus=2e11,
+        density=7800,
+        area=5e-5,
+        second_moment=1e-11,
+        support="pinned-pinned",
+    )
     reduced = beam.reduce(2)
     exact = (np.array([1, 2]) * np.pi) ** 2 * reference_frequency(beam)
     np.testing.assert_allclose(reduced.frequencies, exact, rtol=1e-4)

@@ -2,7 +2,6 @@
 equation, a rigid slider-crank against its closed-form kinematics."""
 
 import numpy as np
-import pytest
 from scipy.integrate import solve_ivp
 
 from fuzzymbs.mbs.planar import (
@@ -49,13 +48,24 @@ def generalized_mass_and_potential(phi):
     r3, r4 = rates(phi)
     perp = lambda t: np.array([-np.sin(t), np.cos(t)])  # noqa: E731
     masses = [CRANK, COUPLER, ROCKER]
-    inertia = [m * length**2 / 12 for m, length in zip(masses, [CRANK, COUPLER, ROCKER])]
+    inertia = [
+        m * length**2 / 12 for m, length in zip(masses, [CRANK, COUPLER, ROCKER], strict=True)
+    ]
     v1 = CRANK / 2 * perp(phi)
     v2 = CRANK * perp(phi) + COUPLER / 2 * r3 * perp(t3)
     v3 = ROCKER / 2 * r4 * perp(t4)
-    mu = sum(m * v @ v for m, v in zip(masses, [v1, v2, v3])) + inertia[0] + inertia[1] * r3**2 + inertia[2] * r4**2
-    y = [CRANK / 2 * np.sin(phi), CRANK * np.sin(phi) + COUPLER / 2 * np.sin(t3), ROCKER / 2 * np.sin(t4)]
-    return mu, GRAVITY * sum(m * yi for m, yi in zip(masses, y))
+    mu = (
+        sum(m * v @ v for m, v in zip(masses, [v1, v2, v3], strict=True))
+        + inertia[0]
+        + inertia[1] * r3**2
+        + inertia[2] * r4**2
+    )
+    y = [
+        CRANK / 2 * np.sin(phi),
+        CRANK * np.sin(phi) + COUPLER / 2 * np.sin(t3),
+        ROCKER / 2 * np.sin(t4),
+    ]
+    return mu, GRAVITY * sum(m * yi for m, yi in zip(masses, y, strict=True))
 
 
 def four_bar_reference(phi0, rate0, times):
@@ -70,8 +80,15 @@ def four_bar_reference(phi0, rate0, times):
         mu_m, v_m = generalized_mass_and_potential(phi - h)
         return [w, -(0.5 * (mu_p - mu_m) / (2 * h) * w**2 + (v_p - v_m) / (2 * h)) / mu]
 
-    return solve_ivp(rhs, (times[0], times[-1]), [phi0, rate0], t_eval=times, method="DOP853",
-                     rtol=1e-11, atol=1e-12).y[0]
+    return solve_ivp(
+        rhs,
+        (times[0], times[-1]),
+        [phi0, rate0],
+        t_eval=times,
+        method="DOP853",
+        rtol=1e-11,
+        atol=1e-12,
+    ).y[0]
 
 
 def four_bar(phi0, rate0):
@@ -83,9 +100,21 @@ def four_bar(phi0, rate0):
         ("coupler", COUPLER, t3, CRANK * unit(phi0), r3),
         ("rocker", ROCKER, t4, np.array([BASE, 0.0]), r4),
     ]:
-        velocity = rate0 * CRANK * np.array([-np.sin(phi0), np.cos(phi0)]) if name == "coupler" else (0, 0)
-        bars.append(RigidBody(name, mass=length, inertia=length**3 / 12, center=(length / 2, 0.0),
-                              position=origin, angle=angle, velocity=velocity, angular_velocity=rate))
+        velocity = (
+            rate0 * CRANK * np.array([-np.sin(phi0), np.cos(phi0)]) if name == "coupler" else (0, 0)
+        )
+        bars.append(
+            RigidBody(
+                name,
+                mass=length,
+                inertia=length**3 / 12,
+                center=(length / 2, 0.0),
+                position=origin,
+                angle=angle,
+                velocity=velocity,
+                angular_velocity=rate,
+            )
+        )
     crank, coupler, rocker = bars
     mechanism = Mechanism(gravity=(0.0, -GRAVITY)).add(
         *bars,
@@ -118,19 +147,31 @@ def test_four_bar_conserves_energy_over_a_long_run():
         mu, potential = generalized_mass_and_potential(phi)
         energy.append(0.5 * mu * w**2 + potential)
     energy = np.array(energy)
-    # the default tolerances (rtol 1e-6): the drift over 20 s, measured 2.7e-6 of the energy; the bound leaves a factor 4
+    # the default tolerances (rtol 1e-6): the drift over 20 s, measured 2.7e-6 of the energy;
+    # the bound leaves a factor 4
     assert np.ptp(energy) < 1e-5 * np.abs(energy).max()
 
 
 def test_driven_rigid_slider_crank_matches_its_kinematics():
     # x = r cos(phi) + sqrt(l^2 - r^2 sin^2 phi), phi = w t (any mechanism text)
     r, length, w = 0.15, 0.3, 150.0
-    crank = RigidBody("crank", mass=0.2, inertia=0.2 * r**2 / 12, center=(r / 2, 0), angular_velocity=w)
-    rod = RigidBody("rod", mass=0.3, inertia=0.3 * length**2 / 12, center=(length / 2, 0),
-                    position=(r, 0.0), velocity=(0.0, r * w), angular_velocity=-r * w / length)
+    crank = RigidBody(
+        "crank", mass=0.2, inertia=0.2 * r**2 / 12, center=(r / 2, 0), angular_velocity=w
+    )
+    rod = RigidBody(
+        "rod",
+        mass=0.3,
+        inertia=0.3 * length**2 / 12,
+        center=(length / 2, 0),
+        position=(r, 0.0),
+        velocity=(0.0, r * w),
+        angular_velocity=-r * w / length,
+    )
     slider = RigidBody("slider", mass=0.1, inertia=1e-5, position=(r + length, 0.0))
     mechanism = Mechanism().add(
-        crank, rod, slider,
+        crank,
+        rod,
+        slider,
         Revolute(ground.point(), crank.point(), drive=ConstantRate(w), name="drive"),
         Revolute(crank.point(r, 0), rod.point()),
         Revolute(rod.point(length, 0), slider.point(), name="pin"),
@@ -145,7 +186,9 @@ def test_driven_rigid_slider_crank_matches_its_kinematics():
     # (the slide is frictionless): x'' by differentiating x twice in closed form
     s, c = np.sin(phi), np.cos(phi)
     root = np.sqrt(length**2 - r**2 * s**2)
-    xdd = -r * w**2 * c - (r**2 * w**2 * (c**2 - s**2)) / root - (r**4 * w**2 * s**2 * c**2) / root**3
+    xdd = (
+        -r * w**2 * c - (r**2 * w**2 * (c**2 - s**2)) / root - (r**4 * w**2 * s**2 * c**2) / root**3
+    )
     np.testing.assert_allclose(result.reaction("pin")[0, :, 0], 0.1 * xdd, rtol=1e-6, atol=1e-6)
     assert result.reaction("pin").shape == (1, times.size, 2)
 
@@ -155,11 +198,20 @@ def test_locked_mechanism_is_reported_failed_with_its_history():
     # run fails there, keeping its states up to the failure
     r, length, w = 0.3, 0.15, 10.0
     crank = RigidBody("crank", mass=0.2, inertia=0.01, center=(r / 2, 0), angular_velocity=w)
-    rod = RigidBody("rod", mass=0.1, inertia=1e-3, center=(length / 2, 0), position=(r, 0.0),
-                    velocity=(0.0, r * w), angular_velocity=-r * w / length)
+    rod = RigidBody(
+        "rod",
+        mass=0.1,
+        inertia=1e-3,
+        center=(length / 2, 0),
+        position=(r, 0.0),
+        velocity=(0.0, r * w),
+        angular_velocity=-r * w / length,
+    )
     slider = RigidBody("slider", mass=0.1, inertia=1e-5, position=(r + length, 0.0))
     mechanism = Mechanism().add(
-        crank, rod, slider,
+        crank,
+        rod,
+        slider,
         Revolute(ground.point(), crank.point(), drive=ConstantRate(w)),
         Revolute(crank.point(r, 0), rod.point()),
         Revolute(rod.point(length, 0), slider.point()),

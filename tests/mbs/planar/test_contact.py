@@ -10,10 +10,17 @@ GRAVITY = 9.81
 
 
 def block(velocity=(0.0, 0.0), height=0.05, **law):
-    body = RigidBody("block", mass=2.0, inertia=2.0 * (0.2**2 + 0.1**2) / 12, position=(0.0, height),
-                     velocity=velocity)
+    body = RigidBody(
+        "block",
+        mass=2.0,
+        inertia=2.0 * (0.2**2 + 0.1**2) / 12,
+        position=(0.0, height),
+        velocity=velocity,
+    )
     corners = [body.point(-0.1, -0.05), body.point(0.1, -0.05)]
-    mechanism = Mechanism(gravity=(0.0, -GRAVITY)).add(body, *contacts(corners, ground.point(), **law))
+    mechanism = Mechanism(gravity=(0.0, -GRAVITY)).add(
+        body, *contacts(corners, ground.point(), **law)
+    )
     return mechanism
 
 

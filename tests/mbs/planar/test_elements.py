@@ -37,7 +37,9 @@ def test_spring_damper_oscillator_matches_the_closed_form():
     # m x'' + c x' + k (x - l0) = 0, released 0.1 m from rest: x = l0 + 0.1 e^(-zeta w t) (cos wd t
     # + zeta w / wd sin wd t) (any vibration text, e.g. Rao, sec. 2.6)
     block, mechanism = mass_on_slide()
-    mechanism.add(SpringDamper(ground.point(), block.point(), stiffness=800.0, damping=4.0, free_length=0.9))
+    mechanism.add(
+        SpringDamper(ground.point(), block.point(), stiffness=800.0, damping=4.0, free_length=0.9)
+    )
     t = np.linspace(0.0, 1.0, 201)
     x = simulate(mechanism, t, rtol=1e-9, atol=1e-12).coordinates("block")[0, :, 0]
     w = np.sqrt(800.0 / 2.0)
@@ -51,7 +53,9 @@ def test_user_force_equals_the_built_in_spring():
     # the same linear spring as a compiled user law and as a SpringDamper: the same motion
     t = np.linspace(0.0, 0.5, 51)
     block, with_user = mass_on_slide(velocity=(0.3, 0.0))
-    with_user.add(UserForce(block.point(), ground.point(), linear_spring_x, parameters=(500.0, -1.0)))
+    with_user.add(
+        UserForce(block.point(), ground.point(), linear_spring_x, parameters=(500.0, -1.0))
+    )
     block, built_in = mass_on_slide(velocity=(0.3, 0.0))
     built_in.add(SpringDamper(ground.point(), block.point(), stiffness=500.0, free_length=1.0))
     a = simulate(with_user, t).coordinates("block")[0, :, 0]
@@ -72,7 +76,10 @@ def test_harmonic_load_drives_a_mass_as_newton_says():
 def test_prismatic_drive_prescribes_the_slide():
     block = RigidBody("block", mass=1.0, inertia=0.1, position=(0.0, 0.0))
     mechanism = Mechanism(gravity=(0.0, -9.81)).add(
-        block, Prismatic(ground.point(angle=np.pi / 4), block.point(angle=np.pi / 4), drive=Harmonic(0.2, 3.0))
+        block,
+        Prismatic(
+            ground.point(angle=np.pi / 4), block.point(angle=np.pi / 4), drive=Harmonic(0.2, 3.0)
+        ),
     )
     t = np.linspace(0.0, 1.0, 51)
     result = simulate(mechanism, t)
@@ -85,19 +92,27 @@ def test_prismatic_drive_prescribes_the_slide():
 def test_fixed_joint_welds_a_flexible_beam_as_a_clamp():
     # a cantilever welded to the ground at its root: the linearisation has the clamped
     # Euler-Bernoulli frequencies 1.8751^2 sqrt(EI / (rho A L^4)) and 4.6941^2 (Blevins)
-    beam = PlanarBeam(length=1.0, youngs_modulus=7e10, density=2700.0, area=1e-4, second_moment=1e-9)
+    beam = PlanarBeam(
+        length=1.0, youngs_modulus=7e10, density=2700.0, area=1e-4, second_moment=1e-9
+    )
     body = FlexibleBody("beam", beam=beam.reduce(4))
     mechanism = Mechanism().add(body, Fixed(ground.point(), body.node(0)))
     ref = np.sqrt(7e10 * 1e-9 / (2700.0 * 1e-4))
-    np.testing.assert_allclose(linearize(mechanism).frequencies()[:2],
-                               np.array([1.87510407, 4.69409113]) ** 2 * ref, rtol=1e-4)
+    np.testing.assert_allclose(
+        linearize(mechanism).frequencies()[:2],
+        np.array([1.87510407, 4.69409113]) ** 2 * ref,
+        rtol=1e-4,
+    )
 
 
 def test_torsion_spring_pendulum_frequency():
     # a disc on a pin with a torsion spring: w = sqrt(k / J)
     disc = RigidBody("disc", mass=1.0, inertia=0.02)
-    mechanism = Mechanism().add(disc, Revolute(ground.point(), disc.point()),
-                                RotationalSpringDamper(ground.point(), disc.point(), stiffness=8.0))
+    mechanism = Mechanism().add(
+        disc,
+        Revolute(ground.point(), disc.point()),
+        RotationalSpringDamper(ground.point(), disc.point(), stiffness=8.0),
+    )
     assert linearize(mechanism).frequencies()[0] == pytest.approx(20.0, rel=1e-7)
 
 
@@ -107,14 +122,16 @@ def test_torsion_spring_pendulum_frequency():
 def test_joint_whose_markers_do_not_meet_is_refused_by_name():
     rod = RigidBody("rod", mass=1.0, inertia=0.1, position=(0.5, 0.0))
     mechanism = Mechanism().add(rod, Revolute(ground.point(), rod.point(), name="pin"))
-    with pytest.raises(InvalidParameterError, match="joint pin is violated at the start by 0.5"):
+    with pytest.raises(InvalidParameterError, match=r"joint pin is violated at the start by 0\.5"):
         mechanism.check()
 
 
 def test_redundant_joint_is_refused_by_name():
     rod = RigidBody("rod", mass=1.0, inertia=0.1)
     mechanism = Mechanism().add(
-        rod, Fixed(ground.point(), rod.point(), name="weld"), Revolute(ground.point(), rod.point(), name="pin")
+        rod,
+        Fixed(ground.point(), rod.point(), name="weld"),
+        Revolute(ground.point(), rod.point(), name="pin"),
     )
     with pytest.raises(InvalidParameterError, match="joint pin is redundant"):
         mechanism.check()
@@ -151,10 +168,14 @@ def test_model_refuses_unknown_parameters_and_markers():
         mechanism.mark("tip", rod.point(1.0, 0.0))
         return mechanism
 
-    model = MechanismModel(build, {"mass": 1.0}, {"x": (lambda r: r.marker("nose")[..., 0], "m")}, [0.0, 0.1])
+    model = MechanismModel(
+        build, {"mass": 1.0}, {"x": (lambda r: r.marker("nose")[..., 0], "m")}, [0.0, 0.1]
+    )
     with pytest.raises(InvalidParameterError, match=r"unknown parameter\(s\) \['mas'\]"):
         model({"mas": [1.0]})
-    with pytest.raises(InvalidParameterError, match="no marker named 'nose'; named markers: \\['tip'\\]"):
+    with pytest.raises(
+        InvalidParameterError, match="no marker named 'nose'; named markers: \\['tip'\\]"
+    ):
         model({"mass": [1.0]})
 
 

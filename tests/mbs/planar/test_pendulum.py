@@ -5,14 +5,25 @@ import pytest
 from scipy.special import ellipk
 
 from fuzzymbs.fe.beam import PlanarBeam
-from fuzzymbs.mbs.planar import FlexibleBody, Mechanism, Revolute, RigidBody, ground, linearize, simulate
+from fuzzymbs.mbs.planar import (
+    FlexibleBody,
+    Mechanism,
+    Revolute,
+    RigidBody,
+    ground,
+    linearize,
+    simulate,
+)
 
 GRAVITY = 9.81
 
 
 def rod_pendulum(angle_from_vertical: float, length: float = 1.0, mass: float = 1.0) -> Mechanism:
     rod = RigidBody(
-        "rod", mass=mass, inertia=mass * length**2 / 12, center=(length / 2, 0.0),
+        "rod",
+        mass=mass,
+        inertia=mass * length**2 / 12,
+        center=(length / 2, 0.0),
         angle=-np.pi / 2 + angle_from_vertical,
     )
     mechanism = Mechanism(gravity=(0.0, -GRAVITY))
@@ -22,7 +33,9 @@ def rod_pendulum(angle_from_vertical: float, length: float = 1.0, mass: float = 
 
 def zero_crossings(t, signal):
     index = np.flatnonzero(np.diff(np.sign(signal)) != 0)
-    return t[index] - signal[index] * (t[index + 1] - t[index]) / (signal[index + 1] - signal[index])
+    return t[index] - signal[index] * (t[index + 1] - t[index]) / (
+        signal[index + 1] - signal[index]
+    )
 
 
 def test_rigid_pendulum_period_matches_the_elliptic_integral():
@@ -73,10 +86,19 @@ def test_flexible_pendulum_first_elastic_frequency_is_the_pinned_free_beam():
     # free frame rotation plus clamped modes of the frame at the pin give these, so the
     # floating-frame coupling terms (b, C1, a) are right. 8 clamped modes on 16 elements:
     # 3e-6 and 3e-5 off (4 modes: 1e-5 and 5e-4; docs/mechanisms.md)
-    beam = PlanarBeam(length=1.0, youngs_modulus=2.1e11, density=7850.0, area=1e-4,
-                      second_moment=2e-10 / 12 * 10, elements=16)
+    beam = PlanarBeam(
+        length=1.0,
+        youngs_modulus=2.1e11,
+        density=7850.0,
+        area=1e-4,
+        second_moment=2e-10 / 12 * 10,
+        elements=16,
+    )
     body = FlexibleBody("beam", beam=beam.reduce(8), angle=-np.pi / 2)
     lin = linearize(Mechanism().add(body, Revolute(ground.point(), body.node(0))))
-    ref = np.sqrt(beam.youngs_modulus * beam.second_moment / (beam.mass_per_length * beam.length**4))
-    np.testing.assert_allclose(lin.frequencies()[:2], np.array([3.92660231, 7.06858275]) ** 2 * ref,
-                               rtol=5e-5)
+    ref = np.sqrt(
+        beam.youngs_modulus * beam.second_moment / (beam.mass_per_length * beam.length**4)
+    )
+    np.testing.assert_allclose(
+        lin.frequencies()[:2], np.array([3.92660231, 7.06858275]) ** 2 * ref, rtol=5e-5
+    )

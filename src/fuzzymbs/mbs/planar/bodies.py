@@ -64,7 +64,14 @@ class Marker:
 
     def pack(self) -> list[float]:
         shapes = self.modes()
-        return [*self.position, self.angle, *shapes[0], *shapes[1], *shapes[2], *self.geometric().ravel()]
+        return [
+            *self.position,
+            self.angle,
+            *shapes[0],
+            *shapes[1],
+            *shapes[2],
+            *self.geometric().ravel(),
+        ]
 
     @property
     def name(self) -> str:
@@ -100,11 +107,15 @@ class _Body:
         self.position = _pair(self.position, f"body {self.name!r} position")
         self.velocity = _pair(self.velocity, f"body {self.name!r} velocity")
         self.angle = _finite(self.angle, f"body {self.name!r} angle")
-        self.angular_velocity = _finite(self.angular_velocity, f"body {self.name!r} angular_velocity")
+        self.angular_velocity = _finite(
+            self.angular_velocity, f"body {self.name!r} angular_velocity"
+        )
 
     def point(self, x: float = 0.0, y: float = 0.0, angle: float = 0.0) -> Marker:
         """A marker fixed in the body frame at (x, y) [m], turned by ``angle`` [rad]."""
-        return Marker(self, _pair([x, y], f"point on {self.name!r}"), _finite(angle, "marker angle"))
+        return Marker(
+            self, _pair([x, y], f"point on {self.name!r}"), _finite(angle, "marker angle")
+        )
 
 
 @dataclass(eq=False)
@@ -174,7 +185,9 @@ class FlexibleBody(_Body):
     def __post_init__(self) -> None:
         self._check_motion()
         if not isinstance(self.beam, ReducedBeam):
-            raise InvalidParameterError(f"body {self.name!r} needs a ReducedBeam, got {self.beam!r}")
+            raise InvalidParameterError(
+                f"body {self.name!r} needs a ReducedBeam, got {self.beam!r}"
+            )
         if not (np.isfinite(self.damping_ratio) and 0.0 <= self.damping_ratio < 1.0):
             raise InvalidParameterError(
                 f"body {self.name!r} damping_ratio must be in [0, 1), got {self.damping_ratio!r}"
@@ -188,9 +201,13 @@ class FlexibleBody(_Body):
         """The marker that follows beam node ``index`` (negative counts from the tip)."""
         count = self.beam.nodes.size
         if not -count <= index < count:
-            raise InvalidParameterError(f"body {self.name!r} has nodes 0 to {count - 1}, got {index}")
+            raise InvalidParameterError(
+                f"body {self.name!r} has nodes 0 to {count - 1}, got {index}"
+            )
         index %= count
-        return Marker(self, np.array([self.beam.nodes[index], 0.0]), _finite(angle, "marker angle"), index)
+        return Marker(
+            self, np.array([self.beam.nodes[index], 0.0]), _finite(angle, "marker angle"), index
+        )
 
     def tip(self) -> Marker:
         return self.node(-1)

@@ -180,14 +180,19 @@ class UserForce:
     def __post_init__(self) -> None:
         _check_marker("UserForce", self.marker_i)
         _check_marker("UserForce", self.marker_j, optional=True)
-        if not isinstance(self.function, CFunc) or self.function._sig != kernels.USER_FORCE_SIGNATURE:
+        if (
+            not isinstance(self.function, CFunc)
+            or self.function._sig != kernels.USER_FORCE_SIGNATURE
+        ):
             raise InvalidParameterError(
                 "UserForce function must be compiled with fuzzymbs.mbs.planar.user_force, got "
                 f"{self.function!r}"
             )
         values = np.asarray(self.parameters, dtype=float).ravel()
         if not np.isfinite(values).all():
-            raise InvalidParameterError(f"UserForce parameters must be finite, got {self.parameters!r}")
+            raise InvalidParameterError(
+                f"UserForce parameters must be finite, got {self.parameters!r}"
+            )
 
     def pack(self, initial_length: float, initial_angle: float) -> list[float]:
         values = [float(v) for v in np.asarray(self.parameters, dtype=float).ravel()]
@@ -243,7 +248,9 @@ class Contact:
             if not (np.isfinite(value) and value > 0):
                 raise InvalidParameterError(f"Contact {name} must be finite and > 0, got {value!r}")
         if self.radius is not None and not (np.isfinite(self.radius) and self.radius > 0):
-            raise InvalidParameterError(f"Contact radius must be finite and > 0, got {self.radius!r}")
+            raise InvalidParameterError(
+                f"Contact radius must be finite and > 0, got {self.radius!r}"
+            )
 
     def pack(self, initial_length: float, initial_angle: float) -> list[float]:
         radius = 0.0 if self.radius is None else float(self.radius)

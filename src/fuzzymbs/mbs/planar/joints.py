@@ -46,7 +46,9 @@ class _Joint:
     def __post_init__(self) -> None:
         _markers(type(self).__name__, self.marker_i, self.marker_j)
         if self.drive is not None and not hasattr(self.drive, "pack"):
-            raise InvalidParameterError(f"{type(self).__name__} drive must be a profile, got {self.drive!r}")
+            raise InvalidParameterError(
+                f"{type(self).__name__} drive must be a profile, got {self.drive!r}"
+            )
 
     @property
     def equations(self) -> int:

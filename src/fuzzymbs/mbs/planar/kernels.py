@@ -472,9 +472,17 @@ def body_terms(bodies, data, z, v, mass_matrix, forces):
             forces[o + 3 + i] += w * w * aq - 2.0 * w * gv + acx * gx + acy * gy - kq
         mass_matrix[o + 2, o + 2] += inertia
         # w^2 A S - 2 w A R S_q q' + A e_x q'^T K_a q'
-        forces[o] += w * w * (c * sx - s * sy) + 2.0 * w * (s * cvx + c * cvy) + c * axial_curvature + mass * gx
+        forces[o] += (
+            w * w * (c * sx - s * sy)
+            + 2.0 * w * (s * cvx + c * cvy)
+            + c * axial_curvature
+            + mass * gx
+        )
         forces[o + 1] += (
-            w * w * (s * sx + c * sy) - 2.0 * w * (c * cvx - s * cvy) + s * axial_curvature + mass * gy
+            w * w * (s * sx + c * sy)
+            - 2.0 * w * (c * cvx - s * cvy)
+            + s * axial_curvature
+            + mass * gy
         )
         forces[o + 2] += -2.0 * w * spin + arsx * gx + arsy * gy
 
@@ -722,6 +730,12 @@ _E = _B - np.array([5179 / 57600, 0, 7571 / 16695, 393 / 640, -92097 / 339200, 1
 
 
 @nb.njit(cache=True)
+def dormand_prince():
+    """(A, B, C, E) of Dormand-Prince 5(4): stages, weights, nodes, error weights."""
+    return _A, _B, _C, _E
+
+
+@nb.njit(cache=True)
 def _derivative(t, x, n, layout, data, user_force, system, solution, out):
     ok = accelerations(t, x[:n], x[n:], layout, data, user_force, system, solution)
     out[:n] = x[n:]
@@ -730,7 +744,9 @@ def _derivative(t, x, n, layout, data, user_force, system, solution, out):
 
 
 @nb.njit(cache=True)
-def integrate_sample(times, x0, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states):
+def integrate_sample(
+    times, x0, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states
+):
     """Integrate one sample from ``times[0]``, storing (z, v) at every time.
 
     Returns (status, accepted steps, rejected steps, largest joint residual).
@@ -767,7 +783,15 @@ def integrate_sample(times, x0, layout, data, user_force, rtol, atol, first_step
                         acc += _A[stage, j] * k[j, i]
                     trial[i] = x[i] + step * acc
                 if not _derivative(
-                    t + _C[stage] * step, trial, n, layout, data, user_force, system, solution, k[stage]
+                    t + _C[stage] * step,
+                    trial,
+                    n,
+                    layout,
+                    data,
+                    user_force,
+                    system,
+                    solution,
+                    k[stage],
                 ):
                     return NOT_FINITE, accepted, rejected, worst
             # trial holds the 5th-order solution (stage 7 is evaluated at it: FSAL)
@@ -810,7 +834,19 @@ def integrate_sample(times, x0, layout, data, user_force, rtol, atol, first_step
 
 @nb.njit(cache=True, nogil=True)
 def integrate_range(
-    start, stop, times, initial, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states,
+    start,
+    stop,
+    times,
+    initial,
+    layout,
+    data,
+    user_force,
+    rtol,
+    atol,
+    first_step,
+    max_steps,
+    tolerance,
+    states,
     report,
 ):
     """:func:`integrate_sample` for sample rows ``start:stop`` (the GIL released, so

@@ -77,9 +77,14 @@ def linearize(
     n, c = (int(s) for s in layout.sizes)
     x0 = initial.copy() if state is None else np.array(state, dtype=float)
     if x0.shape != (2 * n,) or not np.isfinite(x0).all():
-        raise InvalidParameterError(f"state must be {2 * n} finite numbers (z then v), got shape {x0.shape}")
+        raise InvalidParameterError(
+            f"state must be {2 * n} finite numbers (z then v), got shape {x0.shape}"
+        )
     user = mechanism.user_function()
-    if not kernels.project(t, x0[:n], x0[n:], arrays, data, PROJECTION_TOLERANCE) <= PROJECTION_TOLERANCE:
+    if (
+        not kernels.project(t, x0[:n], x0[n:], arrays, data, PROJECTION_TOLERANCE)
+        <= PROJECTION_TOLERANCE
+    ):
         raise InvalidParameterError("the state cannot be projected onto the joints")
     jac = np.zeros((c, n))
     if c:
@@ -105,7 +110,9 @@ def linearize(
             direction[:n] = basis[:, k]
         else:
             direction[n:] = basis[:, k - free]
-        matrix[:, k] = (reduced_rate(x0 + h * direction) - reduced_rate(x0 - h * direction)) / (2 * h)
+        matrix[:, k] = (reduced_rate(x0 + h * direction) - reduced_rate(x0 - h * direction)) / (
+            2 * h
+        )
     eigenvalues = np.linalg.eigvals(matrix)
     order = np.lexsort((eigenvalues.real, eigenvalues.imag))
     return Linearization(eigenvalues[order], matrix, basis)

@@ -104,15 +104,21 @@ class MechanismModel:
             raise InvalidParameterError(
                 f"unknown parameter(s) {unknown}; this model takes {sorted(self.defaults)}"
             )
-        columns = {name: np.atleast_1d(np.asarray(value, dtype=float)) for name, value in samples.items()}
+        columns = {
+            name: np.atleast_1d(np.asarray(value, dtype=float)) for name, value in samples.items()
+        }
         sizes = {column.shape for column in columns.values()}
         if len(sizes) > 1 or any(len(size) != 1 for size in sizes):
-            raise InvalidParameterError(f"sample columns must be 1-D and of one length, got {sizes}")
+            raise InvalidParameterError(
+                f"sample columns must be 1-D and of one length, got {sizes}"
+            )
         count = next(iter(sizes))[0] if sizes else 1
         for name, column in columns.items():
             if not np.isfinite(column).all():
                 raise InvalidParameterError(f"parameter {name!r} has non-finite values")
-        return [{**self.defaults, **{n: float(c[i]) for n, c in columns.items()}} for i in range(count)]
+        return [
+            {**self.defaults, **{n: float(c[i]) for n, c in columns.items()}} for i in range(count)
+        ]
 
     def run(self, samples: Mapping[str, Any]) -> PlanarResult:
         """Simulate every sample; the raw :class:`PlanarResult`."""

@@ -99,7 +99,11 @@ class PlanarResult:
         index = next(i for i, m in enumerate(markers) if m is template.named_markers[name])
         out = np.empty((*self.states.shape[:2], 1, 6))
         kernels.markers_at(
-            np.array([index], dtype=np.int64), self.states, self.batch.layout.arrays(), self.batch.data, out
+            np.array([index], dtype=np.int64),
+            self.states,
+            self.batch.layout.arrays(),
+            self.batch.data,
+            out,
         )
         return out[:, :, 0]
 
@@ -111,7 +115,14 @@ class PlanarResult:
 
         def run(start: int, stop: int) -> None:
             kernels.solve_range(
-                start, stop, self.times, self.states, arrays, self.batch.data, self.batch.user_force, out
+                start,
+                stop,
+                self.times,
+                self.states,
+                arrays,
+                self.batch.data,
+                self.batch.user_force,
+                out,
             )
 
         for_each_range(self.states.shape[0], run)
@@ -163,7 +174,9 @@ def simulate(
     batch = pack_batch(mechanisms if isinstance(mechanisms, list) else [mechanisms])
     t = np.asarray(times, dtype=float)
     if t.ndim != 1 or t.size < 2 or not np.isfinite(t).all() or np.any(np.diff(t) <= 0):
-        raise InvalidParameterError("times must be at least two finite, strictly increasing values [s]")
+        raise InvalidParameterError(
+            "times must be at least two finite, strictly increasing values [s]"
+        )
     if not (rtol > 0 and atol > 0):
         raise InvalidParameterError(f"rtol and atol must be > 0, got {rtol!r} and {atol!r}")
     step = (t[-1] - t[0]) * 1e-3 if first_step is None else float(first_step)

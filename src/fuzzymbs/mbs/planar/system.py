@@ -71,7 +71,9 @@ class Mechanism:
     def __init__(self, gravity: ArrayLike = (0.0, 0.0)) -> None:
         g = np.asarray(gravity, dtype=float)
         if g.shape != (2,) or not np.isfinite(g).all():
-            raise InvalidParameterError(f"gravity must be two finite numbers [m/s^2], got {gravity!r}")
+            raise InvalidParameterError(
+                f"gravity must be two finite numbers [m/s^2], got {gravity!r}"
+            )
         self.gravity = g
         self.bodies: list[Body] = []
         self.joints: list[Joint] = []
@@ -87,7 +89,9 @@ class Mechanism:
                 self.bodies.append(element)
             elif isinstance(element, Revolute | Prismatic | Fixed):
                 self.joints.append(element)
-            elif isinstance(element, SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce | Contact):
+            elif isinstance(
+                element, SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce | Contact
+            ):
                 self.forces.append(element)
             else:
                 raise InvalidParameterError(
@@ -108,13 +112,17 @@ class Mechanism:
         for j in self.joints:
             if j.label() == name:
                 return j
-        raise InvalidParameterError(f"no joint named {name!r}; joints: {[j.label() for j in self.joints]}")
+        raise InvalidParameterError(
+            f"no joint named {name!r}; joints: {[j.label() for j in self.joints]}"
+        )
 
     def body(self, name: str) -> Body:
         for b in self.bodies:
             if b.name == name:
                 return b
-        raise InvalidParameterError(f"no body named {name!r}; bodies: {[b.name for b in self.bodies]}")
+        raise InvalidParameterError(
+            f"no body named {name!r}; bodies: {[b.name for b in self.bodies]}"
+        )
 
     def coordinate_offsets(self) -> dict[str, int]:
         """First coordinate (x) of each body in the state vector."""
@@ -175,7 +183,8 @@ class Mechanism:
         for m in markers:
             if m.body is not None and id(m.body) not in known:
                 raise InvalidParameterError(
-                    f"marker {m.name} is on body {m.body.name!r}, which was not added to the mechanism"
+                    f"marker {m.name} is on body {m.body.name!r}, which was not added to the "
+                    "mechanism"
                 )
             body = -1 if m.body is None else self.bodies.index(m.body)
             marker_rows.append([body, len(data), 0 if m.body is None else m.body.mode_count])
@@ -198,7 +207,10 @@ class Mechanism:
         joints = []
         row = 0
         for j in self.joints:
-            i, k = (self._marker_index(markers, j.marker_i), self._marker_index(markers, j.marker_j))
+            i, k = (
+                self._marker_index(markers, j.marker_i),
+                self._marker_index(markers, j.marker_j),
+            )
             joints.append([j.kind, i, k, row, len(data), j.drive_code])
             data.extend(j.pack(start[k, 2] - start[i, 2]))
             row += j.equations
@@ -221,10 +233,13 @@ class Mechanism:
 
     @staticmethod
     def _marker_states(layout: Layout, data, state, count: int) -> NDArray[np.float64]:
-        n = int(layout.sizes[0])
         out = np.empty((1, 1, count, 6))
         kernels.markers_at(
-            np.arange(count, dtype=np.int64), state[None, None, :], layout.arrays(), data[None, :], out
+            np.arange(count, dtype=np.int64),
+            state[None, None, :],
+            layout.arrays(),
+            data[None, :],
+            out,
         )
         return out[0, 0]
 
@@ -240,11 +255,19 @@ class Mechanism:
         n, c = (int(s) for s in layout.sizes)
         self._check_joints(t0, layout, data, state)
         mass = np.zeros((n, n))
-        kernels.body_terms(layout.bodies, data, state[:n].copy(), state[n:].copy(), mass, np.zeros(n))
+        kernels.body_terms(
+            layout.bodies, data, state[:n].copy(), state[n:].copy(), mass, np.zeros(n)
+        )
         jac = np.zeros((c, n))
         if c:
             kernels.joint_terms(
-                t0, layout.arrays(), data, state[:n], state[n:], jac, *(np.empty(c) for _ in range(4))
+                t0,
+                layout.arrays(),
+                data,
+                state[:n],
+                state[n:],
+                jac,
+                *(np.empty(c) for _ in range(4)),
             )
         _, singular, vt = np.linalg.svd(jac) if c else (None, np.zeros(0), np.eye(n))
         free = vt[int(np.sum(singular > 1e-10 * max(1.0, singular.max(initial=0.0)))) :].T
@@ -271,14 +294,24 @@ class Mechanism:
         jac = np.zeros((c, n))
         spare = np.empty(c)
         kernels.joint_terms(
-            t0, layout.arrays(), data, state[:n], state[n:], jac, residual, spare, np.empty(c), np.empty(c)
+            t0,
+            layout.arrays(),
+            data,
+            state[:n],
+            state[n:],
+            jac,
+            residual,
+            spare,
+            np.empty(c),
+            np.empty(c),
         )
         row = 0
         for j in self.joints:
             worst = np.abs(residual[row : row + j.equations]).max()
             if worst > START_TOLERANCE:
                 raise InvalidParameterError(
-                    f"joint {j.label()} is violated at the start by {worst:.3g} (m or rad): place the "
+                    f"joint {j.label()} is violated at the start by {worst:.3g} (m or rad): "
+                    "place the "
                     "bodies so its markers meet (and its drive starts where the joint is)"
                 )
             row += j.equations
@@ -287,11 +320,14 @@ class Mechanism:
             # name the first joint whose rows do not add rank
             row = 0
             for j in self.joints:
-                upto = np.linalg.matrix_rank(jac[: row + j.equations], tol=1e-9 * max(1.0, np.abs(jac).max()))
+                upto = np.linalg.matrix_rank(
+                    jac[: row + j.equations], tol=1e-9 * max(1.0, np.abs(jac).max())
+                )
                 if upto < row + j.equations:
                     raise InvalidParameterError(
                         f"joint {j.label()} is redundant with the joints before it ({c - rank} of "
-                        f"{c} equations are dependent): remove it or use a joint with fewer equations"
+                        f"{c} equations are dependent): remove it or use a joint with fewer "
+                        "equations"
                     )
                 row += j.equations
 
@@ -328,7 +364,9 @@ def pack_batch(mechanisms: list[Mechanism], check: bool = True) -> PackedBatch:
                 "joints or forces differ); a parameter may change numbers, not the structure"
             )
         elif f is not function:
-            raise InvalidParameterError(f"sample {index}'s mechanism has another user force function")
+            raise InvalidParameterError(
+                f"sample {index}'s mechanism has another user force function"
+            )
         rows.append(data)
         states.append(state)
     return PackedBatch(layout, np.stack(rows), np.stack(states), function, mechanisms[0])

@@ -26,7 +26,9 @@ register_model(
         "density": ParameterInfo("kg/m^3", "density rho", 7850.0),
         "width": ParameterInfo("m", "section width (in the bending axis)", 0.03),
         "height": ParameterInfo("m", "section height (bending plane)", 0.003),
-        "initial_angle": ParameterInfo("rad", "release angle from the vertical", 1.0471975511965976),
+        "initial_angle": ParameterInfo(
+            "rad", "release angle from the vertical", 1.0471975511965976
+        ),
     },
     outputs={"angle": "rad", "tip_deflection": "m"},
     description="flexible beam pendulum on a revolute joint under gravity (planar engine)",
@@ -80,7 +82,10 @@ register_model(
         "slider_pin_force_y": "N",
         "crank_torque": "N m",
     },
-    description="slider-crank with a flexible connecting rod, crank spun up to a constant speed (planar engine)",
+    description=(
+        "slider-crank with a flexible connecting rod, crank spun up to a constant speed "
+        "(planar engine)"
+    ),
     options={
         "duration": "simulated time [s] (default 0.1)",
         "time_steps": "number of output times (default 501)",

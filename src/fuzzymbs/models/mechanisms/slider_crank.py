@@ -75,14 +75,22 @@ def build(p: dict[str, float], modes: int = MODES, elements: int = ELEMENTS) -> 
     ).reduce(modes)
     rod = FlexibleBody("rod", beam=beam, position=(CRANK_LENGTH, 0.0))
     slider = RigidBody(
-        "slider", mass=p["slider_mass"], inertia=p["slider_mass"] * 1e-4, position=(CRANK_LENGTH + ROD_LENGTH, 0.0)
+        "slider",
+        mass=p["slider_mass"],
+        inertia=p["slider_mass"] * 1e-4,
+        position=(CRANK_LENGTH + ROD_LENGTH, 0.0),
     )
     mechanism = Mechanism()
     mechanism.add(
         crank,
         rod,
         slider,
-        Revolute(ground.point(), crank.point(), drive=SpinUp(p["crank_speed"], p["spin_up_time"]), name="crank"),
+        Revolute(
+            ground.point(),
+            crank.point(),
+            drive=SpinUp(p["crank_speed"], p["spin_up_time"]),
+            name="crank",
+        ),
         Revolute(crank.point(CRANK_LENGTH, 0.0), rod.node(0), name="crank_pin"),
         Revolute(rod.tip(), slider.point(), name="slider_pin"),
         Prismatic(ground.point(), slider.point(), name="slide"),
@@ -101,7 +109,9 @@ def slider_crank(
 ) -> MechanismModel:
     """The registered ``slider-crank`` model."""
     if int(elements) % 2:
-        raise ValueError(f"slider-crank needs an even element count (a node at the midpoint), got {elements}")
+        raise ValueError(
+            f"slider-crank needs an even element count (a node at the midpoint), got {elements}"
+        )
     tolerances = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
     return MechanismModel(
         lambda p: build(p, modes, elements),

@@ -44,7 +44,9 @@ def build(p: dict[str, float], modes: int = MODES, elements: int = ELEMENTS) -> 
         elements=elements,
     ).reduce(modes)
     body = FlexibleBody("beam", beam=beam)
-    hub = Revolute(ground.point(), body.node(0), drive=SpinUp(p["spin_speed"], p["spin_up_time"]), name="hub")
+    hub = Revolute(
+        ground.point(), body.node(0), drive=SpinUp(p["spin_speed"], p["spin_up_time"]), name="hub"
+    )
     mechanism = Mechanism().add(body, hub)
     mechanism.mark("tip", body.tip())
     return mechanism

@@ -1,0 +1,35 @@
+"""Spatial (3D) rigid-body mechanisms: bodies in Euler parameters, joints, springs, loads.
+
+Public API (see docs/mechanisms.md, "Spatial mechanisms")::
+
+    from fuzzymbs.mbs.spatial import (Mechanism, RigidBody, ground, frame_with_z,
+                                      Spherical, Revolute, Universal, Cylindrical,
+                                      Prismatic, Fixed, SpringDamper, MarkerLoad, simulate)
+"""
+
+from __future__ import annotations
+
+from fuzzymbs._lazy import lazy_exports
+
+_LAZY: dict[str, str] = {
+    "Mechanism": "fuzzymbs.mbs.spatial.system",
+    "SpatialResult": "fuzzymbs.mbs.spatial.system",
+    "simulate": "fuzzymbs.mbs.spatial.system",
+    "RigidBody": "fuzzymbs.mbs.spatial.bodies",
+    "Marker": "fuzzymbs.mbs.spatial.bodies",
+    "ground": "fuzzymbs.mbs.spatial.bodies",
+    "frame_with_z": "fuzzymbs.mbs.spatial.bodies",
+    "Spherical": "fuzzymbs.mbs.spatial.joints",
+    "Revolute": "fuzzymbs.mbs.spatial.joints",
+    "Universal": "fuzzymbs.mbs.spatial.joints",
+    "Cylindrical": "fuzzymbs.mbs.spatial.joints",
+    "Prismatic": "fuzzymbs.mbs.spatial.joints",
+    "Fixed": "fuzzymbs.mbs.spatial.joints",
+    "SpringDamper": "fuzzymbs.mbs.spatial.forces",
+    "MarkerLoad": "fuzzymbs.mbs.spatial.forces",
+}
+
+__all__ = sorted(_LAZY)
+
+
+__getattr__, __dir__ = lazy_exports("fuzzymbs.mbs.spatial", globals(), _LAZY)

@@ -1,0 +1,645 @@
+"""Compiled physics of spatial rigid-body mechanisms: one sample per call, a batch per kernel.
+
+Coordinates of a body: the position r of its centre of mass and its Euler
+parameters p = (p0, p1, p2, p3) (a unit quaternion: no singular
+orientation); velocities: r' and the angular velocity w in the body frame,
+so that the mass matrix is constant, diag(m I, J) (Newton-Euler; Haug,
+Computer Aided Kinematics and Dynamics of Mechanical Systems, ch. 11;
+Nikravesh, Computer-Aided Analysis of Mechanical Systems, ch. 6). The
+Euler parameters follow p' = 1/2 p (0, w) and are renormalised after every
+step. Joints are built from Haug's primitives on markers (a point and three
+axes fixed in a body): coincident points (3 equations), perpendicular axes
+(dot-1), an axis perpendicular to the line between the points (dot-2), and a
+rotational driver. The joints' Jacobian G acts on the velocities (r', w); the
+constrained equations are solved for the accelerations as in the planar engine
+(:mod:`fuzzymbs.mbs.planar.kernels`), and positions and velocities are
+projected onto the joints after every accepted step.
+
+Layout arrays (int64):
+
+- bodies  (nb, 3): position offset (7 per body), velocity offset (6 per body), data offset
+- markers (nk, 2): body (-1 ground), data offset
+- joints  (nj, 6): kind, marker i, marker j, first row, data offset, drive profile (-1 none)
+- forces  (nf, 5): kind, marker i, marker j (-1 none), data offset, profile (-1 none)
+- sizes: position count, velocity count, equation count
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from fuzzymbs.mbs.planar.kernels import dormand_prince, profile, solve_in_place
+
+SPHERICAL = 0
+REVOLUTE = 1
+UNIVERSAL = 2
+CYLINDRICAL = 3
+PRISMATIC = 4
+FIXED = 5
+SPRING_DAMPER = 0
+MARKER_LOAD = 1
+FINISHED = 1
+NOT_FINITE = 2
+STEP_TOO_SMALL = 3
+TOO_MANY_STEPS = 4
+PROJECTION_FAILED = 5
+
+
+@nb.njit(cache=True)
+def rotation(q, o, out):
+    """Rotation matrix of the Euler parameters q[o:o + 4] into ``out`` (3, 3)."""
+    e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
+    out[0, 0] = 2.0 * (e0 * e0 + e1 * e1) - 1.0
+    out[0, 1] = 2.0 * (e1 * e2 - e0 * e3)
+    out[0, 2] = 2.0 * (e1 * e3 + e0 * e2)
+    out[1, 0] = 2.0 * (e1 * e2 + e0 * e3)
+    out[1, 1] = 2.0 * (e0 * e0 + e2 * e2) - 1.0
+    out[1, 2] = 2.0 * (e2 * e3 - e0 * e1)
+    out[2, 0] = 2.0 * (e1 * e3 - e0 * e2)
+    out[2, 1] = 2.0 * (e2 * e3 + e0 * e1)
+    out[2, 2] = 2.0 * (e0 * e0 + e3 * e3) - 1.0
+
+
+@nb.njit(cache=True)
+def cross(a, b, out):
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+@nb.njit(cache=True)
+def marker_state(k, markers, bodies, data, q, v, out):
+    """Kinematics of marker ``k``'s point into ``out`` (6, 3).
+
+    Rows: position, velocity, the velocity-quadratic part of the acceleration
+    (A (w x (w x s))), the point s in the body frame, the body's angular
+    velocity w (body frame) and in the global frame.
+    """
+    body = markers[k, 0]
+    d = markers[k, 1]
+    if body < 0:
+        for i in range(3):
+            out[0, i] = data[d + i]
+            out[3, i] = data[d + i]
+        out[1, :] = 0.0
+        out[2, :] = 0.0
+        out[4, :] = 0.0
+        out[5, :] = 0.0
+        return
+    po = bodies[body, 0]
+    vo = bodies[body, 1]
+    rot = np.empty((3, 3))
+    rotation(q, po + 3, rot)
+    s = data[d : d + 3]
+    w = v[vo + 3 : vo + 6]
+    ws = np.empty(3)
+    cross(w, s, ws)
+    wws = np.empty(3)
+    cross(w, ws, wws)
+    for i in range(3):
+        out[0, i] = q[po + i] + rot[i, 0] * s[0] + rot[i, 1] * s[1] + rot[i, 2] * s[2]
+        out[1, i] = v[vo + i] + rot[i, 0] * ws[0] + rot[i, 1] * ws[1] + rot[i, 2] * ws[2]
+        out[2, i] = rot[i, 0] * wws[0] + rot[i, 1] * wws[1] + rot[i, 2] * wws[2]
+        out[3, i] = s[i]
+        out[4, i] = w[i]
+        out[5, i] = rot[i, 0] * w[0] + rot[i, 1] * w[1] + rot[i, 2] * w[2]
+
+
+@nb.njit(cache=True)
+def marker_axes(k, markers, bodies, data, q, v, axes, rates, quadratic, local):
+    """Marker ``k``'s axes (columns of ``axes``, global), their rates and the
+    velocity-quadratic parts of their second derivatives (columns), and the axes in
+    the body frame (``local``)."""
+    body = markers[k, 0]
+    d = markers[k, 1]
+    for i in range(3):
+        for a in range(3):
+            local[i, a] = data[d + 3 + 3 * i + a]
+    if body < 0:
+        axes[:, :] = local
+        rates[:, :] = 0.0
+        quadratic[:, :] = 0.0
+        return
+    po = bodies[body, 0]
+    vo = bodies[body, 1]
+    rot = np.empty((3, 3))
+    rotation(q, po + 3, rot)
+    w = v[vo + 3 : vo + 6]
+    column = np.empty(3)
+    wa = np.empty(3)
+    wwa = np.empty(3)
+    for a in range(3):
+        for i in range(3):
+            column[i] = local[i, a]
+        cross(w, column, wa)
+        cross(w, wa, wwa)
+        for i in range(3):
+            axes[i, a] = rot[i, 0] * column[0] + rot[i, 1] * column[1] + rot[i, 2] * column[2]
+            rates[i, a] = rot[i, 0] * wa[0] + rot[i, 1] * wa[1] + rot[i, 2] * wa[2]
+            quadratic[i, a] = rot[i, 0] * wwa[0] + rot[i, 1] * wwa[1] + rot[i, 2] * wwa[2]
+
+
+@nb.njit(cache=True)
+def add_vector_row(k, markers, bodies, q, local, weight, target):
+    """target[velocity coordinates of marker k's body] += weight^T d(A local)/d(r', w):
+    ``local`` is a point (3,) of the body (the translation part added by the caller)
+    or an axis; the angular part is local x (A^T weight)."""
+    body = markers[k, 0]
+    if body < 0:
+        return
+    po = bodies[body, 0]
+    vo = bodies[body, 1]
+    rot = np.empty((3, 3))
+    rotation(q, po + 3, rot)
+    bw = np.empty(3)
+    for i in range(3):
+        bw[i] = rot[0, i] * weight[0] + rot[1, i] * weight[1] + rot[2, i] * weight[2]
+    arm = np.empty(3)
+    cross(local, bw, arm)
+    for i in range(3):
+        target[vo + 3 + i] += arm[i]
+
+
+@nb.njit(cache=True)
+def add_point_row(k, markers, bodies, q, point, weight, target):
+    """target += weight^T dp/d(r', w) for the point ``point`` (body frame) of marker k's body."""
+    body = markers[k, 0]
+    if body < 0:
+        return
+    vo = bodies[body, 1]
+    for i in range(3):
+        target[vo + i] += weight[i]
+    add_vector_row(k, markers, bodies, q, point, weight, target)
+
+
+@nb.njit(cache=True)
+def body_terms(bodies, data, v, mass, forces):
+    """diag(m I, J) and the gyroscopic and gravity forces of every body."""
+    for b in range(bodies.shape[0]):
+        vo = bodies[b, 1]
+        d = bodies[b, 2]
+        m = data[d]
+        for i in range(3):
+            mass[vo + i, vo + i] += m
+            forces[vo + i] += m * data[i]
+            for j in range(3):
+                mass[vo + 3 + i, vo + 3 + j] += data[d + 1 + 3 * i + j]
+        w = v[vo + 3 : vo + 6]
+        jw = np.empty(3)
+        for i in range(3):
+            jw[i] = (
+                data[d + 1 + 3 * i] * w[0] + data[d + 2 + 3 * i] * w[1] + data[d + 3 + 3 * i] * w[2]
+            )
+        gyro = np.empty(3)
+        cross(w, jw, gyro)
+        for i in range(3):
+            forces[vo + 3 + i] -= gyro[i]
+
+
+@nb.njit(cache=True)
+def _dot1(ki, kj, ai, aj, q, markers, bodies, geo_i, geo_j, row, jac):
+    """Rows and quadratic term of axis ai of marker i perpendicular to axis aj of marker j."""
+    axes_i, rates_i, quad_i, local_i = geo_i
+    axes_j, rates_j, quad_j, local_j = geo_j
+    add_vector_row(ki, markers, bodies, q, local_i[:, ai].copy(), axes_j[:, aj].copy(), jac[row])
+    add_vector_row(kj, markers, bodies, q, local_j[:, aj].copy(), axes_i[:, ai].copy(), jac[row])
+    value = 0.0
+    quadratic = 0.0
+    for i in range(3):
+        value += axes_i[i, ai] * axes_j[i, aj]
+        quadratic += axes_j[i, aj] * quad_i[i, ai] + axes_i[i, ai] * quad_j[i, aj]
+        quadratic += 2.0 * rates_i[i, ai] * rates_j[i, aj]
+    return value, quadratic
+
+
+@nb.njit(cache=True)
+def joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, acceleration):
+    """Rows of every joint (residual, Jacobian on (r', w), quadratic part, drive terms)."""
+    bodies, markers, joints = layout[0], layout[1], layout[2]
+    si = np.empty((6, 3))
+    sj = np.empty((6, 3))
+    geo_i = (np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)))
+    geo_j = (np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)))
+    unit = np.eye(3)
+    for jn in range(joints.shape[0]):
+        kind = joints[jn, 0]
+        ki = joints[jn, 1]
+        kj = joints[jn, 2]
+        row = joints[jn, 3]
+        d = joints[jn, 4]
+        drive = joints[jn, 5]
+        marker_state(ki, markers, bodies, data, q, v, si)
+        marker_state(kj, markers, bodies, data, q, v, sj)
+        marker_axes(ki, markers, bodies, data, q, v, geo_i[0], geo_i[1], geo_i[2], geo_i[3])
+        marker_axes(kj, markers, bodies, data, q, v, geo_j[0], geo_j[1], geo_j[2], geo_j[3])
+        r = row
+        if kind == SPHERICAL or kind == REVOLUTE or kind == UNIVERSAL or kind == FIXED:
+            for c in range(3):
+                residual[r] = si[0, c] - sj[0, c]
+                quadratic[r] = si[2, c] - sj[2, c]
+                add_point_row(ki, markers, bodies, q, si[3].copy(), unit[c].copy(), jac[r])
+                add_point_row(kj, markers, bodies, q, sj[3].copy(), -unit[c], jac[r])
+                r += 1
+        else:  # cylindrical, prismatic: marker j's point on marker i's z axis
+            dvec = sj[0] - si[0]
+            dvel = sj[1] - si[1]
+            for a in range(2):
+                axis = geo_i[0][:, a].copy()
+                value = 0.0
+                quad = 0.0
+                for c in range(3):
+                    value += axis[c] * dvec[c]
+                    quad += dvec[c] * geo_i[2][c, a] + axis[c] * (sj[2, c] - si[2, c])
+                    quad += 2.0 * geo_i[1][c, a] * dvel[c]
+                residual[r] = value
+                quadratic[r] = quad
+                add_vector_row(ki, markers, bodies, q, geo_i[3][:, a].copy(), dvec.copy(), jac[r])
+                add_point_row(kj, markers, bodies, q, sj[3].copy(), axis, jac[r])
+                add_point_row(ki, markers, bodies, q, si[3].copy(), -axis, jac[r])
+                r += 1
+        # perpendicular axes: z_i with x_j, y_j (revolute, cylindrical, prismatic, fixed),
+        # z_i with z_j (universal); x_i with y_j (prismatic, fixed: no turn about z)
+        pairs = np.zeros((3, 2), dtype=np.int64)
+        count = 0
+        if kind == REVOLUTE or kind == CYLINDRICAL or kind == PRISMATIC or kind == FIXED:
+            pairs[0, 0], pairs[0, 1] = 2, 0
+            pairs[1, 0], pairs[1, 1] = 2, 1
+            count = 2
+        elif kind == UNIVERSAL:
+            pairs[0, 0], pairs[0, 1] = 2, 2
+            count = 1
+        if kind == PRISMATIC or kind == FIXED:
+            pairs[count, 0], pairs[count, 1] = 0, 1
+            count += 1
+        for p in range(count):
+            value, quad = _dot1(
+                ki, kj, pairs[p, 0], pairs[p, 1], q, markers, bodies, geo_i, geo_j, r, jac
+            )
+            residual[r] = value
+            quadratic[r] = quad
+            r += 1
+        for x in range(row, r):
+            rate[x] = 0.0
+            acceleration[x] = 0.0
+        if drive >= 0:
+            f, fd, fdd = profile(drive, data, d, t)
+            c = math.cos(f)
+            s = math.sin(f)
+            # sin(phi - f) = c (x_j . y_i) - s (x_j . x_i), phi the turn of x_j about z_i
+            jac_one = np.zeros(jac.shape[1])
+            jac_two = np.zeros(jac.shape[1])
+            d1, q1 = _dot1(
+                ki, kj, 1, 0, q, markers, bodies, geo_i, geo_j, 0, jac_one.reshape((1, -1))
+            )
+            d2, q2 = _dot1(
+                ki, kj, 0, 0, q, markers, bodies, geo_i, geo_j, 0, jac_two.reshape((1, -1))
+            )
+            rate1 = 0.0
+            rate2 = 0.0
+            for x in range(jac.shape[1]):
+                jac[r, x] += c * jac_one[x] - s * jac_two[x]
+                rate1 += jac_one[x] * v[x]
+                rate2 += jac_two[x] * v[x]
+            residual[r] = c * d1 - s * d2
+            quadratic[r] = (
+                c * q1
+                - s * q2
+                - 2.0 * fd * (s * rate1 + c * rate2)
+                - (c * fd * fd + s * fdd) * d1
+                + (s * fd * fd - c * fdd) * d2
+            )
+            rate[r] = fd * (s * d1 + c * d2)
+            acceleration[r] = 0.0
+
+
+@nb.njit(cache=True)
+def force_terms(t, layout, data, q, v, forces):
+    """Generalised forces (on r', w) of every force element."""
+    bodies, markers, elements = layout[0], layout[1], layout[3]
+    si = np.empty((6, 3))
+    sj = np.empty((6, 3))
+    force = np.empty(3)
+    for e in range(elements.shape[0]):
+        kind = elements[e, 0]
+        ki = elements[e, 1]
+        kj = elements[e, 2]
+        d = elements[e, 3]
+        code = elements[e, 4]
+        marker_state(ki, markers, bodies, data, q, v, si)
+        torque = np.zeros(3)
+        if kind == SPRING_DAMPER:
+            marker_state(kj, markers, bodies, data, q, v, sj)
+            span = sj[0] - si[0]
+            length = math.sqrt(span[0] ** 2 + span[1] ** 2 + span[2] ** 2)
+            lengthening = 0.0
+            for c in range(3):
+                lengthening += span[c] / length * (sj[1, c] - si[1, c])
+            tension = data[d] * (length - data[d + 2]) + data[d + 1] * lengthening
+            for c in range(3):
+                force[c] = tension * span[c] / length
+        else:
+            scale = 1.0
+            if code >= 0:
+                scale, _, _ = profile(code, data, d + 6, t)
+            for c in range(3):
+                force[c] = data[d + c] * scale
+                torque[c] = data[d + 3 + c] * scale
+        add_point_row(ki, markers, bodies, q, si[3].copy(), force, forces)
+        _add_torque(ki, markers, bodies, q, torque, forces)
+        if kj >= 0 and kind == SPRING_DAMPER:
+            add_point_row(kj, markers, bodies, q, sj[3].copy(), -force, forces)
+
+
+@nb.njit(cache=True)
+def _add_torque(k, markers, bodies, q, torque, target):
+    body = markers[k, 0]
+    if body < 0:
+        return
+    po = bodies[body, 0]
+    vo = bodies[body, 1]
+    rot = np.empty((3, 3))
+    rotation(q, po + 3, rot)
+    for i in range(3):
+        target[vo + 3 + i] += rot[0, i] * torque[0] + rot[1, i] * torque[1] + rot[2, i] * torque[2]
+
+
+@nb.njit(cache=True)
+def accelerations(t, q, v, layout, data, system, solution):
+    """Solve the constrained equations at (t, q, v): solution = ((r'', w'), lambda)."""
+    sizes = layout[4]
+    n = sizes[1]
+    c = sizes[2]
+    system[:, :] = 0.0
+    solution[:] = 0.0
+    body_terms(layout[0], data, v, system[:n, :n], solution[:n])
+    force_terms(t, layout, data, q, v, solution[:n])
+    if c:
+        jac = np.zeros((c, n))
+        residual = np.empty(c)
+        quadratic = np.empty(c)
+        rate = np.empty(c)
+        acceleration = np.empty(c)
+        joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, acceleration)
+        for r in range(c):
+            for x in range(n):
+                system[n + r, x] = jac[r, x]
+                system[x, n + r] = jac[r, x]
+            solution[n + r] = -quadratic[r] + acceleration[r]
+    if not solve_in_place(system, solution):
+        return False
+    for i in range(n + c):
+        if not math.isfinite(solution[i]):
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def _rotate(q, po, dx, dy, dz):
+    """q[po:po + 4] <- q (1, d/2), normalised: a small rotation d in the body frame."""
+    e0, e1, e2, e3 = q[po], q[po + 1], q[po + 2], q[po + 3]
+    h0 = 1.0
+    h1 = 0.5 * dx
+    h2 = 0.5 * dy
+    h3 = 0.5 * dz
+    n0 = e0 * h0 - e1 * h1 - e2 * h2 - e3 * h3
+    n1 = e0 * h1 + e1 * h0 + e2 * h3 - e3 * h2
+    n2 = e0 * h2 - e1 * h3 + e2 * h0 + e3 * h1
+    n3 = e0 * h3 + e1 * h2 - e2 * h1 + e3 * h0
+    norm = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+    q[po] = n0 / norm
+    q[po + 1] = n1 / norm
+    q[po + 2] = n2 / norm
+    q[po + 3] = n3 / norm
+
+
+@nb.njit(cache=True)
+def project(t, q, v, layout, data, tolerance):
+    """Renormalise the Euler parameters and move (q, v) onto the joints (least change
+    in (r, rotation) and in (r', w)); the largest residual left, or inf."""
+    bodies = layout[0]
+    sizes = layout[4]
+    n = sizes[1]
+    c = sizes[2]
+    for b in range(bodies.shape[0]):
+        _rotate(q, bodies[b, 0] + 3, 0.0, 0.0, 0.0)
+    if c == 0:
+        return 0.0
+    residual = np.empty(c)
+    quadratic = np.empty(c)
+    rate = np.empty(c)
+    acceleration = np.empty(c)
+    jac = np.zeros((c, n))
+    step = np.zeros(n)
+    worst = np.inf
+    for _ in range(8):
+        jac[:, :] = 0.0
+        joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, acceleration)
+        worst = 0.0
+        for r in range(c):
+            worst = max(worst, abs(residual[r]))
+        if worst <= tolerance:
+            break
+        step[:] = 0.0
+        if not _least_change(jac, residual, step):
+            return np.inf
+        for b in range(bodies.shape[0]):
+            po = bodies[b, 0]
+            vo = bodies[b, 1]
+            for i in range(3):
+                q[po + i] += step[vo + i]
+            _rotate(q, po + 3, step[vo + 3], step[vo + 4], step[vo + 5])
+    if not worst <= tolerance:
+        return np.inf
+    jac[:, :] = 0.0
+    joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, acceleration)
+    for r in range(c):
+        acc = -rate[r]
+        for x in range(n):
+            acc += jac[r, x] * v[x]
+        residual[r] = acc
+    step[:] = 0.0
+    if not _least_change(jac, residual, step):
+        return np.inf
+    for x in range(n):
+        v[x] += step[x]
+    return worst
+
+
+@nb.njit(cache=True)
+def _least_change(jac, excess, step):
+    """step = -G^T (G G^T)^-1 excess."""
+    c, n = jac.shape
+    gram = np.empty((c, c))
+    for i in range(c):
+        for j in range(c):
+            acc = 0.0
+            for k in range(n):
+                acc += jac[i, k] * jac[j, k]
+            gram[i, j] = acc
+    weights = excess.copy()
+    if not solve_in_place(gram, weights):
+        return False
+    for k in range(n):
+        acc = 0.0
+        for i in range(c):
+            acc += jac[i, k] * weights[i]
+        step[k] = -acc
+    return True
+
+
+@nb.njit(cache=True)
+def _derivative(t, x, layout, data, system, solution, out):
+    bodies = layout[0]
+    sizes = layout[4]
+    nq = sizes[0]
+    n = sizes[1]
+    q = x[:nq]
+    v = x[nq:]
+    ok = accelerations(t, q, v, layout, data, system, solution)
+    for b in range(bodies.shape[0]):
+        po = bodies[b, 0]
+        vo = bodies[b, 1]
+        for i in range(3):
+            out[po + i] = v[vo + i]
+        e0, e1, e2, e3 = q[po + 3], q[po + 4], q[po + 5], q[po + 6]
+        wx, wy, wz = v[vo + 3], v[vo + 4], v[vo + 5]
+        # p' = 1/2 p (0, w)
+        out[po + 3] = 0.5 * (-e1 * wx - e2 * wy - e3 * wz)
+        out[po + 4] = 0.5 * (e0 * wx + e2 * wz - e3 * wy)
+        out[po + 5] = 0.5 * (e0 * wy - e1 * wz + e3 * wx)
+        out[po + 6] = 0.5 * (e0 * wz + e1 * wy - e2 * wx)
+    for i in range(n):
+        out[nq + i] = solution[i]
+    return ok
+
+
+@nb.njit(cache=True)
+def integrate_sample(times, x0, layout, data, rtol, atol, first_step, max_steps, tolerance, states):
+    """Dormand-Prince 5(4) for one sample, as the planar engine's
+    (:func:`fuzzymbs.mbs.planar.kernels.integrate_sample`), on (q, v) with the
+    Euler parameters' kinematics; (status, accepted, rejected, largest residual)."""
+    a_tab, _, c_tab, e_tab = dormand_prince()
+    sizes = layout[4]
+    nq = sizes[0]
+    n = sizes[1]
+    c = sizes[2]
+    size = nq + n
+    system = np.empty((n + c, n + c))
+    solution = np.empty(n + c)
+    x = x0.copy()
+    k = np.empty((7, size))
+    trial = np.empty(size)
+    t = times[0]
+    worst = project(t, x[:nq], x[nq:], layout, data, tolerance)
+    if not worst <= tolerance:
+        return PROJECTION_FAILED, 0, 0, worst
+    states[0, :] = x
+    if not _derivative(t, x, layout, data, system, solution, k[0]):
+        return NOT_FINITE, 0, 0, worst
+    h = first_step
+    accepted = 0
+    rejected = 0
+    for out in range(1, times.size):
+        target = times[out]
+        while t < target:
+            last = h >= target - t
+            step = target - t if last else h
+            for stage in range(1, 7):
+                for i in range(size):
+                    acc = 0.0
+                    for j in range(stage):
+                        acc += a_tab[stage, j] * k[j, i]
+                    trial[i] = x[i] + step * acc
+                if not _derivative(
+                    t + c_tab[stage] * step, trial, layout, data, system, solution, k[stage]
+                ):
+                    return NOT_FINITE, accepted, rejected, worst
+            err = 0.0
+            for i in range(size):
+                e = 0.0
+                for j in range(7):
+                    e += e_tab[j] * k[j, i]
+                scale = atol + rtol * max(abs(x[i]), abs(trial[i]))
+                err += (step * e / scale) ** 2
+            err = math.sqrt(err / size)
+            if not math.isfinite(err):
+                return NOT_FINITE, accepted, rejected, worst
+            factor = min(5.0, max(0.2, 0.9 * err ** (-0.2))) if err > 0.0 else 5.0
+            if err <= 1.0:
+                t = target if last else t + step
+                x[:] = trial
+                accepted += 1
+                residual = project(t, x[:nq], x[nq:], layout, data, tolerance)
+                if not residual <= tolerance:
+                    return PROJECTION_FAILED, accepted, rejected, residual
+                worst = max(worst, residual)
+                if not _derivative(t, x, layout, data, system, solution, k[0]):
+                    return NOT_FINITE, accepted, rejected, worst
+                if not last or factor < 1.0:
+                    h = step * factor
+            else:
+                rejected += 1
+                h = step * min(1.0, factor)
+            if h < 1e-14 * max(1.0, abs(t)):
+                return STEP_TOO_SMALL, accepted, rejected, worst
+            if accepted + rejected > max_steps:
+                return TOO_MANY_STEPS, accepted, rejected, worst
+        states[out, :] = x
+    return FINISHED, accepted, rejected, worst
+
+
+@nb.njit(cache=True, nogil=True)
+def integrate_range(
+    start,
+    stop,
+    times,
+    initial,
+    layout,
+    data,
+    rtol,
+    atol,
+    first_step,
+    max_steps,
+    tolerance,
+    states,
+    report,
+):
+    """:func:`integrate_sample` for sample rows ``start:stop`` (GIL released)."""
+    for s in range(start, stop):
+        status, accepted, rejected, worst = integrate_sample(
+            times,
+            initial[s],
+            layout,
+            data[s],
+            rtol,
+            atol,
+            first_step,
+            max_steps,
+            tolerance,
+            states[s],
+        )
+        report[s, 0] = status
+        report[s, 1] = accepted
+        report[s, 2] = rejected
+        report[s, 3] = worst
+
+
+@nb.njit(cache=True)
+def markers_at(wanted, states, layout, data, out):
+    """Position and velocity of the wanted markers at every stored state: out (B, T, K, 6)."""
+    bodies, markers = layout[0], layout[1]
+    nq = layout[4][0]
+    state = np.empty((6, 3))
+    for s in range(states.shape[0]):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if not math.isfinite(x[0]):
+                out[s, i, :, :] = np.nan
+                continue
+            for w in range(wanted.size):
+                marker_state(wanted[w], markers, bodies, data[s], x[:nq], x[nq:], state)
+                out[s, i, w, :3] = state[0]
+                out[s, i, w, 3:] = state[1]

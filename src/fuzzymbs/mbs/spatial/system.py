@@ -1,0 +1,316 @@
+"""A spatial mechanism of rigid bodies: building, checks, packing, simulation.
+
+Build it as the planar one (:mod:`fuzzymbs.mbs.planar.system`)::
+
+    from fuzzymbs.mbs.spatial import Mechanism, RigidBody, Spherical, ground, simulate
+
+    bob = RigidBody("bob", mass=1.0, inertia=(1e-3, 1e-3, 1e-3), position=(0.5, 0.0, -0.8))
+    pendulum = Mechanism(gravity=(0.0, 0.0, -9.81))
+    pendulum.add(bob, Spherical(ground.point(), bob.point((-0.5, 0.0, 0.8))))
+    result = simulate(pendulum, np.linspace(0.0, 2.0, 201))
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.kernels.threads import for_each_range
+from fuzzymbs.mbs.spatial import kernels
+from fuzzymbs.mbs.spatial.bodies import Marker, RigidBody
+from fuzzymbs.mbs.spatial.forces import ForceElement, MarkerLoad, SpringDamper
+from fuzzymbs.mbs.spatial.joints import (
+    Cylindrical,
+    Fixed,
+    Joint,
+    Prismatic,
+    Revolute,
+    Spherical,
+    Universal,
+)
+
+START_TOLERANCE = 1e-9
+DEFAULT_RTOL = 1e-6
+DEFAULT_ATOL = 1e-8
+PROJECTION_TOLERANCE = 1e-10
+_JOINTS = (Spherical, Revolute, Universal, Cylindrical, Prismatic, Fixed)
+
+
+class Mechanism:
+    """Spatial rigid bodies, joints and force elements, with gravity [m/s^2]."""
+
+    def __init__(self, gravity: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+        g = np.asarray(gravity, dtype=float)
+        if g.shape != (3,) or not np.isfinite(g).all():
+            raise InvalidParameterError(
+                f"gravity must be three finite numbers [m/s^2], got {gravity!r}"
+            )
+        self.gravity = g
+        self.bodies: list[RigidBody] = []
+        self.joints: list[Joint] = []
+        self.forces: list[ForceElement] = []
+        self.named_markers: dict[str, Marker] = {}
+
+    def add(self, *elements) -> Mechanism:
+        for element in elements:
+            if isinstance(element, RigidBody):
+                if any(b.name == element.name for b in self.bodies):
+                    raise InvalidParameterError(f"two bodies are named {element.name!r}")
+                self.bodies.append(element)
+            elif isinstance(element, _JOINTS):
+                self.joints.append(element)
+            elif isinstance(element, SpringDamper | MarkerLoad):
+                self.forces.append(element)
+            else:
+                raise InvalidParameterError(
+                    f"a Mechanism holds bodies, joints and force elements, got {element!r}"
+                )
+        return self
+
+    def mark(self, name: str, marker: Marker) -> Marker:
+        if name in self.named_markers:
+            raise InvalidParameterError(f"two markers are named {name!r}")
+        self.named_markers[name] = marker
+        return marker
+
+    def body(self, name: str) -> RigidBody:
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise InvalidParameterError(
+            f"no body named {name!r}; bodies: {[b.name for b in self.bodies]}"
+        )
+
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.label() == name:
+                return j
+        raise InvalidParameterError(
+            f"no joint named {name!r}; joints: {[j.label() for j in self.joints]}"
+        )
+
+    def markers(self) -> list[Marker]:
+        found: list[Marker] = []
+        pairs = [(e.marker_i, e.marker_j) for e in [*self.joints, *self.forces]]
+        for pair in [*pairs, tuple(self.named_markers.values())]:
+            for marker in pair:
+                if marker is not None and not any(marker is m for m in found):
+                    found.append(marker)
+        return found
+
+    def pack(self) -> tuple[tuple, NDArray[np.float64], NDArray[np.float64]]:
+        """(layout arrays, data row, initial state (q, v))."""
+        if not self.bodies:
+            raise InvalidParameterError("a Mechanism needs at least one body")
+        data: list[float] = [*self.gravity]
+        bodies, qs, vs = [], [], []
+        for index, b in enumerate(self.bodies):
+            bodies.append([7 * index, 6 * index, len(data)])
+            data.extend(b.pack())
+            q, v = b.initial_state()
+            qs.append(q)
+            vs.append(v)
+        markers = self.markers()
+        marker_rows = []
+        for m in markers:
+            if m.body is not None and not any(m.body is b for b in self.bodies):
+                raise InvalidParameterError(
+                    f"marker {m.name} is on body {m.body.name!r}, which was not added"
+                )
+            body = (
+                -1 if m.body is None else next(i for i, b in enumerate(self.bodies) if b is m.body)
+            )
+            marker_rows.append([body, len(data)])
+            data.extend(m.pack())
+        index = {id(m): i for i, m in enumerate(markers)}
+        joints, row = [], 0
+        for j in self.joints:
+            joints.append(
+                [j.kind, index[id(j.marker_i)], index[id(j.marker_j)], row, len(data), j.drive_code]
+            )
+            data.extend(j.pack())
+            row += j.rows
+        state = np.concatenate([*qs, *vs])
+        nq, n = 7 * len(self.bodies), 6 * len(self.bodies)
+        marker_array = np.array(marker_rows, dtype=np.int64).reshape(-1, 2)
+        body_array = np.array(bodies, dtype=np.int64).reshape(-1, 3)
+        positions = self._marker_positions(body_array, marker_array, np.array(data), state, nq)
+        forces = []
+        for f in self.forces:
+            i = index[id(f.marker_i)]
+            k = index[id(f.marker_j)] if f.marker_j is not None else -1
+            length = float(np.linalg.norm(positions[k] - positions[i])) if k >= 0 else 0.0
+            forces.append([f.kind, i, k, len(data), f.profile_code])
+            data.extend(f.pack(length))
+        layout = (
+            body_array,
+            marker_array,
+            np.array(joints, dtype=np.int64).reshape(-1, 6),
+            np.array(forces, dtype=np.int64).reshape(-1, 5),
+            np.array([nq, n, row], dtype=np.int64),
+        )
+        return layout, np.array(data, dtype=float), state
+
+    @staticmethod
+    def _marker_positions(bodies, markers, data, state, nq) -> NDArray[np.float64]:
+        out = np.empty((1, 1, markers.shape[0], 6))
+        layout = (
+            bodies,
+            markers,
+            np.zeros((0, 6), np.int64),
+            np.zeros((0, 5), np.int64),
+            np.array([nq, 0, 0]),
+        )
+        kernels.markers_at(
+            np.arange(markers.shape[0], dtype=np.int64), state[None, None], layout, data[None], out
+        )
+        return out[0, 0, :, :3]
+
+    def check(self, t0: float = 0.0) -> None:
+        """Refuse joints violated at the start and redundant joints, naming them."""
+        layout, data, state = self.pack()
+        nq, n, c = (int(s) for s in layout[4])
+        if c == 0:
+            return
+        jac = np.zeros((c, n))
+        residual = np.empty(c)
+        spare = [np.empty(c) for _ in range(3)]
+        kernels.joint_terms(
+            t0, layout, data, state[:nq].copy(), state[nq:].copy(), jac, residual, *spare
+        )
+        row = 0
+        scale = 1e-9 * max(1.0, np.abs(jac).max())
+        for j in self.joints:
+            worst = np.abs(residual[row : row + j.rows]).max()
+            if worst > START_TOLERANCE:
+                raise InvalidParameterError(
+                    f"joint {j.label()} is violated at the start by {worst:.3g} (m or rad): place "
+                    "the bodies "
+                    "so its markers meet and its axes line up"
+                )
+            if np.linalg.matrix_rank(jac[: row + j.rows], tol=scale) < row + j.rows:
+                raise InvalidParameterError(
+                    f"joint {j.label()} is redundant with the joints before it"
+                )
+            row += j.rows
+
+
+@dataclass(frozen=True)
+class SpatialResult:
+    """States (B, T, 7 nb + 6 nb) at the output times, and how each run ended."""
+
+    times: NDArray[np.float64]
+    states: NDArray[np.float64]
+    status: NDArray[np.int64]
+    accepted: NDArray[np.int64]
+    joint_residual: NDArray[np.float64]
+    layout: tuple
+    data: NDArray[np.float64]
+    template: Mechanism
+
+    @property
+    def failed(self) -> NDArray[np.bool_]:
+        return self.status != kernels.FINISHED
+
+    def position(self, body: str) -> NDArray[np.float64]:
+        """(B, T, 3) centre of mass [m]."""
+        i = self.template.bodies.index(self.template.body(body))
+        return self.states[:, :, 7 * i : 7 * i + 3]
+
+    def euler_parameters(self, body: str) -> NDArray[np.float64]:
+        """(B, T, 4) unit quaternion of the body's orientation."""
+        i = self.template.bodies.index(self.template.body(body))
+        return self.states[:, :, 7 * i + 3 : 7 * i + 7]
+
+    def angular_velocity(self, body: str) -> NDArray[np.float64]:
+        """(B, T, 3) angular velocity in the body frame [rad/s]."""
+        nq = 7 * len(self.template.bodies)
+        i = self.template.bodies.index(self.template.body(body))
+        return self.states[:, :, nq + 6 * i + 3 : nq + 6 * i + 6]
+
+    def velocity(self, body: str) -> NDArray[np.float64]:
+        nq = 7 * len(self.template.bodies)
+        i = self.template.bodies.index(self.template.body(body))
+        return self.states[:, :, nq + 6 * i : nq + 6 * i + 3]
+
+    def marker(self, name: str) -> NDArray[np.float64]:
+        """(B, T, 6): position and velocity of a named marker."""
+        if name not in self.template.named_markers:
+            raise InvalidParameterError(
+                f"no marker named {name!r}; named: {sorted(self.template.named_markers)}"
+            )
+        markers = self.template.markers()
+        index = next(i for i, m in enumerate(markers) if m is self.template.named_markers[name])
+        out = np.empty((*self.states.shape[:2], 1, 6))
+        kernels.markers_at(
+            np.array([index], dtype=np.int64), self.states, self.layout, self.data, out
+        )
+        return out[:, :, 0]
+
+
+def simulate(
+    mechanisms: Mechanism | list[Mechanism],
+    times: ArrayLike,
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
+    max_steps: int = 10_000_000,
+) -> SpatialResult:
+    """Integrate one spatial mechanism or a batch of one structure over ``times``."""
+    batch = mechanisms if isinstance(mechanisms, list) else [mechanisms]
+    rows, states, layout = [], [], None
+    for i, mechanism in enumerate(batch):
+        mechanism.check()
+        lay, data, state = mechanism.pack()
+        if layout is None:
+            layout = lay
+        elif (
+            not all(np.array_equal(a, b) for a, b in zip(lay, layout, strict=True))
+            or data.size != rows[0].size
+        ):
+            raise InvalidParameterError(
+                f"sample {i}'s mechanism has another structure than sample 0's"
+            )
+        rows.append(data)
+        states.append(state)
+    t = np.asarray(times, dtype=float)
+    if t.ndim != 1 or t.size < 2 or not np.isfinite(t).all() or np.any(np.diff(t) <= 0):
+        raise InvalidParameterError(
+            "times must be at least two finite, strictly increasing values [s]"
+        )
+    data = np.stack(rows)
+    initial = np.stack(states)
+    out = np.full((len(batch), t.size, initial.shape[1]), np.nan)
+    report = np.zeros((len(batch), 4))
+    step = (t[-1] - t[0]) * 1e-3
+
+    def run(start: int, stop: int) -> None:
+        kernels.integrate_range(
+            start,
+            stop,
+            t,
+            initial,
+            layout,
+            data,
+            float(rtol),
+            float(atol),
+            step,
+            int(max_steps),
+            PROJECTION_TOLERANCE,
+            out,
+            report,
+        )
+
+    for_each_range(len(batch), run)
+    return SpatialResult(
+        t,
+        out,
+        report[:, 0].astype(np.int64),
+        report[:, 1].astype(np.int64),
+        report[:, 3],
+        layout,
+        data,
+        batch[0],
+    )
