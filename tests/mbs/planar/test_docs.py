@@ -8,12 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fuzzymbs.mbs.planar import simulate
+
 GUIDE = Path(__file__).resolve().parents[3] / "docs" / "mechanisms.md"
 
 
 def test_mechanisms_guide_examples_run():
     blocks = re.findall(r"```python\n(.*?)```", GUIDE.read_text(), flags=re.S)
-    assert len(blocks) == 4
+    assert len(blocks) == 5
     namespace: dict = {}
     for block in blocks:
         exec(compile(block, str(GUIDE), "exec"), namespace)
@@ -23,8 +25,11 @@ def test_mechanisms_guide_examples_run():
     tip = result.marker("tip")[0, :, :2]
     np.testing.assert_allclose(np.hypot(tip[:, 0], tip[:, 1]), 1.0, atol=1e-9)
     # the cubic spring holds the block about x = 1 m (its free length)
-    slide = namespace["simulate"](namespace["slide"], np.linspace(0.0, 1.0, 101))
+    slide = simulate(namespace["slide"], np.linspace(0.0, 1.0, 101))
     x = slide.coordinates("block")[0, :, 0]
     assert x[0] == pytest.approx(1.2) and x.min() == pytest.approx(0.8, abs=0.01)
+    np.testing.assert_allclose(
+        namespace["spatial"].position("bob")[0, :, 2], -np.cos(np.deg2rad(30)), atol=1e-9
+    )
     out = namespace["out"]
     assert out["tip_x"].shape == (2, 201) and not out["failed"].any()
