@@ -13,6 +13,7 @@ from fuzzymbs.mbs.planar import simulate
 GUIDE = Path(__file__).resolve().parents[3] / "docs" / "mechanisms.md"
 
 
+@pytest.mark.slow  # its spatial example compiles the spatial kernels (about 25 s)
 def test_mechanisms_guide_examples_run():
     blocks = re.findall(r"```python\n(.*?)```", GUIDE.read_text(), flags=re.S)
     assert len(blocks) == 5

@@ -1,4 +1,8 @@
-"""Spatial rigid-body mechanisms against closed forms."""
+"""Spatial rigid-body mechanisms against closed forms.
+
+Slow: the spatial kernels compile in about 25 s, which the README's pytest (5 min on a fresh
+clone) cannot spare; CI runs them with ``pytest -m slow``.
+"""
 
 import numpy as np
 import pytest
@@ -20,6 +24,8 @@ from fuzzymbs.mbs.spatial import (
 )
 
 GRAVITY = 9.81
+
+pytestmark = pytest.mark.slow
 
 
 def test_conical_pendulum_keeps_its_cone():

@@ -648,7 +648,11 @@ def accelerations(t, z, v, layout, data, user_force, system, solution):
     c = sizes[1]
     system[:, :] = 0.0
     solution[:] = 0.0
-    body_terms(layout[0], data, z, v, system[:n, :n], solution[:n])
+    # the mass matrix in its own C-ordered array: body_terms then compiles once, for the
+    # layout Mechanism.check passes too (a block of ``system`` is not C-ordered)
+    mass = np.zeros((n, n))
+    body_terms(layout[0], data, z, v, mass, solution[:n])
+    system[:n, :n] = mass
     force_terms(t, layout, data, z, v, user_force, solution[:n])
     jac = np.zeros((c, n))
     if c:

@@ -374,7 +374,9 @@ def accelerations(t, q, v, layout, data, system, solution):
     c = sizes[2]
     system[:, :] = 0.0
     solution[:] = 0.0
-    body_terms(layout[0], data, v, system[:n, :n], solution[:n])
+    mass = np.zeros((n, n))
+    body_terms(layout[0], data, v, mass, solution[:n])
+    system[:n, :n] = mass
     force_terms(t, layout, data, q, v, solution[:n])
     if c:
         jac = np.zeros((c, n))
