@@ -31,7 +31,7 @@ import math
 import numba as nb
 import numpy as np
 
-from fuzzymbs.mbs.planar.kernels import dormand_prince, profile, solve_in_place
+from fuzzymbs.mbs.planar.kernels import dormand_prince, profile, project_rows, solve_in_place
 
 SPHERICAL = 0
 REVOLUTE = 1
@@ -445,7 +445,7 @@ def project(t, q, v, layout, data, tolerance):
         if worst <= tolerance:
             break
         step[:] = 0.0
-        if not _least_change(jac, residual, step):
+        if not project_rows(jac, residual, step):  # step = -G^T (G G^T)^-1 g
             return np.inf
         for b in range(bodies.shape[0]):
             po = bodies[b, 0]
@@ -462,34 +462,9 @@ def project(t, q, v, layout, data, tolerance):
         for x in range(n):
             acc += jac[r, x] * v[x]
         residual[r] = acc
-    step[:] = 0.0
-    if not _least_change(jac, residual, step):
+    if not project_rows(jac, residual, v):
         return np.inf
-    for x in range(n):
-        v[x] += step[x]
     return worst
-
-
-@nb.njit(cache=True)
-def _least_change(jac, excess, step):
-    """step = -G^T (G G^T)^-1 excess."""
-    c, n = jac.shape
-    gram = np.empty((c, c))
-    for i in range(c):
-        for j in range(c):
-            acc = 0.0
-            for k in range(n):
-                acc += jac[i, k] * jac[j, k]
-            gram[i, j] = acc
-    weights = excess.copy()
-    if not solve_in_place(gram, weights):
-        return False
-    for k in range(n):
-        acc = 0.0
-        for i in range(c):
-            acc += jac[i, k] * weights[i]
-        step[k] = -acc
-    return True
 
 
 @nb.njit(cache=True)
