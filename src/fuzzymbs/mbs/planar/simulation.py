@@ -107,6 +107,13 @@ class PlanarResult:
         )
         return out[:, :, 0]
 
+    def energy(self) -> NDArray[np.float64]:
+        """(B, T, 2): kinetic and potential energy [J] (gravity, modal stiffness, springs,
+        closed contacts; drives, loads and user forces have none), NaN after a failure."""
+        out = np.empty((*self.states.shape[:2], 2))
+        kernels.energy_at(self.states, self.batch.layout.arrays(), self.batch.data, out)
+        return out
+
     def solved(self) -> NDArray[np.float64]:
         """(B, T, n + c): accelerations and multipliers at every stored state."""
         n, c = (int(s) for s in self.batch.layout.sizes)
