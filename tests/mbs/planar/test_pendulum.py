@@ -106,8 +106,8 @@ def test_flexible_pendulum_first_elastic_frequency_is_the_pinned_free_beam():
 
 def test_flexible_pendulum_conserves_its_energy():
     # no damping, no drive: kinetic + gravity + elastic energy constant (the floating-frame
-    # terms and the foreshortening that stiffens the beam are one Lagrangian; measured 2e-12 J
-    # at rtol 1e-10 over 4 s from 60 degrees)
+    # terms and the foreshortening that stiffens the beam are one Lagrangian; measured 1.3e-11 J
+    # at rtol 1e-9 over 2 s from 60 degrees, 3 modes)
     beam = PlanarBeam(
         length=1.0,
         youngs_modulus=2.1e11,
@@ -115,9 +115,9 @@ def test_flexible_pendulum_conserves_its_energy():
         area=9e-5,
         second_moment=0.03 * 0.003**3 / 12,
     )
-    body = FlexibleBody("beam", beam=beam.reduce(6), angle=-np.pi / 2 + np.pi / 3)
+    body = FlexibleBody("beam", beam=beam.reduce(3), angle=-np.pi / 2 + np.pi / 3)
     mechanism = Mechanism(gravity=(0.0, -GRAVITY)).add(body, Revolute(ground.point(), body.node(0)))
-    result = simulate(mechanism, np.linspace(0.0, 4.0, 201), rtol=1e-10, atol=1e-12)
+    result = simulate(mechanism, np.linspace(0.0, 2.0, 101), rtol=1e-9, atol=1e-11)
     energy = result.energy()[0].sum(axis=1)
     assert np.ptp(energy) < 1e-9
     assert np.abs(result.coordinates("beam")[0, :, 3:]).max() > 1e-4  # the beam did bend
