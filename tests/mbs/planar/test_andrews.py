@@ -23,6 +23,10 @@ from fuzzymbs.mbs.planar import (
     simulate,
 )
 
+# slow: the planar kernels take about 25 s to compile, which the README's pytest (5 min on a
+# fresh clone of 2 cores) cannot spare in every test process; CI runs these with -m slow
+pytestmark = pytest.mark.slow
+
 # the test set's data (SI)
 m1, m2, m3, m4, m5, m6, m7 = 0.04325, 0.00365, 0.02373, 0.00706, 0.07050, 0.00706, 0.05498
 xa, ya, xb, yb, xc, yc = -0.06934, -0.00227, -0.03635, 0.03273, 0.014, 0.072

@@ -2,6 +2,7 @@
 equation, a rigid slider-crank against its closed-form kinematics."""
 
 import numpy as np
+import pytest
 from scipy.integrate import solve_ivp
 
 from fuzzymbs.mbs.planar import (
@@ -13,6 +14,10 @@ from fuzzymbs.mbs.planar import (
     ground,
     simulate,
 )
+
+# slow: the planar kernels take about 25 s to compile, which the README's pytest (5 min on a
+# fresh clone of 2 cores) cannot spare in every test process; CI runs these with -m slow
+pytestmark = pytest.mark.slow
 
 GRAVITY = 9.81
 # crank-rocker (Grashof: 0.4 + 1.0 < 1.0 + 0.8), uniform bars of 1 kg/m

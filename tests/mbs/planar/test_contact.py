@@ -6,6 +6,10 @@ import pytest
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.planar import Contact, Mechanism, RigidBody, contacts, ground, simulate
 
+# slow: the planar kernels take about 25 s to compile, which the README's pytest (5 min on a
+# fresh clone of 2 cores) cannot spare in every test process; CI runs these with -m slow
+pytestmark = pytest.mark.slow
+
 GRAVITY = 9.81
 
 

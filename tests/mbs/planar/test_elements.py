@@ -26,6 +26,10 @@ from fuzzymbs.mbs.planar.model import MechanismModel
 
 from .user_forces import linear_spring_x
 
+# slow: the planar kernels take about 25 s to compile, which the README's pytest (5 min on a
+# fresh clone of 2 cores) cannot spare in every test process; CI runs these with -m slow
+pytestmark = pytest.mark.slow
+
 
 def mass_on_slide(**extra):
     block = RigidBody("block", mass=2.0, inertia=0.1, position=(1.0, 0.0), **extra)

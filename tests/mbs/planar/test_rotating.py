@@ -14,6 +14,10 @@ from fuzzymbs.mbs.planar import (
     linearize,
 )
 
+# slow: the planar kernels take about 25 s to compile, which the README's pytest (5 min on a
+# fresh clone of 2 cores) cannot spare in every test process; CI runs these with -m slow
+pytestmark = pytest.mark.slow
+
 KANE = dict(
     length=8.0, youngs_modulus=6.8952e10, density=2766.7, area=7.2968e-5, second_moment=8.2189e-9
 )
