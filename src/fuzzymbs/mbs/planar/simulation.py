@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.kernels.threads import for_each_range
-from fuzzymbs.mbs.planar import kernels
+from fuzzymbs.mbs.planar import integrator, kernels, readout
 from fuzzymbs.mbs.planar.system import Mechanism, PackedBatch, pack_batch
 
 #: Default relative and absolute tolerances of the step control (docs/embs.md
@@ -98,7 +98,7 @@ class PlanarResult:
         markers = template.markers()
         index = next(i for i, m in enumerate(markers) if m is template.named_markers[name])
         out = np.empty((*self.states.shape[:2], 1, 6))
-        kernels.markers_at(
+        readout.markers_at(
             np.array([index], dtype=np.int64),
             self.states,
             self.batch.layout.arrays(),
@@ -111,7 +111,7 @@ class PlanarResult:
         """(B, T, 2): kinetic and potential energy [J] (gravity, modal stiffness, springs,
         closed contacts; drives, loads and user forces have none), NaN after a failure."""
         out = np.empty((*self.states.shape[:2], 2))
-        kernels.energy_at(self.states, self.batch.layout.arrays(), self.batch.data, out)
+        readout.energy_at(self.states, self.batch.layout.arrays(), self.batch.data, out)
         return out
 
     def solved(self) -> NDArray[np.float64]:
@@ -121,7 +121,7 @@ class PlanarResult:
         arrays = self.batch.layout.arrays()
 
         def run(start: int, stop: int) -> None:
-            kernels.solve_range(
+            integrator.solve_range(
                 start,
                 stop,
                 self.times,
@@ -194,7 +194,7 @@ def simulate(
     arrays = batch.layout.arrays()
 
     def run(start: int, stop: int) -> None:
-        kernels.integrate_range(
+        integrator.integrate_range(
             start,
             stop,
             t,

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.planar import kernels
+from fuzzymbs.mbs.planar import kernels, readout
 from fuzzymbs.mbs.planar.bodies import Body, FlexibleBody, Marker, RigidBody
 from fuzzymbs.mbs.planar.forces import (
     Contact,
@@ -234,7 +234,7 @@ class Mechanism:
     @staticmethod
     def _marker_states(layout: Layout, data, state, count: int) -> NDArray[np.float64]:
         out = np.empty((1, 1, count, 6))
-        kernels.markers_at(
+        readout.markers_at(
             np.arange(count, dtype=np.int64),
             state[None, None, :],
             layout.arrays(),

@@ -31,7 +31,8 @@ import math
 import numba as nb
 import numpy as np
 
-from fuzzymbs.mbs.planar.kernels import dormand_prince, profile, project_rows, solve_in_place
+from fuzzymbs.mbs.planar.integrator import dormand_prince
+from fuzzymbs.mbs.planar.kernels import profile, project_rows, solve_in_place
 
 SPHERICAL = 0
 REVOLUTE = 1
@@ -496,7 +497,7 @@ def _derivative(t, x, layout, data, system, solution, out):
 @nb.njit(cache=True)
 def integrate_sample(times, x0, layout, data, rtol, atol, first_step, max_steps, tolerance, states):
     """Dormand-Prince 5(4) for one sample, as the planar engine's
-    (:func:`fuzzymbs.mbs.planar.kernels.integrate_sample`), on (q, v) with the
+    (:func:`fuzzymbs.mbs.planar.integrator.integrate_sample`), on (q, v) with the
     Euler parameters' kinematics; (status, accepted, rejected, largest residual)."""
     a_tab, _, c_tab, e_tab = dormand_prince()
     sizes = layout[4]

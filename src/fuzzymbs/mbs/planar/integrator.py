@@ -1,0 +1,207 @@
+"""Time integration of planar mechanisms: Dormand-Prince 5(4), one sample per call.
+
+Each sample has its own steps (its trajectory is the same in any batch) and
+hits every output time exactly; the error control covers every coordinate and
+rate, the constrained ones included; after every accepted step the joints are
+projected (:func:`fuzzymbs.mbs.planar.kernels.project`). Ranges of samples run
+over the shared thread pool with the GIL released.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from fuzzymbs.mbs.planar.kernels import (
+    FINISHED,
+    NOT_FINITE,
+    PROJECTION_FAILED,
+    STEP_TOO_SMALL,
+    TOO_MANY_STEPS,
+    accelerations,
+    project,
+)
+
+# Dormand-Prince 5(4) (Hairer, Norsett & Wanner, Solving ODEs I, table II.5.2)
+_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
+_A = np.array(
+    [
+        [0, 0, 0, 0, 0, 0],
+        [1 / 5, 0, 0, 0, 0, 0],
+        [3 / 40, 9 / 40, 0, 0, 0, 0],
+        [44 / 45, -56 / 15, 32 / 9, 0, 0, 0],
+        [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0],
+        [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0],
+        [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
+    ]
+)
+_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0])
+_E = _B - np.array([5179 / 57600, 0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40])
+
+
+@nb.njit(cache=True)
+def dormand_prince():
+    """(A, B, C, E) of Dormand-Prince 5(4): stages, weights, nodes, error weights."""
+    return _A, _B, _C, _E
+
+
+@nb.njit(cache=True)
+def _derivative(t, x, n, layout, data, user_force, system, solution, out):
+    ok = accelerations(t, x[:n], x[n:], layout, data, user_force, system, solution)
+    out[:n] = x[n:]
+    out[n:] = solution[:n]
+    return ok
+
+
+@nb.njit(cache=True)
+def integrate_sample(
+    times, x0, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states
+):
+    """Integrate one sample from ``times[0]``, storing (z, v) at every time.
+
+    Returns (status, accepted steps, rejected steps, largest joint residual).
+    Rows of ``states`` after a failure stay NaN.
+    """
+    sizes = layout[4]
+    n = sizes[0]
+    c = sizes[1]
+    size = 2 * n
+    system = np.empty((n + c, n + c))
+    solution = np.empty(n + c)
+    x = x0.copy()
+    k = np.empty((7, size))
+    trial = np.empty(size)
+    t = times[0]
+    worst = project(t, x[:n], x[n:], layout, data, tolerance)
+    if not worst <= tolerance:
+        return PROJECTION_FAILED, 0, 0, worst
+    states[0, :] = x
+    if not _derivative(t, x, n, layout, data, user_force, system, solution, k[0]):
+        return NOT_FINITE, 0, 0, worst
+    h = first_step
+    accepted = 0
+    rejected = 0
+    for out in range(1, times.size):
+        target = times[out]
+        while t < target:
+            last = h >= target - t
+            step = target - t if last else h
+            for stage in range(1, 7):
+                for i in range(size):
+                    acc = 0.0
+                    for j in range(stage):
+                        acc += _A[stage, j] * k[j, i]
+                    trial[i] = x[i] + step * acc
+                if not _derivative(
+                    t + _C[stage] * step,
+                    trial,
+                    n,
+                    layout,
+                    data,
+                    user_force,
+                    system,
+                    solution,
+                    k[stage],
+                ):
+                    return NOT_FINITE, accepted, rejected, worst
+            # trial holds the 5th-order solution (stage 7 is evaluated at it: FSAL)
+            err = 0.0
+            for i in range(size):
+                e = 0.0
+                for j in range(7):
+                    e += _E[j] * k[j, i]
+                scale = atol + rtol * max(abs(x[i]), abs(trial[i]))
+                err += (step * e / scale) ** 2
+            err = math.sqrt(err / size)
+            if not math.isfinite(err):
+                return NOT_FINITE, accepted, rejected, worst
+            factor = min(5.0, max(0.2, 0.9 * err ** (-0.2))) if err > 0.0 else 5.0
+            if err <= 1.0:
+                t = target if last else t + step
+                x[:] = trial
+                accepted += 1
+                if c:
+                    residual = project(t, x[:n], x[n:], layout, data, tolerance)
+                    if not residual <= tolerance:
+                        return PROJECTION_FAILED, accepted, rejected, residual
+                    worst = max(worst, residual)
+                    if not _derivative(t, x, n, layout, data, user_force, system, solution, k[0]):
+                        return NOT_FINITE, accepted, rejected, worst
+                else:
+                    k[0, :] = k[6]
+                if not last or factor < 1.0:
+                    h = step * factor
+            else:
+                rejected += 1
+                h = step * min(1.0, factor)
+            if h < 1e-14 * max(1.0, abs(t)):
+                return STEP_TOO_SMALL, accepted, rejected, worst
+            if accepted + rejected > max_steps:
+                return TOO_MANY_STEPS, accepted, rejected, worst
+        states[out, :] = x
+    return FINISHED, accepted, rejected, worst
+
+
+@nb.njit(cache=True, nogil=True)
+def integrate_range(
+    start,
+    stop,
+    times,
+    initial,
+    layout,
+    data,
+    user_force,
+    rtol,
+    atol,
+    first_step,
+    max_steps,
+    tolerance,
+    states,
+    report,
+):
+    """:func:`integrate_sample` for sample rows ``start:stop`` (the GIL released, so
+    :func:`fuzzymbs.mbs.kernels.threads.for_each_range` runs ranges side by side).
+
+    ``report`` (B, 4) receives status, accepted and rejected steps and the
+    largest joint residual of each sample.
+    """
+    for s in range(start, stop):
+        status, accepted, rejected, worst = integrate_sample(
+            times,
+            initial[s],
+            layout,
+            data[s],
+            user_force,
+            rtol,
+            atol,
+            first_step,
+            max_steps,
+            tolerance,
+            states[s],
+        )
+        report[s, 0] = status
+        report[s, 1] = accepted
+        report[s, 2] = rejected
+        report[s, 3] = worst
+
+
+@nb.njit(cache=True, nogil=True)
+def solve_range(start, stop, times, states, layout, data, user_force, out):
+    """z'' and lambda at every stored state of rows ``start:stop`` into ``out`` (B, T, n + c)."""
+    sizes = layout[4]
+    n = sizes[0]
+    c = sizes[1]
+    system = np.empty((n + c, n + c))
+    solution = np.empty(n + c)
+    for s in range(start, stop):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if not math.isfinite(x[0]):
+                out[s, i, :] = np.nan
+                continue
+            if accelerations(times[i], x[:n], x[n:], layout, data[s], user_force, system, solution):
+                out[s, i, :] = solution
+            else:
+                out[s, i, :] = np.nan

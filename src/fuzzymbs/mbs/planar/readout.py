@@ -1,0 +1,116 @@
+"""What a stored planar trajectory tells: energies and marker motion at every state."""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from fuzzymbs.mbs.planar.kernels import (
+    CONTACT,
+    ROTATIONAL_SPRING_DAMPER,
+    SPRING_DAMPER,
+    body_terms,
+    marker_state,
+)
+
+
+@nb.njit(cache=True)
+def potential_energy(layout, data, z, v):
+    """Gravity, elastic (modal) and spring energy of a state [J].
+
+    Gravity: -g . (m r + A S(q)) per body, S the first moment with the
+    foreshortening; elastic: 1/2 q^T K q; springs: 1/2 k (l - l0)^2, torsion
+    springs 1/2 k (angle - a0)^2, contacts 1/2 k g^2 while closed. Drives,
+    loads and user forces are not conservative and have no potential here.
+    """
+    bodies, markers, elements = layout[0], layout[1], layout[3]
+    gx = data[0]
+    gy = data[1]
+    energy = 0.0
+    for b in range(bodies.shape[0]):
+        o = bodies[b, 0]
+        m = bodies[b, 1]
+        d = bodies[b, 2]
+        ia = d + 4
+        icx = ia + 2 * m
+        icy = icx + m
+        ik = icy + m + 2 * m * m
+        ikga = ik + 3 * m * m
+        sx = data[d + 1]
+        sy = data[d + 2]
+        for i in range(m):
+            qi = z[o + 3 + i]
+            sx += data[icx + i] * qi
+            sy += data[icy + i] * qi
+            for j in range(m):
+                energy += 0.5 * qi * data[ik + m * i + j] * z[o + 3 + j]
+                if bodies[b, 3] != 0:
+                    sx -= 0.5 * qi * data[ikga + m * i + j] * z[o + 3 + j]
+        c = math.cos(z[o + 2])
+        s = math.sin(z[o + 2])
+        energy -= gx * (data[d] * z[o] + c * sx - s * sy)
+        energy -= gy * (data[d] * z[o + 1] + s * sx + c * sy)
+    si = np.empty(10)
+    sj = np.empty(10)
+    for e in range(elements.shape[0]):
+        kind = elements[e, 0]
+        ki = elements[e, 1]
+        kj = elements[e, 2]
+        d = elements[e, 3]
+        if kind != SPRING_DAMPER and kind != ROTATIONAL_SPRING_DAMPER and kind != CONTACT:
+            continue
+        marker_state(ki, markers, bodies, data, z, v, si)
+        marker_state(kj, markers, bodies, data, z, v, sj)
+        if kind == SPRING_DAMPER:
+            length = math.sqrt((sj[0] - si[0]) ** 2 + (sj[1] - si[1]) ** 2)
+            energy += 0.5 * data[d] * (length - data[d + 2]) ** 2
+        elif kind == ROTATIONAL_SPRING_DAMPER:
+            energy += 0.5 * data[d] * (sj[2] - si[2] - data[d + 2]) ** 2
+        else:
+            dx = si[0] - sj[0]
+            dy = si[1] - sj[1]
+            if data[d + 4] > 0.0:
+                gap = math.sqrt(dx * dx + dy * dy) - data[d + 4]
+            else:
+                gap = -math.sin(sj[2]) * dx + math.cos(sj[2]) * dy
+            if gap < 0.0:
+                energy += 0.5 * data[d] * gap * gap
+    return energy
+
+
+@nb.njit(cache=True)
+def energy_at(states, layout, data, out):
+    """Kinetic and potential energy at every stored state: out (B, T, 2) [J]."""
+    n = layout[4][0]
+    mass = np.zeros((n, n))
+    forces = np.zeros(n)
+    for s in range(states.shape[0]):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if not math.isfinite(x[0]):
+                out[s, i, :] = np.nan
+                continue
+            mass[:, :] = 0.0
+            body_terms(layout[0], data[s], x[:n], x[n:], mass, forces)
+            kinetic = 0.0
+            for a in range(n):
+                for b in range(n):
+                    kinetic += 0.5 * x[n + a] * mass[a, b] * x[n + b]
+            out[s, i, 0] = kinetic
+            out[s, i, 1] = potential_energy(layout, data[s], x[:n], x[n:])
+
+
+@nb.njit(cache=True)
+def markers_at(markers_wanted, states, layout, data, out):
+    """State of the wanted markers at every stored state: out (B, T, K, 6)."""
+    bodies, markers = layout[0], layout[1]
+    n = layout[4][0]
+    s10 = np.empty(10)
+    for s in range(states.shape[0]):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            for w in range(markers_wanted.size):
+                marker_state(markers_wanted[w], markers, bodies, data[s], x[:n], x[n:], s10)
+                out[s, i, w, :] = s10[:6]
