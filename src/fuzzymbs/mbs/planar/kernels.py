@@ -17,7 +17,7 @@ the stored trajectory satisfies the joints to the projection tolerance.
 
 The layout arrays (int64) say which numbers of a sample's ``data`` row
 belong to which body, marker, joint and force
-(:mod:`fuzzymbs.mbs.planar.assembly` writes them):
+(:meth:`fuzzymbs.mbs.planar.system.Mechanism.pack` writes them):
 
 - bodies  (nb, 4): coordinate offset, mode count, data offset, stiffening flag
 - markers (nk, 3): body (-1 ground), data offset, mode count
