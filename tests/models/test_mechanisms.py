@@ -19,8 +19,7 @@ def spin_up_reference():
     return np.load(DATA / "spin_up_beam_reference.npz")
 
 
-@pytest.mark.slow  # planar kernels: 25 s of compilation (tests/mbs/planar/test_pendulum.py runs
-# the engine in the default suite)
+@pytest.mark.slow  # the planar kernels take 25 to 35 s to compile
 def test_spin_up_beam_follows_the_geometrically_nonlinear_beam():
     # the bound is 5 % of the peak over the whole run at 1, 2.5 and 4 rad/s; measured
     # 0.014 %, 0.042 % and 0.12 % (6 clamped modes, geometric stiffening by foreshortening)
@@ -36,8 +35,7 @@ def test_spin_up_beam_follows_the_geometrically_nonlinear_beam():
     assert np.abs(out["tip_deflection"][3] - ref).max() < 0.01 * np.abs(ref).max()
 
 
-@pytest.mark.slow  # planar kernels: 25 s of compilation (tests/mbs/planar/test_pendulum.py runs
-# the engine in the default suite)
+@pytest.mark.slow  # the planar kernels take 25 to 35 s to compile
 def test_spin_up_beam_without_stiffening_diverges():
     # linear modes alone show only spin softening: above the first bending frequency the tip
     # runs away (what Kane, Ryan & Banerjee showed of the "conventional" approach)
@@ -52,8 +50,7 @@ def test_spin_up_beam_without_stiffening_diverges():
     assert result.failed[0] or np.nanmax(np.abs(tip)) > 1.0
 
 
-@pytest.mark.slow  # planar kernels: 25 s of compilation (tests/mbs/planar/test_pendulum.py runs
-# the engine in the default suite)
+@pytest.mark.slow  # the planar kernels take 25 to 35 s to compile
 def test_flexible_pendulum_swings_at_its_linearised_period():
     # small release angle: the period of the time integration against the lowest frequency of the
     # mechanism linearised at rest (hanging, gravity prestress included), corrected for the

@@ -17,6 +17,10 @@ from fuzzymbs.mbs.planar import (
 
 GRAVITY = 9.81
 
+# slow: the planar kernels take 25 to 35 s to compile, which the README's pytest (5 min on a
+# fresh clone of 2 cores) cannot spare; CI runs these with -m slow
+pytestmark = pytest.mark.slow
+
 
 def rod_pendulum(angle_from_vertical: float, length: float = 1.0, mass: float = 1.0) -> Mechanism:
     rod = RigidBody(
