@@ -73,3 +73,19 @@ def test_paper_brake_studies_are_the_demo_studies_with_rk4_at_1us(n):
     # 1 us lies outside RK4's stability region of the brake linearised at steady
     # sliding (limit about 0.31 us at the modal point, docs/brake.md)
     assert not paper.model.step_stability().stable.any()
+
+
+@pytest.mark.parametrize(
+    "name, parameters",
+    [
+        ("spin_up_beam.toml", ("spin_speed", "youngs_modulus")),
+        ("slider_crank.toml", ("youngs_modulus", "rod_height", "slider_mass")),
+    ],
+)
+def test_mechanism_study_files_are_valid(name, parameters):
+    # the study files of the registered mechanisms load: their model, fuzzy parameters and
+    # outputs exist (building the model compiles nothing; running them is in the slow suite)
+    from fuzzymbs.study.studyfile import load_study_file
+
+    definition = load_study_file(EXAMPLES / name)
+    assert definition.study.plan.names == parameters
