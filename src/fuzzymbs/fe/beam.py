@@ -38,6 +38,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.modal_body import ModalBody
 
 #: Gauss-Legendre rule on [0, 1] with 4 points: exact to degree 7, enough for
 #: products of two cubics (mass integrals) and of two quadratic slopes.
@@ -99,6 +100,9 @@ class ReducedBeam:
     geometric_axial : (m, m) geometric stiffness per unit axial acceleration [1/m].
     geometric_node : (k, m, m) geometric stiffness per unit axial tension between the root
         and each node (a force along the beam applied at that node) [1/kg].
+    modal_mass_parts : (2, 2, m, m) integral of rho A phi_i phi_j^T per pair of components
+        (i, j in x, y): the parts of ``modal_mass`` a spatial body needs.
+    modal_position_parts : (2, 2, m) integral of rho A x_bar_i phi_j per pair of components.
     """
 
     nodes: NDArray[np.float64]
@@ -116,10 +120,55 @@ class ReducedBeam:
     geometric_spin: NDArray[np.float64]
     geometric_axial: NDArray[np.float64]
     geometric_node: NDArray[np.float64]
+    modal_mass_parts: NDArray[np.float64]
+    modal_position_parts: NDArray[np.float64]
 
     @property
     def mode_count(self) -> int:
         return self.frequencies.size
+
+    def modal_body(self, name: str = "beam") -> ModalBody:
+        """The beam as a spatial modal body: along x, bending in the x-y plane.
+
+        Every inertia shape integral of :class:`~fuzzymbs.mbs.modal_body.ModalBody`
+        follows from this beam's, with z components zero (Euler-Bernoulli: no rotary
+        inertia of the section, so a line body with no inertia about its own axis --
+        hold that rotation with a joint). Node sets ``"root"`` and ``"tip"``.
+        """
+        k, m = self.nodes.size, self.mode_count
+        shapes = np.zeros((k, 3, m))
+        shapes[:, :2] = self.node_modes[:, :2]
+        parts = np.zeros((3, 3, m, m))
+        parts[:2, :2] = self.modal_mass_parts
+        position_parts = np.zeros((3, 3, m))
+        position_parts[:2, :2] = self.modal_position_parts
+        eye = np.eye(3)
+        # E_i E_j v = e_j v_i - delta_ij v, E_i = skew(e_i): Psi^T M E_i E_j Psi and
+        # Psi^T M E_i E_j x_bar from the component integrals
+        centrifugal = np.einsum("jimn->ijmn", parts) - eye[:, :, None, None] * self.modal_mass
+        centrifugal_load = position_parts - eye[:, :, None] * self.modal_position
+        gyroscopic = np.zeros((3, m, m))
+        gyroscopic[2] = self.modal_gyroscopic
+        rotation_coupling = np.zeros((3, m))
+        rotation_coupling[2] = self.modal_turned_position
+        s0 = np.array([*self.first_moment, 0.0])
+        return ModalBody(
+            name=name,
+            mass=float(self.mass),
+            node_ids=np.arange(k),
+            node_positions=np.column_stack([self.nodes, np.zeros(k), np.zeros(k)]),
+            mode_shapes=shapes,
+            frequencies=self.frequencies.copy(),
+            first_moment=s0,
+            # a line along x: integral of rho A (|x|^2 I - x x^T) = diag(0, J, J)
+            inertia_tensor=np.diag([0.0, self.inertia, self.inertia]),
+            translation_coupling=np.vstack([self.modal_first_moment, np.zeros((1, m))]),
+            rotation_coupling=rotation_coupling,
+            gyroscopic=gyroscopic,
+            centrifugal=centrifugal,
+            centrifugal_load=centrifugal_load,
+            node_sets={"root": np.array([0]), "tip": np.array([k - 1])},
+        )
 
 
 @dataclass(frozen=True)
@@ -272,6 +321,8 @@ class PlanarBeam:
         kg_spin = np.zeros((modes, modes))
         kg_axial = np.zeros((modes, modes))
         kg_node = np.zeros((ne + 1, modes, modes))
+        mass_parts = np.zeros((2, 2, modes, modes))
+        position_parts = np.zeros((2, 2, modes))
         hn, hdn = _hermite(_GAUSS_X, h)
         for e in range(ne):
             x = (e + _GAUSS_X) * h
@@ -295,6 +346,8 @@ class PlanarBeam:
                 b += wg * phi.T @ np.array([-xbar[1], xbar[0]])
                 mqq += wg * phi.T @ phi
                 gyro += wg * phi.T @ turned_phi
+                mass_parts += wg * phi[:, None, :, None] * phi[None, :, None, :]
+                position_parts += wg * xbar[:, None, None] * phi[None, :, :]
                 spin_force = 0.5 * mu * (self.length**2 - x[g] ** 2)
                 axial_force = mu * (self.length - x[g])
                 kg_spin += weight[g] * spin_force * np.outer(slope[g], slope[g])
@@ -315,4 +368,6 @@ class PlanarBeam:
             geometric_spin=kg_spin,
             geometric_axial=kg_axial,
             geometric_node=kg_node,
+            modal_mass_parts=mass_parts,
+            modal_position_parts=position_parts,
         )

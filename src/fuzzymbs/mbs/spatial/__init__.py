@@ -1,8 +1,9 @@
-"""Spatial (3D) rigid-body mechanisms: bodies in Euler parameters, joints, springs, loads.
+"""Spatial (3D) mechanisms: rigid and flexible bodies in floating frames (Euler parameters),
+joints, springs, loads.
 
 Public API (see docs/mechanisms.md, "Spatial mechanisms")::
 
-    from fuzzymbs.mbs.spatial import (Mechanism, RigidBody, ground, frame_with_z,
+    from fuzzymbs.mbs.spatial import (Mechanism, RigidBody, FlexibleBody, ground, frame_with_z,
                                       Spherical, Revolute, Universal, Cylindrical,
                                       Prismatic, Fixed, SpringDamper, MarkerLoad, simulate)
 """
@@ -16,6 +17,7 @@ _LAZY: dict[str, str] = {
     "SpatialResult": "fuzzymbs.mbs.spatial.system",
     "simulate": "fuzzymbs.mbs.spatial.system",
     "RigidBody": "fuzzymbs.mbs.spatial.bodies",
+    "FlexibleBody": "fuzzymbs.mbs.spatial.bodies",
     "Marker": "fuzzymbs.mbs.spatial.bodies",
     "ground": "fuzzymbs.mbs.spatial.bodies",
     "frame_with_z": "fuzzymbs.mbs.spatial.bodies",

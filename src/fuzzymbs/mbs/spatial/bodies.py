@@ -1,9 +1,14 @@
-"""Spatial rigid bodies and markers.
+"""Spatial bodies and markers.
 
-A body's frame sits at its centre of mass; its orientation is a rotation
-matrix on input and Euler parameters in the state (never singular). A marker
-is a point and three axes fixed in a body (or in the ground); joints and forces
-act between markers.
+Every body has one kinematic description: a floating frame (position r and
+orientation, a rotation matrix on input and Euler parameters in the state: never
+singular) carrying small elastic deformation in r modal coordinates. A
+:class:`RigidBody` is the case r = 0 with its frame at its centre of mass; a
+:class:`FlexibleBody` takes its frame, modes and inertia shape integrals from a
+:class:`~fuzzymbs.mbs.modal_body.ModalBody` (:mod:`fuzzymbs.fe`). A marker is a
+point and three axes of a body (or of the ground); on a flexible body its point
+may follow a node or the average of a node set (an RBE3-like interface point),
+while its axes follow the frame. Joints and forces act between markers.
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.modal_body import ModalBody
 
 
 def _vector(value: ArrayLike, what: str) -> NDArray[np.float64]:
@@ -79,14 +85,21 @@ def euler_parameters(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
 
 @dataclass(frozen=True, eq=False)
 class Marker:
-    """A point and axes (columns of ``axes``) in a body's frame, or the ground's."""
+    """A point and axes (columns of ``axes``) in a body's frame, or the ground's.
 
-    body: RigidBody | None
+    ``shape`` (3, r): how the point moves with a flexible body's modal coordinates
+    (None: it is fixed in the frame).
+    """
+
+    body: RigidBody | FlexibleBody | None
     position: NDArray[np.float64]
     axes: NDArray[np.float64]
+    shape: NDArray[np.float64] | None = None
 
     def pack(self) -> list[float]:
-        return [*self.position, *self.axes.ravel()]
+        modes = 0 if self.body is None else self.body.mode_count
+        shape = np.zeros((3, modes)) if self.shape is None else self.shape
+        return [*self.position, *self.axes.ravel(), *shape.ravel()]
 
     @property
     def name(self) -> str:
@@ -178,11 +191,172 @@ class RigidBody:
             self, _vector(position, f"point on {self.name!r}"), _rotation(axes, "marker axes")
         )
 
+    mode_count = 0
+
     def pack(self) -> list[float]:
-        return [self.mass, *np.asarray(self.inertia).ravel()]
+        """Mass, first moment about the frame origin (zero: the centre of mass), inertia."""
+        return [self.mass, 0.0, 0.0, 0.0, *np.asarray(self.inertia).ravel()]
 
     def initial_state(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(r, p) and (r', w in the body frame)."""
         q = np.concatenate([self.position, euler_parameters(self.orientation)])
         v = np.concatenate([self.velocity, self.orientation.T @ self.angular_velocity])
         return q, v
+
+
+@dataclass(eq=False)
+class FlexibleBody:
+    """A modally reduced elastic body in a floating frame of reference.
+
+    The frame is the one the :class:`~fuzzymbs.mbs.modal_body.ModalBody` is
+    written in (its node positions, modes and inertia shape integrals); the modes
+    are mass-normalised, with modal damping ``2 zeta omega``.
+
+    Parameters
+    ----------
+    name : str
+    modal : ModalBody
+        From :mod:`fuzzymbs.fe` (a reduced FE mesh), ``ReducedBeam.modal_body()`` or
+        :func:`fuzzymbs.mbs.lumped.lumped_modal_body`.
+    position : (3,)
+        Initial frame origin [m].
+    orientation : (3, 3)
+        Initial frame rotation (body axes as columns).
+    velocity : (3,)
+        Initial velocity of the frame origin [m/s].
+    angular_velocity : (3,)
+        Initial angular velocity in the global frame [rad/s].
+    damping_ratio : float or (r,)
+        Modal damping ratios zeta [-], >= 0.
+    coordinates, rates : (r,), optional
+        Initial modal coordinates and their rates (default zero: undeformed, at rest
+        in the frame).
+    """
+
+    name: str
+    modal: ModalBody
+    position: ArrayLike = (0.0, 0.0, 0.0)
+    orientation: ArrayLike | None = None
+    velocity: ArrayLike = (0.0, 0.0, 0.0)
+    angular_velocity: ArrayLike = (0.0, 0.0, 0.0)
+    damping_ratio: float | ArrayLike = 0.0
+    coordinates: ArrayLike | None = None
+    rates: ArrayLike | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise InvalidParameterError(f"a body needs a non-empty name, got {self.name!r}")
+        if not isinstance(self.modal, ModalBody):
+            raise InvalidParameterError(
+                f"body {self.name!r}: modal must be a ModalBody, got {type(self.modal).__name__}"
+            )
+        if not (np.isfinite(self.modal.mass) and self.modal.mass > 0):
+            raise InvalidParameterError(
+                f"body {self.name!r} mass must be finite and > 0, got {self.modal.mass!r}"
+            )
+        r = self.modal.n_modes
+        zeta = np.broadcast_to(np.asarray(self.damping_ratio, dtype=float), (r,)).copy()
+        if not np.isfinite(zeta).all() or np.any(zeta < 0):
+            raise InvalidParameterError(
+                f"body {self.name!r}: damping ratios must be finite and >= 0, "
+                f"got {self.damping_ratio!r}"
+            )
+        self.damping_ratio = zeta
+        for field_name in ("coordinates", "rates"):
+            value = getattr(self, field_name)
+            array = np.zeros(r) if value is None else np.asarray(value, dtype=float)
+            if array.shape != (r,) or not np.isfinite(array).all():
+                raise InvalidParameterError(
+                    f"body {self.name!r} {field_name} must be {r} finite numbers, got {value!r}"
+                )
+            setattr(self, field_name, array)
+        self.position = _vector(self.position, f"body {self.name!r} position")
+        self.orientation = _rotation(self.orientation, f"body {self.name!r} orientation")
+        self.velocity = _vector(self.velocity, f"body {self.name!r} velocity")
+        self.angular_velocity = _vector(
+            self.angular_velocity, f"body {self.name!r} angular_velocity"
+        )
+
+    @property
+    def mode_count(self) -> int:
+        return self.modal.n_modes
+
+    @property
+    def mass(self) -> float:
+        return float(self.modal.mass)
+
+    def point(self, position: ArrayLike = (0.0, 0.0, 0.0), axes: ArrayLike | None = None) -> Marker:
+        """A marker at ``position`` fixed in the frame [m] (it does not deform)."""
+        return Marker(
+            self, _vector(position, f"point on {self.name!r}"), _rotation(axes, "marker axes")
+        )
+
+    def node(self, index: int, axes: ArrayLike | None = None) -> Marker:
+        """A marker on kept node ``index``: its point moves with the modes, its axes with
+        the frame (exact where the modes do not turn the node, e.g. at a clamped
+        interface)."""
+        if not (isinstance(index, int | np.integer) and 0 <= index < self.modal.n_nodes):
+            raise InvalidParameterError(
+                f"body {self.name!r} has nodes 0 to {self.modal.n_nodes - 1}, got {index!r}"
+            )
+        return Marker(
+            self,
+            self.modal.node_positions[index].copy(),
+            _rotation(axes, "marker axes"),
+            self.modal.mode_shapes[index].copy(),
+        )
+
+    def nodes(self, which: str | ArrayLike, axes: ArrayLike | None = None) -> Marker:
+        """A marker at the mean of a node set (a name in ``modal.node_sets`` or indices):
+        the interface point of an RBE3 element with equal weights; axes as :meth:`node`."""
+        if isinstance(which, str):
+            if which not in self.modal.node_sets:
+                raise InvalidParameterError(
+                    f"body {self.name!r} has no node set {which!r}; sets: "
+                    f"{sorted(self.modal.node_sets)}"
+                )
+            index = np.asarray(self.modal.node_sets[which], dtype=np.int64)
+        else:
+            index = np.asarray(which, dtype=np.int64).reshape(-1)
+        if index.size == 0 or index.min() < 0 or index.max() >= self.modal.n_nodes:
+            raise InvalidParameterError(
+                f"body {self.name!r}: a node set needs node indices from 0 to "
+                f"{self.modal.n_nodes - 1}, got {which!r}"
+            )
+        return Marker(
+            self,
+            self.modal.node_positions[index].mean(axis=0),
+            _rotation(axes, "marker axes"),
+            self.modal.mode_shapes[index].mean(axis=0),
+        )
+
+    def pack(self) -> list[float]:
+        """Mass, first moment, inertia about the frame origin, then the shape integrals,
+        the modal stiffness omega^2 and damping 2 zeta omega (layout in
+        :mod:`fuzzymbs.mbs.spatial.kernels`)."""
+        b = self.modal
+        omega = np.asarray(b.frequencies, dtype=float)
+        # a = integral of rho xbar . Psi: -1/2 the trace of c_ij (E_i E_i = e_i e_i^T - I)
+        a = -0.5 * np.einsum("iim->m", b.centrifugal_load)
+        return [
+            b.mass,
+            *b.first_moment,
+            *np.asarray(b.inertia_tensor).ravel(),
+            *b.translation_coupling.ravel(),
+            *b.rotation_coupling.ravel(),
+            *b.gyroscopic.ravel(),
+            *b.centrifugal.ravel(),
+            *b.centrifugal_load.ravel(),
+            *a,
+            *omega**2,
+            *(2.0 * self.damping_ratio * omega),
+        ]
+
+    def initial_state(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(r, p, q) and (r', w in the body frame, q')."""
+        q = np.concatenate([self.position, euler_parameters(self.orientation), self.coordinates])
+        v = np.concatenate([self.velocity, self.orientation.T @ self.angular_velocity, self.rates])
+        return q, v
+
+
+Body = RigidBody | FlexibleBody

@@ -1,27 +1,44 @@
-"""Compiled physics of spatial rigid-body mechanisms: one sample per call, a batch per kernel.
+"""Compiled physics of spatial mechanisms: one sample per call, a batch per kernel.
 
-Coordinates of a body: the position r of its centre of mass and its Euler
-parameters p = (p0, p1, p2, p3) (a unit quaternion: no singular
-orientation); velocities: r' and the angular velocity w in the body frame,
-so that the mass matrix is constant, diag(m I, J) (Newton-Euler; Haug,
-Computer Aided Kinematics and Dynamics of Mechanical Systems, ch. 11;
-Nikravesh, Computer-Aided Analysis of Mechanical Systems, ch. 6). The
-Euler parameters follow p' = 1/2 p (0, w) and are renormalised after every
-step. Joints are built from Haug's primitives on markers (a point and three
-axes fixed in a body): coincident points (3 equations), perpendicular axes
+Every body is a floating frame with r modal coordinates (r = 0: rigid, its
+frame at its centre of mass). Coordinates of a body: the frame origin r, its
+Euler parameters p = (p0, p1, p2, p3) (a unit quaternion: no singular
+orientation) and the modal coordinates q; velocities: r', the angular velocity
+w in the body frame and q'. The mass matrix of a body, from its inertia shape
+integrals (Shabana, Dynamics of Multibody Systems, ch. 5; Schwertassek &
+Wallrapp, Dynamik flexibler Mehrkoerpersysteme, ch. 5), with S(q) = S0 + C_t q
+the first moment, J(q) the inertia about the frame origin and A the rotation::
+
+    [ m I        -A S~        A C_t        ]
+    [ S~ A^T      J(q)        C_r + G_i q  ]
+    [ C_t^T A^T   (sym.)      I            ]
+
+and the velocity-quadratic and elastic terms are written out in
+:func:`body_terms` (the derivation is in docs/mechanisms.md). For a rigid body
+this is Newton-Euler, diag(m I, J) (Haug, Computer Aided Kinematics and
+Dynamics of Mechanical Systems, ch. 11; Nikravesh, Computer-Aided Analysis of
+Mechanical Systems, ch. 6). The Euler parameters follow p' = 1/2 p (0, w) and
+are renormalised after every step. Joints are built from Haug's primitives on
+markers (a point and three axes of a body; on a flexible body the point may
+move with the modes): coincident points (3 equations), perpendicular axes
 (dot-1), an axis perpendicular to the line between the points (dot-2), and a
-rotational driver. The joints' Jacobian G acts on the velocities (r', w); the
-constrained equations are solved for the accelerations as in the planar engine
-(:mod:`fuzzymbs.mbs.planar.kernels`), and positions and velocities are
+rotational driver. The joints' Jacobian G acts on the velocities (r', w, q');
+the constrained equations are solved for the accelerations as in the planar
+engine (:mod:`fuzzymbs.mbs.planar.kernels`), and positions and velocities are
 projected onto the joints after every accepted step.
 
 Layout arrays (int64):
 
-- bodies  (nb, 3): position offset (7 per body), velocity offset (6 per body), data offset
-- markers (nk, 2): body (-1 ground), data offset
+- bodies  (nb, 4): position offset (7 + r per body), velocity offset (6 + r per
+  body), data offset, mode count r
+- markers (nk, 2): body (-1 ground), data offset (point 3, axes 9, mode shape 3 r)
 - joints  (nj, 6): kind, marker i, marker j, first row, data offset, drive profile (-1 none)
 - forces  (nf, 5): kind, marker i, marker j (-1 none), data offset, profile (-1 none)
 - sizes: position count, velocity count, equation count
+
+Body data: m, S0 (3), J0 (9), then for r > 0: C_t (3 r), C_r (3 r), G_i (3 r r),
+C_ij (9 r r), c_ij (9 r), a (r), omega^2 (r), 2 zeta omega (r) -- the
+:class:`~fuzzymbs.mbs.modal_body.ModalBody` integrals, a = integral of rho xbar . Psi.
 """
 
 from __future__ import annotations
@@ -76,8 +93,9 @@ def marker_state(k, markers, bodies, data, q, v, out):
     """Kinematics of marker ``k``'s point into ``out`` (6, 3).
 
     Rows: position, velocity, the velocity-quadratic part of the acceleration
-    (A (w x (w x s))), the point s in the body frame, the body's angular
-    velocity w (body frame) and in the global frame.
+    (A (w x (w x s) + 2 w x s'), s' = Psi q' the point's elastic rate), the point s
+    in the body frame (deformed), the body's angular velocity w (body frame) and in
+    the global frame.
     """
     body = markers[k, 0]
     d = markers[k, 1]
@@ -92,21 +110,36 @@ def marker_state(k, markers, bodies, data, q, v, out):
         return
     po = bodies[body, 0]
     vo = bodies[body, 1]
+    r = bodies[body, 3]
     rot = np.empty((3, 3))
     rotation(q, po + 3, rot)
-    s = data[d : d + 3]
+    s = np.empty(3)
+    sd = np.zeros(3)
+    for i in range(3):
+        s[i] = data[d + i]
+        for m in range(r):
+            psi = data[d + 12 + i * r + m]
+            s[i] += psi * q[po + 7 + m]
+            sd[i] += psi * v[vo + 6 + m]
     w = v[vo + 3 : vo + 6]
     ws = np.empty(3)
     cross(w, s, ws)
     wws = np.empty(3)
     cross(w, ws, wws)
+    wsd = np.empty(3)
+    cross(w, sd, wsd)
     for i in range(3):
-        out[0, i] = q[po + i] + rot[i, 0] * s[0] + rot[i, 1] * s[1] + rot[i, 2] * s[2]
-        out[1, i] = v[vo + i] + rot[i, 0] * ws[0] + rot[i, 1] * ws[1] + rot[i, 2] * ws[2]
-        out[2, i] = rot[i, 0] * wws[0] + rot[i, 1] * wws[1] + rot[i, 2] * wws[2]
+        out[0, i] = q[po + i]
+        out[1, i] = v[vo + i]
+        out[2, i] = 0.0
+        out[5, i] = 0.0
+        for j in range(3):
+            out[0, i] += rot[i, j] * s[j]
+            out[1, i] += rot[i, j] * (ws[j] + sd[j])
+            out[2, i] += rot[i, j] * (wws[j] + 2.0 * wsd[j])
+            out[5, i] += rot[i, j] * w[j]
         out[3, i] = s[i]
         out[4, i] = w[i]
-        out[5, i] = rot[i, 0] * w[0] + rot[i, 1] * w[1] + rot[i, 2] * w[2]
 
 
 @nb.njit(cache=True)
@@ -165,39 +198,164 @@ def add_vector_row(k, markers, bodies, q, local, weight, target):
 
 
 @nb.njit(cache=True)
-def add_point_row(k, markers, bodies, q, point, weight, target):
-    """target += weight^T dp/d(r', w) for the point ``point`` (body frame) of marker k's body."""
+def add_point_row(k, markers, bodies, data, q, point, weight, target):
+    """target += weight^T dp/d(r', w, q') for marker k's point (``point``: where it is in
+    the body frame, deformed; its mode shape from the marker's data)."""
     body = markers[k, 0]
     if body < 0:
         return
     vo = bodies[body, 1]
+    r = bodies[body, 3]
     for i in range(3):
         target[vo + i] += weight[i]
     add_vector_row(k, markers, bodies, q, point, weight, target)
+    if r:
+        rot = np.empty((3, 3))
+        rotation(q, bodies[body, 0] + 3, rot)
+        d = markers[k, 1]
+        for i in range(3):
+            local = rot[0, i] * weight[0] + rot[1, i] * weight[1] + rot[2, i] * weight[2]
+            for m in range(r):
+                target[vo + 6 + m] += data[d + 12 + i * r + m] * local
 
 
 @nb.njit(cache=True)
-def body_terms(bodies, data, v, mass, forces):
-    """diag(m I, J) and the gyroscopic and gravity forces of every body."""
+def body_terms(bodies, data, q, v, mass, forces):
+    """Mass matrix blocks, velocity-quadratic, gravity and elastic forces of every body.
+
+    With u = xbar + Psi q a material point in the body frame and the virtual
+    displacement dr + A (-u~ dpi + Psi dq), the inertia forces are (rows r, w, q)::
+
+        m r'' - A S~ w' + A C_t q''      + A (w~ w~ S + 2 w~ C_t q')
+        S~ A^T r'' + J w' + M_wq q''     + w~ J w + 2 (w (a + q).q' - int rho Psi q' (u . w))
+        C_t^T A^T r'' + M_wq^T w' + q''  + sum_ij w_i w_j (c_ij + C_ij q) + 2 sum_i w_i G_i q'
+
+    with M_wq = C_r + (G_i q)_i, J(q) = J0 - sum_m (c_ij + c_ji)_m q_m - q^T C_ij q,
+    int rho x_k Psi_j = c_kj + delta_kj a and int rho Psi_j Psi_k^T = C_kj + delta_kj I
+    (from E_i E_j v = e_j v_i - delta_ij v). Gravity g: m g, S~ A^T g, C_t^T A^T g.
+    The modes add -omega^2 q - 2 zeta omega q'.
+    """
+    g = data[0:3]
+    rot = np.empty((3, 3))
+    first = np.empty(3)
+    inertia = np.empty((3, 3))
     for b in range(bodies.shape[0]):
+        po = bodies[b, 0]
         vo = bodies[b, 1]
         d = bodies[b, 2]
+        r = bodies[b, 3]
         m = data[d]
+        rotation(q, po + 3, rot)
+        w = v[vo + 3 : vo + 6]
+        o_ct = d + 13
+        o_cr = o_ct + 3 * r
+        o_g = o_cr + 3 * r
+        o_cc = o_g + 3 * r * r
+        o_cl = o_cc + 9 * r * r
+        o_a = o_cl + 9 * r
+        o_k = o_a + r
+        o_d = o_k + r
+        modal = q[po + 7 : po + 7 + r]
+        modal_rate = v[vo + 6 : vo + 6 + r]
+        # S(q), C_t q', J(q)
+        ct_rate = np.zeros(3)
+        for i in range(3):
+            first[i] = data[d + 1 + i]
+            for x in range(r):
+                first[i] += data[o_ct + i * r + x] * modal[x]
+                ct_rate[i] += data[o_ct + i * r + x] * modal_rate[x]
+            for j in range(3):
+                value = data[d + 4 + 3 * i + j]
+                for x in range(r):
+                    value -= (
+                        data[o_cl + (3 * i + j) * r + x] + data[o_cl + (3 * j + i) * r + x]
+                    ) * modal[x]
+                    cq = 0.0
+                    for y in range(r):
+                        cq += data[o_cc + ((3 * i + j) * r + x) * r + y] * modal[y]
+                    value -= modal[x] * cq
+                inertia[i, j] = value
+        # translation block and its coupling to rotation (-A S~) and modes (A C_t)
+        # (A S~)_ij = sum_k A_ik S~_kj, S~ = skew(S)
         for i in range(3):
             mass[vo + i, vo + i] += m
-            forces[vo + i] += m * data[i]
+            a_s = np.empty(3)
+            a_s[0] = rot[i, 1] * first[2] - rot[i, 2] * first[1]  # (A S~)_i0
+            a_s[1] = rot[i, 2] * first[0] - rot[i, 0] * first[2]  # (A S~)_i1
+            a_s[2] = rot[i, 0] * first[1] - rot[i, 1] * first[0]  # (A S~)_i2
             for j in range(3):
-                mass[vo + 3 + i, vo + 3 + j] += data[d + 1 + 3 * i + j]
-        w = v[vo + 3 : vo + 6]
+                mass[vo + i, vo + 3 + j] -= a_s[j]
+                mass[vo + 3 + j, vo + i] -= a_s[j]
+                mass[vo + 3 + i, vo + 3 + j] += inertia[i, j]
+            for x in range(r):
+                value = 0.0
+                for k in range(3):
+                    value += rot[i, k] * data[o_ct + k * r + x]
+                mass[vo + i, vo + 6 + x] += value
+                mass[vo + 6 + x, vo + i] += value
+        for i in range(3):
+            for x in range(r):
+                value = data[o_cr + i * r + x]
+                for y in range(r):
+                    value += data[o_g + (i * r + x) * r + y] * modal[y]
+                mass[vo + 3 + i, vo + 6 + x] += value
+                mass[vo + 6 + x, vo + 3 + i] += value
+        for x in range(r):
+            mass[vo + 6 + x, vo + 6 + x] += 1.0
+        # translation forces: m g - A (w~ w~ S + 2 w~ C_t q')
+        ws = np.empty(3)
+        cross(w, first, ws)
+        wws = np.empty(3)
+        cross(w, ws, wws)
+        wct = np.empty(3)
+        cross(w, ct_rate, wct)
+        local_g = np.empty(3)
+        for i in range(3):
+            acc = 0.0
+            for j in range(3):
+                acc += rot[i, j] * (wws[j] + 2.0 * wct[j])
+            forces[vo + i] += m * g[i] - acc
+            local_g[i] = rot[0, i] * g[0] + rot[1, i] * g[1] + rot[2, i] * g[2]
+        # rotation forces: S~ A^T g - w~ J w - 2 (w (a + q).q' - int rho Psi q' (u . w))
+        moment = np.empty(3)
+        cross(first, local_g, moment)
         jw = np.empty(3)
         for i in range(3):
-            jw[i] = (
-                data[d + 1 + 3 * i] * w[0] + data[d + 2 + 3 * i] * w[1] + data[d + 3 + 3 * i] * w[2]
-            )
+            jw[i] = inertia[i, 0] * w[0] + inertia[i, 1] * w[1] + inertia[i, 2] * w[2]
         gyro = np.empty(3)
         cross(w, jw, gyro)
-        for i in range(3):
-            forces[vo + 3 + i] -= gyro[i]
+        along = 0.0
+        for x in range(r):
+            along += (data[o_a + x] + modal[x]) * modal_rate[x]
+        for j in range(3):
+            spread = 0.0
+            for k in range(3):
+                part = 0.0
+                for x in range(r):
+                    inner = data[o_cl + (3 * k + j) * r + x]
+                    if k == j:
+                        inner += data[o_a + x] + modal[x]
+                    for y in range(r):
+                        inner += data[o_cc + ((3 * k + j) * r + x) * r + y] * modal[y]
+                    part += modal_rate[x] * inner
+                spread += w[k] * part
+            forces[vo + 3 + j] += moment[j] - gyro[j] - 2.0 * (w[j] * along - spread)
+        # modal forces: C_t^T A^T g - sum_ij w_i w_j (c_ij + C_ij q) - 2 sum_i w_i G_i q'
+        #               - omega^2 q - 2 zeta omega q'
+        for x in range(r):
+            value = -data[o_k + x] * modal[x] - data[o_d + x] * modal_rate[x]
+            for i in range(3):
+                value += data[o_ct + i * r + x] * local_g[i]
+                coriolis = 0.0
+                for y in range(r):
+                    coriolis += data[o_g + (i * r + x) * r + y] * modal_rate[y]
+                value -= 2.0 * w[i] * coriolis
+                for j in range(3):
+                    centrifugal = data[o_cl + (3 * i + j) * r + x]
+                    for y in range(r):
+                        centrifugal += data[o_cc + ((3 * i + j) * r + x) * r + y] * modal[y]
+                    value -= w[i] * w[j] * centrifugal
+            forces[vo + 6 + x] += value
 
 
 @nb.njit(cache=True)
@@ -241,8 +399,8 @@ def joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, accelerat
             for c in range(3):
                 residual[r] = si[0, c] - sj[0, c]
                 quadratic[r] = si[2, c] - sj[2, c]
-                add_point_row(ki, markers, bodies, q, si[3].copy(), unit[c].copy(), jac[r])
-                add_point_row(kj, markers, bodies, q, sj[3].copy(), -unit[c], jac[r])
+                add_point_row(ki, markers, bodies, data, q, si[3].copy(), unit[c].copy(), jac[r])
+                add_point_row(kj, markers, bodies, data, q, sj[3].copy(), -unit[c], jac[r])
                 r += 1
         else:  # cylindrical, prismatic: marker j's point on marker i's z axis
             dvec = sj[0] - si[0]
@@ -258,8 +416,8 @@ def joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, accelerat
                 residual[r] = value
                 quadratic[r] = quad
                 add_vector_row(ki, markers, bodies, q, geo_i[3][:, a].copy(), dvec.copy(), jac[r])
-                add_point_row(kj, markers, bodies, q, sj[3].copy(), axis, jac[r])
-                add_point_row(ki, markers, bodies, q, si[3].copy(), -axis, jac[r])
+                add_point_row(kj, markers, bodies, data, q, sj[3].copy(), axis, jac[r])
+                add_point_row(ki, markers, bodies, data, q, si[3].copy(), -axis, jac[r])
                 r += 1
         # perpendicular axes: z_i with x_j, y_j (revolute, cylindrical, prismatic, fixed),
         # z_i with z_j (universal); x_i with y_j (prismatic, fixed: no turn about z)
@@ -348,10 +506,10 @@ def force_terms(t, layout, data, q, v, forces):
             for c in range(3):
                 force[c] = data[d + c] * scale
                 torque[c] = data[d + 3 + c] * scale
-        add_point_row(ki, markers, bodies, q, si[3].copy(), force, forces)
+        add_point_row(ki, markers, bodies, data, q, si[3].copy(), force, forces)
         _add_torque(ki, markers, bodies, q, torque, forces)
         if kj >= 0 and kind == SPRING_DAMPER:
-            add_point_row(kj, markers, bodies, q, sj[3].copy(), -force, forces)
+            add_point_row(kj, markers, bodies, data, q, sj[3].copy(), -force, forces)
 
 
 @nb.njit(cache=True)
@@ -376,7 +534,7 @@ def accelerations(t, q, v, layout, data, system, solution):
     system[:, :] = 0.0
     solution[:] = 0.0
     mass = np.zeros((n, n))
-    body_terms(layout[0], data, v, mass, solution[:n])
+    body_terms(layout[0], data, q, v, mass, solution[:n])
     system[:n, :n] = mass
     force_terms(t, layout, data, q, v, solution[:n])
     if c:
@@ -454,6 +612,8 @@ def project(t, q, v, layout, data, tolerance):
             for i in range(3):
                 q[po + i] += step[vo + i]
             _rotate(q, po + 3, step[vo + 3], step[vo + 4], step[vo + 5])
+            for x in range(bodies[b, 3]):
+                q[po + 7 + x] += step[vo + 6 + x]
     if not worst <= tolerance:
         return np.inf
     jac[:, :] = 0.0
@@ -489,6 +649,8 @@ def _derivative(t, x, layout, data, system, solution, out):
         out[po + 4] = 0.5 * (e0 * wx + e2 * wz - e3 * wy)
         out[po + 5] = 0.5 * (e0 * wy - e1 * wz + e3 * wx)
         out[po + 6] = 0.5 * (e0 * wz + e1 * wy - e2 * wx)
+        for x in range(bodies[b, 3]):
+            out[po + 7 + x] = v[vo + 6 + x]
     for i in range(n):
         out[nq + i] = solution[i]
     return ok
@@ -621,3 +783,68 @@ def markers_at(wanted, states, layout, data, out):
                 marker_state(wanted[w], markers, bodies, data[s], x[:nq], x[nq:], state)
                 out[s, i, w, :3] = state[0]
                 out[s, i, w, 3:] = state[1]
+
+
+@nb.njit(cache=True)
+def energy_at(states, layout, data, out):
+    """Kinetic, gravitational and elastic energy at every stored state: out (B, T, 3).
+
+    Kinetic 1/2 v^T M v (M from :func:`body_terms`); gravitational -g . (m r + A S(q));
+    elastic 1/2 omega^2 q^2 of the modes plus 1/2 k (l - l0)^2 of the springs.
+    """
+    bodies, markers, elements = layout[0], layout[1], layout[3]
+    nq = layout[4][0]
+    n = layout[4][1]
+    g = np.empty(3)
+    si = np.empty((6, 3))
+    sj = np.empty((6, 3))
+    rot = np.empty((3, 3))
+    for s in range(states.shape[0]):
+        row = data[s]
+        for i in range(3):
+            g[i] = row[i]
+        for t in range(states.shape[1]):
+            x = states[s, t]
+            if not math.isfinite(x[0]):
+                out[s, t, :] = np.nan
+                continue
+            q = x[:nq]
+            v = x[nq:]
+            mass = np.zeros((n, n))
+            forces = np.zeros(n)
+            body_terms(bodies, row, q, v, mass, forces)
+            kinetic = 0.0
+            for i in range(n):
+                for j in range(n):
+                    kinetic += 0.5 * v[i] * mass[i, j] * v[j]
+            potential = 0.0
+            elastic = 0.0
+            for b in range(bodies.shape[0]):
+                po = bodies[b, 0]
+                d = bodies[b, 2]
+                r = bodies[b, 3]
+                rotation(q, po + 3, rot)
+                o_ct = d + 13
+                o_k = o_ct + 6 * r + 3 * r * r + 9 * r * r + 9 * r + r
+                for i in range(3):
+                    first = row[d + 1 + i]
+                    for m in range(r):
+                        first += row[o_ct + i * r + m] * q[po + 7 + m]
+                    for k in range(3):
+                        potential -= g[k] * rot[k, i] * first
+                    potential -= g[i] * row[d] * q[po + i]
+                for m in range(r):
+                    elastic += 0.5 * row[o_k + m] * q[po + 7 + m] ** 2
+            for e in range(elements.shape[0]):
+                if elements[e, 0] != SPRING_DAMPER:
+                    continue
+                marker_state(elements[e, 1], markers, bodies, row, q, v, si)
+                marker_state(elements[e, 2], markers, bodies, row, q, v, sj)
+                length = 0.0
+                for c in range(3):
+                    length += (sj[0, c] - si[0, c]) ** 2
+                d = elements[e, 3]
+                elastic += 0.5 * row[d] * (math.sqrt(length) - row[d + 2]) ** 2
+            out[s, t, 0] = kinetic
+            out[s, t, 1] = potential
+            out[s, t, 2] = elastic

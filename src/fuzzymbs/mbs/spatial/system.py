@@ -1,4 +1,4 @@
-"""A spatial mechanism of rigid bodies: building, checks, packing, simulation.
+"""A spatial mechanism of rigid and flexible bodies: building, checks, packing, simulation.
 
 Build it as the planar one (:mod:`fuzzymbs.mbs.planar.system`)::
 
@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.kernels.threads import for_each_range
 from fuzzymbs.mbs.spatial import kernels
-from fuzzymbs.mbs.spatial.bodies import Marker, RigidBody
+from fuzzymbs.mbs.spatial.bodies import Body, FlexibleBody, Marker, RigidBody
 from fuzzymbs.mbs.spatial.forces import ForceElement, MarkerLoad, SpringDamper
 from fuzzymbs.mbs.spatial.joints import (
     Cylindrical,
@@ -40,7 +40,7 @@ _JOINTS = (Spherical, Revolute, Universal, Cylindrical, Prismatic, Fixed)
 
 
 class Mechanism:
-    """Spatial rigid bodies, joints and force elements, with gravity [m/s^2]."""
+    """Spatial rigid and flexible bodies, joints and force elements, with gravity [m/s^2]."""
 
     def __init__(self, gravity: ArrayLike = (0.0, 0.0, 0.0)) -> None:
         g = np.asarray(gravity, dtype=float)
@@ -49,14 +49,14 @@ class Mechanism:
                 f"gravity must be three finite numbers [m/s^2], got {gravity!r}"
             )
         self.gravity = g
-        self.bodies: list[RigidBody] = []
+        self.bodies: list[Body] = []
         self.joints: list[Joint] = []
         self.forces: list[ForceElement] = []
         self.named_markers: dict[str, Marker] = {}
 
     def add(self, *elements) -> Mechanism:
         for element in elements:
-            if isinstance(element, RigidBody):
+            if isinstance(element, RigidBody | FlexibleBody):
                 if any(b.name == element.name for b in self.bodies):
                     raise InvalidParameterError(f"two bodies are named {element.name!r}")
                 self.bodies.append(element)
@@ -76,7 +76,7 @@ class Mechanism:
         self.named_markers[name] = marker
         return marker
 
-    def body(self, name: str) -> RigidBody:
+    def body(self, name: str) -> Body:
         for b in self.bodies:
             if b.name == name:
                 return b
@@ -107,12 +107,15 @@ class Mechanism:
             raise InvalidParameterError("a Mechanism needs at least one body")
         data: list[float] = [*self.gravity]
         bodies, qs, vs = [], [], []
-        for index, b in enumerate(self.bodies):
-            bodies.append([7 * index, 6 * index, len(data)])
+        nq = n = 0
+        for b in self.bodies:
+            bodies.append([nq, n, len(data), b.mode_count])
             data.extend(b.pack())
             q, v = b.initial_state()
             qs.append(q)
             vs.append(v)
+            nq += q.size
+            n += v.size
         markers = self.markers()
         marker_rows = []
         for m in markers:
@@ -134,9 +137,8 @@ class Mechanism:
             data.extend(j.pack())
             row += j.rows
         state = np.concatenate([*qs, *vs])
-        nq, n = 7 * len(self.bodies), 6 * len(self.bodies)
         marker_array = np.array(marker_rows, dtype=np.int64).reshape(-1, 2)
-        body_array = np.array(bodies, dtype=np.int64).reshape(-1, 3)
+        body_array = np.array(bodies, dtype=np.int64).reshape(-1, 4)
         positions = self._marker_positions(body_array, marker_array, np.array(data), state, nq)
         forces = []
         for f in self.forces:
@@ -215,26 +217,42 @@ class SpatialResult:
     def failed(self) -> NDArray[np.bool_]:
         return self.status != kernels.FINISHED
 
-    def position(self, body: str) -> NDArray[np.float64]:
-        """(B, T, 3) centre of mass [m]."""
+    def _offsets(self, body: str) -> tuple[int, int, int]:
+        """(position offset, velocity offset (after the positions), mode count) of a body."""
         i = self.template.bodies.index(self.template.body(body))
-        return self.states[:, :, 7 * i : 7 * i + 3]
+        row = self.layout[0][i]
+        return int(row[0]), int(self.layout[4][0] + row[1]), int(row[3])
+
+    def position(self, body: str) -> NDArray[np.float64]:
+        """(B, T, 3) frame origin [m] (a rigid body's centre of mass)."""
+        po, _, _ = self._offsets(body)
+        return self.states[:, :, po : po + 3]
 
     def euler_parameters(self, body: str) -> NDArray[np.float64]:
         """(B, T, 4) unit quaternion of the body's orientation."""
-        i = self.template.bodies.index(self.template.body(body))
-        return self.states[:, :, 7 * i + 3 : 7 * i + 7]
+        po, _, _ = self._offsets(body)
+        return self.states[:, :, po + 3 : po + 7]
+
+    def modal_coordinates(self, body: str) -> NDArray[np.float64]:
+        """(B, T, r) modal coordinates of a flexible body (r = 0 for a rigid one)."""
+        po, _, r = self._offsets(body)
+        return self.states[:, :, po + 7 : po + 7 + r]
 
     def angular_velocity(self, body: str) -> NDArray[np.float64]:
         """(B, T, 3) angular velocity in the body frame [rad/s]."""
-        nq = 7 * len(self.template.bodies)
-        i = self.template.bodies.index(self.template.body(body))
-        return self.states[:, :, nq + 6 * i + 3 : nq + 6 * i + 6]
+        _, vo, _ = self._offsets(body)
+        return self.states[:, :, vo + 3 : vo + 6]
 
     def velocity(self, body: str) -> NDArray[np.float64]:
-        nq = 7 * len(self.template.bodies)
-        i = self.template.bodies.index(self.template.body(body))
-        return self.states[:, :, nq + 6 * i : nq + 6 * i + 3]
+        """(B, T, 3) velocity of the frame origin [m/s]."""
+        _, vo, _ = self._offsets(body)
+        return self.states[:, :, vo : vo + 3]
+
+    def energy(self) -> NDArray[np.float64]:
+        """(B, T, 3): kinetic, gravitational and elastic (modes and springs) energy [J]."""
+        out = np.empty((*self.states.shape[:2], 3))
+        kernels.energy_at(self.states, self.layout, self.data, out)
+        return out
 
     def marker(self, name: str) -> NDArray[np.float64]:
         """(B, T, 6): position and velocity of a named marker."""
