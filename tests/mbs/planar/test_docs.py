@@ -16,7 +16,7 @@ GUIDE = Path(__file__).resolve().parents[3] / "docs" / "mechanisms.md"
 @pytest.mark.slow  # its spatial example compiles the spatial kernels (about 25 s)
 def test_mechanisms_guide_examples_run():
     blocks = re.findall(r"```python\n(.*?)```", GUIDE.read_text(), flags=re.S)
-    assert len(blocks) == 5
+    assert len(blocks) == 6
     namespace: dict = {}
     for block in blocks:
         exec(compile(block, str(GUIDE), "exec"), namespace)
@@ -32,5 +32,10 @@ def test_mechanisms_guide_examples_run():
     np.testing.assert_allclose(
         namespace["spatial"].position("bob")[0, :, 2], -np.cos(np.deg2rad(30)), atol=1e-9
     )
+    # the flexible strip swings and bends, its joint held
+    flexible = namespace["flexible"]
+    assert not flexible.failed.any() and flexible.joint_residual[0] < 1e-10
+    assert flexible.modal_coordinates("strip").shape == (1, 101, 4)
+    assert np.abs(flexible.modal_coordinates("strip")).max() > 1e-5
     out = namespace["out"]
     assert out["tip_x"].shape == (2, 201) and not out["failed"].any()
