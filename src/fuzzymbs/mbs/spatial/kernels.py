@@ -89,6 +89,18 @@ def cross(a, b, out):
 
 
 @nb.njit(cache=True)
+def spin_terms(w, s, sd, ws, quadratic):
+    """ws = w x s and quadratic = w x (w x s) + 2 w x s': the body-frame parts of a moving
+    point's velocity and acceleration that the frame's turning adds."""
+    cross(w, s, ws)
+    twice = np.empty(3)
+    cross(w, ws, quadratic)
+    cross(w, sd, twice)
+    for i in range(3):
+        quadratic[i] += 2.0 * twice[i]
+
+
+@nb.njit(cache=True)
 def marker_state(k, markers, bodies, data, q, v, out):
     """Kinematics of marker ``k``'s point into ``out`` (6, 3).
 
@@ -123,11 +135,8 @@ def marker_state(k, markers, bodies, data, q, v, out):
             sd[i] += psi * v[vo + 6 + m]
     w = v[vo + 3 : vo + 6]
     ws = np.empty(3)
-    cross(w, s, ws)
-    wws = np.empty(3)
-    cross(w, ws, wws)
-    wsd = np.empty(3)
-    cross(w, sd, wsd)
+    quadratic = np.empty(3)
+    spin_terms(w, s, sd, ws, quadratic)
     for i in range(3):
         out[0, i] = q[po + i]
         out[1, i] = v[vo + i]
@@ -136,7 +145,7 @@ def marker_state(k, markers, bodies, data, q, v, out):
         for j in range(3):
             out[0, i] += rot[i, j] * s[j]
             out[1, i] += rot[i, j] * (ws[j] + sd[j])
-            out[2, i] += rot[i, j] * (wws[j] + 2.0 * wsd[j])
+            out[2, i] += rot[i, j] * quadratic[j]
             out[5, i] += rot[i, j] * w[j]
         out[3, i] = s[i]
         out[4, i] = w[i]
@@ -304,16 +313,13 @@ def body_terms(bodies, data, q, v, mass, forces):
             mass[vo + 6 + x, vo + 6 + x] += 1.0
         # translation forces: m g - A (w~ w~ S + 2 w~ C_t q')
         ws = np.empty(3)
-        cross(w, first, ws)
-        wws = np.empty(3)
-        cross(w, ws, wws)
-        wct = np.empty(3)
-        cross(w, ct_rate, wct)
+        quadratic = np.empty(3)
+        spin_terms(w, first, ct_rate, ws, quadratic)
         local_g = np.empty(3)
         for i in range(3):
             acc = 0.0
             for j in range(3):
-                acc += rot[i, j] * (wws[j] + 2.0 * wct[j])
+                acc += rot[i, j] * quadratic[j]
             forces[vo + i] += m * g[i] - acc
             local_g[i] = rot[0, i] * g[0] + rot[1, i] * g[1] + rot[2, i] * g[2]
         # rotation forces: S~ A^T g - w~ J w - 2 (w (a + q).q' - int rho Psi q' (u . w))
