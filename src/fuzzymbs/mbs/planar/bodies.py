@@ -95,6 +95,8 @@ ground = Ground()
 
 @dataclass(eq=False)
 class _Body:
+    role = "body"
+    engine = "planar"
     name: str
     position: ArrayLike = (0.0, 0.0)
     angle: float = 0.0

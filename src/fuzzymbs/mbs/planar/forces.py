@@ -75,6 +75,8 @@ class SpringDamper:
     damping: float = 0.0
     free_length: float | None = None
     kind = kernels.SPRING_DAMPER
+    role = "force"
+    engine = "planar"
     profile_code = -1
 
     def __post_init__(self) -> None:
@@ -109,6 +111,8 @@ class RotationalSpringDamper:
     damping: float = 0.0
     free_angle: float | None = None
     kind = kernels.ROTATIONAL_SPRING_DAMPER
+    role = "force"
+    engine = "planar"
     profile_code = -1
 
     def __post_init__(self) -> None:
@@ -134,6 +138,8 @@ class MarkerLoad:
     profile: Profile | None = None
     in_marker_frame: bool = False
     kind = kernels.MARKER_LOAD
+    role = "force"
+    engine = "planar"
     marker_j = None
 
     def __post_init__(self) -> None:
@@ -175,6 +181,8 @@ class UserForce:
     function: object
     parameters: Sequence[float] = ()
     kind = kernels.USER_FORCE
+    role = "force"
+    engine = "planar"
     profile_code = -1
 
     def __post_init__(self) -> None:
@@ -237,6 +245,8 @@ class Contact:
     regularization: float = 1e-3
     radius: float | None = None
     kind = kernels.CONTACT
+    role = "force"
+    engine = "planar"
     profile_code = -1
 
     def __post_init__(self) -> None:

@@ -42,9 +42,40 @@ _E = _B - np.array([5179 / 57600, 0, 7571 / 16695, 393 / 640, -92097 / 339200, 1
 
 
 @nb.njit(cache=True)
-def dormand_prince():
-    """(A, B, C, E) of Dormand-Prince 5(4): stages, weights, nodes, error weights."""
-    return _A, _B, _C, _E
+def stage_time(t, stage, step):
+    """The time stage ``stage`` of a step from t is evaluated at."""
+    return t + _C[stage] * step
+
+
+@nb.njit(cache=True)
+def stage_state(x, k, stage, step, trial):
+    """trial = x + step sum_j A[stage, j] k[j]: the state stage ``stage`` is evaluated at
+    (stage 6 gives the 5th-order solution, at which stage 7 is evaluated: FSAL)."""
+    for i in range(x.size):
+        acc = 0.0
+        for j in range(stage):
+            acc += _A[stage, j] * k[j, i]
+        trial[i] = x[i] + step * acc
+
+
+@nb.njit(cache=True)
+def error_norm(x, trial, k, step, rtol, atol):
+    """Root mean square of the embedded error estimate, each component scaled by
+    atol + rtol max(|x|, |trial|) (Hairer, Norsett & Wanner I, eq. II.4.11)."""
+    err = 0.0
+    for i in range(x.size):
+        e = 0.0
+        for j in range(7):
+            e += _E[j] * k[j, i]
+        scale = atol + rtol * max(abs(x[i]), abs(trial[i]))
+        err += (step * e / scale) ** 2
+    return math.sqrt(err / x.size)
+
+
+@nb.njit(cache=True)
+def step_factor(err):
+    """The next step over this one: 0.9 err^(-1/5), kept within 0.2 to 5."""
+    return min(5.0, max(0.2, 0.9 * err ** (-0.2))) if err > 0.0 else 5.0
 
 
 @nb.njit(cache=True)
@@ -89,13 +120,9 @@ def integrate_sample(
             last = h >= target - t
             step = target - t if last else h
             for stage in range(1, 7):
-                for i in range(size):
-                    acc = 0.0
-                    for j in range(stage):
-                        acc += _A[stage, j] * k[j, i]
-                    trial[i] = x[i] + step * acc
+                stage_state(x, k, stage, step, trial)
                 if not _derivative(
-                    t + _C[stage] * step,
+                    stage_time(t, stage, step),
                     trial,
                     n,
                     layout,
@@ -107,17 +134,10 @@ def integrate_sample(
                 ):
                     return NOT_FINITE, accepted, rejected, worst
             # trial holds the 5th-order solution (stage 7 is evaluated at it: FSAL)
-            err = 0.0
-            for i in range(size):
-                e = 0.0
-                for j in range(7):
-                    e += _E[j] * k[j, i]
-                scale = atol + rtol * max(abs(x[i]), abs(trial[i]))
-                err += (step * e / scale) ** 2
-            err = math.sqrt(err / size)
+            err = error_norm(x, trial, k, step, rtol, atol)
             if not math.isfinite(err):
                 return NOT_FINITE, accepted, rejected, worst
-            factor = min(5.0, max(0.2, 0.9 * err ** (-0.2))) if err > 0.0 else 5.0
+            factor = step_factor(err)
             if err <= 1.0:
                 t = target if last else t + step
                 x[:] = trial

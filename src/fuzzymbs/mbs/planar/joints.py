@@ -18,53 +18,26 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.assembly import JointBase
 from fuzzymbs.mbs.planar import kernels
 from fuzzymbs.mbs.planar.bodies import Marker
-from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
-
-
-def _markers(kind: str, i: Marker, j: Marker) -> None:
-    for what, marker in (("first", i), ("second", j)):
-        if not isinstance(marker, Marker):
-            raise InvalidParameterError(f"{kind} needs two markers; its {what} is {marker!r}")
-    if i.body is None and j.body is None:
-        raise InvalidParameterError(f"{kind} joins two ground markers ({i.name}, {j.name})")
-    if i.body is j.body:
-        raise InvalidParameterError(f"{kind} joins body {i.body.name!r} to itself")
+from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE
 
 
 @dataclass(frozen=True, eq=False)
-class _Joint:
-    marker_i: Marker
-    marker_j: Marker
-    drive: Profile | None = None
-    name: str = ""
-    kind = -1
+class _Joint(JointBase):
+    engine = "planar"
+    marker_type = Marker
     base_equations = 0
-
-    def __post_init__(self) -> None:
-        _markers(type(self).__name__, self.marker_i, self.marker_j)
-        if self.drive is not None and not hasattr(self.drive, "pack"):
-            raise InvalidParameterError(
-                f"{type(self).__name__} drive must be a profile, got {self.drive!r}"
-            )
 
     @property
     def equations(self) -> int:
         return self.base_equations + (self.drive is not None)
 
-    @property
-    def drive_code(self) -> int:
-        return -1 if self.drive is None else self.drive.code
-
     def pack(self, relative_angle: float) -> list[float]:
         """[initial relative angle, drive profile (4)]."""
         drive = self.drive.pack() if self.drive is not None else [0.0] * PROFILE_SIZE
         return [relative_angle, *drive]
-
-    def label(self) -> str:
-        return self.name or f"{type(self).__name__}({self.marker_i.name}, {self.marker_j.name})"
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,11 +62,7 @@ class Fixed(_Joint):
 
     kind = kernels.FIXED
     base_equations = 3
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        if self.drive is not None:
-            raise InvalidParameterError("a Fixed joint has no coordinate to drive")
+    drivable = False
 
 
 Joint = Revolute | Prismatic | Fixed

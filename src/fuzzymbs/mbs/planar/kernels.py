@@ -132,6 +132,19 @@ def project_rows(jac, excess, target):
 
 
 @nb.njit(cache=True)
+def remove_velocity_excess(jac, rate, v, excess):
+    """v -= G^T (G G^T)^-1 (G v - f'): the least change that meets the joints' velocity
+    equations; False if G G^T is singular."""
+    c, n = jac.shape
+    for r in range(c):
+        acc = -rate[r]
+        for k in range(n):
+            acc += jac[r, k] * v[k]
+        excess[r] = acc
+    return project_rows(jac, excess, v)
+
+
+@nb.njit(cache=True)
 def profile(code, p, off, t):
     """(f, f', f'') of the profile ``code`` with parameters ``p[off:off + 4]`` at ``t``."""
     start = p[off]
@@ -706,11 +719,6 @@ def project(t, z, v, layout, data, tolerance):
         return np.inf
     jac[:, :] = 0.0
     joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
-    for r in range(c):
-        acc = -rate[r]
-        for k in range(n):
-            acc += jac[r, k] * v[k]
-        residual[r] = acc
-    if not project_rows(jac, residual, v):
+    if not remove_velocity_excess(jac, rate, v, residual):
         return np.inf
     return worst

@@ -21,17 +21,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.assembly import Assembly
 from fuzzymbs.mbs.planar import kernels, readout
-from fuzzymbs.mbs.planar.bodies import Body, FlexibleBody, Marker, RigidBody
+from fuzzymbs.mbs.planar.bodies import Body, FlexibleBody, Marker
 from fuzzymbs.mbs.planar.forces import (
-    Contact,
     ForceElement,
-    MarkerLoad,
-    RotationalSpringDamper,
-    SpringDamper,
     UserForce,
 )
-from fuzzymbs.mbs.planar.joints import Fixed, Joint, Prismatic, Revolute
+from fuzzymbs.mbs.planar.joints import Joint
 
 #: Largest joint residual [m or rad] a mechanism may start with (its markers must meet).
 START_TOLERANCE = 1e-9
@@ -59,7 +56,7 @@ class Layout:
         return all(np.array_equal(a, b) for a, b in zip(self.arrays(), other.arrays(), strict=True))
 
 
-class Mechanism:
+class Mechanism(Assembly):
     """Bodies, joints and force elements in the plane, with gravity.
 
     Parameters
@@ -68,61 +65,16 @@ class Mechanism:
         Acceleration of gravity in the inertial frame [m/s^2].
     """
 
+    engine = "planar"
+    dimension = 2
+    marker_type = Marker
+    bodies: list[Body]
+    joints: list[Joint]
+    forces: list[ForceElement]
+    named_markers: dict[str, Marker]
+
     def __init__(self, gravity: ArrayLike = (0.0, 0.0)) -> None:
-        g = np.asarray(gravity, dtype=float)
-        if g.shape != (2,) or not np.isfinite(g).all():
-            raise InvalidParameterError(
-                f"gravity must be two finite numbers [m/s^2], got {gravity!r}"
-            )
-        self.gravity = g
-        self.bodies: list[Body] = []
-        self.joints: list[Joint] = []
-        self.forces: list[ForceElement] = []
-        self.named_markers: dict[str, Marker] = {}
-
-    def add(self, *elements: Body | Joint | ForceElement) -> Mechanism:
-        """Add bodies, joints and force elements (in any order); returns self."""
-        for element in elements:
-            if isinstance(element, RigidBody | FlexibleBody):
-                if any(b.name == element.name for b in self.bodies):
-                    raise InvalidParameterError(f"two bodies are named {element.name!r}")
-                self.bodies.append(element)
-            elif isinstance(element, Revolute | Prismatic | Fixed):
-                self.joints.append(element)
-            elif isinstance(
-                element, SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce | Contact
-            ):
-                self.forces.append(element)
-            else:
-                raise InvalidParameterError(
-                    f"a Mechanism holds bodies, joints and force elements, got {element!r}"
-                )
-        return self
-
-    def mark(self, name: str, marker: Marker) -> Marker:
-        """Name a marker whose motion a result reports (:meth:`PlanarResult.marker`)."""
-        if not isinstance(marker, Marker):
-            raise InvalidParameterError(f"mark needs a Marker, got {marker!r}")
-        if name in self.named_markers:
-            raise InvalidParameterError(f"two markers are named {name!r}")
-        self.named_markers[name] = marker
-        return marker
-
-    def joint(self, name: str) -> Joint:
-        for j in self.joints:
-            if j.label() == name:
-                return j
-        raise InvalidParameterError(
-            f"no joint named {name!r}; joints: {[j.label() for j in self.joints]}"
-        )
-
-    def body(self, name: str) -> Body:
-        for b in self.bodies:
-            if b.name == name:
-                return b
-        raise InvalidParameterError(
-            f"no body named {name!r}; bodies: {[b.name for b in self.bodies]}"
-        )
+        super().__init__(gravity)
 
     def coordinate_offsets(self) -> dict[str, int]:
         """First coordinate (x) of each body in the state vector."""
@@ -147,16 +99,6 @@ class Mechanism:
                 f"(got {len(functions)} functions)"
             )
         return next(iter(functions.values()), kernels.no_user_force)
-
-    def markers(self) -> list[Marker]:
-        """Every marker a joint or force uses, in the order the kernels index them."""
-        found: list[Marker] = []
-        pairs = [(e.marker_i, e.marker_j) for e in [*self.joints, *self.forces]]
-        for pair in [*pairs, tuple(self.named_markers.values())]:
-            for marker in pair:
-                if marker is not None and not any(marker is m for m in found):
-                    found.append(marker)
-        return found
 
     def _marker_index(self, markers: list[Marker], marker: Marker | None) -> int:
         if marker is None:

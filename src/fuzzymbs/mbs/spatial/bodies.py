@@ -124,7 +124,7 @@ ground = Ground()
 
 @dataclass(eq=False)
 class RigidBody:
-    """A rigid body, its frame at its centre of mass.
+    """A rigid body, its frame at its centre of mass (a floating frame without modes).
 
     Parameters
     ----------
@@ -192,6 +192,8 @@ class RigidBody:
         )
 
     mode_count = 0
+    role = "body"
+    engine = "spatial"
 
     def pack(self) -> list[float]:
         """Mass, first moment about the frame origin (zero: the centre of mass), inertia."""
@@ -276,6 +278,9 @@ class FlexibleBody:
         self.angular_velocity = _vector(
             self.angular_velocity, f"body {self.name!r} angular_velocity"
         )
+
+    role = "body"
+    engine = "spatial"
 
     @property
     def mode_count(self) -> int:

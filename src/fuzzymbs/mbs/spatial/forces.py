@@ -27,6 +27,8 @@ class SpringDamper:
     damping: float = 0.0
     free_length: float | None = None
     kind = kernels.SPRING_DAMPER
+    role = "force"
+    engine = "spatial"
     profile_code = -1
 
     def __post_init__(self) -> None:
@@ -53,6 +55,8 @@ class MarkerLoad:
     torque: Sequence[float] = (0.0, 0.0, 0.0)
     profile: Profile | None = None
     kind = kernels.MARKER_LOAD
+    role = "force"
+    engine = "spatial"
     marker_j = None
 
     def __post_init__(self) -> None:

@@ -19,51 +19,25 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
+from fuzzymbs.mbs.assembly import JointBase
+from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE
 from fuzzymbs.mbs.spatial import kernels
 from fuzzymbs.mbs.spatial.bodies import Marker
 
 
 @dataclass(frozen=True, eq=False)
-class _Joint:
-    marker_i: Marker
-    marker_j: Marker
-    name: str = ""
-    drive: Profile | None = None
-    kind = -1
+class _Joint(JointBase):
+    engine = "spatial"
+    marker_type = Marker
+    drivable = False
     equations = 0
-
-    def __post_init__(self) -> None:
-        for what, marker in (("first", self.marker_i), ("second", self.marker_j)):
-            if not isinstance(marker, Marker):
-                raise InvalidParameterError(
-                    f"{type(self).__name__} needs two markers; its {what} is {marker!r}"
-                )
-        if self.marker_i.body is None and self.marker_j.body is None:
-            raise InvalidParameterError(f"{type(self).__name__} joins two ground markers")
-        if self.marker_i.body is self.marker_j.body:
-            raise InvalidParameterError(
-                f"{type(self).__name__} joins body {self.marker_i.body.name!r} to itself"
-            )
-        if self.drive is not None and self.kind != kernels.REVOLUTE:
-            raise InvalidParameterError(f"{type(self).__name__} cannot be driven (a Revolute can)")
-        if self.drive is not None and not hasattr(self.drive, "pack"):
-            raise InvalidParameterError(f"Revolute drive must be a profile, got {self.drive!r}")
 
     @property
     def rows(self) -> int:
         return self.equations + (self.drive is not None)
 
-    @property
-    def drive_code(self) -> int:
-        return -1 if self.drive is None else self.drive.code
-
     def pack(self) -> list[float]:
         return self.drive.pack() if self.drive is not None else [0.0] * PROFILE_SIZE
-
-    def label(self) -> str:
-        return self.name or f"{type(self).__name__}({self.marker_i.name}, {self.marker_j.name})"
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,6 +54,7 @@ class Revolute(_Joint):
 
     kind = kernels.REVOLUTE
     equations = 5
+    drivable = True
 
 
 @dataclass(frozen=True, eq=False)

@@ -48,8 +48,13 @@ import math
 import numba as nb
 import numpy as np
 
-from fuzzymbs.mbs.planar.integrator import dormand_prince
-from fuzzymbs.mbs.planar.kernels import profile, project_rows, solve_in_place
+from fuzzymbs.mbs.planar.integrator import error_norm, stage_state, stage_time, step_factor
+from fuzzymbs.mbs.planar.kernels import (
+    profile,
+    project_rows,
+    remove_velocity_excess,
+    solve_in_place,
+)
 
 SPHERICAL = 0
 REVOLUTE = 1
@@ -624,12 +629,7 @@ def project(t, q, v, layout, data, tolerance):
         return np.inf
     jac[:, :] = 0.0
     joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, acceleration)
-    for r in range(c):
-        acc = -rate[r]
-        for x in range(n):
-            acc += jac[r, x] * v[x]
-        residual[r] = acc
-    if not project_rows(jac, residual, v):
+    if not remove_velocity_excess(jac, rate, v, residual):
         return np.inf
     return worst
 
@@ -667,7 +667,6 @@ def integrate_sample(times, x0, layout, data, rtol, atol, first_step, max_steps,
     """Dormand-Prince 5(4) for one sample, as the planar engine's
     (:func:`fuzzymbs.mbs.planar.integrator.integrate_sample`), on (q, v) with the
     Euler parameters' kinematics; (status, accepted, rejected, largest residual)."""
-    a_tab, _, c_tab, e_tab = dormand_prince()
     sizes = layout[4]
     nq = sizes[0]
     n = sizes[1]
@@ -694,26 +693,15 @@ def integrate_sample(times, x0, layout, data, rtol, atol, first_step, max_steps,
             last = h >= target - t
             step = target - t if last else h
             for stage in range(1, 7):
-                for i in range(size):
-                    acc = 0.0
-                    for j in range(stage):
-                        acc += a_tab[stage, j] * k[j, i]
-                    trial[i] = x[i] + step * acc
+                stage_state(x, k, stage, step, trial)
                 if not _derivative(
-                    t + c_tab[stage] * step, trial, layout, data, system, solution, k[stage]
+                    stage_time(t, stage, step), trial, layout, data, system, solution, k[stage]
                 ):
                     return NOT_FINITE, accepted, rejected, worst
-            err = 0.0
-            for i in range(size):
-                e = 0.0
-                for j in range(7):
-                    e += e_tab[j] * k[j, i]
-                scale = atol + rtol * max(abs(x[i]), abs(trial[i]))
-                err += (step * e / scale) ** 2
-            err = math.sqrt(err / size)
+            err = error_norm(x, trial, k, step, rtol, atol)
             if not math.isfinite(err):
                 return NOT_FINITE, accepted, rejected, worst
-            factor = min(5.0, max(0.2, 0.9 * err ** (-0.2))) if err > 0.0 else 5.0
+            factor = step_factor(err)
             if err <= 1.0:
                 t = target if last else t + step
                 x[:] = trial

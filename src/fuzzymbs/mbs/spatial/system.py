@@ -18,88 +18,32 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.assembly import Assembly
 from fuzzymbs.mbs.kernels.threads import for_each_range
 from fuzzymbs.mbs.spatial import kernels
-from fuzzymbs.mbs.spatial.bodies import Body, FlexibleBody, Marker, RigidBody
-from fuzzymbs.mbs.spatial.forces import ForceElement, MarkerLoad, SpringDamper
-from fuzzymbs.mbs.spatial.joints import (
-    Cylindrical,
-    Fixed,
-    Joint,
-    Prismatic,
-    Revolute,
-    Spherical,
-    Universal,
-)
+from fuzzymbs.mbs.spatial.bodies import Body, Marker
+from fuzzymbs.mbs.spatial.forces import ForceElement
+from fuzzymbs.mbs.spatial.joints import Joint
 
 START_TOLERANCE = 1e-9
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-8
 PROJECTION_TOLERANCE = 1e-10
-_JOINTS = (Spherical, Revolute, Universal, Cylindrical, Prismatic, Fixed)
 
 
-class Mechanism:
+class Mechanism(Assembly):
     """Spatial rigid and flexible bodies, joints and force elements, with gravity [m/s^2]."""
 
+    engine = "spatial"
+    dimension = 3
+    marker_type = Marker
+    bodies: list[Body]
+    joints: list[Joint]
+    forces: list[ForceElement]
+    named_markers: dict[str, Marker]
+
     def __init__(self, gravity: ArrayLike = (0.0, 0.0, 0.0)) -> None:
-        g = np.asarray(gravity, dtype=float)
-        if g.shape != (3,) or not np.isfinite(g).all():
-            raise InvalidParameterError(
-                f"gravity must be three finite numbers [m/s^2], got {gravity!r}"
-            )
-        self.gravity = g
-        self.bodies: list[Body] = []
-        self.joints: list[Joint] = []
-        self.forces: list[ForceElement] = []
-        self.named_markers: dict[str, Marker] = {}
-
-    def add(self, *elements) -> Mechanism:
-        for element in elements:
-            if isinstance(element, RigidBody | FlexibleBody):
-                if any(b.name == element.name for b in self.bodies):
-                    raise InvalidParameterError(f"two bodies are named {element.name!r}")
-                self.bodies.append(element)
-            elif isinstance(element, _JOINTS):
-                self.joints.append(element)
-            elif isinstance(element, SpringDamper | MarkerLoad):
-                self.forces.append(element)
-            else:
-                raise InvalidParameterError(
-                    f"a Mechanism holds bodies, joints and force elements, got {element!r}"
-                )
-        return self
-
-    def mark(self, name: str, marker: Marker) -> Marker:
-        if name in self.named_markers:
-            raise InvalidParameterError(f"two markers are named {name!r}")
-        self.named_markers[name] = marker
-        return marker
-
-    def body(self, name: str) -> Body:
-        for b in self.bodies:
-            if b.name == name:
-                return b
-        raise InvalidParameterError(
-            f"no body named {name!r}; bodies: {[b.name for b in self.bodies]}"
-        )
-
-    def joint(self, name: str) -> Joint:
-        for j in self.joints:
-            if j.label() == name:
-                return j
-        raise InvalidParameterError(
-            f"no joint named {name!r}; joints: {[j.label() for j in self.joints]}"
-        )
-
-    def markers(self) -> list[Marker]:
-        found: list[Marker] = []
-        pairs = [(e.marker_i, e.marker_j) for e in [*self.joints, *self.forces]]
-        for pair in [*pairs, tuple(self.named_markers.values())]:
-            for marker in pair:
-                if marker is not None and not any(marker is m for m in found):
-                    found.append(marker)
-        return found
+        super().__init__(gravity)
 
     def pack(self) -> tuple[tuple, NDArray[np.float64], NDArray[np.float64]]:
         """(layout arrays, data row, initial state (q, v))."""
