@@ -6,6 +6,7 @@ import pytest
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.fe.beam import PlanarBeam
+from fuzzymbs.mbs.mechanism_model import MechanismModel
 from fuzzymbs.mbs.planar import (
     Fixed,
     FlexibleBody,
@@ -22,7 +23,6 @@ from fuzzymbs.mbs.planar import (
     linearize,
     simulate,
 )
-from fuzzymbs.mbs.planar.model import MechanismModel
 
 from .user_forces import linear_spring_x
 

@@ -203,3 +203,41 @@ def test_node_set_marker_on_a_flexible_body_joins_a_spherical_joint():
     energy = result.energy()[0]
     total = energy.sum(axis=1)
     assert np.ptp(total) < 1e-8 * np.abs(energy).max()
+
+
+def test_a_spatial_mechanism_is_a_study_model():
+    # the strip of the planar comparison as a study model with a fuzzy Young's modulus: a
+    # stiffer strip bends less (the quasi-static bending under its own weight goes as 1/E)
+    from fuzzymbs.mbs.mechanism_model import MechanismModel
+
+    def build(p):
+        beam = PlanarBeam(
+            length=1.0,
+            youngs_modulus=p["youngs_modulus"],
+            density=7800.0,
+            area=9e-5,
+            second_moment=6.75e-11,
+        ).reduce(4)
+        body = FlexibleBody(
+            "beam", beam.modal_body(), orientation=Rotation.from_euler("z", -np.pi / 6).as_matrix()
+        )
+        return Mechanism(gravity=GRAVITY).add(body, Revolute(ground.point(), body.node(0)))
+
+    model = MechanismModel(
+        build,
+        parameters={"youngs_modulus": 2.1e11},
+        outputs={
+            "first_mode": (lambda r: r.modal_coordinates("beam")[:, :, 0], "m kg^0.5"),
+            "energy": (lambda r: r.energy().sum(axis=2), "J"),
+        },
+        times=np.linspace(0.0, 0.5, 51),
+    )
+    out = model({"youngs_modulus": np.array([1.0e11, 2.1e11, 4.0e11])})
+    assert out["first_mode"].shape == (3, 51) and not out["failed"].any()
+    assert list(out["failure_reason"]) == ["", "", ""]
+    peaks = np.abs(out["first_mode"]).max(axis=1)
+    assert peaks[0] > peaks[1] > peaks[2]
+    # no damping: each sample keeps its energy (default tolerances: measured 2.2e-9 J)
+    assert np.ptp(out["energy"], axis=1).max() < 1e-7
+    with pytest.raises(Exception, match="unknown parameter"):
+        model({"youngs": np.array([1.0])})

@@ -7,7 +7,7 @@ Public API (see docs/mechanisms.md)::
                                      SpringDamper, RotationalSpringDamper, MarkerLoad,
                                      UserForce, user_force, Contact, contacts,
                                      ConstantRate, SpinUp, Harmonic,
-                                     simulate, PlanarResult, linearize)
+                                     simulate, PlanarResult, linearize, MechanismModel)
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ _LAZY: dict[str, str] = {
     "simulate": "fuzzymbs.mbs.planar.simulation",
     "PlanarResult": "fuzzymbs.mbs.planar.simulation",
     "linearize": "fuzzymbs.mbs.planar.linearize",
+    "MechanismModel": "fuzzymbs.mbs.mechanism_model",
 }
 
 __all__ = sorted(_LAZY)

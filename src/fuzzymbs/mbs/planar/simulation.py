@@ -35,6 +35,18 @@ STATUS_TEXT = {
 }
 
 
+def describe_failure(
+    status: int, states: NDArray[np.float64], times: NDArray[np.float64]
+) -> str | None:
+    """Why a run with kernel ``status`` failed and the last time it stored (its ``states``
+    (T, ...) are NaN after the failure), or None if it finished."""
+    if status == kernels.FINISHED:
+        return None
+    good = np.isfinite(states[:, 0])
+    last = times[good][-1] if good.any() else times[0]
+    return f"{STATUS_TEXT.get(int(status), 'failed')} after t = {last:.6g} s"
+
+
 @dataclass(frozen=True)
 class PlanarResult:
     """States of every sample at the output times, and how each run ended.
@@ -63,11 +75,7 @@ class PlanarResult:
 
     def failure(self, sample: int) -> str | None:
         """Why sample ``sample`` failed and when, or None."""
-        if not self.failed[sample]:
-            return None
-        good = np.isfinite(self.states[sample, :, 0])
-        last = self.times[good][-1] if good.any() else self.times[0]
-        return f"{STATUS_TEXT.get(int(self.status[sample]), 'failed')} after t = {last:.6g} s"
+        return describe_failure(self.status[sample], self.states[sample], self.times)
 
     @property
     def coordinate_count(self) -> int:

@@ -5,7 +5,8 @@ Public API (see docs/mechanisms.md, "Spatial mechanisms")::
 
     from fuzzymbs.mbs.spatial import (Mechanism, RigidBody, FlexibleBody, ground, frame_with_z,
                                       Spherical, Revolute, Universal, Cylindrical,
-                                      Prismatic, Fixed, SpringDamper, MarkerLoad, simulate)
+                                      Prismatic, Fixed, SpringDamper, MarkerLoad, simulate,
+                                      ConstantRate, SpinUp, Harmonic, MechanismModel)
 """
 
 from __future__ import annotations
@@ -29,6 +30,10 @@ _LAZY: dict[str, str] = {
     "Fixed": "fuzzymbs.mbs.spatial.joints",
     "SpringDamper": "fuzzymbs.mbs.spatial.forces",
     "MarkerLoad": "fuzzymbs.mbs.spatial.forces",
+    "MechanismModel": "fuzzymbs.mbs.mechanism_model",
+    "ConstantRate": "fuzzymbs.mbs.planar.profiles",
+    "SpinUp": "fuzzymbs.mbs.planar.profiles",
+    "Harmonic": "fuzzymbs.mbs.planar.profiles",
 }
 
 __all__ = sorted(_LAZY)

@@ -49,7 +49,12 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.planar.integrator import error_norm, stage_state, stage_time, step_factor
-from fuzzymbs.mbs.planar.kernels import (
+from fuzzymbs.mbs.planar.kernels import (  # the run status codes are the planar engine's
+    FINISHED,
+    NOT_FINITE,
+    PROJECTION_FAILED,
+    STEP_TOO_SMALL,
+    TOO_MANY_STEPS,
     profile,
     project_rows,
     remove_velocity_excess,
@@ -64,11 +69,6 @@ PRISMATIC = 4
 FIXED = 5
 SPRING_DAMPER = 0
 MARKER_LOAD = 1
-FINISHED = 1
-NOT_FINITE = 2
-STEP_TOO_SMALL = 3
-TOO_MANY_STEPS = 4
-PROJECTION_FAILED = 5
 
 
 @nb.njit(cache=True)

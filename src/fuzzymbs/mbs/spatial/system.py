@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import Assembly
 from fuzzymbs.mbs.kernels.threads import for_each_range
+from fuzzymbs.mbs.planar.simulation import describe_failure
 from fuzzymbs.mbs.spatial import kernels
 from fuzzymbs.mbs.spatial.bodies import Body, Marker
 from fuzzymbs.mbs.spatial.forces import ForceElement
@@ -160,6 +161,10 @@ class SpatialResult:
     @property
     def failed(self) -> NDArray[np.bool_]:
         return self.status != kernels.FINISHED
+
+    def failure(self, sample: int) -> str | None:
+        """Why sample ``sample`` failed and when, or None."""
+        return describe_failure(self.status[sample], self.states[sample], self.times)
 
     def _offsets(self, body: str) -> tuple[int, int, int]:
         """(position offset, velocity offset (after the positions), mode count) of a body."""

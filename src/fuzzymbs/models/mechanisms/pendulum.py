@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzymbs.fe.beam import PlanarBeam
+from fuzzymbs.mbs.mechanism_model import MechanismModel
 from fuzzymbs.mbs.planar import FlexibleBody, Mechanism, Revolute, ground
-from fuzzymbs.mbs.planar.model import MechanismModel
 from fuzzymbs.models.mechanisms.outputs import deflection_in_frame
 
 #: Default parameters (SI): a 1 m steel strip of 30 mm x 3 mm released at 60 degrees.

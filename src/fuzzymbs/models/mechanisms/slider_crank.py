@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzymbs.fe.beam import PlanarBeam
+from fuzzymbs.mbs.mechanism_model import MechanismModel
 from fuzzymbs.mbs.planar import (
     FlexibleBody,
     Mechanism,
@@ -34,7 +35,6 @@ from fuzzymbs.mbs.planar import (
     SpinUp,
     ground,
 )
-from fuzzymbs.mbs.planar.model import MechanismModel
 from fuzzymbs.models.mechanisms.outputs import deflection_in_frame
 
 CRANK_LENGTH = 0.15

@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzymbs.fe.beam import PlanarBeam
+from fuzzymbs.mbs.mechanism_model import MechanismModel
 from fuzzymbs.mbs.planar import FlexibleBody, Mechanism, Revolute, SpinUp, ground
-from fuzzymbs.mbs.planar.model import MechanismModel
 from fuzzymbs.models.mechanisms.outputs import deflection_in_frame
 
 #: Kane, Ryan & Banerjee's data (SI) at the speed 4 rad/s of their figures.

@@ -1,10 +1,12 @@
-"""A planar mechanism as a study model: parameters in by name, outputs over time out.
+"""A mechanism (planar or spatial) as a study model: parameters in by name, outputs over
+time out.
 
 A study model is called with a batch of samples ``{name: (B,) array}`` and
 returns ``{output: (B, T) array}``. :class:`MechanismModel` builds one
 mechanism per sample with the user's ``build(parameters)`` function (any
 number a body, joint or force holds can so be a fuzzy parameter), runs the
-whole batch in one kernel call and reads the outputs from the result::
+whole batch in one kernel call of the mechanism's engine (planar or spatial)
+and reads the outputs from the result::
 
     def build(p):
         rod = RigidBody("rod", mass=p["mass"], inertia=p["mass"] / 12, center=(0.5, 0), angle=-1.0)
@@ -33,23 +35,27 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.planar.simulation import DEFAULT_ATOL, DEFAULT_RTOL, PlanarResult, simulate
-from fuzzymbs.mbs.planar.system import Mechanism
+from fuzzymbs.mbs import planar, spatial
+from fuzzymbs.mbs.assembly import Assembly
+from fuzzymbs.mbs.planar.simulation import DEFAULT_ATOL, DEFAULT_RTOL
 
-OutputReader = Callable[[PlanarResult], NDArray[np.float64]]
+OutputReader = Callable[[Any], NDArray[np.float64]]
 
 
 class MechanismModel:
-    """Batched study model of a planar mechanism.
+    """Batched study model of a planar or spatial mechanism.
 
     Parameters
     ----------
     build : callable
-        ``build(parameters: dict[str, float]) -> Mechanism`` for one sample.
+        ``build(parameters: dict[str, float]) -> Mechanism`` for one sample (a
+        :class:`fuzzymbs.mbs.planar.Mechanism` or a :class:`fuzzymbs.mbs.spatial.Mechanism`,
+        the same structure for every sample).
     parameters : mapping of str to float
         Every parameter the model takes and its default (SI units).
     outputs : mapping of str to (reader, unit)
-        ``reader(result) -> (B, T)`` for each output.
+        ``reader(result) -> (B, T)`` for each output (``result``: the engine's
+        ``PlanarResult`` or ``SpatialResult``).
     times : array_like, shape (T,)
         Output times [s].
     rtol, atol : float
@@ -58,7 +64,7 @@ class MechanismModel:
 
     def __init__(
         self,
-        build: Callable[[dict[str, float]], Mechanism],
+        build: Callable[[dict[str, float]], Assembly],
         parameters: Mapping[str, float],
         outputs: Mapping[str, tuple[OutputReader, str]],
         times: ArrayLike,
@@ -120,9 +126,19 @@ class MechanismModel:
             {**self.defaults, **{n: float(c[i]) for n, c in columns.items()}} for i in range(count)
         ]
 
-    def run(self, samples: Mapping[str, Any]) -> PlanarResult:
-        """Simulate every sample; the raw :class:`PlanarResult`."""
+    def run(self, samples: Mapping[str, Any]) -> Any:
+        """Simulate every sample; the engine's raw result (``PlanarResult``, ``SpatialResult``)."""
         mechanisms = [self.build(p) for p in self.sample_parameters(samples)]
+        engines = {getattr(m, "engine", None) for m in mechanisms}
+        if engines == {"planar"}:
+            simulate = planar.simulate
+        elif engines == {"spatial"}:
+            simulate = spatial.simulate
+        else:
+            raise InvalidParameterError(
+                "build must return a planar or a spatial Mechanism, the same kind for every "
+                f"sample; got {sorted(map(str, engines))}"
+            )
         return simulate(mechanisms, self.times, rtol=self.rtol, atol=self.atol)
 
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
