@@ -36,7 +36,7 @@ _LAZY: dict[str, str] = {
     "Harmonic": "fuzzymbs.mbs.planar.profiles",
     "simulate": "fuzzymbs.mbs.planar.simulation",
     "PlanarResult": "fuzzymbs.mbs.planar.simulation",
-    "linearize": "fuzzymbs.mbs.planar.linearize",
+    "linearize": "fuzzymbs.mbs.planar.linearization",
     "MechanismModel": "fuzzymbs.mbs.mechanism_model",
 }
 

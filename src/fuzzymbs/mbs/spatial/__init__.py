@@ -6,7 +6,8 @@ Public API (see docs/mechanisms.md, "Spatial mechanisms")::
     from fuzzymbs.mbs.spatial import (Mechanism, RigidBody, FlexibleBody, ground, frame_with_z,
                                       Spherical, Revolute, Universal, Cylindrical,
                                       Prismatic, Fixed, SpringDamper, MarkerLoad, simulate,
-                                      ConstantRate, SpinUp, Harmonic, MechanismModel)
+                                      ConstantRate, SpinUp, Harmonic, MechanismModel,
+                                      linearize)
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ _LAZY: dict[str, str] = {
     "SpringDamper": "fuzzymbs.mbs.spatial.forces",
     "MarkerLoad": "fuzzymbs.mbs.spatial.forces",
     "MechanismModel": "fuzzymbs.mbs.mechanism_model",
+    "linearize": "fuzzymbs.mbs.spatial.linearization",
     "ConstantRate": "fuzzymbs.mbs.planar.profiles",
     "SpinUp": "fuzzymbs.mbs.planar.profiles",
     "Harmonic": "fuzzymbs.mbs.planar.profiles",

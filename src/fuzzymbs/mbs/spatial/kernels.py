@@ -569,7 +569,7 @@ def accelerations(t, q, v, layout, data, system, solution):
 
 
 @nb.njit(cache=True)
-def _rotate(q, po, dx, dy, dz):
+def rotate(q, po, dx, dy, dz):
     """q[po:po + 4] <- q (1, d/2), normalised: a small rotation d in the body frame."""
     e0, e1, e2, e3 = q[po], q[po + 1], q[po + 2], q[po + 3]
     h0 = 1.0
@@ -588,6 +588,20 @@ def _rotate(q, po, dx, dy, dz):
 
 
 @nb.njit(cache=True)
+def displace(q, bodies, step):
+    """Move the positions q by ``step``, given in velocity coordinates (r, a small rotation
+    in each body frame, modal coordinates)."""
+    for b in range(bodies.shape[0]):
+        po = bodies[b, 0]
+        vo = bodies[b, 1]
+        for i in range(3):
+            q[po + i] += step[vo + i]
+        rotate(q, po + 3, step[vo + 3], step[vo + 4], step[vo + 5])
+        for x in range(bodies[b, 3]):
+            q[po + 7 + x] += step[vo + 6 + x]
+
+
+@nb.njit(cache=True)
 def project(t, q, v, layout, data, tolerance):
     """Renormalise the Euler parameters and move (q, v) onto the joints (least change
     in (r, rotation) and in (r', w)); the largest residual left, or inf."""
@@ -596,7 +610,7 @@ def project(t, q, v, layout, data, tolerance):
     n = sizes[1]
     c = sizes[2]
     for b in range(bodies.shape[0]):
-        _rotate(q, bodies[b, 0] + 3, 0.0, 0.0, 0.0)
+        rotate(q, bodies[b, 0] + 3, 0.0, 0.0, 0.0)
     if c == 0:
         return 0.0
     residual = np.empty(c)
@@ -617,14 +631,7 @@ def project(t, q, v, layout, data, tolerance):
         step[:] = 0.0
         if not project_rows(jac, residual, step):  # step = -G^T (G G^T)^-1 g
             return np.inf
-        for b in range(bodies.shape[0]):
-            po = bodies[b, 0]
-            vo = bodies[b, 1]
-            for i in range(3):
-                q[po + i] += step[vo + i]
-            _rotate(q, po + 3, step[vo + 3], step[vo + 4], step[vo + 5])
-            for x in range(bodies[b, 3]):
-                q[po + 7 + x] += step[vo + 6 + x]
+        displace(q, bodies, step)
     if not worst <= tolerance:
         return np.inf
     jac[:, :] = 0.0

@@ -46,7 +46,8 @@ class Linearization:
         return np.sort(imag[imag > 1e-9])
 
 
-def _free_directions(jac: NDArray[np.float64], n: int) -> NDArray[np.float64]:
+def free_directions(jac: NDArray[np.float64], n: int) -> NDArray[np.float64]:
+    """An orthonormal basis (n, n - rank) of the null space of the joints' Jacobian."""
     if jac.shape[0] == 0:
         return np.eye(n)
     _, singular, vt = scipy.linalg.svd(jac)
@@ -89,7 +90,7 @@ def linearize(
     jac = np.zeros((c, n))
     if c:
         kernels.joint_terms(t, arrays, data, x0[:n], x0[n:], jac, *(np.empty(c) for _ in range(4)))
-    basis = _free_directions(jac, n)
+    basis = free_directions(jac, n)
     free = basis.shape[1]
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
