@@ -5,7 +5,8 @@ Public API (see docs/mechanisms.md, "Spatial mechanisms")::
 
     from fuzzymbs.mbs.spatial import (Mechanism, RigidBody, FlexibleBody, ground, frame_with_z,
                                       Spherical, Revolute, Universal, Cylindrical,
-                                      Prismatic, Fixed, SpringDamper, MarkerLoad, simulate,
+                                      Prismatic, Fixed, SpringDamper, MarkerLoad, UserForce,
+                                      user_force, Contact, contacts, simulate,
                                       ConstantRate, SpinUp, Harmonic, MechanismModel,
                                       linearize)
 """
@@ -31,6 +32,10 @@ _LAZY: dict[str, str] = {
     "Fixed": "fuzzymbs.mbs.spatial.joints",
     "SpringDamper": "fuzzymbs.mbs.spatial.forces",
     "MarkerLoad": "fuzzymbs.mbs.spatial.forces",
+    "UserForce": "fuzzymbs.mbs.spatial.forces",
+    "user_force": "fuzzymbs.mbs.spatial.forces",
+    "Contact": "fuzzymbs.mbs.spatial.forces",
+    "contacts": "fuzzymbs.mbs.spatial.forces",
     "MechanismModel": "fuzzymbs.mbs.mechanism_model",
     "linearize": "fuzzymbs.mbs.spatial.linearization",
     "ConstantRate": "fuzzymbs.mbs.planar.profiles",

@@ -1,4 +1,5 @@
-"""Spatial force elements: springs and dampers between markers, applied loads."""
+"""Spatial force elements: springs and dampers between markers, applied loads, penalty
+contact with friction, and force laws of the user's own compiled into the kernels."""
 
 from __future__ import annotations
 
@@ -6,8 +7,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba.core.ccallback import CFunc
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.planar import kernels as planar_kernels
+from fuzzymbs.mbs.planar.forces import user_force
 from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
 from fuzzymbs.mbs.spatial import kernels
 from fuzzymbs.mbs.spatial.bodies import Marker
@@ -75,4 +79,127 @@ class MarkerLoad:
         return [*self.force, *self.torque, *profile]
 
 
-ForceElement = SpringDamper | MarkerLoad
+@dataclass(frozen=True, eq=False)
+class UserForce:
+    """A force law written by the user, compiled into the kernels.
+
+    Parameters
+    ----------
+    marker_i, marker_j : Marker
+        The markers it acts on (j may be None).
+    function : cfunc
+        Made with :func:`user_force` (the planar engine's decorator: the same
+        signature). It receives the element's index, t, both markers' states
+        (:data:`fuzzymbs.mbs.spatial.kernels.USER_STATE_SIZE` numbers each: position,
+        velocity, angular velocity, then the axes x, y, z, all global; zeros for a
+        missing marker j) and ``parameters``, and writes the force and the torque on
+        marker i (global) into ``out`` (6). Marker j receives their opposites, at its
+        own point.
+    parameters : sequence of float
+        Numbers the law reads, per sample.
+    """
+
+    marker_i: Marker
+    marker_j: Marker | None
+    function: object
+    parameters: Sequence[float] = ()
+    kind = kernels.USER_FORCE
+    role = "force"
+    engine = "spatial"
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        for marker, optional in ((self.marker_i, False), (self.marker_j, True)):
+            if not (isinstance(marker, Marker) or (optional and marker is None)):
+                raise InvalidParameterError(f"UserForce needs a marker, got {marker!r}")
+        if (
+            not isinstance(self.function, CFunc)
+            or self.function._sig != planar_kernels.USER_FORCE_SIGNATURE
+        ):
+            raise InvalidParameterError(
+                "UserForce function must be compiled with fuzzymbs.mbs.spatial.user_force, got "
+                f"{self.function!r}"
+            )
+        values = np.asarray(self.parameters, dtype=float).ravel()
+        if not np.isfinite(values).all():
+            raise InvalidParameterError(
+                f"UserForce parameters must be finite, got {self.parameters!r}"
+            )
+
+    def pack(self, initial_length: float) -> list[float]:
+        values = [float(v) for v in np.asarray(self.parameters, dtype=float).ravel()]
+        return [float(len(values)), *values]
+
+
+@dataclass(frozen=True, eq=False)
+class Contact:
+    """Penalty contact of a point (marker i) with a surface (marker j), with friction.
+
+    The surface is the plane through marker j normal to its z axis (outward: +z), or,
+    with ``radius``, the sphere of that radius about marker j. Its points move with
+    marker j's body frame (on a flexible body: the frame, not the modes); marker i
+    may be any marker, a node of a flexible body too. Normal force
+    f_N = stiffness max(0, -g) - damping g' (never pulling; g the gap), friction
+    -friction f_N v_t / sqrt(|v_t|^2 + regularization^2) against the slip v_t
+    (regularised Coulomb, as in the plane and the brake). For a node set, add one
+    Contact per node (:func:`contacts`).
+
+    Parameters
+    ----------
+    marker_i, marker_j : Marker
+    stiffness : float
+        Penalty stiffness [N/m], > 0.
+    damping : float
+        Normal damping [N s/m].
+    friction : float
+        Coulomb coefficient mu [-].
+    regularization : float
+        Slip speed eps of the regularised friction law [m/s], > 0.
+    radius : float, optional
+        Sphere radius [m]; None for the plane.
+    """
+
+    marker_i: Marker
+    marker_j: Marker
+    stiffness: float
+    damping: float = 0.0
+    friction: float = 0.0
+    regularization: float = 1e-3
+    radius: float | None = None
+    kind = kernels.CONTACT
+    role = "force"
+    engine = "spatial"
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        for marker in (self.marker_i, self.marker_j):
+            if not isinstance(marker, Marker):
+                raise InvalidParameterError(f"Contact needs two markers, got {marker!r}")
+        for name in ("damping", "friction"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise InvalidParameterError(
+                    f"Contact {name} must be finite and >= 0, got {value!r}"
+                )
+        for name in ("stiffness", "regularization"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InvalidParameterError(f"Contact {name} must be finite and > 0, got {value!r}")
+        if self.radius is not None and not (np.isfinite(self.radius) and self.radius > 0):
+            raise InvalidParameterError(
+                f"Contact radius must be finite and > 0, got {self.radius!r}"
+            )
+
+    def pack(self, initial_length: float) -> list[float]:
+        radius = 0.0 if self.radius is None else float(self.radius)
+        return [self.stiffness, self.damping, self.friction, self.regularization, radius]
+
+
+def contacts(markers: Sequence[Marker], surface: Marker, **law: float) -> list[Contact]:
+    """One :class:`Contact` per marker of a node set against one surface."""
+    return [Contact(marker, surface, **law) for marker in markers]
+
+
+__all__ = ["Contact", "MarkerLoad", "SpringDamper", "UserForce", "contacts", "user_force"]
+
+ForceElement = SpringDamper | MarkerLoad | UserForce | Contact

@@ -69,6 +69,11 @@ PRISMATIC = 4
 FIXED = 5
 SPRING_DAMPER = 0
 MARKER_LOAD = 1
+USER_FORCE = 2
+CONTACT = 3
+#: Numbers a user force function receives for each marker: position (3), velocity (3),
+#: angular velocity (3, global) and the axes x, y, z (3 each, global).
+USER_STATE_SIZE = 18
 
 
 @nb.njit(cache=True)
@@ -486,12 +491,122 @@ def joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, accelerat
 
 
 @nb.njit(cache=True)
-def force_terms(t, layout, data, q, v, forces):
-    """Generalised forces (on r', w) of every force element."""
+def user_state(k, markers, bodies, data, q, v, state, out):
+    """The numbers a user force function receives for marker ``k`` (:data:`USER_STATE_SIZE`);
+    ``state`` is the marker's :func:`marker_state`."""
+    axes = np.empty((3, 3))
+    spare = np.empty((3, 3))
+    marker_axes(k, markers, bodies, data, q, v, axes, spare, spare, spare)
+    for i in range(3):
+        out[i] = state[0, i]
+        out[3 + i] = state[1, i]
+        out[6 + i] = state[5, i]
+        for a in range(3):
+            out[9 + 3 * a + i] = axes[i, a]
+
+
+@nb.njit(cache=True)
+def contact_force(markers, bodies, data, d, kj, q, v, si, sj, force, point):
+    """Penalty contact of marker i's point with marker j's surface: the force on marker i
+    into ``force``, the contact point on the surface into ``point`` (global); returns
+    the gap [m] (negative: penetration).
+
+    The surface is the plane through marker j normal to its z axis (outward: +z), or,
+    with a radius (``data[d + 4] > 0``), the sphere of that radius about marker j. Its
+    points move with marker j's body frame. Normal force f_N = k max(0, -g) - c g' (never
+    pulling), friction -mu f_N v_t / sqrt(|v_t|^2 + eps^2) (regularised Coulomb) against
+    the slip v_t of the point over the surface, as in the plane.
+    """
+    radius = data[d + 4]
+    normal = np.empty(3)
+    if radius > 0.0:
+        distance = 0.0
+        for c in range(3):
+            normal[c] = si[0, c] - sj[0, c]
+            distance += normal[c] ** 2
+        distance = math.sqrt(distance)
+        for c in range(3):
+            normal[c] /= distance
+        gap = distance - radius
+    else:
+        axes = np.empty((3, 3))
+        spare = np.empty((3, 3))
+        marker_axes(kj, markers, bodies, data, q, v, axes, spare, spare, spare)
+        gap = 0.0
+        for c in range(3):
+            normal[c] = axes[c, 2]
+            gap += normal[c] * (si[0, c] - sj[0, c])
+    for c in range(3):
+        point[c] = si[0, c] - gap * normal[c]
+        force[c] = 0.0
+    if gap >= 0.0:
+        return gap
+    # the surface's material point at the contact point moves with marker j's frame
+    slip = np.empty(3)
+    for c in range(3):
+        slip[c] = si[1, c]
+    body = markers[kj, 0]
+    if body >= 0:
+        po = bodies[body, 0]
+        vo = bodies[body, 1]
+        arm = np.empty(3)
+        for c in range(3):
+            arm[c] = point[c] - q[po + c]
+        turn = np.empty(3)
+        cross(sj[5], arm, turn)
+        for c in range(3):
+            slip[c] -= v[vo + c] + turn[c]
+    closing = normal[0] * slip[0] + normal[1] * slip[1] + normal[2] * slip[2]
+    press = -data[d] * gap - data[d + 1] * closing
+    if press <= 0.0:
+        return gap
+    eps = data[d + 3]
+    sliding = 0.0
+    for c in range(3):
+        slip[c] -= closing * normal[c]
+        sliding += slip[c] ** 2
+    scale = data[d + 2] * press / math.sqrt(sliding + eps * eps)
+    for c in range(3):
+        force[c] = press * normal[c] - scale * slip[c]
+    return gap
+
+
+@nb.njit(cache=True)
+def add_frame_point_row(body, bodies, q, point, weight, target):
+    """target += weight^T dp/d(r', w) for the global ``point`` moving with ``body``'s
+    frame (no modal part)."""
+    if body < 0:
+        return
+    po = bodies[body, 0]
+    vo = bodies[body, 1]
+    rot = np.empty((3, 3))
+    rotation(q, po + 3, rot)
+    local = np.empty(3)
+    bw = np.empty(3)
+    for i in range(3):
+        local[i] = 0.0
+        bw[i] = 0.0
+        for k in range(3):
+            local[i] += rot[k, i] * (point[k] - q[po + k])
+            bw[i] += rot[k, i] * weight[k]
+        target[vo + i] += weight[i]
+    arm = np.empty(3)
+    cross(local, bw, arm)
+    for i in range(3):
+        target[vo + 3 + i] += arm[i]
+
+
+@nb.njit(cache=True)
+def force_terms(t, layout, data, q, v, user_force, forces):
+    """Generalised forces (on r', w, q') of every force element."""
     bodies, markers, elements = layout[0], layout[1], layout[3]
     si = np.empty((6, 3))
     sj = np.empty((6, 3))
     force = np.empty(3)
+    point = np.empty(3)
+    state_i = np.empty(USER_STATE_SIZE)
+    state_j = np.zeros(USER_STATE_SIZE)
+    out = np.empty(6)
     for e in range(elements.shape[0]):
         kind = elements[e, 0]
         ki = elements[e, 1]
@@ -499,9 +614,10 @@ def force_terms(t, layout, data, q, v, forces):
         d = elements[e, 3]
         code = elements[e, 4]
         marker_state(ki, markers, bodies, data, q, v, si)
+        if kj >= 0:
+            marker_state(kj, markers, bodies, data, q, v, sj)
         torque = np.zeros(3)
         if kind == SPRING_DAMPER:
-            marker_state(kj, markers, bodies, data, q, v, sj)
             span = sj[0] - si[0]
             length = math.sqrt(span[0] ** 2 + span[1] ** 2 + span[2] ** 2)
             lengthening = 0.0
@@ -510,17 +626,35 @@ def force_terms(t, layout, data, q, v, forces):
             tension = data[d] * (length - data[d + 2]) + data[d + 1] * lengthening
             for c in range(3):
                 force[c] = tension * span[c] / length
-        else:
+        elif kind == MARKER_LOAD:
             scale = 1.0
             if code >= 0:
                 scale, _, _ = profile(code, data, d + 6, t)
             for c in range(3):
                 force[c] = data[d + c] * scale
                 torque[c] = data[d + 3 + c] * scale
+        elif kind == CONTACT:
+            contact_force(markers, bodies, data, d, kj, q, v, si, sj, force, point)
+            add_point_row(ki, markers, bodies, data, q, si[3].copy(), force, forces)
+            add_frame_point_row(markers[kj, 0], bodies, q, point, -force, forces)
+            continue
+        else:
+            user_state(ki, markers, bodies, data, q, v, si, state_i)
+            if kj >= 0:
+                user_state(kj, markers, bodies, data, q, v, sj, state_j)
+            count = int(data[d])
+            out[:] = 0.0
+            user_force(e, t, state_i, state_j, data[d + 1 : d + 1 + count].copy(), out)
+            for c in range(3):
+                force[c] = out[c]
+                torque[c] = out[3 + c]
         add_point_row(ki, markers, bodies, data, q, si[3].copy(), force, forces)
         _add_torque(ki, markers, bodies, q, torque, forces)
-        if kj >= 0 and kind == SPRING_DAMPER:
+        if kj >= 0 and kind != MARKER_LOAD:
             add_point_row(kj, markers, bodies, data, q, sj[3].copy(), -force, forces)
+            for c in range(3):
+                torque[c] = -torque[c]
+            _add_torque(kj, markers, bodies, q, torque, forces)
 
 
 @nb.njit(cache=True)
@@ -537,8 +671,8 @@ def _add_torque(k, markers, bodies, q, torque, target):
 
 
 @nb.njit(cache=True)
-def accelerations(t, q, v, layout, data, system, solution):
-    """Solve the constrained equations at (t, q, v): solution = ((r'', w'), lambda)."""
+def accelerations(t, q, v, layout, data, user_force, system, solution):
+    """Solve the constrained equations at (t, q, v): solution = ((r'', w', q''), lambda)."""
     sizes = layout[4]
     n = sizes[1]
     c = sizes[2]
@@ -547,7 +681,7 @@ def accelerations(t, q, v, layout, data, system, solution):
     mass = np.zeros((n, n))
     body_terms(layout[0], data, q, v, mass, solution[:n])
     system[:n, :n] = mass
-    force_terms(t, layout, data, q, v, solution[:n])
+    force_terms(t, layout, data, q, v, user_force, solution[:n])
     if c:
         jac = np.zeros((c, n))
         residual = np.empty(c)
@@ -642,14 +776,14 @@ def project(t, q, v, layout, data, tolerance):
 
 
 @nb.njit(cache=True)
-def _derivative(t, x, layout, data, system, solution, out):
+def _derivative(t, x, layout, data, user_force, system, solution, out):
     bodies = layout[0]
     sizes = layout[4]
     nq = sizes[0]
     n = sizes[1]
     q = x[:nq]
     v = x[nq:]
-    ok = accelerations(t, q, v, layout, data, system, solution)
+    ok = accelerations(t, q, v, layout, data, user_force, system, solution)
     for b in range(bodies.shape[0]):
         po = bodies[b, 0]
         vo = bodies[b, 1]
@@ -670,7 +804,9 @@ def _derivative(t, x, layout, data, system, solution, out):
 
 
 @nb.njit(cache=True)
-def integrate_sample(times, x0, layout, data, rtol, atol, first_step, max_steps, tolerance, states):
+def integrate_sample(
+    times, x0, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states
+):
     """Dormand-Prince 5(4) for one sample, as the planar engine's
     (:func:`fuzzymbs.mbs.planar.integrator.integrate_sample`), on (q, v) with the
     Euler parameters' kinematics; (status, accepted, rejected, largest residual)."""
@@ -689,7 +825,7 @@ def integrate_sample(times, x0, layout, data, rtol, atol, first_step, max_steps,
     if not worst <= tolerance:
         return PROJECTION_FAILED, 0, 0, worst
     states[0, :] = x
-    if not _derivative(t, x, layout, data, system, solution, k[0]):
+    if not _derivative(t, x, layout, data, user_force, system, solution, k[0]):
         return NOT_FINITE, 0, 0, worst
     h = first_step
     accepted = 0
@@ -702,7 +838,14 @@ def integrate_sample(times, x0, layout, data, rtol, atol, first_step, max_steps,
             for stage in range(1, 7):
                 stage_state(x, k, stage, step, trial)
                 if not _derivative(
-                    stage_time(t, stage, step), trial, layout, data, system, solution, k[stage]
+                    stage_time(t, stage, step),
+                    trial,
+                    layout,
+                    data,
+                    user_force,
+                    system,
+                    solution,
+                    k[stage],
                 ):
                     return NOT_FINITE, accepted, rejected, worst
             err = error_norm(x, trial, k, step, rtol, atol)
@@ -717,7 +860,7 @@ def integrate_sample(times, x0, layout, data, rtol, atol, first_step, max_steps,
                 if not residual <= tolerance:
                     return PROJECTION_FAILED, accepted, rejected, residual
                 worst = max(worst, residual)
-                if not _derivative(t, x, layout, data, system, solution, k[0]):
+                if not _derivative(t, x, layout, data, user_force, system, solution, k[0]):
                     return NOT_FINITE, accepted, rejected, worst
                 if not last or factor < 1.0:
                     h = step * factor
@@ -740,6 +883,7 @@ def integrate_range(
     initial,
     layout,
     data,
+    user_force,
     rtol,
     atol,
     first_step,
@@ -755,6 +899,7 @@ def integrate_range(
             initial[s],
             layout,
             data[s],
+            user_force,
             rtol,
             atol,
             first_step,
@@ -791,8 +936,11 @@ def energy_at(states, layout, data, out):
     """Kinetic, gravitational and elastic energy at every stored state: out (B, T, 3).
 
     Kinetic 1/2 v^T M v (M from :func:`body_terms`); gravitational -g . (m r + A S(q));
-    elastic 1/2 omega^2 q^2 of the modes plus 1/2 k (l - l0)^2 of the springs.
+    elastic 1/2 omega^2 q^2 of the modes, 1/2 k (l - l0)^2 of the springs and 1/2 k g^2 of
+    the closed contacts.
     """
+    force = np.empty(3)
+    point = np.empty(3)
     bodies, markers, elements = layout[0], layout[1], layout[3]
     nq = layout[4][0]
     n = layout[4][1]
@@ -837,14 +985,22 @@ def energy_at(states, layout, data, out):
                 for m in range(r):
                     elastic += 0.5 * row[o_k + m] * q[po + 7 + m] ** 2
             for e in range(elements.shape[0]):
-                if elements[e, 0] != SPRING_DAMPER:
+                kind = elements[e, 0]
+                if kind != SPRING_DAMPER and kind != CONTACT:
                     continue
+                d = elements[e, 3]
                 marker_state(elements[e, 1], markers, bodies, row, q, v, si)
                 marker_state(elements[e, 2], markers, bodies, row, q, v, sj)
+                if kind == CONTACT:
+                    gap = contact_force(
+                        markers, bodies, row, d, elements[e, 2], q, v, si, sj, force, point
+                    )
+                    if gap < 0.0:
+                        elastic += 0.5 * row[d] * gap * gap
+                    continue
                 length = 0.0
                 for c in range(3):
                     length += (sj[0, c] - si[0, c]) ** 2
-                d = elements[e, 3]
                 elastic += 0.5 * row[d] * (math.sqrt(length) - row[d + 2]) ** 2
             out[s, t, 0] = kinetic
             out[s, t, 1] = potential

@@ -63,6 +63,7 @@ def linearize(
         spare = [np.empty(c) for _ in range(4)]
         kernels.joint_terms(t, layout, data, x0[:nq], x0[nq:], jac, *spare)
     basis = free_directions(jac, n)
+    user = mechanism.user_function()
     free = basis.shape[1]
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
@@ -74,7 +75,7 @@ def linearize(
         kernels.displace(x[:nq], layout[0], position)
         x[nq:] += velocity
         kernels.project(t, x[:nq], x[nq:], layout, data, 1e-13)
-        if not kernels.accelerations(t, x[:nq], x[nq:], layout, data, system, solution):
+        if not kernels.accelerations(t, x[:nq], x[nq:], layout, data, user, system, solution):
             raise InvalidParameterError("the mass matrix with the joints is singular at this state")
         return np.concatenate([basis.T @ x[nq:], basis.T @ solution[:n]])
 

@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import Assembly
 from fuzzymbs.mbs.kernels.threads import for_each_range
+from fuzzymbs.mbs.planar.kernels import no_user_force
 from fuzzymbs.mbs.planar.simulation import describe_failure
 from fuzzymbs.mbs.spatial import kernels
 from fuzzymbs.mbs.spatial.bodies import Body, Marker
@@ -45,6 +46,19 @@ class Mechanism(Assembly):
 
     def __init__(self, gravity: ArrayLike = (0.0, 0.0, 0.0)) -> None:
         super().__init__(gravity)
+
+    def user_function(self) -> object:
+        """The one user force function of the mechanism's UserForce elements (a no-op
+        without them)."""
+        functions = {
+            id(f.function): f.function for f in self.forces if f.kind == kernels.USER_FORCE
+        }
+        if len(functions) > 1:
+            raise InvalidParameterError(
+                "a Mechanism runs one user force function; dispatch on the element index inside it "
+                f"(got {len(functions)} functions)"
+            )
+        return next(iter(functions.values()), no_user_force)
 
     def pack(self) -> tuple[tuple, NDArray[np.float64], NDArray[np.float64]]:
         """(layout arrays, data row, initial state (q, v))."""
@@ -242,6 +256,11 @@ def simulate(
             )
         rows.append(data)
         states.append(state)
+    user = batch[0].user_function()
+    if any(m.user_function() is not user for m in batch[1:]):
+        raise InvalidParameterError(
+            "every sample's mechanism must use the same user force function"
+        )
     t = np.asarray(times, dtype=float)
     if t.ndim != 1 or t.size < 2 or not np.isfinite(t).all() or np.any(np.diff(t) <= 0):
         raise InvalidParameterError(
@@ -261,6 +280,7 @@ def simulate(
             initial,
             layout,
             data,
+            user,
             float(rtol),
             float(atol),
             step,
