@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.fe.beam import PlanarBeam
 from fuzzymbs.mbs import planar
 from fuzzymbs.mbs.lumped import lumped_modal_body
@@ -241,3 +242,20 @@ def test_a_spatial_mechanism_is_a_study_model():
     assert np.ptp(out["energy"], axis=1).max() < 1e-7
     with pytest.raises(Exception, match="unknown parameter"):
         model({"youngs": np.array([1.0])})
+
+
+def test_a_body_free_to_turn_where_it_has_no_inertia_is_refused():
+    # a beam from ReducedBeam.modal_body() is a line: no inertia about its own axis. On a
+    # ball joint that rotation is free, and the mechanism is refused before it runs, naming it
+    beam = PlanarBeam(
+        length=0.5, youngs_modulus=7e10, density=2700.0, area=1e-4, second_moment=8e-10
+    ).reduce(2)
+    body = FlexibleBody("strip", beam.modal_body())
+    with pytest.raises(InvalidParameterError, match=r"singular .* mostly in body 'strip'"):
+        simulate(
+            Mechanism().add(body, Spherical(ground.point(), body.node(0))),
+            np.linspace(0.0, 0.1, 3),
+        )
+    # on a hinge about z that rotation is held: it runs
+    hinge = Mechanism(gravity=GRAVITY).add(body, Revolute(ground.point(), body.node(0)))
+    assert not simulate(hinge, np.linspace(0.0, 0.1, 3)).failed.any()

@@ -21,6 +21,7 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import Assembly
 from fuzzymbs.mbs.kernels.threads import for_each_range
 from fuzzymbs.mbs.planar.kernels import no_user_force
+from fuzzymbs.mbs.planar.linearization import free_directions
 from fuzzymbs.mbs.planar.simulation import describe_failure
 from fuzzymbs.mbs.spatial import kernels
 from fuzzymbs.mbs.spatial.bodies import Body, Marker
@@ -31,6 +32,10 @@ START_TOLERANCE = 1e-9
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-8
 PROJECTION_TOLERANCE = 1e-10
+#: Smallest eigenvalue of the mass matrix on the joints' free directions, relative to the
+#: largest, below which a mechanism is refused as singular (a small inertia, such as a
+#: point-like bob's spin, 1e-6 of the pendulum's, integrates well; zero does not).
+SINGULAR_MASS = 1e-12
 
 
 class Mechanism(Assembly):
@@ -131,32 +136,45 @@ class Mechanism(Assembly):
         return out[0, 0, :, :3]
 
     def check(self, t0: float = 0.0) -> None:
-        """Refuse joints violated at the start and redundant joints, naming them."""
+        """Refuse, naming the element: joints violated at the start, redundant joints, a
+        mass matrix singular on the motion the joints allow."""
         layout, data, state = self.pack()
         nq, n, c = (int(s) for s in layout[4])
-        if c == 0:
-            return
+        q, v = state[:nq].copy(), state[nq:].copy()
         jac = np.zeros((c, n))
-        residual = np.empty(c)
-        spare = [np.empty(c) for _ in range(3)]
-        kernels.joint_terms(
-            t0, layout, data, state[:nq].copy(), state[nq:].copy(), jac, residual, *spare
-        )
-        row = 0
-        scale = 1e-9 * max(1.0, np.abs(jac).max())
-        for j in self.joints:
-            worst = np.abs(residual[row : row + j.rows]).max()
-            if worst > START_TOLERANCE:
-                raise InvalidParameterError(
-                    f"joint {j.label()} is violated at the start by {worst:.3g} (m or rad): place "
-                    "the bodies "
-                    "so its markers meet and its axes line up"
-                )
-            if np.linalg.matrix_rank(jac[: row + j.rows], tol=scale) < row + j.rows:
-                raise InvalidParameterError(
-                    f"joint {j.label()} is redundant with the joints before it"
-                )
-            row += j.rows
+        if c:
+            residual = np.empty(c)
+            spare = [np.empty(c) for _ in range(3)]
+            kernels.joint_terms(t0, layout, data, q, v, jac, residual, *spare)
+            row = 0
+            scale = 1e-9 * max(1.0, np.abs(jac).max())
+            for j in self.joints:
+                worst = np.abs(residual[row : row + j.rows]).max()
+                if worst > START_TOLERANCE:
+                    raise InvalidParameterError(
+                        f"joint {j.label()} is violated at the start by {worst:.3g} (m or rad): "
+                        "place the bodies so its markers meet and its axes line up"
+                    )
+                if np.linalg.matrix_rank(jac[: row + j.rows], tol=scale) < row + j.rows:
+                    raise InvalidParameterError(
+                        f"joint {j.label()} is redundant with the joints before it"
+                    )
+                row += j.rows
+        mass = np.zeros((n, n))
+        kernels.body_terms(layout[0], data, q, v, mass, np.zeros(n))
+        free = free_directions(jac, n)
+        values = np.linalg.eigvalsh(free.T @ mass @ free) if free.size else np.ones(1)
+        if values[0] <= SINGULAR_MASS * values[-1]:
+            weakest = free @ np.linalg.eigh(free.T @ mass @ free)[1][:, 0]
+            body = self.bodies[
+                int(np.searchsorted(layout[0][:, 1], np.argmax(np.abs(weakest)), "right")) - 1
+            ]
+            raise InvalidParameterError(
+                f"the mass matrix is singular on the motion the joints allow (smallest/largest "
+                f"eigenvalue {values[0] / values[-1]:.2g}), mostly in body {body.name!r}: a "
+                "body without mass or inertia in a direction it may move (a beam from "
+                "ReducedBeam.modal_body() has none about its own axis: hold that rotation)"
+            )
 
 
 @dataclass(frozen=True)
