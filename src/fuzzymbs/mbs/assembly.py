@@ -65,6 +65,19 @@ class JointBase:
         return self.name or f"{type(self).__name__}({self.marker_i.name}, {self.marker_j.name})"
 
 
+class ForceBase:
+    """What every force element reports: its label (its ``name``, or its kind and markers)."""
+
+    role = "force"
+
+    def label(self) -> str:
+        name = getattr(self, "name", "")
+        if name:
+            return name
+        markers = [m.name for m in (self.marker_i, self.marker_j) if m is not None]
+        return f"{type(self).__name__}({', '.join(markers)})"
+
+
 class Assembly:
     """Bodies, joints, force elements and named markers of one engine, with gravity.
 
@@ -128,6 +141,15 @@ class Assembly:
                 return j
         raise InvalidParameterError(
             f"no joint named {name!r}; joints: {[j.label() for j in self.joints]}"
+        )
+
+    def force(self, name: str) -> Any:
+        """The force element labelled ``name`` (its name, or its kind and markers)."""
+        for f in self.forces:
+            if f.label() == name:
+                return f
+        raise InvalidParameterError(
+            f"no force element named {name!r}; force elements: {[f.label() for f in self.forces]}"
         )
 
     def markers(self) -> list[Any]:

@@ -4,7 +4,15 @@ import numpy as np
 import pytest
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.planar import Contact, Mechanism, RigidBody, contacts, ground, simulate
+from fuzzymbs.mbs.planar import (
+    Contact,
+    Mechanism,
+    RigidBody,
+    SpringDamper,
+    contacts,
+    ground,
+    simulate,
+)
 
 # slow: the planar kernels take about 25 s to compile, which the README's pytest (5 min on a
 # fresh clone of 2 cores) cannot spare in every test process; CI runs these with -m slow
@@ -67,3 +75,21 @@ def test_bad_contact_law_is_refused():
         Contact(ground.point(), ground.point(1, 0), stiffness=0.0)
     with pytest.raises(InvalidParameterError, match="Contact friction"):
         Contact(ground.point(), ground.point(1, 0), stiffness=1.0, friction=-0.1)
+
+
+def test_contact_forces_are_outputs():
+    # the settled block of the first test: each corner pushes m g / 2 up, nothing sideways
+    body = RigidBody("block", mass=2.0, inertia=2.0 * (0.2**2 + 0.1**2) / 12, position=(0.0, 0.05))
+    corners = [
+        Contact(body.point(x, -0.05), ground.point(), 1e6, 2e3, 0.3, name=f"corner{k}")
+        for k, x in enumerate((-0.1, 0.1))
+    ]
+    mechanism = Mechanism(gravity=(0.0, -GRAVITY)).add(body, *corners)
+    result = simulate(mechanism, np.linspace(0.0, 1.0, 11))
+    loads = np.array([result.element_force(f"corner{k}")[0, -1] for k in range(2)])
+    np.testing.assert_allclose(loads[:, 1], 2.0 * GRAVITY / 2, rtol=1e-4)
+    np.testing.assert_allclose(loads[:, [0, 2]], 0.0, atol=1e-6)
+    # unnamed elements answer to their kind and markers
+    assert mechanism.force("corner1") is corners[1]
+    spring = SpringDamper(body.point(), ground.point(0.0, 1.0), 10.0)
+    assert Mechanism().add(body, spring).force(spring.label()) is spring

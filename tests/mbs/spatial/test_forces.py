@@ -10,6 +10,7 @@ from fuzzymbs.mbs.spatial import (
     Mechanism,
     Prismatic,
     RigidBody,
+    Spherical,
     SpringDamper,
     UserForce,
     contacts,
@@ -127,3 +128,49 @@ def test_bad_contact_and_user_force_input_is_refused():
         InvalidParameterError, match=r"compiled with fuzzymbs\.mbs\.spatial\.user_force"
     ):
         UserForce(ball.point(), None, lambda *args: None)
+
+
+def test_contact_forces_are_outputs():
+    # the settled block: each corner's contact pushes m g / 4 up, no friction
+    body = block()
+    law = dict(stiffness=1e6, damping=2e3, friction=0.3)
+    corners = [
+        Contact(body.point(c), ground.point(), name=f"corner{k}", **law)
+        for k, c in enumerate(CORNERS)
+    ]
+    mechanism = Mechanism(gravity=(0.0, 0.0, -GRAVITY)).add(body, *corners)
+    result = simulate(mechanism, np.linspace(0.0, 1.0, 11))
+    loads = np.array([result.element_force(f"corner{k}")[0, -1] for k in range(4)])
+    np.testing.assert_allclose(loads[:, 2], 2.0 * GRAVITY / 4, rtol=1e-4)  # measured 1.1e-5
+    np.testing.assert_allclose(loads[:, [0, 1, 3, 4, 5]], 0.0, atol=1e-6)
+    with pytest.raises(InvalidParameterError, match="no force element named 'wheel'"):
+        result.element_force("wheel")
+
+
+def test_conical_pendulum_rod_force_is_the_joint_reaction():
+    # steady conical motion of a point-like bob on a 1 m massless link (a ball joint at the
+    # pivot): the joint pulls the bob towards the pivot with m g / cos(cone) (any text)
+    length, cone, mass = 1.0, np.deg2rad(30), 1.5
+    rate = np.sqrt(GRAVITY / (length * np.cos(cone)))
+    at = np.array([length * np.sin(cone), 0.0, -length * np.cos(cone)])
+    bob = RigidBody(
+        "bob",
+        mass=mass,
+        inertia=(1e-6, 1e-6, 1e-6),
+        position=at,
+        velocity=np.cross([0.0, 0.0, rate], at),
+        angular_velocity=(0.0, 0.0, rate),
+    )
+    mechanism = Mechanism(gravity=(0.0, 0.0, -GRAVITY)).add(
+        bob, Spherical(ground.point(), bob.point(-at), name="pivot")
+    )
+    result = simulate(mechanism, np.linspace(0.0, 1.0, 11), rtol=1e-10, atol=1e-12)
+    pull = result.reaction("pivot")[0]
+    towards_pivot = -result.position("bob")[0] / length
+    tension = mass * GRAVITY / np.cos(cone)
+    # measured 9e-12 N and 6e-12 m/s^2
+    np.testing.assert_allclose(pull, tension * towards_pivot, atol=1e-8)
+    # the accelerations are the centripetal one: w^2 L sin(cone) towards the axis
+    accelerations = result.solved()[0, :, :3]
+    radial = -result.position("bob")[0] * np.array([1.0, 1.0, 0.0])
+    np.testing.assert_allclose(accelerations, rate**2 * radial, atol=1e-8)

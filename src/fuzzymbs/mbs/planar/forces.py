@@ -30,6 +30,7 @@ import numpy as np
 from numba.core.ccallback import CFunc
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.assembly import ForceBase
 from fuzzymbs.mbs.planar import kernels
 from fuzzymbs.mbs.planar.bodies import Marker
 from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
@@ -62,7 +63,7 @@ def _non_negative(owner: str, **values: float) -> None:
 
 
 @dataclass(frozen=True, eq=False)
-class SpringDamper:
+class SpringDamper(ForceBase):
     """A linear spring and damper along the line between two markers.
 
     Tension = stiffness (l - free_length) + damping l' on marker i towards j.
@@ -74,8 +75,8 @@ class SpringDamper:
     stiffness: float
     damping: float = 0.0
     free_length: float | None = None
+    name: str = ""
     kind = kernels.SPRING_DAMPER
-    role = "force"
     engine = "planar"
     profile_code = -1
 
@@ -97,7 +98,7 @@ class SpringDamper:
 
 
 @dataclass(frozen=True, eq=False)
-class RotationalSpringDamper:
+class RotationalSpringDamper(ForceBase):
     """A torsion spring and damper on the relative angle of two markers.
 
     Torque on marker i = stiffness (angle_j - angle_i - free_angle) + damping
@@ -110,8 +111,8 @@ class RotationalSpringDamper:
     stiffness: float
     damping: float = 0.0
     free_angle: float | None = None
+    name: str = ""
     kind = kernels.ROTATIONAL_SPRING_DAMPER
-    role = "force"
     engine = "planar"
     profile_code = -1
 
@@ -126,7 +127,7 @@ class RotationalSpringDamper:
 
 
 @dataclass(frozen=True, eq=False)
-class MarkerLoad:
+class MarkerLoad(ForceBase):
     """A force (fx, fy) [N] and a torque [N m] on one marker, times a profile of time.
 
     ``in_marker_frame`` turns the force with the marker (a follower load).
@@ -137,8 +138,8 @@ class MarkerLoad:
     torque: float = 0.0
     profile: Profile | None = None
     in_marker_frame: bool = False
+    name: str = ""
     kind = kernels.MARKER_LOAD
-    role = "force"
     engine = "planar"
     marker_j = None
 
@@ -161,7 +162,7 @@ class MarkerLoad:
 
 
 @dataclass(frozen=True, eq=False)
-class UserForce:
+class UserForce(ForceBase):
     """A force law written by the user, compiled into the kernels.
 
     Parameters
@@ -180,8 +181,8 @@ class UserForce:
     marker_j: Marker | None
     function: object
     parameters: Sequence[float] = ()
+    name: str = ""
     kind = kernels.USER_FORCE
-    role = "force"
     engine = "planar"
     profile_code = -1
 
@@ -208,7 +209,7 @@ class UserForce:
 
 
 @dataclass(frozen=True, eq=False)
-class Contact:
+class Contact(ForceBase):
     """Penalty contact of a point (marker i) with a surface (marker j), with friction.
 
     The surface is marker j's x axis, its outward normal marker j's y axis (a
@@ -244,8 +245,8 @@ class Contact:
     friction: float = 0.0
     regularization: float = 1e-3
     radius: float | None = None
+    name: str = ""
     kind = kernels.CONTACT
-    role = "force"
     engine = "planar"
     profile_code = -1
 

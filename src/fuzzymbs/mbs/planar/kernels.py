@@ -588,6 +588,59 @@ def joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, accelerat
 
 
 @nb.njit(cache=True)
+def element_force(e, t, layout, data, z, v, user_force, si, sj, out):
+    """Force element ``e``'s load on marker i into ``out``: (fx, fy) [N], global, and the
+    torque [N m]; ``si``, ``sj`` receive the markers' states (sj zero without marker j).
+    Returns the point (x, y) where marker j's body takes the reaction: marker j's point,
+    or the contact point on the surface for a contact."""
+    bodies, markers, elements = layout[0], layout[1], layout[3]
+    kind = elements[e, 0]
+    ki = elements[e, 1]
+    kj = elements[e, 2]
+    d = elements[e, 3]
+    code = elements[e, 4]
+    marker_state(ki, markers, bodies, data, z, v, si)
+    if kj >= 0:
+        marker_state(kj, markers, bodies, data, z, v, sj)
+    else:
+        sj[:] = 0.0
+    if kind == SPRING_DAMPER:
+        dx = sj[0] - si[0]
+        dy = sj[1] - si[1]
+        length = math.sqrt(dx * dx + dy * dy)
+        ex = dx / length
+        ey = dy / length
+        lengthening = ex * (sj[3] - si[3]) + ey * (sj[4] - si[4])
+        tension = data[d] * (length - data[d + 2]) + data[d + 1] * lengthening
+        out[0] = tension * ex
+        out[1] = tension * ey
+        out[2] = 0.0
+    elif kind == ROTATIONAL_SPRING_DAMPER:
+        out[0] = 0.0
+        out[1] = 0.0
+        out[2] = data[d] * (sj[2] - si[2] - data[d + 2]) + data[d + 1] * (sj[5] - si[5])
+    elif kind == MARKER_LOAD:
+        scale = 1.0
+        if code >= 0:
+            scale, _, _ = profile(code, data, d + 4, t)
+        fx = data[d] * scale
+        fy = data[d + 1] * scale
+        if data[d + 3] != 0.0:  # given in the marker's frame
+            ca = math.cos(si[2])
+            sa = math.sin(si[2])
+            fx, fy = ca * fx - sa * fy, sa * fx + ca * fy
+        out[0] = fx
+        out[1] = fy
+        out[2] = data[d + 2] * scale
+    elif kind == CONTACT:
+        return contact_force(markers, bodies, data, d, kj, z, v, si, sj, out)
+    else:
+        count = int(data[d])
+        user_force(e, t, si[:6].copy(), sj[:6].copy(), data[d + 1 : d + 1 + count].copy(), out)
+    return sj[0], sj[1]
+
+
+@nb.njit(cache=True)
 def force_terms(t, layout, data, z, v, user_force, forces):
     """Generalised forces of every force element, added to ``forces``."""
     bodies, markers, elements = layout[0], layout[1], layout[3]
@@ -595,56 +648,16 @@ def force_terms(t, layout, data, z, v, user_force, forces):
     sj = np.empty(10)
     out = np.zeros(3)
     for e in range(elements.shape[0]):
-        kind = elements[e, 0]
         ki = elements[e, 1]
         kj = elements[e, 2]
-        d = elements[e, 3]
-        code = elements[e, 4]
-        marker_state(ki, markers, bodies, data, z, v, si)
-        if kj >= 0:
-            marker_state(kj, markers, bodies, data, z, v, sj)
-        else:
-            sj[:] = 0.0
-        if kind == SPRING_DAMPER:
-            dx = sj[0] - si[0]
-            dy = sj[1] - si[1]
-            length = math.sqrt(dx * dx + dy * dy)
-            ex = dx / length
-            ey = dy / length
-            lengthening = ex * (sj[3] - si[3]) + ey * (sj[4] - si[4])
-            tension = data[d] * (length - data[d + 2]) + data[d + 1] * lengthening
-            out[0] = tension * ex
-            out[1] = tension * ey
-            out[2] = 0.0
-        elif kind == ROTATIONAL_SPRING_DAMPER:
-            out[0] = 0.0
-            out[1] = 0.0
-            out[2] = data[d] * (sj[2] - si[2] - data[d + 2]) + data[d + 1] * (sj[5] - si[5])
-        elif kind == MARKER_LOAD:
-            scale = 1.0
-            if code >= 0:
-                scale, _, _ = profile(code, data, d + 4, t)
-            fx = data[d] * scale
-            fy = data[d + 1] * scale
-            if data[d + 3] != 0.0:  # given in the marker's frame
-                ca = math.cos(si[2])
-                sa = math.sin(si[2])
-                fx, fy = ca * fx - sa * fy, sa * fx + ca * fy
-            out[0] = fx
-            out[1] = fy
-            out[2] = data[d + 2] * scale
-        elif kind == CONTACT:
-            cx, cy = contact_force(markers, bodies, data, d, kj, z, v, si, sj, out)
-            add_point_load(ki, markers, bodies, data, z, si, out[0], out[1], forces)
-            body = markers[kj, 0] if kj >= 0 else -1
-            add_frame_point_load(body, bodies, z, cx, cy, -out[0], -out[1], forces)
-            continue
-        else:
-            count = int(data[d])
-            user_force(e, t, si[:6].copy(), sj[:6].copy(), data[d + 1 : d + 1 + count].copy(), out)
+        px, py = element_force(e, t, layout, data, z, v, user_force, si, sj, out)
         add_point_load(ki, markers, bodies, data, z, si, out[0], out[1], forces)
         add_angle_load(ki, markers, bodies, data, out[2], forces)
-        if kj >= 0:
+        if kj < 0:
+            continue
+        if elements[e, 0] == CONTACT:  # the surface's point moves with marker j's frame
+            add_frame_point_load(markers[kj, 0], bodies, z, px, py, -out[0], -out[1], forces)
+        else:
             add_point_load(kj, markers, bodies, data, z, sj, -out[0], -out[1], forces)
             add_angle_load(kj, markers, bodies, data, -out[2], forces)
 

@@ -1,4 +1,5 @@
-"""What a stored planar trajectory tells: energies and marker motion at every state."""
+"""What a stored planar trajectory tells: energies, marker motion and element forces at every
+state."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from fuzzymbs.mbs.planar.kernels import (
     ROTATIONAL_SPRING_DAMPER,
     SPRING_DAMPER,
     body_terms,
+    element_force,
     marker_state,
 )
 
@@ -114,3 +116,23 @@ def markers_at(markers_wanted, states, layout, data, out):
             for w in range(markers_wanted.size):
                 marker_state(markers_wanted[w], markers, bodies, data[s], x[:n], x[n:], s10)
                 out[s, i, w, :] = s10[:6]
+
+
+@nb.njit(cache=True, nogil=True)
+def element_forces_at(element, times, states, layout, data, user_force, out):
+    """Force element ``element``'s load on its marker i at every stored state: out (B, T, 3)
+    = (fx, fy, torque), global, NaN after a failure."""
+    n = layout[4][0]
+    si = np.empty(10)
+    sj = np.empty(10)
+    load = np.zeros(3)
+    for s in range(states.shape[0]):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if not math.isfinite(x[0]):
+                out[s, i, :] = np.nan
+                continue
+            element_force(
+                element, times[i], layout, data[s], x[:n], x[n:], user_force, si, sj, load
+            )
+            out[s, i, :] = load

@@ -143,6 +143,24 @@ class PlanarResult:
         for_each_range(self.states.shape[0], run)
         return out
 
+    def element_force(self, element: str) -> NDArray[np.float64]:
+        """(B, T, 3): the load a force element applies to its marker i -- (fx, fy) [N],
+        global, and the torque [N m]; marker j's body takes the opposite (for a contact,
+        at the contact point). ``element`` is its name or label (``Mechanism.force``)."""
+        template = self.batch.template
+        index = template.forces.index(template.force(element))
+        out = np.empty((*self.states.shape[:2], 3))
+        readout.element_forces_at(
+            index,
+            self.times,
+            self.states,
+            self.batch.layout.arrays(),
+            self.batch.data,
+            self.batch.user_force,
+            out,
+        )
+        return out
+
     def reaction(self, joint: str) -> NDArray[np.float64]:
         """(B, T, rows): the joint's multipliers.
 

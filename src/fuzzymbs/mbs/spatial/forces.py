@@ -10,6 +10,7 @@ import numpy as np
 from numba.core.ccallback import CFunc
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.assembly import ForceBase
 from fuzzymbs.mbs.planar import kernels as planar_kernels
 from fuzzymbs.mbs.planar.forces import user_force
 from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
@@ -18,7 +19,7 @@ from fuzzymbs.mbs.spatial.bodies import Marker
 
 
 @dataclass(frozen=True, eq=False)
-class SpringDamper:
+class SpringDamper(ForceBase):
     """A linear spring and damper along the line between two markers' points.
 
     Tension = stiffness (l - free_length) + damping l'; ``free_length`` None takes
@@ -30,8 +31,8 @@ class SpringDamper:
     stiffness: float
     damping: float = 0.0
     free_length: float | None = None
+    name: str = ""
     kind = kernels.SPRING_DAMPER
-    role = "force"
     engine = "spatial"
     profile_code = -1
 
@@ -51,15 +52,15 @@ class SpringDamper:
 
 
 @dataclass(frozen=True, eq=False)
-class MarkerLoad:
+class MarkerLoad(ForceBase):
     """A force [N] and a torque [N m] (global frame) on a marker, times a profile of time."""
 
     marker_i: Marker
     force: Sequence[float] = (0.0, 0.0, 0.0)
     torque: Sequence[float] = (0.0, 0.0, 0.0)
     profile: Profile | None = None
+    name: str = ""
     kind = kernels.MARKER_LOAD
-    role = "force"
     engine = "spatial"
     marker_j = None
 
@@ -80,7 +81,7 @@ class MarkerLoad:
 
 
 @dataclass(frozen=True, eq=False)
-class UserForce:
+class UserForce(ForceBase):
     """A force law written by the user, compiled into the kernels.
 
     Parameters
@@ -103,8 +104,8 @@ class UserForce:
     marker_j: Marker | None
     function: object
     parameters: Sequence[float] = ()
+    name: str = ""
     kind = kernels.USER_FORCE
-    role = "force"
     engine = "spatial"
     profile_code = -1
 
@@ -132,7 +133,7 @@ class UserForce:
 
 
 @dataclass(frozen=True, eq=False)
-class Contact:
+class Contact(ForceBase):
     """Penalty contact of a point (marker i) with a surface (marker j), with friction.
 
     The surface is the plane through marker j normal to its z axis (outward: +z), or,
@@ -166,8 +167,8 @@ class Contact:
     friction: float = 0.0
     regularization: float = 1e-3
     radius: float | None = None
+    name: str = ""
     kind = kernels.CONTACT
-    role = "force"
     engine = "spatial"
     profile_code = -1
 

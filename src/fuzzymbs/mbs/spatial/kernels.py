@@ -597,64 +597,112 @@ def add_frame_point_row(body, bodies, q, point, weight, target):
 
 
 @nb.njit(cache=True)
+def element_force(e, t, layout, data, q, v, user_force, si, sj, load, point):
+    """Force element ``e``'s load on marker i into ``load`` (6): force [N] and torque
+    [N m], global; ``si``, ``sj`` receive the markers' states. For a contact, ``point``
+    receives the contact point, where marker j's frame takes the reaction."""
+    bodies, markers, elements = layout[0], layout[1], layout[3]
+    kind = elements[e, 0]
+    ki = elements[e, 1]
+    kj = elements[e, 2]
+    d = elements[e, 3]
+    code = elements[e, 4]
+    marker_state(ki, markers, bodies, data, q, v, si)
+    if kj >= 0:
+        marker_state(kj, markers, bodies, data, q, v, sj)
+    load[:] = 0.0
+    if kind == SPRING_DAMPER:
+        span = sj[0] - si[0]
+        length = math.sqrt(span[0] ** 2 + span[1] ** 2 + span[2] ** 2)
+        lengthening = 0.0
+        for c in range(3):
+            lengthening += span[c] / length * (sj[1, c] - si[1, c])
+        tension = data[d] * (length - data[d + 2]) + data[d + 1] * lengthening
+        for c in range(3):
+            load[c] = tension * span[c] / length
+    elif kind == MARKER_LOAD:
+        scale = 1.0
+        if code >= 0:
+            scale, _, _ = profile(code, data, d + 6, t)
+        for c in range(6):
+            load[c] = data[d + c] * scale
+    elif kind == CONTACT:
+        force = np.empty(3)
+        contact_force(markers, bodies, data, d, kj, q, v, si, sj, force, point)
+        load[:3] = force
+    else:
+        state_i = np.empty(USER_STATE_SIZE)
+        state_j = np.zeros(USER_STATE_SIZE)
+        user_state(ki, markers, bodies, data, q, v, si, state_i)
+        if kj >= 0:
+            user_state(kj, markers, bodies, data, q, v, sj, state_j)
+        count = int(data[d])
+        user_force(e, t, state_i, state_j, data[d + 1 : d + 1 + count].copy(), load)
+
+
+@nb.njit(cache=True)
 def force_terms(t, layout, data, q, v, user_force, forces):
     """Generalised forces (on r', w, q') of every force element."""
     bodies, markers, elements = layout[0], layout[1], layout[3]
     si = np.empty((6, 3))
     sj = np.empty((6, 3))
-    force = np.empty(3)
+    load = np.empty(6)
     point = np.empty(3)
-    state_i = np.empty(USER_STATE_SIZE)
-    state_j = np.zeros(USER_STATE_SIZE)
-    out = np.empty(6)
     for e in range(elements.shape[0]):
         kind = elements[e, 0]
         ki = elements[e, 1]
         kj = elements[e, 2]
-        d = elements[e, 3]
-        code = elements[e, 4]
-        marker_state(ki, markers, bodies, data, q, v, si)
-        if kj >= 0:
-            marker_state(kj, markers, bodies, data, q, v, sj)
-        torque = np.zeros(3)
-        if kind == SPRING_DAMPER:
-            span = sj[0] - si[0]
-            length = math.sqrt(span[0] ** 2 + span[1] ** 2 + span[2] ** 2)
-            lengthening = 0.0
-            for c in range(3):
-                lengthening += span[c] / length * (sj[1, c] - si[1, c])
-            tension = data[d] * (length - data[d + 2]) + data[d + 1] * lengthening
-            for c in range(3):
-                force[c] = tension * span[c] / length
-        elif kind == MARKER_LOAD:
-            scale = 1.0
-            if code >= 0:
-                scale, _, _ = profile(code, data, d + 6, t)
-            for c in range(3):
-                force[c] = data[d + c] * scale
-                torque[c] = data[d + 3 + c] * scale
-        elif kind == CONTACT:
-            contact_force(markers, bodies, data, d, kj, q, v, si, sj, force, point)
-            add_point_row(ki, markers, bodies, data, q, si[3].copy(), force, forces)
-            add_frame_point_row(markers[kj, 0], bodies, q, point, -force, forces)
+        element_force(e, t, layout, data, q, v, user_force, si, sj, load, point)
+        add_point_row(ki, markers, bodies, data, q, si[3].copy(), load[:3].copy(), forces)
+        _add_torque(ki, markers, bodies, q, load[3:].copy(), forces)
+        if kj < 0 or kind == MARKER_LOAD:
             continue
+        if kind == CONTACT:  # the surface's point moves with marker j's frame
+            add_frame_point_row(markers[kj, 0], bodies, q, point, -load[:3], forces)
         else:
-            user_state(ki, markers, bodies, data, q, v, si, state_i)
-            if kj >= 0:
-                user_state(kj, markers, bodies, data, q, v, sj, state_j)
-            count = int(data[d])
-            out[:] = 0.0
-            user_force(e, t, state_i, state_j, data[d + 1 : d + 1 + count].copy(), out)
-            for c in range(3):
-                force[c] = out[c]
-                torque[c] = out[3 + c]
-        add_point_row(ki, markers, bodies, data, q, si[3].copy(), force, forces)
-        _add_torque(ki, markers, bodies, q, torque, forces)
-        if kj >= 0 and kind != MARKER_LOAD:
-            add_point_row(kj, markers, bodies, data, q, sj[3].copy(), -force, forces)
-            for c in range(3):
-                torque[c] = -torque[c]
-            _add_torque(kj, markers, bodies, q, torque, forces)
+            add_point_row(kj, markers, bodies, data, q, sj[3].copy(), -load[:3], forces)
+            _add_torque(kj, markers, bodies, q, -load[3:], forces)
+
+
+@nb.njit(cache=True, nogil=True)
+def element_forces_at(element, times, states, layout, data, user_force, out):
+    """Force element ``element``'s load on its marker i at every stored state: out (B, T, 6)
+    = force and torque, global, NaN after a failure."""
+    nq = layout[4][0]
+    si = np.empty((6, 3))
+    sj = np.empty((6, 3))
+    load = np.empty(6)
+    point = np.empty(3)
+    for s in range(states.shape[0]):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if not math.isfinite(x[0]):
+                out[s, i, :] = np.nan
+                continue
+            element_force(
+                element, times[i], layout, data[s], x[:nq], x[nq:], user_force, si, sj, load, point
+            )
+            out[s, i, :] = load
+
+
+@nb.njit(cache=True, nogil=True)
+def solve_range(start, stop, times, states, layout, data, user_force, out):
+    """(r'', w', q'') and the multipliers at every stored state of rows ``start:stop`` into
+    ``out`` (B, T, n + c); NaN after a failure."""
+    nq = layout[4][0]
+    n = layout[4][1]
+    c = layout[4][2]
+    system = np.empty((n + c, n + c))
+    solution = np.empty(n + c)
+    for s in range(start, stop):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if math.isfinite(x[0]) and accelerations(
+                times[i], x[:nq], x[nq:], layout, data[s], user_force, system, solution
+            ):
+                out[s, i, :] = solution
+            else:
+                out[s, i, :] = np.nan
 
 
 @nb.njit(cache=True)

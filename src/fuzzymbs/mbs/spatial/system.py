@@ -189,6 +189,7 @@ class SpatialResult:
     layout: tuple
     data: NDArray[np.float64]
     template: Mechanism
+    user_force: object
 
     @property
     def failed(self) -> NDArray[np.bool_]:
@@ -228,6 +229,51 @@ class SpatialResult:
         """(B, T, 3) velocity of the frame origin [m/s]."""
         _, vo, _ = self._offsets(body)
         return self.states[:, :, vo : vo + 3]
+
+    def element_force(self, element: str) -> NDArray[np.float64]:
+        """(B, T, 6): the force [N] and torque [N m] a force element applies to its marker
+        i, global; marker j's body takes the opposite (for a contact, at the contact
+        point). ``element`` is its name or label (``Mechanism.force``)."""
+        index = self.template.forces.index(self.template.force(element))
+        out = np.empty((*self.states.shape[:2], 6))
+        kernels.element_forces_at(
+            index, self.times, self.states, self.layout, self.data, self.user_force, out
+        )
+        return out
+
+    def solved(self) -> NDArray[np.float64]:
+        """(B, T, n + c): the accelerations (r'', w', q'' per body) and the joints'
+        multipliers at every stored state."""
+        n, c = int(self.layout[4][1]), int(self.layout[4][2])
+        out = np.empty((*self.states.shape[:2], n + c))
+
+        def run(start: int, stop: int) -> None:
+            kernels.solve_range(
+                start, stop, self.times, self.states, self.layout, self.data, self.user_force, out
+            )
+
+        for_each_range(self.states.shape[0], run)
+        return out
+
+    def reaction(self, joint: str) -> NDArray[np.float64]:
+        """(B, T, rows): the joint's multipliers, rows in its equations' order.
+
+        For the joints whose first three equations make the points meet (spherical,
+        revolute, universal, fixed), rows 0 to 2 are the force [N] the joint applies to
+        marker j's body at its point, global (marker i's body takes the opposite). The
+        other rows belong to the orientation equations (each a torque [N m] about the
+        normal of the two axes it holds perpendicular), the drive (the torque about the
+        axis) and, for cylindrical and prismatic joints, to marker j's point held on marker
+        i's axis (rows 0 and 1: minus the force on marker j along marker i's x and y axes).
+        """
+        wanted = self.template.joint(joint)
+        row = 0
+        for j in self.template.joints:
+            if j is wanted:
+                break
+            row += j.rows
+        n = int(self.layout[4][1])
+        return self.solved()[:, :, n + row : n + row + wanted.rows]
 
     def energy(self) -> NDArray[np.float64]:
         """(B, T, 3): kinetic, gravitational and elastic (modes and springs) energy [J]."""
@@ -318,4 +364,5 @@ def simulate(
         layout,
         data,
         batch[0],
+        user,
     )
