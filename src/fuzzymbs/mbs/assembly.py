@@ -14,9 +14,22 @@ from dataclasses import dataclass
 from typing import Any, Self
 
 import numpy as np
+from numba import types
+from numba.core.ccallback import CFunc
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+
+#: Signature of a user force element, in both engines (``user_force`` compiles to it):
+#: (element index, t, marker i's numbers, marker j's numbers, parameters, out) -> None.
+USER_FORCE_SIGNATURE = types.void(
+    types.int64,
+    types.float64,
+    types.float64[::1],
+    types.float64[::1],
+    types.float64[::1],
+    types.float64[::1],
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,6 +89,104 @@ class ForceBase:
             return name
         markers = [m.name for m in (self.marker_i, self.marker_j) if m is not None]
         return f"{type(self).__name__}({', '.join(markers)})"
+
+
+def _check_markers(owner: str, marker_type: type, *markers: Any, optional: bool = False) -> None:
+    for k, marker in enumerate(markers):
+        if marker is None and optional and k > 0:
+            continue
+        if not isinstance(marker, marker_type):
+            raise InvalidParameterError(f"{owner} needs a marker, got {marker!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class ContactBase(ForceBase):
+    """Penalty contact of marker i's point with marker j's surface, with regularised
+    Coulomb friction: the law's numbers and their checks (the surface's shape is the
+    engine's: see its ``Contact``).
+
+    Parameters
+    ----------
+    marker_i, marker_j : Marker
+    stiffness : float
+        Penalty stiffness [N/m], > 0.
+    damping : float
+        Normal damping [N s/m].
+    friction : float
+        Coulomb coefficient mu [-].
+    regularization : float
+        Slip speed eps of the regularised friction law [m/s], > 0.
+    radius : float, optional
+        The surface's radius [m] (a circle in the plane, a sphere in space); None for a
+        flat surface.
+    name : str
+        The element's name for its outputs.
+    """
+
+    marker_i: Any
+    marker_j: Any
+    stiffness: float
+    damping: float = 0.0
+    friction: float = 0.0
+    regularization: float = 1e-3
+    radius: float | None = None
+    name: str = ""
+    marker_type = object
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        _check_markers("Contact", self.marker_type, self.marker_i, self.marker_j)
+        for field_name, low in (
+            ("stiffness", "> 0"),
+            ("damping", ">= 0"),
+            ("friction", ">= 0"),
+            ("regularization", "> 0"),
+        ):
+            value = getattr(self, field_name)
+            if not (np.isfinite(value) and (value > 0 if low == "> 0" else value >= 0)):
+                raise InvalidParameterError(
+                    f"Contact {field_name} must be finite and {low}, got {value!r}"
+                )
+        if self.radius is not None and not (np.isfinite(self.radius) and self.radius > 0):
+            raise InvalidParameterError(
+                f"Contact radius must be finite and > 0, got {self.radius!r}"
+            )
+
+    def law(self) -> list[float]:
+        """[stiffness, damping, friction, regularization, radius (0: flat)]."""
+        radius = 0.0 if self.radius is None else float(self.radius)
+        return [self.stiffness, self.damping, self.friction, self.regularization, radius]
+
+
+@dataclass(frozen=True, eq=False)
+class UserForceBase(ForceBase):
+    """A force law of the user's own, compiled into the kernels: its checks and numbers."""
+
+    marker_i: Any
+    marker_j: Any
+    function: object
+    parameters: Any = ()
+    name: str = ""
+    marker_type = object
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        _check_markers("UserForce", self.marker_type, self.marker_i, self.marker_j, optional=True)
+        if not isinstance(self.function, CFunc) or self.function._sig != USER_FORCE_SIGNATURE:
+            raise InvalidParameterError(
+                f"UserForce function must be compiled with fuzzymbs.mbs.{self.engine}.user_force, "
+                f"got {self.function!r}"
+            )
+        values = np.asarray(self.parameters, dtype=float).ravel()
+        if not np.isfinite(values).all():
+            raise InvalidParameterError(
+                f"UserForce parameters must be finite, got {self.parameters!r}"
+            )
+
+    def values(self) -> list[float]:
+        """[count, parameters...]."""
+        values = [float(v) for v in np.asarray(self.parameters, dtype=float).ravel()]
+        return [float(len(values)), *values]
 
 
 class Assembly:

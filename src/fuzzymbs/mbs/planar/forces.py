@@ -6,7 +6,7 @@ marker j when it has one. Gravity is a property of the mechanism
 its modal part.
 
 A user force element is a Numba ``cfunc`` with the signature
-:data:`fuzzymbs.mbs.planar.kernels.USER_FORCE_SIGNATURE`, made with
+:data:`fuzzymbs.mbs.assembly.USER_FORCE_SIGNATURE`, made with
 :func:`user_force`: it runs inside the batched kernels, so a tyre, a bearing
 or a friction law costs no Python call per step::
 
@@ -27,10 +27,14 @@ from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
-from numba.core.ccallback import CFunc
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.assembly import ForceBase
+from fuzzymbs.mbs.assembly import (
+    USER_FORCE_SIGNATURE,
+    ContactBase,
+    ForceBase,
+    UserForceBase,
+)
 from fuzzymbs.mbs.planar import kernels
 from fuzzymbs.mbs.planar.bodies import Marker
 from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
@@ -44,9 +48,9 @@ def user_force(function: Callable) -> object:
     beside, or globals that cannot be pickled), it is compiled without a cache.
     """
     try:
-        return nb.cfunc(kernels.USER_FORCE_SIGNATURE, cache=True)(function)
+        return nb.cfunc(USER_FORCE_SIGNATURE, cache=True)(function)
     except (RuntimeError, TypeError, pickle.PicklingError):
-        return nb.cfunc(kernels.USER_FORCE_SIGNATURE)(function)
+        return nb.cfunc(USER_FORCE_SIGNATURE)(function)
 
 
 def _check_marker(owner: str, marker: Marker | None, optional: bool = False) -> None:
@@ -162,7 +166,7 @@ class MarkerLoad(ForceBase):
 
 
 @dataclass(frozen=True, eq=False)
-class UserForce(ForceBase):
+class UserForce(UserForceBase):
     """A force law written by the user, compiled into the kernels.
 
     Parameters
@@ -177,39 +181,16 @@ class UserForce(ForceBase):
         Numbers the law reads (stiffnesses, coefficients), per sample.
     """
 
-    marker_i: Marker
-    marker_j: Marker | None
-    function: object
-    parameters: Sequence[float] = ()
-    name: str = ""
     kind = kernels.USER_FORCE
     engine = "planar"
-    profile_code = -1
-
-    def __post_init__(self) -> None:
-        _check_marker("UserForce", self.marker_i)
-        _check_marker("UserForce", self.marker_j, optional=True)
-        if (
-            not isinstance(self.function, CFunc)
-            or self.function._sig != kernels.USER_FORCE_SIGNATURE
-        ):
-            raise InvalidParameterError(
-                "UserForce function must be compiled with fuzzymbs.mbs.planar.user_force, got "
-                f"{self.function!r}"
-            )
-        values = np.asarray(self.parameters, dtype=float).ravel()
-        if not np.isfinite(values).all():
-            raise InvalidParameterError(
-                f"UserForce parameters must be finite, got {self.parameters!r}"
-            )
+    marker_type = Marker
 
     def pack(self, initial_length: float, initial_angle: float) -> list[float]:
-        values = [float(v) for v in np.asarray(self.parameters, dtype=float).ravel()]
-        return [float(len(values)), *values]
+        return self.values()
 
 
 @dataclass(frozen=True, eq=False)
-class Contact(ForceBase):
+class Contact(ContactBase):
     """Penalty contact of a point (marker i) with a surface (marker j), with friction.
 
     The surface is marker j's x axis, its outward normal marker j's y axis (a
@@ -223,49 +204,16 @@ class Contact(ForceBase):
     the slip v_t (regularised Coulomb, as the brake's contact). For a node set,
     add one Contact per node (:func:`contacts`).
 
-    Parameters
-    ----------
-    marker_i, marker_j : Marker
-    stiffness : float
-        Penalty stiffness [N/m], > 0.
-    damping : float
-        Normal damping [N s/m].
-    friction : float
-        Coulomb coefficient mu [-].
-    regularization : float
-        Slip speed eps of the regularised friction law [m/s], > 0.
-    radius : float, optional
-        Circle radius [m]; None for the straight surface.
+    Parameters: those of :class:`~fuzzymbs.mbs.assembly.ContactBase`; ``radius``
+    the circle's [m] (None: the straight surface).
     """
 
-    marker_i: Marker
-    marker_j: Marker
-    stiffness: float
-    damping: float = 0.0
-    friction: float = 0.0
-    regularization: float = 1e-3
-    radius: float | None = None
-    name: str = ""
     kind = kernels.CONTACT
     engine = "planar"
-    profile_code = -1
-
-    def __post_init__(self) -> None:
-        _check_marker("Contact", self.marker_i)
-        _check_marker("Contact", self.marker_j)
-        _non_negative("Contact", damping=self.damping, friction=self.friction)
-        for name in ("stiffness", "regularization"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise InvalidParameterError(f"Contact {name} must be finite and > 0, got {value!r}")
-        if self.radius is not None and not (np.isfinite(self.radius) and self.radius > 0):
-            raise InvalidParameterError(
-                f"Contact radius must be finite and > 0, got {self.radius!r}"
-            )
+    marker_type = Marker
 
     def pack(self, initial_length: float, initial_angle: float) -> list[float]:
-        radius = 0.0 if self.radius is None else float(self.radius)
-        return [self.stiffness, self.damping, self.friction, self.regularization, radius]
+        return self.law()
 
 
 def contacts(markers: Sequence[Marker], surface: Marker, **law: float) -> list[Contact]:

@@ -32,7 +32,8 @@ import math
 
 import numba as nb
 import numpy as np
-from numba import types
+
+from fuzzymbs.mbs.assembly import USER_FORCE_SIGNATURE
 
 # joint kinds
 REVOLUTE = 0
@@ -51,17 +52,6 @@ NOT_FINITE = 2
 STEP_TOO_SMALL = 3
 TOO_MANY_STEPS = 4
 PROJECTION_FAILED = 5
-
-#: Signature of a user force element (see :func:`fuzzymbs.mbs.planar.forces.user_force`):
-#: (element, t, marker_i state, marker_j state, parameters, out) -> None.
-USER_FORCE_SIGNATURE = types.void(
-    types.int64,
-    types.float64,
-    types.float64[::1],
-    types.float64[::1],
-    types.float64[::1],
-    types.float64[::1],
-)
 
 
 @nb.cfunc(USER_FORCE_SIGNATURE, cache=True)

@@ -7,11 +7,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numba.core.ccallback import CFunc
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.assembly import ForceBase
-from fuzzymbs.mbs.planar import kernels as planar_kernels
+from fuzzymbs.mbs.assembly import ContactBase, ForceBase, UserForceBase
 from fuzzymbs.mbs.planar.forces import user_force
 from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
 from fuzzymbs.mbs.spatial import kernels
@@ -81,7 +79,7 @@ class MarkerLoad(ForceBase):
 
 
 @dataclass(frozen=True, eq=False)
-class UserForce(ForceBase):
+class UserForce(UserForceBase):
     """A force law written by the user, compiled into the kernels.
 
     Parameters
@@ -100,40 +98,16 @@ class UserForce(ForceBase):
         Numbers the law reads, per sample.
     """
 
-    marker_i: Marker
-    marker_j: Marker | None
-    function: object
-    parameters: Sequence[float] = ()
-    name: str = ""
     kind = kernels.USER_FORCE
     engine = "spatial"
-    profile_code = -1
-
-    def __post_init__(self) -> None:
-        for marker, optional in ((self.marker_i, False), (self.marker_j, True)):
-            if not (isinstance(marker, Marker) or (optional and marker is None)):
-                raise InvalidParameterError(f"UserForce needs a marker, got {marker!r}")
-        if (
-            not isinstance(self.function, CFunc)
-            or self.function._sig != planar_kernels.USER_FORCE_SIGNATURE
-        ):
-            raise InvalidParameterError(
-                "UserForce function must be compiled with fuzzymbs.mbs.spatial.user_force, got "
-                f"{self.function!r}"
-            )
-        values = np.asarray(self.parameters, dtype=float).ravel()
-        if not np.isfinite(values).all():
-            raise InvalidParameterError(
-                f"UserForce parameters must be finite, got {self.parameters!r}"
-            )
+    marker_type = Marker
 
     def pack(self, initial_length: float) -> list[float]:
-        values = [float(v) for v in np.asarray(self.parameters, dtype=float).ravel()]
-        return [float(len(values)), *values]
+        return self.values()
 
 
 @dataclass(frozen=True, eq=False)
-class Contact(ForceBase):
+class Contact(ContactBase):
     """Penalty contact of a point (marker i) with a surface (marker j), with friction.
 
     The surface is the plane through marker j normal to its z axis (outward: +z), or,
@@ -145,55 +119,16 @@ class Contact(ForceBase):
     (regularised Coulomb, as in the plane and the brake). For a node set, add one
     Contact per node (:func:`contacts`).
 
-    Parameters
-    ----------
-    marker_i, marker_j : Marker
-    stiffness : float
-        Penalty stiffness [N/m], > 0.
-    damping : float
-        Normal damping [N s/m].
-    friction : float
-        Coulomb coefficient mu [-].
-    regularization : float
-        Slip speed eps of the regularised friction law [m/s], > 0.
-    radius : float, optional
-        Sphere radius [m]; None for the plane.
+    Parameters: those of :class:`~fuzzymbs.mbs.assembly.ContactBase`; ``radius``
+    the sphere's [m] (None: the plane).
     """
 
-    marker_i: Marker
-    marker_j: Marker
-    stiffness: float
-    damping: float = 0.0
-    friction: float = 0.0
-    regularization: float = 1e-3
-    radius: float | None = None
-    name: str = ""
     kind = kernels.CONTACT
     engine = "spatial"
-    profile_code = -1
-
-    def __post_init__(self) -> None:
-        for marker in (self.marker_i, self.marker_j):
-            if not isinstance(marker, Marker):
-                raise InvalidParameterError(f"Contact needs two markers, got {marker!r}")
-        for name in ("damping", "friction"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise InvalidParameterError(
-                    f"Contact {name} must be finite and >= 0, got {value!r}"
-                )
-        for name in ("stiffness", "regularization"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise InvalidParameterError(f"Contact {name} must be finite and > 0, got {value!r}")
-        if self.radius is not None and not (np.isfinite(self.radius) and self.radius > 0):
-            raise InvalidParameterError(
-                f"Contact radius must be finite and > 0, got {self.radius!r}"
-            )
+    marker_type = Marker
 
     def pack(self, initial_length: float) -> list[float]:
-        radius = 0.0 if self.radius is None else float(self.radius)
-        return [self.stiffness, self.damping, self.friction, self.regularization, radius]
+        return self.law()
 
 
 def contacts(markers: Sequence[Marker], surface: Marker, **law: float) -> list[Contact]:
