@@ -196,11 +196,9 @@ def marker_axes(k, markers, bodies, data, q, v, axes, rates, quadratic, local):
 
 
 @nb.njit(cache=True)
-def add_vector_row(k, markers, bodies, q, local, weight, target):
-    """target[velocity coordinates of marker k's body] += weight^T d(A local)/d(r', w):
-    ``local`` is a point (3,) of the body (the translation part added by the caller)
-    or an axis; the angular part is local x (A^T weight)."""
-    body = markers[k, 0]
+def add_turn_row(body, bodies, q, local, weight, target):
+    """target[body's angular velocity coordinates] += local x (A^T weight): the part of
+    weight^T d(A local)/dw for a vector ``local`` fixed in the body frame."""
     if body < 0:
         return
     po = bodies[body, 0]
@@ -214,6 +212,14 @@ def add_vector_row(k, markers, bodies, q, local, weight, target):
     cross(local, bw, arm)
     for i in range(3):
         target[vo + 3 + i] += arm[i]
+
+
+@nb.njit(cache=True)
+def add_vector_row(k, markers, bodies, q, local, weight, target):
+    """target[velocity coordinates of marker k's body] += weight^T d(A local)/d(r', w):
+    ``local`` is a point (3,) of the body (the translation part added by the caller)
+    or an axis; the angular part is local x (A^T weight)."""
+    add_turn_row(markers[k, 0], bodies, q, local, weight, target)
 
 
 @nb.njit(cache=True)
@@ -581,19 +587,12 @@ def add_frame_point_row(body, bodies, q, point, weight, target):
     vo = bodies[body, 1]
     rot = np.empty((3, 3))
     rotation(q, po + 3, rot)
-    local = np.empty(3)
-    bw = np.empty(3)
+    local = np.zeros(3)
     for i in range(3):
-        local[i] = 0.0
-        bw[i] = 0.0
         for k in range(3):
             local[i] += rot[k, i] * (point[k] - q[po + k])
-            bw[i] += rot[k, i] * weight[k]
         target[vo + i] += weight[i]
-    arm = np.empty(3)
-    cross(local, bw, arm)
-    for i in range(3):
-        target[vo + 3 + i] += arm[i]
+    add_turn_row(body, bodies, q, local, weight, target)
 
 
 @nb.njit(cache=True)
