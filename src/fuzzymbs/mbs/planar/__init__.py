@@ -5,7 +5,7 @@ Public API (see docs/mechanisms.md)::
     from fuzzymbs.mbs.planar import (Mechanism, RigidBody, FlexibleBody, ground,
                                      Revolute, Prismatic, Fixed,
                                      SpringDamper, RotationalSpringDamper, MarkerLoad,
-                                     UserForce, user_force, Contact, contacts,
+                                     UserForce, user_force, Contact, contacts, Bushing,
                                      ConstantRate, SpinUp, Harmonic,
                                      simulate, PlanarResult, linearize, MechanismModel)
 """
@@ -30,6 +30,7 @@ _LAZY: dict[str, str] = {
     "UserForce": "fuzzymbs.mbs.planar.forces",
     "user_force": "fuzzymbs.mbs.planar.forces",
     "Contact": "fuzzymbs.mbs.planar.forces",
+    "Bushing": "fuzzymbs.mbs.planar.forces",
     "contacts": "fuzzymbs.mbs.planar.forces",
     "ConstantRate": "fuzzymbs.mbs.planar.profiles",
     "SpinUp": "fuzzymbs.mbs.planar.profiles",

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
+from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import (
@@ -91,7 +92,8 @@ class SpringDamper(ForceBase):
         if self.free_length is not None:
             _non_negative("SpringDamper", free_length=self.free_length)
 
-    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+    def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
+        initial_length = float(np.hypot(*(start_j[:2] - start_i[:2])))
         length = initial_length if self.free_length is None else self.free_length
         if initial_length == 0.0:
             raise InvalidParameterError(
@@ -125,7 +127,8 @@ class RotationalSpringDamper(ForceBase):
         _check_marker("RotationalSpringDamper", self.marker_j)
         _non_negative("RotationalSpringDamper", stiffness=self.stiffness, damping=self.damping)
 
-    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+    def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
+        initial_angle = float(start_j[2] - start_i[2])
         angle = initial_angle if self.free_angle is None else float(self.free_angle)
         return [self.stiffness, self.damping, angle]
 
@@ -160,7 +163,7 @@ class MarkerLoad(ForceBase):
     def profile_code(self) -> int:
         return -1 if self.profile is None else self.profile.code
 
-    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+    def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
         profile = self.profile.pack() if self.profile is not None else [0.0] * PROFILE_SIZE
         return [*self.force, self.torque, float(self.in_marker_frame), *profile]
 
@@ -185,7 +188,7 @@ class UserForce(UserForceBase):
     engine = "planar"
     marker_type = Marker
 
-    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+    def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
         return self.values()
 
 
@@ -212,8 +215,64 @@ class Contact(ContactBase):
     engine = "planar"
     marker_type = Marker
 
-    def pack(self, initial_length: float, initial_angle: float) -> list[float]:
+    def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
         return self.law()
+
+
+@dataclass(frozen=True, eq=False)
+class Bushing(ForceBase):
+    """A linear bushing: springs and dampers on marker j's position and angle relative to
+    marker i, in marker i's frame, about their relative place at the start.
+
+    With d the offset of marker j from marker i in marker i's axes and phi their relative
+    angle (d0, phi0 at the start), marker j receives the force
+    -A_i (diag(kx, ky) (d - d0) + diag(cx, cy) d') and the torque
+    -(k_angle (phi - phi0) + c_angle phi'); marker i receives the opposite force and the
+    torque that keeps the pair's moment (the potential energy is
+    1/2 (kx dx^2 + ky dy^2 + k_angle phi^2) about the start). A rubber mount, a bearing's
+    stiffness, a flexible coupling; markers that coincide at the start are the usual case.
+
+    Parameters
+    ----------
+    marker_i, marker_j : Marker
+    stiffness : (kx, ky, k_angle)
+        [N/m, N/m, N m/rad], each >= 0.
+    damping : (cx, cy, c_angle)
+        [N s/m, N s/m, N m s/rad], each >= 0.
+    name : str
+        The element's name for its outputs.
+    """
+
+    marker_i: Marker
+    marker_j: Marker
+    stiffness: Sequence[float]
+    damping: Sequence[float] = (0.0, 0.0, 0.0)
+    name: str = ""
+    kind = kernels.BUSHING
+    engine = "planar"
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        _check_marker("Bushing", self.marker_i)
+        _check_marker("Bushing", self.marker_j)
+        for what in ("stiffness", "damping"):
+            values = np.asarray(getattr(self, what), dtype=float)
+            if values.shape != (3,) or not (np.isfinite(values).all() and (values >= 0).all()):
+                raise InvalidParameterError(
+                    f"Bushing {what} must be three finite numbers >= 0 (x, y, angle), "
+                    f"got {getattr(self, what)!r}"
+                )
+
+    def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
+        c, s = np.cos(start_i[2]), np.sin(start_i[2])
+        dx, dy = start_j[0] - start_i[0], start_j[1] - start_i[1]
+        return [
+            *np.asarray(self.stiffness, dtype=float),
+            *np.asarray(self.damping, dtype=float),
+            c * dx + s * dy,
+            -s * dx + c * dy,
+            float(start_j[2] - start_i[2]),
+        ]
 
 
 def contacts(markers: Sequence[Marker], surface: Marker, **law: float) -> list[Contact]:
@@ -221,4 +280,4 @@ def contacts(markers: Sequence[Marker], surface: Marker, **law: float) -> list[C
     return [Contact(marker, surface, **law) for marker in markers]
 
 
-ForceElement = SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce | Contact
+ForceElement = SpringDamper | RotationalSpringDamper | MarkerLoad | UserForce | Contact | Bushing

@@ -45,6 +45,7 @@ ROTATIONAL_SPRING_DAMPER = 1
 MARKER_LOAD = 2
 USER_FORCE = 3
 CONTACT = 4
+BUSHING = 5
 # run status
 RUNNING = 0
 FINISHED = 1
@@ -624,6 +625,28 @@ def element_force(e, t, layout, data, z, v, user_force, si, sj, out):
         out[2] = data[d + 2] * scale
     elif kind == CONTACT:
         return contact_force(markers, bodies, data, d, kj, z, v, si, sj, out)
+    elif kind == BUSHING:
+        # marker j's offset and its rate in marker i's frame (d/dt A^T d = A^T d' - w x ...)
+        ca = math.cos(si[2])
+        sa = math.sin(si[2])
+        dx = sj[0] - si[0]
+        dy = sj[1] - si[1]
+        lx = ca * dx + sa * dy
+        ly = -sa * dx + ca * dy
+        rx = ca * (sj[3] - si[3]) + sa * (sj[4] - si[4]) + si[5] * ly
+        ry = -sa * (sj[3] - si[3]) + ca * (sj[4] - si[4]) - si[5] * lx
+        fx = data[d] * (lx - data[d + 6]) + data[d + 3] * rx  # on marker i, its frame
+        fy = data[d + 1] * (ly - data[d + 7]) + data[d + 4] * ry
+        out[0] = ca * fx - sa * fy
+        out[1] = sa * fx + ca * fy
+        # the torque on marker i: the angular spring's, less the moment of marker j's force
+        # about marker i (so that the pair's moment vanishes)
+        out[2] = (
+            data[d + 2] * (sj[2] - si[2] - data[d + 8])
+            + data[d + 5] * (sj[5] - si[5])
+            + dx * out[1]
+            - dy * out[0]
+        )
     else:
         count = int(data[d])
         user_force(e, t, si[:6].copy(), sj[:6].copy(), data[d + 1 : d + 1 + count].copy(), out)
@@ -647,6 +670,10 @@ def force_terms(t, layout, data, z, v, user_force, forces):
             continue
         if elements[e, 0] == CONTACT:  # the surface's point moves with marker j's frame
             add_frame_point_load(markers[kj, 0], bodies, z, px, py, -out[0], -out[1], forces)
+        elif elements[e, 0] == BUSHING:  # marker j: the force and the angular spring's torque
+            add_point_load(kj, markers, bodies, data, z, sj, -out[0], -out[1], forces)
+            torque = out[2] - (sj[0] - si[0]) * out[1] + (sj[1] - si[1]) * out[0]
+            add_angle_load(kj, markers, bodies, data, -torque, forces)
         else:
             add_point_load(kj, markers, bodies, data, z, sj, -out[0], -out[1], forces)
             add_angle_load(kj, markers, bodies, data, -out[2], forces)

@@ -9,6 +9,7 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.planar.kernels import (
+    BUSHING,
     CONTACT,
     ROTATIONAL_SPRING_DAMPER,
     SPRING_DAMPER,
@@ -24,7 +25,8 @@ def potential_energy(layout, data, z, v):
 
     Gravity: -g . (m r + A S(q)) per body, S the first moment with the
     foreshortening; elastic: 1/2 q^T K q; springs: 1/2 k (l - l0)^2, torsion
-    springs 1/2 k (angle - a0)^2, contacts 1/2 k g^2 while closed. Drives,
+    springs 1/2 k (angle - a0)^2, bushings 1/2 (d - d0)^T K (d - d0) and their angular
+    part, contacts 1/2 k g^2 while closed. Drives,
     loads and user forces are not conservative and have no potential here.
     """
     bodies, markers, elements = layout[0], layout[1], layout[3]
@@ -61,7 +63,12 @@ def potential_energy(layout, data, z, v):
         ki = elements[e, 1]
         kj = elements[e, 2]
         d = elements[e, 3]
-        if kind != SPRING_DAMPER and kind != ROTATIONAL_SPRING_DAMPER and kind != CONTACT:
+        if (
+            kind != SPRING_DAMPER
+            and kind != ROTATIONAL_SPRING_DAMPER
+            and kind != CONTACT
+            and kind != BUSHING
+        ):
             continue
         marker_state(ki, markers, bodies, data, z, v, si)
         marker_state(kj, markers, bodies, data, z, v, sj)
@@ -70,6 +77,14 @@ def potential_energy(layout, data, z, v):
             energy += 0.5 * data[d] * (length - data[d + 2]) ** 2
         elif kind == ROTATIONAL_SPRING_DAMPER:
             energy += 0.5 * data[d] * (sj[2] - si[2] - data[d + 2]) ** 2
+        elif kind == BUSHING:
+            ca = math.cos(si[2])
+            sa = math.sin(si[2])
+            dx = sj[0] - si[0]
+            dy = sj[1] - si[1]
+            energy += 0.5 * data[d] * (ca * dx + sa * dy - data[d + 6]) ** 2
+            energy += 0.5 * data[d + 1] * (-sa * dx + ca * dy - data[d + 7]) ** 2
+            energy += 0.5 * data[d + 2] * (sj[2] - si[2] - data[d + 8]) ** 2
         else:
             dx = si[0] - sj[0]
             dy = si[1] - sj[1]

@@ -161,9 +161,8 @@ class Mechanism(Assembly):
             i = self._marker_index(markers, f.marker_i)
             k = self._marker_index(markers, f.marker_j)
             other = start[k] if k >= 0 else np.zeros(6)
-            length = float(np.hypot(*(other[:2] - start[i, :2])))
             forces.append([f.kind, i, k, len(data), f.profile_code])
-            data.extend(f.pack(length, other[2] - start[i, 2]))
+            data.extend(f.pack(start[i], other))
         layout = Layout(
             partial.bodies,
             layout_markers,
