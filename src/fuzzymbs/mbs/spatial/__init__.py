@@ -6,7 +6,7 @@ Public API (see docs/mechanisms.md, "Spatial mechanisms")::
     from fuzzymbs.mbs.spatial import (Mechanism, RigidBody, FlexibleBody, ground, frame_with_z,
                                       Spherical, Revolute, Universal, Cylindrical,
                                       Prismatic, Fixed, SpringDamper, MarkerLoad, UserForce,
-                                      user_force, Contact, contacts, simulate,
+                                      user_force, Contact, contacts, Bushing, simulate,
                                       ConstantRate, SpinUp, Harmonic, MechanismModel,
                                       linearize)
 """
@@ -35,6 +35,7 @@ _LAZY: dict[str, str] = {
     "UserForce": "fuzzymbs.mbs.spatial.forces",
     "user_force": "fuzzymbs.mbs.spatial.forces",
     "Contact": "fuzzymbs.mbs.spatial.forces",
+    "Bushing": "fuzzymbs.mbs.spatial.forces",
     "contacts": "fuzzymbs.mbs.spatial.forces",
     "MechanismModel": "fuzzymbs.mbs.mechanism_model",
     "linearize": "fuzzymbs.mbs.spatial.linearization",

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import ContactBase, ForceBase, UserForceBase
@@ -14,6 +15,9 @@ from fuzzymbs.mbs.planar.forces import user_force
 from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
 from fuzzymbs.mbs.spatial import kernels
 from fuzzymbs.mbs.spatial.bodies import Marker
+
+#: A marker's position (3,) and axes (3, 3: columns) at the start.
+MarkerStart = tuple[NDArray[np.float64], NDArray[np.float64]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,7 +46,8 @@ class SpringDamper(ForceBase):
                     f"SpringDamper {name} must be finite and >= 0, got {value!r}"
                 )
 
-    def pack(self, initial_length: float) -> list[float]:
+    def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
+        initial_length = float(np.linalg.norm(start_j[0] - start_i[0]))
         if initial_length == 0.0:
             raise InvalidParameterError("SpringDamper between coincident markers has no direction")
         length = initial_length if self.free_length is None else float(self.free_length)
@@ -73,7 +78,7 @@ class MarkerLoad(ForceBase):
     def profile_code(self) -> int:
         return -1 if self.profile is None else self.profile.code
 
-    def pack(self, initial_length: float) -> list[float]:
+    def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
         profile = self.profile.pack() if self.profile is not None else [0.0] * PROFILE_SIZE
         return [*self.force, *self.torque, *profile]
 
@@ -102,7 +107,7 @@ class UserForce(UserForceBase):
     engine = "spatial"
     marker_type = Marker
 
-    def pack(self, initial_length: float) -> list[float]:
+    def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
         return self.values()
 
 
@@ -127,8 +132,67 @@ class Contact(ContactBase):
     engine = "spatial"
     marker_type = Marker
 
-    def pack(self, initial_length: float) -> list[float]:
+    def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
         return self.law()
+
+
+@dataclass(frozen=True, eq=False)
+class Bushing(ForceBase):
+    """A linear bushing: springs and dampers on marker j's position and small relative
+    rotation with respect to marker i, in marker i's axes, about their relative place at
+    the start.
+
+    With d the offset of marker j from marker i in marker i's axes less its start value,
+    and theta the rotation vector of marker j's turn relative to marker i since the start
+    (1/2 vee(D - D^T) with D = R R0^T, R = A_i^T A_j: the rotation angle's sine along the
+    axis, so the law is linear for small turns), the potential energy is
+    1/2 d^T K d + 1/2 theta^T K_angle theta. Marker j receives the force -A_i (K d + C d')
+    and the torque -A_i J^T (K_angle theta + C_angle theta') with J = d theta / d phi (the
+    energy's own torque, so the element conserves it); marker i the opposite force and the
+    torque that keeps the pair's moment. A rubber mount, a bearing's stiffness, a flexible
+    coupling; markers that coincide at the start are the usual case. Relative turns beyond
+    90 degrees leave the law's range (theta shrinks again).
+
+    Parameters
+    ----------
+    marker_i, marker_j : Marker
+    stiffness : (kx, ky, kz, kx_angle, ky_angle, kz_angle)
+        [N/m] and [N m/rad], each >= 0.
+    damping : six values
+        [N s/m] and [N m s/rad], each >= 0.
+    name : str
+        The element's name for its outputs.
+    """
+
+    marker_i: Marker
+    marker_j: Marker
+    stiffness: Sequence[float]
+    damping: Sequence[float] = (0.0,) * 6
+    name: str = ""
+    kind = kernels.BUSHING
+    engine = "spatial"
+    profile_code = -1
+
+    def __post_init__(self) -> None:
+        for marker in (self.marker_i, self.marker_j):
+            if not isinstance(marker, Marker):
+                raise InvalidParameterError(f"Bushing needs two markers, got {marker!r}")
+        for what in ("stiffness", "damping"):
+            values = np.asarray(getattr(self, what), dtype=float)
+            if values.shape != (6,) or not (np.isfinite(values).all() and (values >= 0).all()):
+                raise InvalidParameterError(
+                    f"Bushing {what} must be six finite numbers >= 0 (x, y, z, then the "
+                    f"angles), got {getattr(self, what)!r}"
+                )
+
+    def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
+        (p_i, axes_i), (p_j, axes_j) = start_i, start_j
+        return [
+            *np.asarray(self.stiffness, dtype=float),
+            *np.asarray(self.damping, dtype=float),
+            *(axes_i.T @ (p_j - p_i)),
+            *(axes_i.T @ axes_j).ravel(),
+        ]
 
 
 def contacts(markers: Sequence[Marker], surface: Marker, **law: float) -> list[Contact]:
@@ -136,6 +200,14 @@ def contacts(markers: Sequence[Marker], surface: Marker, **law: float) -> list[C
     return [Contact(marker, surface, **law) for marker in markers]
 
 
-__all__ = ["Contact", "MarkerLoad", "SpringDamper", "UserForce", "contacts", "user_force"]
+__all__ = [
+    "Bushing",
+    "Contact",
+    "MarkerLoad",
+    "SpringDamper",
+    "UserForce",
+    "contacts",
+    "user_force",
+]
 
-ForceElement = SpringDamper | MarkerLoad | UserForce | Contact
+ForceElement = SpringDamper | MarkerLoad | UserForce | Contact | Bushing

@@ -71,6 +71,7 @@ SPRING_DAMPER = 0
 MARKER_LOAD = 1
 USER_FORCE = 2
 CONTACT = 3
+BUSHING = 4
 #: Numbers a user force function receives for each marker: position (3), velocity (3),
 #: angular velocity (3, global) and the axes x, y, z (3 each, global).
 USER_STATE_SIZE = 18
@@ -596,6 +597,85 @@ def add_frame_point_row(body, bodies, q, point, weight, target):
 
 
 @nb.njit(cache=True)
+def bushing_offsets(markers, bodies, data, d, ki, kj, q, v, si, sj, offset, turn, axes_i, jac):
+    """A bushing's deflection in marker i's axes: ``offset`` = marker j's offset less its
+    start value, then its rate; ``turn`` = the rotation vector theta of marker j's turn
+    since the start, then its rate; ``axes_i`` marker i's axes; ``jac`` J = d theta / d phi
+    for a small turn phi of marker j (marker i's axes).
+
+    With R = A_i^T A_j and D = R R0^T (R0 at the start), theta = 1/2 vee(D - D^T) and
+    J = 1/2 (tr(D) I - D), from vee(a~ D + D^T a~) = (tr(D) I - D) a.
+    """
+    axes_j = np.empty((3, 3))
+    spare = np.empty((3, 3))
+    marker_axes(ki, markers, bodies, data, q, v, axes_i, spare, spare, spare)
+    marker_axes(kj, markers, bodies, data, q, v, axes_j, spare, spare, spare)
+    span = np.empty(3)
+    drift = np.empty(3)
+    for c in range(3):
+        span[c] = sj[0, c] - si[0, c]
+    cross(si[5], span, drift)  # d/dt (A_i^T d) = A_i^T (d' - w_i x d)
+    relative = np.zeros((3, 3))  # R = A_i^T A_j
+    for a in range(3):
+        for b in range(3):
+            for c in range(3):
+                relative[a, b] += axes_i[c, a] * axes_j[c, b]
+    turned = np.zeros((3, 3))  # D = R R0^T
+    for a in range(3):
+        for b in range(3):
+            for c in range(3):
+                turned[a, b] += relative[a, c] * data[d + 15 + 3 * b + c]
+    trace = turned[0, 0] + turned[1, 1] + turned[2, 2]
+    for a in range(3):
+        for b in range(3):
+            jac[a, b] = -0.5 * turned[a, b]
+        jac[a, a] += 0.5 * trace
+    spin = np.zeros(3)  # the relative angular velocity in marker i's axes
+    for r in range(3):
+        offset[r] = -data[d + 12 + r]
+        offset[3 + r] = 0.0
+        for c in range(3):
+            offset[r] += axes_i[c, r] * span[c]
+            offset[3 + r] += axes_i[c, r] * (sj[1, c] - si[1, c] - drift[c])
+            spin[r] += axes_i[c, r] * (sj[5, c] - si[5, c])
+    turn[0] = 0.5 * (turned[2, 1] - turned[1, 2])
+    turn[1] = 0.5 * (turned[0, 2] - turned[2, 0])
+    turn[2] = 0.5 * (turned[1, 0] - turned[0, 1])
+    for r in range(3):
+        turn[3 + r] = jac[r, 0] * spin[0] + jac[r, 1] * spin[1] + jac[r, 2] * spin[2]
+
+
+@nb.njit(cache=True)
+def bushing_load(markers, bodies, data, d, ki, kj, q, v, si, sj, load):
+    """A bushing's load on marker i (force, torque; global): A_i (K d + C d'), and the
+    angular springs' torque A_i J^T (K_angle theta + C_angle theta') plus the moment that
+    keeps the pair's moment (:class:`fuzzymbs.mbs.spatial.forces.Bushing`)."""
+    offset = np.empty(6)
+    turn = np.empty(6)
+    axes_i = np.empty((3, 3))
+    jac = np.empty((3, 3))
+    bushing_offsets(markers, bodies, data, d, ki, kj, q, v, si, sj, offset, turn, axes_i, jac)
+    span = np.empty(3)
+    force = np.zeros(3)
+    torque = np.zeros(3)
+    springs = np.empty(3)
+    for r in range(3):
+        springs[r] = data[d + 3 + r] * turn[r] + data[d + 9 + r] * turn[3 + r]
+    for c in range(3):
+        span[c] = sj[0, c] - si[0, c]
+        for r in range(3):
+            local_force = data[d + r] * offset[r] + data[d + 6 + r] * offset[3 + r]
+            local_torque = jac[0, r] * springs[0] + jac[1, r] * springs[1] + jac[2, r] * springs[2]
+            force[c] += axes_i[c, r] * local_force
+            torque[c] += axes_i[c, r] * local_torque
+    moment = np.empty(3)
+    cross(span, force, moment)
+    for c in range(3):
+        load[c] = force[c]
+        load[3 + c] = torque[c] + moment[c]
+
+
+@nb.njit(cache=True)
 def element_force(e, t, layout, data, q, v, user_force, si, sj, load, point):
     """Force element ``e``'s load on marker i into ``load`` (6): force [N] and torque
     [N m], global; ``si``, ``sj`` receive the markers' states. For a contact, ``point``
@@ -629,6 +709,8 @@ def element_force(e, t, layout, data, q, v, user_force, si, sj, load, point):
         force = np.empty(3)
         contact_force(markers, bodies, data, d, kj, q, v, si, sj, force, point)
         load[:3] = force
+    elif kind == BUSHING:
+        bushing_load(markers, bodies, data, d, ki, kj, q, v, si, sj, load)
     else:
         state_i = np.empty(USER_STATE_SIZE)
         state_j = np.zeros(USER_STATE_SIZE)
@@ -658,6 +740,14 @@ def force_terms(t, layout, data, q, v, user_force, forces):
             continue
         if kind == CONTACT:  # the surface's point moves with marker j's frame
             add_frame_point_row(markers[kj, 0], bodies, q, point, -load[:3], forces)
+        elif kind == BUSHING:  # marker j: the force and the angular spring's torque
+            add_point_row(kj, markers, bodies, data, q, sj[3].copy(), -load[:3], forces)
+            span = np.empty(3)
+            moment = np.empty(3)
+            for c in range(3):
+                span[c] = sj[0, c] - si[0, c]
+            cross(span, load[:3].copy(), moment)
+            _add_torque(kj, markers, bodies, q, moment - load[3:], forces)
         else:
             add_point_row(kj, markers, bodies, data, q, sj[3].copy(), -load[:3], forces)
             _add_torque(kj, markers, bodies, q, -load[3:], forces)
@@ -983,11 +1073,15 @@ def energy_at(states, layout, data, out):
     """Kinetic, gravitational and elastic energy at every stored state: out (B, T, 3).
 
     Kinetic 1/2 v^T M v (M from :func:`body_terms`); gravitational -g . (m r + A S(q));
-    elastic 1/2 omega^2 q^2 of the modes, 1/2 k (l - l0)^2 of the springs and 1/2 k g^2 of
-    the closed contacts.
+    elastic 1/2 omega^2 q^2 of the modes, 1/2 k (l - l0)^2 of the springs, 1/2 k g^2 of
+    the closed contacts and the bushings' 1/2 d^T K d + 1/2 theta^T K_angle theta.
     """
     force = np.empty(3)
     point = np.empty(3)
+    offset = np.empty(6)
+    turn = np.empty(6)
+    axes = np.empty((3, 3))
+    jac = np.empty((3, 3))
     bodies, markers, elements = layout[0], layout[1], layout[3]
     nq = layout[4][0]
     n = layout[4][1]
@@ -1033,11 +1127,32 @@ def energy_at(states, layout, data, out):
                     elastic += 0.5 * row[o_k + m] * q[po + 7 + m] ** 2
             for e in range(elements.shape[0]):
                 kind = elements[e, 0]
-                if kind != SPRING_DAMPER and kind != CONTACT:
+                if kind != SPRING_DAMPER and kind != CONTACT and kind != BUSHING:
                     continue
                 d = elements[e, 3]
                 marker_state(elements[e, 1], markers, bodies, row, q, v, si)
                 marker_state(elements[e, 2], markers, bodies, row, q, v, sj)
+                if kind == BUSHING:
+                    bushing_offsets(
+                        markers,
+                        bodies,
+                        row,
+                        d,
+                        elements[e, 1],
+                        elements[e, 2],
+                        q,
+                        v,
+                        si,
+                        sj,
+                        offset,
+                        turn,
+                        axes,
+                        jac,
+                    )
+                    for r in range(3):
+                        elastic += 0.5 * row[d + r] * offset[r] ** 2
+                        elastic += 0.5 * row[d + 3 + r] * turn[r] ** 2
+                    continue
                 if kind == CONTACT:
                     gap = contact_force(
                         markers, bodies, row, d, elements[e, 2], q, v, si, sj, force, point

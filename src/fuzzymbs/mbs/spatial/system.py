@@ -104,13 +104,15 @@ class Mechanism(Assembly):
         marker_array = np.array(marker_rows, dtype=np.int64).reshape(-1, 2)
         body_array = np.array(bodies, dtype=np.int64).reshape(-1, 4)
         positions = self._marker_positions(body_array, marker_array, np.array(data), state, nq)
+        # each marker's axes at the start (they follow their body's frame)
+        axes = [m.axes if m.body is None else m.body.orientation @ m.axes for m in markers]
         forces = []
         for f in self.forces:
             i = index[id(f.marker_i)]
             k = index[id(f.marker_j)] if f.marker_j is not None else -1
-            length = float(np.linalg.norm(positions[k] - positions[i])) if k >= 0 else 0.0
+            start_j = (positions[k], axes[k]) if k >= 0 else (np.zeros(3), np.eye(3))
             forces.append([f.kind, i, k, len(data), f.profile_code])
-            data.extend(f.pack(length))
+            data.extend(f.pack((positions[i], axes[i]), start_j))
         layout = (
             body_array,
             marker_array,
