@@ -13,6 +13,8 @@ from fuzzymbs.mbs.planar.kernels import (
     CONTACT,
     ROTATIONAL_SPRING_DAMPER,
     SPRING_DAMPER,
+    add_angle_load,
+    add_point_load,
     body_terms,
     element_force,
     marker_state,
@@ -151,3 +153,33 @@ def element_forces_at(element, times, states, layout, data, user_force, out):
                 element, times[i], layout, data[s], x[:n], x[n:], user_force, si, sj, load
             )
             out[s, i, :] = load
+
+
+@nb.njit(cache=True)
+def marker_accelerations_at(marker, states, solved, layout, data, out):
+    """Marker ``marker``'s acceleration at every stored state: out (B, T, 3) = ax, ay and the
+    angular acceleration, from the solved z'' (``solved[..., :n]``): the marker's Jacobian
+    rows times z'' plus the velocity-quadratic part of its acceleration."""
+    bodies, markers = layout[0], layout[1]
+    n = layout[4][0]
+    state = np.empty(10)
+    row = np.zeros(n)
+    for s in range(states.shape[0]):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if not math.isfinite(x[0]) or not math.isfinite(solved[s, i, 0]):
+                out[s, i, :] = np.nan
+                continue
+            marker_state(marker, markers, bodies, data[s], x[:n], x[n:], state)
+            for c in range(3):
+                row[:] = 0.0
+                if c < 2:
+                    add_point_load(
+                        marker, markers, bodies, data[s], x[:n], state, 1.0 - c, float(c), row
+                    )
+                else:
+                    add_angle_load(marker, markers, bodies, data[s], 1.0, row)
+                acc = state[6 + c] if c < 2 else 0.0
+                for k in range(n):
+                    acc += row[k] * solved[s, i, k]
+                out[s, i, c] = acc

@@ -96,15 +96,28 @@ class PlanarResult:
         size = 3 + template.body(body).mode_count
         return self.states[:, :, n + start : n + start + size]
 
-    def marker(self, name: str) -> NDArray[np.float64]:
-        """(B, T, 6): x, y, angle, vx, vy, angular velocity of a named marker."""
+    def _marker_index(self, name: str) -> int:
         template = self.batch.template
         if name not in template.named_markers:
             raise InvalidParameterError(
                 f"no marker named {name!r}; named markers: {sorted(template.named_markers)}"
             )
         markers = template.markers()
-        index = next(i for i, m in enumerate(markers) if m is template.named_markers[name])
+        return next(i for i, m in enumerate(markers) if m is template.named_markers[name])
+
+    def marker_acceleration(self, name: str) -> NDArray[np.float64]:
+        """(B, T, 3): ax, ay [m/s^2] and the angular acceleration [rad/s^2] of a named
+        marker (on a flexible body with its node's elastic motion)."""
+        index = self._marker_index(name)
+        out = np.empty((*self.states.shape[:2], 3))
+        readout.marker_accelerations_at(
+            index, self.states, self.solved(), self.batch.layout.arrays(), self.batch.data, out
+        )
+        return out
+
+    def marker(self, name: str) -> NDArray[np.float64]:
+        """(B, T, 6): x, y, angle, vx, vy, angular velocity of a named marker."""
+        index = self._marker_index(name)
         out = np.empty((*self.states.shape[:2], 1, 6))
         readout.markers_at(
             np.array([index], dtype=np.int64),

@@ -1167,3 +1167,40 @@ def energy_at(states, layout, data, out):
             out[s, t, 0] = kinetic
             out[s, t, 1] = potential
             out[s, t, 2] = elastic
+
+
+@nb.njit(cache=True)
+def marker_accelerations_at(marker, states, solved, layout, data, out):
+    """Marker ``marker``'s acceleration and its body's angular acceleration (global) at every
+    stored state: out (B, T, 6), from the solved (r'', w', q'') (``solved[..., :n]``): the
+    point's Jacobian rows times them plus the velocity-quadratic part; A w'."""
+    bodies, markers = layout[0], layout[1]
+    nq = layout[4][0]
+    n = layout[4][1]
+    state = np.empty((6, 3))
+    row = np.zeros(n)
+    unit = np.eye(3)
+    rot = np.empty((3, 3))
+    body = markers[marker, 0]
+    for s in range(states.shape[0]):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if not math.isfinite(x[0]) or not math.isfinite(solved[s, i, 0]):
+                out[s, i, :] = np.nan
+                continue
+            q = x[:nq]
+            marker_state(marker, markers, bodies, data[s], q, x[nq:], state)
+            for c in range(3):
+                row[:] = 0.0
+                add_point_row(marker, markers, bodies, data[s], q, state[3].copy(), unit[c], row)
+                acc = state[2, c]
+                for k in range(n):
+                    acc += row[k] * solved[s, i, k]
+                out[s, i, c] = acc
+                out[s, i, 3 + c] = 0.0
+            if body >= 0:
+                rotation(q, bodies[body, 0] + 3, rot)
+                vo = bodies[body, 1]
+                for c in range(3):
+                    for k in range(3):
+                        out[s, i, 3 + c] += rot[c, k] * solved[s, i, vo + 3 + k]

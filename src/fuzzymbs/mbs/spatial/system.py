@@ -283,14 +283,27 @@ class SpatialResult:
         kernels.energy_at(self.states, self.layout, self.data, out)
         return out
 
-    def marker(self, name: str) -> NDArray[np.float64]:
-        """(B, T, 6): position and velocity of a named marker."""
+    def _marker_index(self, name: str) -> int:
         if name not in self.template.named_markers:
             raise InvalidParameterError(
                 f"no marker named {name!r}; named: {sorted(self.template.named_markers)}"
             )
         markers = self.template.markers()
-        index = next(i for i, m in enumerate(markers) if m is self.template.named_markers[name])
+        return next(i for i, m in enumerate(markers) if m is self.template.named_markers[name])
+
+    def marker_acceleration(self, name: str) -> NDArray[np.float64]:
+        """(B, T, 6): a named marker's acceleration [m/s^2] and its body's angular
+        acceleration [rad/s^2], global (a point on a flexible body with its node's motion)."""
+        index = self._marker_index(name)
+        out = np.empty((*self.states.shape[:2], 6))
+        kernels.marker_accelerations_at(
+            index, self.states, self.solved(), self.layout, self.data, out
+        )
+        return out
+
+    def marker(self, name: str) -> NDArray[np.float64]:
+        """(B, T, 6): position and velocity of a named marker."""
+        index = self._marker_index(name)
         out = np.empty((*self.states.shape[:2], 1, 6))
         kernels.markers_at(
             np.array([index], dtype=np.int64), self.states, self.layout, self.data, out
