@@ -141,6 +141,7 @@ class RigidBody(_Body):
     inertia: float = 1.0
     center: ArrayLike = (0.0, 0.0)
     mode_count = 0
+    geometric_stiffening = False
 
     def __post_init__(self) -> None:
         self._check_motion()

@@ -23,10 +23,9 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import Assembly
 from fuzzymbs.mbs.planar import kernels, readout
-from fuzzymbs.mbs.planar.bodies import Body, FlexibleBody, Marker
+from fuzzymbs.mbs.planar.bodies import Body, Marker
 from fuzzymbs.mbs.planar.forces import (
     ForceElement,
-    UserForce,
 )
 from fuzzymbs.mbs.planar.joints import Joint
 
@@ -92,7 +91,9 @@ class Mechanism(Assembly):
         return sum(j.equations for j in self.joints)
 
     def user_function(self) -> object:
-        functions = {id(f.function): f.function for f in self.forces if isinstance(f, UserForce)}
+        functions = {
+            id(f.function): f.function for f in self.forces if f.kind == kernels.USER_FORCE
+        }
         if len(functions) > 1:
             raise InvalidParameterError(
                 "a Mechanism runs one user force function; dispatch on the element index inside it "
@@ -117,7 +118,7 @@ class Mechanism(Assembly):
         data: list[float] = [*self.gravity]
         bodies = []
         for b in self.bodies:
-            stiffening = int(isinstance(b, FlexibleBody) and b.geometric_stiffening)
+            stiffening = int(b.geometric_stiffening)
             bodies.append([offsets[b.name], b.mode_count, len(data), stiffening])
             data.extend(b.pack())
         markers = self.markers()
@@ -214,7 +215,7 @@ class Mechanism(Assembly):
         free = vt[int(np.sum(singular > 1e-10 * max(1.0, singular.max(initial=0.0)))) :].T
         values = np.linalg.eigvalsh(free.T @ mass @ free) if free.size else np.ones(1)
         if values[0] < MASS_CONDITION * values[-1]:
-            flexible = [b.name for b in self.bodies if isinstance(b, FlexibleBody)]
+            flexible = [b.name for b in self.bodies if b.mode_count]
             raise InvalidParameterError(
                 f"the mass matrix is (nearly) singular on the motion the joints allow "
                 f"(smallest/largest eigenvalue {values[0] / values[-1]:.2g} < {MASS_CONDITION:g})"
