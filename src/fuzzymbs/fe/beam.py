@@ -38,7 +38,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.modal_body import ModalBody
+from fuzzymbs.mbs.modal_body import GeometricStiffening, ModalBody
 
 #: Gauss-Legendre rule on [0, 1] with 4 points: exact to degree 7, enough for
 #: products of two cubics (mass integrals) and of two quadratic slopes.
@@ -126,6 +126,14 @@ class ReducedBeam:
     @property
     def mode_count(self) -> int:
         return self.frequencies.size
+
+    def stiffening(self) -> GeometricStiffening:
+        """The beam's foreshortening for a spatial flexible body (axis x): K_a and K_s."""
+        return GeometricStiffening(
+            axis=np.array([1.0, 0.0, 0.0]),
+            axial=self.geometric_axial.copy(),
+            spin=self.geometric_spin.copy(),
+        )
 
     def modal_body(self, name: str = "beam") -> ModalBody:
         """The beam as a spatial modal body: along x, bending in the x-y plane.

@@ -90,3 +90,27 @@ class ModalBody:
     def n_nodes(self) -> int:
         """Number k of kept nodes."""
         return int(self.node_positions.shape[0])
+
+
+@dataclass(frozen=True)
+class GeometricStiffening:
+    """The foreshortening of a slender body (a beam) along its ``axis``, for the geometric
+    stiffening of a spatial flexible body.
+
+    A point at x along the axis moves back by u_f = -1/2 q^T G(x) q; integrated with the
+    mass, this gives ``axial`` K_a = int rho G(x) (the geometric stiffness of a unit axial
+    acceleration field) and ``spin`` K_s = int rho x G(x) (that of a unit spin about a
+    perpendicular axis) -- :class:`fuzzymbs.fe.beam.ReducedBeam`'s ``geometric_axial`` and
+    ``geometric_spin``.
+
+    Attributes
+    ----------
+    axis : ndarray, shape (3,)
+        Unit vector of the beam's axis in the body frame.
+    axial, spin : ndarray, shape (r, r)
+        K_a and K_s.
+    """
+
+    axis: NDArray[np.float64]
+    axial: NDArray[np.float64]
+    spin: NDArray[np.float64]

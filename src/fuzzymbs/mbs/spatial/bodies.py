@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.modal_body import ModalBody
+from fuzzymbs.mbs.modal_body import GeometricStiffening, ModalBody
 
 
 def _vector(value: ArrayLike, what: str) -> NDArray[np.float64]:
@@ -192,6 +192,7 @@ class RigidBody:
         )
 
     mode_count = 0
+    stiffened = False
     role = "body"
     engine = "spatial"
 
@@ -233,6 +234,12 @@ class FlexibleBody:
     coordinates, rates : (r,), optional
         Initial modal coordinates and their rates (default zero: undeformed, at rest
         in the frame).
+    stiffening : GeometricStiffening, optional
+        A slender body's foreshortening (``ReducedBeam.stiffening()``): its first moment
+        and inertia carry it, so that spin about a perpendicular axis, gravity and frame
+        acceleration along the axis stiffen (or soften) the modes, energy-conserving, as
+        in the planar engine. Not included: the stiffening by forces at the nodes (the
+        markers do not carry the foreshortening).
     """
 
     name: str
@@ -244,10 +251,25 @@ class FlexibleBody:
     damping_ratio: float | ArrayLike = 0.0
     coordinates: ArrayLike | None = None
     rates: ArrayLike | None = None
+    stiffening: GeometricStiffening | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
             raise InvalidParameterError(f"a body needs a non-empty name, got {self.name!r}")
+        if self.stiffening is not None:
+            r = self.modal.n_modes if isinstance(self.modal, ModalBody) else -1
+            st = self.stiffening
+            if (
+                not isinstance(st, GeometricStiffening)
+                or np.shape(st.axial) != (r, r)
+                or np.shape(st.spin) != (r, r)
+                or np.shape(st.axis) != (3,)
+                or abs(np.linalg.norm(st.axis) - 1.0) > 1e-9
+            ):
+                raise InvalidParameterError(
+                    f"body {self.name!r}: stiffening must be a GeometricStiffening with a unit "
+                    f"axis and {r} x {r} matrices (ReducedBeam.stiffening()), got {st!r}"
+                )
         if not isinstance(self.modal, ModalBody):
             raise InvalidParameterError(
                 f"body {self.name!r}: modal must be a ModalBody, got {type(self.modal).__name__}"
@@ -355,7 +377,19 @@ class FlexibleBody:
             *a,
             *omega**2,
             *(2.0 * self.damping_ratio * omega),
+            *self._stiffening_data(),
         ]
+
+    @property
+    def stiffened(self) -> bool:
+        return self.stiffening is not None
+
+    def _stiffening_data(self) -> list[float]:
+        """K_a, K_s (r x r each) and the axis (3), or nothing."""
+        if self.stiffening is None:
+            return []
+        st = self.stiffening
+        return [*np.ravel(st.axial), *np.ravel(st.spin), *st.axis]
 
     def initial_state(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(r, p, q) and (r', w in the body frame, q')."""

@@ -29,8 +29,9 @@ projected onto the joints after every accepted step.
 
 Layout arrays (int64):
 
-- bodies  (nb, 4): position offset (7 + r per body), velocity offset (6 + r per
-  body), data offset, mode count r
+- bodies  (nb, 5): position offset (7 + r per body), velocity offset (6 + r per
+  body), data offset, mode count r, stiffened (1: the body data end with K_a, K_s
+  (r r each) and the axis e (3))
 - markers (nk, 2): body (-1 ground), data offset (point 3, axes 9, mode shape 3 r)
 - joints  (nj, 6): kind, marker i, marker j, first row, data offset, drive profile (-1 none)
 - forces  (nf, 5): kind, marker i, marker j (-1 none), data offset, profile (-1 none)
@@ -260,6 +261,13 @@ def body_terms(bodies, data, q, v, mass, forces):
     int rho x_k Psi_j = c_kj + delta_kj a and int rho Psi_j Psi_k^T = C_kj + delta_kj I
     (from E_i E_j v = e_j v_i - delta_ij v). Gravity g: m g, S~ A^T g, C_t^T A^T g.
     The modes add -omega^2 q - 2 zeta omega q'.
+
+    A stiffened body (a beam along the unit axis e, foreshortened by -1/2 q^T G(x) q)
+    has S(q) - 1/2 (q^T K_a q) e as its first moment, S_q = C_t - e (K_a q)^T in place
+    of C_t, and J(q) - (q^T K_s q) (I - e e^T); its Lagrange equations add
+    A e (q'^T K_a q') to the translation's forces, 2 (q^T K_s q') (I - e e^T) w to the
+    rotation's and -(|w|^2 - (e . w)^2) K_s q to the modes' (the centrifugal stiffening;
+    gravity and frame acceleration stiffen through S_q), as the planar engine's beams.
     """
     g = data[0:3]
     rot = np.empty((3, 3))
@@ -283,13 +291,41 @@ def body_terms(bodies, data, q, v, mass, forces):
         o_d = o_k + r
         modal = q[po + 7 : po + 7 + r]
         modal_rate = v[vo + 6 : vo + 6 + r]
-        # S(q), C_t q', J(q)
+        # S_q (C_t, less e (K_a q)^T on a stiffened body) and the foreshortening's scalars
+        shape = np.empty((3, r))
+        kaq = np.zeros(r)
+        ksq = np.zeros(r)
+        axis = np.zeros(3)
+        axial_form = 0.0  # q^T K_a q
+        spin_along = 0.0  # q^T K_s q
+        spin_rate = 0.0  # q^T K_s q'
+        axial_curvature = 0.0  # q'^T K_a q'
+        stiffened = bodies[b, 4] != 0
+        if stiffened:
+            o_ka = o_d + r
+            o_ks = o_ka + r * r
+            for i in range(3):
+                axis[i] = data[o_ks + r * r + i]
+            for x in range(r):
+                kav = 0.0
+                for y in range(r):
+                    kaq[x] += data[o_ka + x * r + y] * modal[y]
+                    ksq[x] += data[o_ks + x * r + y] * modal[y]
+                    kav += data[o_ka + x * r + y] * modal_rate[y]
+                axial_form += modal[x] * kaq[x]
+                spin_along += modal[x] * ksq[x]
+                spin_rate += modal_rate[x] * ksq[x]
+                axial_curvature += modal_rate[x] * kav
+        for i in range(3):
+            for x in range(r):
+                shape[i, x] = data[o_ct + i * r + x] - axis[i] * kaq[x]
+        # S(q), S_q q', J(q)
         ct_rate = np.zeros(3)
         for i in range(3):
-            first[i] = data[d + 1 + i]
+            first[i] = data[d + 1 + i] - 0.5 * axial_form * axis[i]
             for x in range(r):
                 first[i] += data[o_ct + i * r + x] * modal[x]
-                ct_rate[i] += data[o_ct + i * r + x] * modal_rate[x]
+                ct_rate[i] += shape[i, x] * modal_rate[x]
             for j in range(3):
                 value = data[d + 4 + 3 * i + j]
                 for x in range(r):
@@ -300,6 +336,8 @@ def body_terms(bodies, data, q, v, mass, forces):
                     for y in range(r):
                         cq += data[o_cc + ((3 * i + j) * r + x) * r + y] * modal[y]
                     value -= modal[x] * cq
+                if stiffened:
+                    value -= spin_along * ((1.0 if i == j else 0.0) - axis[i] * axis[j])
                 inertia[i, j] = value
         # translation block and its coupling to rotation (-A S~) and modes (A C_t)
         # (A S~)_ij = sum_k A_ik S~_kj, S~ = skew(S)
@@ -316,7 +354,7 @@ def body_terms(bodies, data, q, v, mass, forces):
             for x in range(r):
                 value = 0.0
                 for k in range(3):
-                    value += rot[i, k] * data[o_ct + k * r + x]
+                    value += rot[i, k] * shape[k, x]
                 mass[vo + i, vo + 6 + x] += value
                 mass[vo + 6 + x, vo + i] += value
         for i in range(3):
@@ -328,7 +366,7 @@ def body_terms(bodies, data, q, v, mass, forces):
                 mass[vo + 6 + x, vo + 3 + i] += value
         for x in range(r):
             mass[vo + 6 + x, vo + 6 + x] += 1.0
-        # translation forces: m g - A (w~ w~ S + 2 w~ C_t q')
+        # translation forces: m g - A (w~ w~ S + 2 w~ S_q q') (+ A e q'^T K_a q')
         ws = np.empty(3)
         quadratic = np.empty(3)
         spin_terms(w, first, ct_rate, ws, quadratic)
@@ -336,7 +374,7 @@ def body_terms(bodies, data, q, v, mass, forces):
         for i in range(3):
             acc = 0.0
             for j in range(3):
-                acc += rot[i, j] * quadratic[j]
+                acc += rot[i, j] * (quadratic[j] - axis[j] * axial_curvature)
             forces[vo + i] += m * g[i] - acc
             local_g[i] = rot[0, i] * g[0] + rot[1, i] * g[1] + rot[2, i] * g[2]
         # rotation forces: S~ A^T g - w~ J w - 2 (w (a + q).q' - int rho Psi q' (u . w))
@@ -363,12 +401,21 @@ def body_terms(bodies, data, q, v, mass, forces):
                     part += modal_rate[x] * inner
                 spread += w[k] * part
             forces[vo + 3 + j] += moment[j] - gyro[j] - 2.0 * (w[j] * along - spread)
-        # modal forces: C_t^T A^T g - sum_ij w_i w_j (c_ij + C_ij q) - 2 sum_i w_i G_i q'
-        #               - omega^2 q - 2 zeta omega q'
+        if stiffened:  # - J' w of the foreshortening's inertia
+            axial_spin = axis[0] * w[0] + axis[1] * w[1] + axis[2] * w[2]
+            for j in range(3):
+                forces[vo + 3 + j] += 2.0 * spin_rate * (w[j] - axis[j] * axial_spin)
+        # modal forces: S_q^T A^T g - sum_ij w_i w_j (c_ij + C_ij q) - 2 sum_i w_i G_i q'
+        #               - omega^2 q - 2 zeta omega q' (- (|w|^2 - (e . w)^2) K_s q)
+        perpendicular_spin = 0.0
+        if stiffened:
+            axial_spin = axis[0] * w[0] + axis[1] * w[1] + axis[2] * w[2]
+            perpendicular_spin = w[0] ** 2 + w[1] ** 2 + w[2] ** 2 - axial_spin**2
         for x in range(r):
             value = -data[o_k + x] * modal[x] - data[o_d + x] * modal_rate[x]
+            value -= perpendicular_spin * ksq[x]
             for i in range(3):
-                value += data[o_ct + i * r + x] * local_g[i]
+                value += shape[i, x] * local_g[i]
                 coriolis = 0.0
                 for y in range(r):
                     coriolis += data[o_g + (i * r + x) * r + y] * modal_rate[y]
@@ -1116,8 +1163,18 @@ def energy_at(states, layout, data, out):
                 rotation(q, po + 3, rot)
                 o_ct = d + 13
                 o_k = o_ct + 6 * r + 3 * r * r + 9 * r * r + 9 * r + r
+                # a stiffened body's foreshortening: S - 1/2 (q^T K_a q) e
+                o_ka = o_k + 2 * r
+                o_axis = o_ka + 2 * r * r
+                axial_form = 0.0
+                if bodies[b, 4] != 0:
+                    for m in range(r):
+                        for k in range(r):
+                            axial_form += q[po + 7 + m] * row[o_ka + m * r + k] * q[po + 7 + k]
                 for i in range(3):
                     first = row[d + 1 + i]
+                    if bodies[b, 4] != 0:
+                        first -= 0.5 * axial_form * row[o_axis + i]
                     for m in range(r):
                         first += row[o_ct + i * r + m] * q[po + 7 + m]
                     for k in range(3):

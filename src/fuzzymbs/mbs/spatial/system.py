@@ -73,7 +73,7 @@ class Mechanism(Assembly):
         bodies, qs, vs = [], [], []
         nq = n = 0
         for b in self.bodies:
-            bodies.append([nq, n, len(data), b.mode_count])
+            bodies.append([nq, n, len(data), b.mode_count, int(b.stiffened)])
             data.extend(b.pack())
             q, v = b.initial_state()
             qs.append(q)
@@ -102,7 +102,7 @@ class Mechanism(Assembly):
             row += j.rows
         state = np.concatenate([*qs, *vs])
         marker_array = np.array(marker_rows, dtype=np.int64).reshape(-1, 2)
-        body_array = np.array(bodies, dtype=np.int64).reshape(-1, 4)
+        body_array = np.array(bodies, dtype=np.int64).reshape(-1, 5)
         positions = self._marker_positions(body_array, marker_array, np.array(data), state, nq)
         # each marker's axes at the start (they follow their body's frame)
         axes = [m.axes if m.body is None else m.body.orientation @ m.axes for m in markers]
