@@ -133,6 +133,7 @@ class ReducedBeam:
             axis=np.array([1.0, 0.0, 0.0]),
             axial=self.geometric_axial.copy(),
             spin=self.geometric_spin.copy(),
+            nodes=self.geometric_node.copy(),
         )
 
     def modal_body(self, name: str = "beam") -> ModalBody:

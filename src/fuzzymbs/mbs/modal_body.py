@@ -109,8 +109,12 @@ class GeometricStiffening:
         Unit vector of the beam's axis in the body frame.
     axial, spin : ndarray, shape (r, r)
         K_a and K_s.
+    nodes : ndarray, shape (k, r, r), optional
+        G(x_k) at the kept nodes: a node moves back by 1/2 q^T G(x_k) q, so that forces
+        at the node stiffen (tension) or soften (compression) the modes.
     """
 
     axis: NDArray[np.float64]
     axial: NDArray[np.float64]
     spin: NDArray[np.float64]
+    nodes: NDArray[np.float64] | None = None

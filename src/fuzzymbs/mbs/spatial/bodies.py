@@ -88,18 +88,24 @@ class Marker:
     """A point and axes (columns of ``axes``) in a body's frame, or the ground's.
 
     ``shape`` (3, r): how the point moves with a flexible body's modal coordinates
-    (None: it is fixed in the frame).
+    (None: it is fixed in the frame); ``foreshortening`` (r, r): G of the point on a
+    stiffened body (it moves back along the axis by 1/2 q^T G q; None: zero).
     """
 
     body: RigidBody | FlexibleBody | None
     position: NDArray[np.float64]
     axes: NDArray[np.float64]
     shape: NDArray[np.float64] | None = None
+    foreshortening: NDArray[np.float64] | None = None
 
     def pack(self) -> list[float]:
         modes = 0 if self.body is None else self.body.mode_count
         shape = np.zeros((3, modes)) if self.shape is None else self.shape
-        return [*self.position, *self.axes.ravel(), *shape.ravel()]
+        packed = [*self.position, *self.axes.ravel(), *shape.ravel()]
+        if self.body is not None and self.body.stiffened:
+            fore = np.zeros((modes, modes)) if self.foreshortening is None else self.foreshortening
+            packed.extend(np.ravel(fore))
+        return packed
 
     @property
     def name(self) -> str:
@@ -331,6 +337,7 @@ class FlexibleBody:
             self.modal.node_positions[index].copy(),
             _rotation(axes, "marker axes"),
             self.modal.mode_shapes[index].copy(),
+            self._foreshortening([index]),
         )
 
     def nodes(self, which: str | ArrayLike, axes: ArrayLike | None = None) -> Marker:
@@ -355,7 +362,14 @@ class FlexibleBody:
             self.modal.node_positions[index].mean(axis=0),
             _rotation(axes, "marker axes"),
             self.modal.mode_shapes[index].mean(axis=0),
+            self._foreshortening(index),
         )
+
+    def _foreshortening(self, index: ArrayLike) -> NDArray[np.float64] | None:
+        """The mean G of the nodes ``index`` on a stiffened body (None otherwise)."""
+        if self.stiffening is None or self.stiffening.nodes is None:
+            return None
+        return np.asarray(self.stiffening.nodes)[np.asarray(index, dtype=np.int64)].mean(axis=0)
 
     def pack(self) -> list[float]:
         """Mass, first moment, inertia about the frame origin, then the shape integrals,

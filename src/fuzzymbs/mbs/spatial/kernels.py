@@ -113,6 +113,34 @@ def spin_terms(w, s, sd, ws, quadratic):
 
 
 @nb.njit(cache=True)
+def stiffening_axis_offset(bodies, body):
+    """Where a stiffened body's axis e (3) sits in its data (after K_a and K_s)."""
+    r = bodies[body, 3]
+    return bodies[body, 2] + 13 + 6 * r + 12 * r * r + 9 * r + 3 * r + 2 * r * r
+
+
+@nb.njit(cache=True)
+def marker_foreshortening(k, markers, bodies, data, q, gq, axis):
+    """A marker on a stiffened body: G q into ``gq`` and the axis into ``axis``; False (and
+    zeros) for any other marker."""
+    body = markers[k, 0]
+    gq[:] = 0.0
+    axis[:] = 0.0
+    if body < 0 or bodies[body, 4] == 0:
+        return False
+    r = bodies[body, 3]
+    po = bodies[body, 0]
+    d = markers[k, 1] + 12 + 3 * r
+    o = stiffening_axis_offset(bodies, body)
+    for i in range(3):
+        axis[i] = data[o + i]
+    for x in range(r):
+        for y in range(r):
+            gq[x] += data[d + x * r + y] * q[po + 7 + y]
+    return True
+
+
+@nb.njit(cache=True)
 def marker_state(k, markers, bodies, data, q, v, out):
     """Kinematics of marker ``k``'s point into ``out`` (6, 3).
 
@@ -145,10 +173,29 @@ def marker_state(k, markers, bodies, data, q, v, out):
             psi = data[d + 12 + i * r + m]
             s[i] += psi * q[po + 7 + m]
             sd[i] += psi * v[vo + 6 + m]
+    # on a stiffened body the point moves back along the axis by 1/2 q^T G q: its rate
+    # is q'^T G q, the velocity-quadratic part of its acceleration q'^T G q'
+    gq = np.empty(r)
+    axis = np.empty(3)
+    curvature = 0.0
+    if marker_foreshortening(k, markers, bodies, data, q, gq, axis):
+        half = 0.0
+        rate = 0.0
+        g = markers[k, 1] + 12 + 3 * r
+        for x in range(r):
+            half += 0.5 * q[po + 7 + x] * gq[x]
+            rate += v[vo + 6 + x] * gq[x]
+            for y in range(r):
+                curvature += v[vo + 6 + x] * data[g + x * r + y] * v[vo + 6 + y]
+        for i in range(3):
+            s[i] -= half * axis[i]
+            sd[i] -= rate * axis[i]
     w = v[vo + 3 : vo + 6]
     ws = np.empty(3)
     quadratic = np.empty(3)
     spin_terms(w, s, sd, ws, quadratic)
+    for i in range(3):
+        quadratic[i] -= curvature * axis[i]
     for i in range(3):
         out[0, i] = q[po + i]
         out[1, i] = v[vo + i]
@@ -240,10 +287,18 @@ def add_point_row(k, markers, bodies, data, q, point, weight, target):
         rot = np.empty((3, 3))
         rotation(q, bodies[body, 0] + 3, rot)
         d = markers[k, 1]
+        # the modal part of the point's Jacobian: Psi - e (G q)^T on a stiffened body
+        gq = np.empty(r)
+        axis = np.empty(3)
+        marker_foreshortening(k, markers, bodies, data, q, gq, axis)
+        along = 0.0
         for i in range(3):
             local = rot[0, i] * weight[0] + rot[1, i] * weight[1] + rot[2, i] * weight[2]
+            along += axis[i] * local
             for m in range(r):
                 target[vo + 6 + m] += data[d + 12 + i * r + m] * local
+        for m in range(r):
+            target[vo + 6 + m] -= along * gq[m]
 
 
 @nb.njit(cache=True)
