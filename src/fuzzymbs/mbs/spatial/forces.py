@@ -1,5 +1,5 @@
 """Spatial force elements: springs and dampers between markers, applied loads, penalty
-contact with friction, and force laws of the user's own compiled into the kernels."""
+contact with friction, and force laws of the user's own compiled into the elements."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import ContactBase, ForceBase, UserForceBase
 from fuzzymbs.mbs.planar.forces import user_force
 from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
-from fuzzymbs.mbs.spatial import kernels
+from fuzzymbs.mbs.spatial import elements
 from fuzzymbs.mbs.spatial.bodies import Marker
 
 #: A marker's position (3,) and axes (3, 3: columns) at the start.
@@ -34,7 +34,7 @@ class SpringDamper(ForceBase):
     damping: float = 0.0
     free_length: float | None = None
     name: str = ""
-    kind = kernels.SPRING_DAMPER
+    kind = elements.SPRING_DAMPER
     engine = "spatial"
     profile_code = -1
 
@@ -63,7 +63,7 @@ class MarkerLoad(ForceBase):
     torque: Sequence[float] = (0.0, 0.0, 0.0)
     profile: Profile | None = None
     name: str = ""
-    kind = kernels.MARKER_LOAD
+    kind = elements.MARKER_LOAD
     engine = "spatial"
     marker_j = None
 
@@ -85,7 +85,7 @@ class MarkerLoad(ForceBase):
 
 @dataclass(frozen=True, eq=False)
 class UserForce(UserForceBase):
-    """A force law written by the user, compiled into the kernels.
+    """A force law written by the user, compiled into the elements.
 
     Parameters
     ----------
@@ -94,7 +94,7 @@ class UserForce(UserForceBase):
     function : cfunc
         Made with :func:`user_force` (the planar engine's decorator: the same
         signature). It receives the element's index, t, both markers' states
-        (:data:`fuzzymbs.mbs.spatial.kernels.USER_STATE_SIZE` numbers each: position,
+        (:data:`fuzzymbs.mbs.spatial.elements.USER_STATE_SIZE` numbers each: position,
         velocity, angular velocity, then the axes x, y, z, all global; zeros for a
         missing marker j) and ``parameters``, and writes the force and the torque on
         marker i (global) into ``out`` (6). Marker j receives their opposites, at its
@@ -103,7 +103,7 @@ class UserForce(UserForceBase):
         Numbers the law reads, per sample.
     """
 
-    kind = kernels.USER_FORCE
+    kind = elements.USER_FORCE
     engine = "spatial"
     marker_type = Marker
 
@@ -128,7 +128,7 @@ class Contact(ContactBase):
     the sphere's [m] (None: the plane).
     """
 
-    kind = kernels.CONTACT
+    kind = elements.CONTACT
     engine = "spatial"
     marker_type = Marker
 
@@ -169,7 +169,7 @@ class Bushing(ForceBase):
     stiffness: Sequence[float]
     damping: Sequence[float] = (0.0,) * 6
     name: str = ""
-    kind = kernels.BUSHING
+    kind = elements.BUSHING
     engine = "spatial"
     profile_code = -1
 

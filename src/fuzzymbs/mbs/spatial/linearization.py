@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.planar.linearization import Linearization, free_directions
-from fuzzymbs.mbs.spatial import kernels
+from fuzzymbs.mbs.spatial import kernels, kinematics
 from fuzzymbs.mbs.spatial.system import PROJECTION_TOLERANCE, Mechanism
 
 
@@ -72,7 +72,7 @@ def linearize(
         position: NDArray[np.float64], velocity: NDArray[np.float64]
     ) -> NDArray[np.float64]:
         x = x0.copy()
-        kernels.displace(x[:nq], layout[0], position)
+        kinematics.displace(x[:nq], layout[0], position)
         x[nq:] += velocity
         kernels.project(t, x[:nq], x[nq:], layout, data, 1e-13)
         if not kernels.accelerations(t, x[:nq], x[nq:], layout, data, user, system, solution):

@@ -23,7 +23,7 @@ from fuzzymbs.mbs.kernels.threads import for_each_range
 from fuzzymbs.mbs.planar.kernels import no_user_force
 from fuzzymbs.mbs.planar.linearization import free_directions
 from fuzzymbs.mbs.planar.simulation import describe_failure
-from fuzzymbs.mbs.spatial import kernels
+from fuzzymbs.mbs.spatial import elements, integrator, kernels, readout
 from fuzzymbs.mbs.spatial.bodies import Body, Marker
 from fuzzymbs.mbs.spatial.forces import ForceElement
 from fuzzymbs.mbs.spatial.joints import Joint
@@ -56,7 +56,7 @@ class Mechanism(Assembly):
         """The one user force function of the mechanism's UserForce elements (a no-op
         without them)."""
         functions = {
-            id(f.function): f.function for f in self.forces if f.kind == kernels.USER_FORCE
+            id(f.function): f.function for f in self.forces if f.kind == elements.USER_FORCE
         }
         if len(functions) > 1:
             raise InvalidParameterError(
@@ -132,7 +132,7 @@ class Mechanism(Assembly):
             np.zeros((0, 5), np.int64),
             np.array([nq, 0, 0]),
         )
-        kernels.markers_at(
+        readout.markers_at(
             np.arange(markers.shape[0], dtype=np.int64), state[None, None], layout, data[None], out
         )
         return out[0, 0, :, :3]
@@ -238,7 +238,7 @@ class SpatialResult:
         point). ``element`` is its name or label (``Mechanism.force``)."""
         index = self.template.forces.index(self.template.force(element))
         out = np.empty((*self.states.shape[:2], 6))
-        kernels.element_forces_at(
+        readout.element_forces_at(
             index, self.times, self.states, self.layout, self.data, self.user_force, out
         )
         return out
@@ -250,7 +250,7 @@ class SpatialResult:
         out = np.empty((*self.states.shape[:2], n + c))
 
         def run(start: int, stop: int) -> None:
-            kernels.solve_range(
+            integrator.solve_range(
                 start, stop, self.times, self.states, self.layout, self.data, self.user_force, out
             )
 
@@ -280,7 +280,7 @@ class SpatialResult:
     def energy(self) -> NDArray[np.float64]:
         """(B, T, 3): kinetic, gravitational and elastic (modes and springs) energy [J]."""
         out = np.empty((*self.states.shape[:2], 3))
-        kernels.energy_at(self.states, self.layout, self.data, out)
+        readout.energy_at(self.states, self.layout, self.data, out)
         return out
 
     def _marker_index(self, name: str) -> int:
@@ -296,7 +296,7 @@ class SpatialResult:
         acceleration [rad/s^2], global (a point on a flexible body with its node's motion)."""
         index = self._marker_index(name)
         out = np.empty((*self.states.shape[:2], 6))
-        kernels.marker_accelerations_at(
+        readout.marker_accelerations_at(
             index, self.states, self.solved(), self.layout, self.data, out
         )
         return out
@@ -305,7 +305,7 @@ class SpatialResult:
         """(B, T, 6): position and velocity of a named marker."""
         index = self._marker_index(name)
         out = np.empty((*self.states.shape[:2], 1, 6))
-        kernels.markers_at(
+        readout.markers_at(
             np.array([index], dtype=np.int64), self.states, self.layout, self.data, out
         )
         return out[:, :, 0]
@@ -352,7 +352,7 @@ def simulate(
     step = (t[-1] - t[0]) * 1e-3
 
     def run(start: int, stop: int) -> None:
-        kernels.integrate_range(
+        integrator.integrate_range(
             start,
             stop,
             t,

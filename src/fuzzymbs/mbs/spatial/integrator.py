@@ -1,0 +1,181 @@
+"""Time integration of spatial mechanisms: Dormand-Prince 5(4) per sample (the planar
+engine's stages, error norm and step control) on the positions with the Euler
+parameters' kinematics, joints projected after every accepted step; ranges of samples
+run with the GIL released.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from fuzzymbs.mbs.planar.integrator import error_norm, stage_state, stage_time, step_factor
+from fuzzymbs.mbs.spatial.kernels import (
+    FINISHED,
+    NOT_FINITE,
+    PROJECTION_FAILED,
+    STEP_TOO_SMALL,
+    TOO_MANY_STEPS,
+    accelerations,
+    project,
+)
+
+
+@nb.njit(cache=True)
+def _derivative(t, x, layout, data, user_force, system, solution, out):
+    bodies = layout[0]
+    sizes = layout[4]
+    nq = sizes[0]
+    n = sizes[1]
+    q = x[:nq]
+    v = x[nq:]
+    ok = accelerations(t, q, v, layout, data, user_force, system, solution)
+    for b in range(bodies.shape[0]):
+        po = bodies[b, 0]
+        vo = bodies[b, 1]
+        for i in range(3):
+            out[po + i] = v[vo + i]
+        e0, e1, e2, e3 = q[po + 3], q[po + 4], q[po + 5], q[po + 6]
+        wx, wy, wz = v[vo + 3], v[vo + 4], v[vo + 5]
+        # p' = 1/2 p (0, w)
+        out[po + 3] = 0.5 * (-e1 * wx - e2 * wy - e3 * wz)
+        out[po + 4] = 0.5 * (e0 * wx + e2 * wz - e3 * wy)
+        out[po + 5] = 0.5 * (e0 * wy - e1 * wz + e3 * wx)
+        out[po + 6] = 0.5 * (e0 * wz + e1 * wy - e2 * wx)
+        for x in range(bodies[b, 3]):
+            out[po + 7 + x] = v[vo + 6 + x]
+    for i in range(n):
+        out[nq + i] = solution[i]
+    return ok
+
+
+@nb.njit(cache=True)
+def integrate_sample(
+    times, x0, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states
+):
+    """Dormand-Prince 5(4) for one sample, as the planar engine's
+    (:func:`fuzzymbs.mbs.planar.integrator.integrate_sample`), on (q, v) with the
+    Euler parameters' kinematics; (status, accepted, rejected, largest residual)."""
+    sizes = layout[4]
+    nq = sizes[0]
+    n = sizes[1]
+    c = sizes[2]
+    size = nq + n
+    system = np.empty((n + c, n + c))
+    solution = np.empty(n + c)
+    x = x0.copy()
+    k = np.empty((7, size))
+    trial = np.empty(size)
+    t = times[0]
+    worst = project(t, x[:nq], x[nq:], layout, data, tolerance)
+    if not worst <= tolerance:
+        return PROJECTION_FAILED, 0, 0, worst
+    states[0, :] = x
+    if not _derivative(t, x, layout, data, user_force, system, solution, k[0]):
+        return NOT_FINITE, 0, 0, worst
+    h = first_step
+    accepted = 0
+    rejected = 0
+    for out in range(1, times.size):
+        target = times[out]
+        while t < target:
+            last = h >= target - t
+            step = target - t if last else h
+            for stage in range(1, 7):
+                stage_state(x, k, stage, step, trial)
+                if not _derivative(
+                    stage_time(t, stage, step),
+                    trial,
+                    layout,
+                    data,
+                    user_force,
+                    system,
+                    solution,
+                    k[stage],
+                ):
+                    return NOT_FINITE, accepted, rejected, worst
+            err = error_norm(x, trial, k, step, rtol, atol)
+            if not math.isfinite(err):
+                return NOT_FINITE, accepted, rejected, worst
+            factor = step_factor(err)
+            if err <= 1.0:
+                t = target if last else t + step
+                x[:] = trial
+                accepted += 1
+                residual = project(t, x[:nq], x[nq:], layout, data, tolerance)
+                if not residual <= tolerance:
+                    return PROJECTION_FAILED, accepted, rejected, residual
+                worst = max(worst, residual)
+                if not _derivative(t, x, layout, data, user_force, system, solution, k[0]):
+                    return NOT_FINITE, accepted, rejected, worst
+                if not last or factor < 1.0:
+                    h = step * factor
+            else:
+                rejected += 1
+                h = step * min(1.0, factor)
+            if h < 1e-14 * max(1.0, abs(t)):
+                return STEP_TOO_SMALL, accepted, rejected, worst
+            if accepted + rejected > max_steps:
+                return TOO_MANY_STEPS, accepted, rejected, worst
+        states[out, :] = x
+    return FINISHED, accepted, rejected, worst
+
+
+@nb.njit(cache=True, nogil=True)
+def integrate_range(
+    start,
+    stop,
+    times,
+    initial,
+    layout,
+    data,
+    user_force,
+    rtol,
+    atol,
+    first_step,
+    max_steps,
+    tolerance,
+    states,
+    report,
+):
+    """:func:`integrate_sample` for sample rows ``start:stop`` (GIL released)."""
+    for s in range(start, stop):
+        status, accepted, rejected, worst = integrate_sample(
+            times,
+            initial[s],
+            layout,
+            data[s],
+            user_force,
+            rtol,
+            atol,
+            first_step,
+            max_steps,
+            tolerance,
+            states[s],
+        )
+        report[s, 0] = status
+        report[s, 1] = accepted
+        report[s, 2] = rejected
+        report[s, 3] = worst
+
+
+@nb.njit(cache=True, nogil=True)
+def solve_range(start, stop, times, states, layout, data, user_force, out):
+    """(r'', w', q'') and the multipliers at every stored state of rows ``start:stop`` into
+    ``out`` (B, T, n + c); NaN after a failure."""
+    nq = layout[4][0]
+    n = layout[4][1]
+    c = layout[4][2]
+    system = np.empty((n + c, n + c))
+    solution = np.empty(n + c)
+    for s in range(start, stop):
+        for i in range(states.shape[1]):
+            x = states[s, i]
+            if math.isfinite(x[0]) and accelerations(
+                times[i], x[:nq], x[nq:], layout, data[s], user_force, system, solution
+            ):
+                out[s, i, :] = solution
+            else:
+                out[s, i, :] = np.nan
