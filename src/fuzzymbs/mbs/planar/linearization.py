@@ -13,6 +13,7 @@ speed).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -91,29 +92,45 @@ def linearize(
     if c:
         kernels.joint_terms(t, arrays, data, x0[:n], x0[n:], jac, *(np.empty(c) for _ in range(4)))
     basis = free_directions(jac, n)
-    free = basis.shape[1]
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
 
-    def reduced_rate(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        x = x.copy()
+    def reduced_rate(
+        position: NDArray[np.float64], velocity: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        x = x0.copy()
+        x[:n] += position
+        x[n:] += velocity
         kernels.project(t, x[:n], x[n:], arrays, data, 1e-13)
         if not kernels.accelerations(t, x[:n], x[n:], arrays, data, user, system, solution):
             raise InvalidParameterError("the mass matrix with the joints is singular at this state")
         return np.concatenate([basis.T @ x[n:], basis.T @ solution[:n]])
 
-    scale = max(1.0, float(np.abs(x0).max()))
-    h = step * scale
+    return central_linearization(reduced_rate, basis, step * max(1.0, float(np.abs(x0).max())))
+
+
+def central_linearization(
+    reduced_rate: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]],
+    basis: NDArray[np.float64],
+    step: float,
+) -> Linearization:
+    """The reduced Jacobian by central differences and its eigenvalues.
+
+    ``reduced_rate(position, velocity)`` gives (N^T v, N^T a) after moving the state by
+    ``position`` and ``velocity`` (velocity coordinates, then projected onto the joints);
+    column k of the Jacobian moves the position (k < f) or the velocity (k >= f) by
+    +-``step`` along column k mod f of ``basis`` (n, f).
+    """
+    n, free = basis.shape
+    zero = np.zeros(n)
     matrix = np.empty((2 * free, 2 * free))
     for k in range(2 * free):
-        direction = np.zeros(2 * n)
+        direction = basis[:, k % free] * step
         if k < free:
-            direction[:n] = basis[:, k]
+            plus, minus = reduced_rate(direction, zero), reduced_rate(-direction, zero)
         else:
-            direction[n:] = basis[:, k - free]
-        matrix[:, k] = (reduced_rate(x0 + h * direction) - reduced_rate(x0 - h * direction)) / (
-            2 * h
-        )
+            plus, minus = reduced_rate(zero, direction), reduced_rate(zero, -direction)
+        matrix[:, k] = (plus - minus) / (2 * step)
     eigenvalues = np.linalg.eigvals(matrix)
     order = np.lexsort((eigenvalues.real, eigenvalues.imag))
     return Linearization(eigenvalues[order], matrix, basis)

@@ -16,7 +16,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.planar.linearization import Linearization, free_directions
+from fuzzymbs.mbs.planar.linearization import (
+    Linearization,
+    central_linearization,
+    free_directions,
+)
 from fuzzymbs.mbs.spatial import kernels, kinematics
 from fuzzymbs.mbs.spatial.system import PROJECTION_TOLERANCE, Mechanism
 
@@ -64,7 +68,6 @@ def linearize(
         kernels.joint_terms(t, layout, data, x0[:nq], x0[nq:], jac, *spare)
     basis = free_directions(jac, n)
     user = mechanism.user_function()
-    free = basis.shape[1]
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
 
@@ -79,15 +82,4 @@ def linearize(
             raise InvalidParameterError("the mass matrix with the joints is singular at this state")
         return np.concatenate([basis.T @ x[nq:], basis.T @ solution[:n]])
 
-    matrix = np.empty((2 * free, 2 * free))
-    zero = np.zeros(n)
-    for k in range(2 * free):
-        direction = basis[:, k % free] * step
-        if k < free:
-            plus, minus = reduced_rate(direction, zero), reduced_rate(-direction, zero)
-        else:
-            plus, minus = reduced_rate(zero, direction), reduced_rate(zero, -direction)
-        matrix[:, k] = (plus - minus) / (2 * step)
-    eigenvalues = np.linalg.eigvals(matrix)
-    order = np.lexsort((eigenvalues.real, eigenvalues.imag))
-    return Linearization(eigenvalues[order], matrix, basis)
+    return central_linearization(reduced_rate, basis, step)
