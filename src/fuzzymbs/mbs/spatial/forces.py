@@ -1,5 +1,5 @@
 """Spatial force elements: springs and dampers between markers, applied loads, penalty
-contact with friction, and force laws of the user's own compiled into the elements."""
+contact with friction, and force laws of the user's own compiled into the kernels."""
 
 from __future__ import annotations
 
@@ -85,7 +85,7 @@ class MarkerLoad(ForceBase):
 
 @dataclass(frozen=True, eq=False)
 class UserForce(UserForceBase):
-    """A force law written by the user, compiled into the elements.
+    """A force law written by the user, compiled into the kernels.
 
     Parameters
     ----------
