@@ -18,7 +18,7 @@ from fuzzymbs.mbs.spatial.kinematics import (
     cross,
     marker_axes,
     marker_state,
-    rotation,
+    to_body_frame,
 )
 
 SPRING_DAMPER = 0
@@ -120,13 +120,12 @@ def add_frame_point_row(body, bodies, q, point, weight, target):
         return
     po = bodies[body, 0]
     vo = bodies[body, 1]
-    rot = np.empty((3, 3))
-    rotation(q, po + 3, rot)
-    local = np.zeros(3)
+    arm = np.empty(3)
     for i in range(3):
-        for k in range(3):
-            local[i] += rot[k, i] * (point[k] - q[po + k])
+        arm[i] = point[i] - q[po + i]
         target[vo + i] += weight[i]
+    local = np.empty(3)
+    to_body_frame(q, po, arm, local)
     add_turn_row(body, bodies, q, local, weight, target)
 
 

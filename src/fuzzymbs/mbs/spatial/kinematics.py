@@ -179,18 +179,24 @@ def marker_axes(k, markers, bodies, data, q, v, axes, rates, quadratic, local):
 
 
 @nb.njit(cache=True)
+def to_body_frame(q, po, vector, out):
+    """out = A^T vector: a global vector in the frame of the body whose position starts
+    at q[po] (its Euler parameters at q[po + 3:po + 7])."""
+    rot = np.empty((3, 3))
+    rotation(q, po + 3, rot)
+    for i in range(3):
+        out[i] = rot[0, i] * vector[0] + rot[1, i] * vector[1] + rot[2, i] * vector[2]
+
+
+@nb.njit(cache=True)
 def add_turn_row(body, bodies, q, local, weight, target):
     """target[body's angular velocity coordinates] += local x (A^T weight): the part of
     weight^T d(A local)/dw for a vector ``local`` fixed in the body frame."""
     if body < 0:
         return
-    po = bodies[body, 0]
     vo = bodies[body, 1]
-    rot = np.empty((3, 3))
-    rotation(q, po + 3, rot)
     bw = np.empty(3)
-    for i in range(3):
-        bw[i] = rot[0, i] * weight[0] + rot[1, i] * weight[1] + rot[2, i] * weight[2]
+    to_body_frame(q, bodies[body, 0], weight, bw)
     arm = np.empty(3)
     cross(local, bw, arm)
     for i in range(3):
@@ -218,19 +224,18 @@ def add_point_row(k, markers, bodies, data, q, point, weight, target):
         target[vo + i] += weight[i]
     add_vector_row(k, markers, bodies, q, point, weight, target)
     if r:
-        rot = np.empty((3, 3))
-        rotation(q, bodies[body, 0] + 3, rot)
         d = markers[k, 1]
+        local = np.empty(3)
+        to_body_frame(q, bodies[body, 0], weight, local)
         # the modal part of the point's Jacobian: Psi - e (G q)^T on a stiffened body
         gq = np.empty(r)
         axis = np.empty(3)
         marker_foreshortening(k, markers, bodies, data, q, gq, axis)
         along = 0.0
         for i in range(3):
-            local = rot[0, i] * weight[0] + rot[1, i] * weight[1] + rot[2, i] * weight[2]
-            along += axis[i] * local
+            along += axis[i] * local[i]
             for m in range(r):
-                target[vo + 6 + m] += data[d + 12 + i * r + m] * local
+                target[vo + 6 + m] += data[d + 12 + i * r + m] * local[i]
         for m in range(r):
             target[vo + 6 + m] -= along * gq[m]
 
@@ -241,12 +246,11 @@ def add_torque_row(k, markers, bodies, q, torque, target):
     body = markers[k, 0]
     if body < 0:
         return
-    po = bodies[body, 0]
     vo = bodies[body, 1]
-    rot = np.empty((3, 3))
-    rotation(q, po + 3, rot)
+    local = np.empty(3)
+    to_body_frame(q, bodies[body, 0], torque, local)
     for i in range(3):
-        target[vo + 3 + i] += rot[0, i] * torque[0] + rot[1, i] * torque[1] + rot[2, i] * torque[2]
+        target[vo + 3 + i] += local[i]
 
 
 @nb.njit(cache=True)
