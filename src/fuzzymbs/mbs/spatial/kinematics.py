@@ -109,10 +109,12 @@ def marker_state(k, markers, bodies, data, q, v, out):
             sd[i] += psi * v[vo + 6 + m]
     # on a stiffened body the point moves back along the axis by 1/2 q^T G q: its rate
     # is q'^T G q, the velocity-quadratic part of its acceleration q'^T G q'
-    gq = np.empty(r)
-    axis = np.empty(3)
-    curvature = 0.0
-    if marker_foreshortening(k, markers, bodies, data, q, gq, axis):
+    shorten = np.zeros(3)  # the foreshortening's acceleration, q'^T G q' along the axis
+    if bodies[body, 4] != 0:
+        gq = np.empty(r)
+        axis = np.empty(3)
+        marker_foreshortening(k, markers, bodies, data, q, gq, axis)
+        curvature = 0.0
         half = 0.0
         rate = 0.0
         g = markers[k, 1] + 12 + 3 * r
@@ -124,12 +126,13 @@ def marker_state(k, markers, bodies, data, q, v, out):
         for i in range(3):
             s[i] -= half * axis[i]
             sd[i] -= rate * axis[i]
+            shorten[i] = curvature * axis[i]
     w = v[vo + 3 : vo + 6]
     ws = np.empty(3)
     quadratic = np.empty(3)
     spin_terms(w, s, sd, ws, quadratic)
     for i in range(3):
-        quadratic[i] -= curvature * axis[i]
+        quadratic[i] -= shorten[i]
     for i in range(3):
         out[0, i] = q[po + i]
         out[1, i] = v[vo + i]
@@ -227,17 +230,16 @@ def add_point_row(k, markers, bodies, data, q, point, weight, target):
         d = markers[k, 1]
         local = np.empty(3)
         to_body_frame(q, bodies[body, 0], weight, local)
-        # the modal part of the point's Jacobian: Psi - e (G q)^T on a stiffened body
-        gq = np.empty(r)
-        axis = np.empty(3)
-        marker_foreshortening(k, markers, bodies, data, q, gq, axis)
-        along = 0.0
         for i in range(3):
-            along += axis[i] * local[i]
             for m in range(r):
                 target[vo + 6 + m] += data[d + 12 + i * r + m] * local[i]
-        for m in range(r):
-            target[vo + 6 + m] -= along * gq[m]
+        if bodies[body, 4] != 0:  # the modal Jacobian of a stiffened body: Psi - e (G q)^T
+            gq = np.empty(r)
+            axis = np.empty(3)
+            marker_foreshortening(k, markers, bodies, data, q, gq, axis)
+            along = axis[0] * local[0] + axis[1] * local[1] + axis[2] * local[2]
+            for m in range(r):
+                target[vo + 6 + m] -= along * gq[m]
 
 
 @nb.njit(cache=True)
