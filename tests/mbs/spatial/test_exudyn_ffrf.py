@@ -11,7 +11,8 @@ freely, spinning about all three axes with its modes excited, for 0.5 s.
 Without gravity: Exudyn's gravity on this object (``AddObjectFFRFreducedOrder(gravity=...)``)
 changes the modal motion of a freely falling body by 7.5e-3 (of 0.065) and its frame's path
 by 4.7e-3 m beyond g t^2 / 2, where uniform gravity must leave the motion relative to the
-falling frame as it is; fuzzymbs keeps it to 3e-14 (``test_flexible.py``).
+falling frame as it is; fuzzymbs keeps it to 3e-14 (``test_flexible.py``;
+``python benchmarks/exudyn_ffrf_gravity.py`` measures both).
 """
 
 import numpy as np
@@ -28,9 +29,12 @@ exu = pytest.importorskip("exudyn")
 pytestmark = pytest.mark.slow
 
 
-def exudyn_tumbling(modal, mass, stiffness, velocity, angular_velocity, coordinates, times, steps):
+def exudyn_tumbling(
+    modal, mass, stiffness, velocity, angular_velocity, coordinates, times, steps, gravity=None
+):
     """Frame origin (T, 3) and modal coordinates (T, r) from Exudyn, given the FE mass and
-    stiffness matrices over the ModalBody's nodes (3 per node)."""
+    stiffness matrices over the ModalBody's nodes (3 per node); ``gravity`` goes to Exudyn's
+    own option (``benchmarks/exudyn_ffrf_gravity.py``)."""
     from exudyn.FEM import FEMinterface, ObjectFFRFreducedOrderInterface
     from exudyn.itemInterface import SensorNode
 
@@ -50,6 +54,7 @@ def exudyn_tumbling(modal, mass, stiffness, velocity, angular_velocity, coordina
         positionRef=[0.0, 0.0, 0.0],
         initialVelocity=list(velocity),
         initialAngularVelocity=list(angular_velocity),
+        **({} if gravity is None else {"gravity": list(gravity)}),
     )
     mbs.SetNodeParameter(items["nGenericODE2"], "initialCoordinates", list(coordinates))
     sensors = [
