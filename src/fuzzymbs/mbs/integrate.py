@@ -334,7 +334,7 @@ def samples_per_block(kernel: str) -> int:
 
 def _initial(compiled: CompiledSystem, initial_state, batch: int) -> NDArray[np.float64]:
     if initial_state is None:
-        return compiled.zero_state(batch)
+        return compiled.initial_state(batch)
     x0 = np.asarray(initial_state, dtype=float)
     if x0.ndim == 1:
         x0 = np.broadcast_to(x0, (batch, x0.size))

@@ -1,10 +1,21 @@
 """Assembly of bodies and force elements into the flat arrays the kernels read.
 
-Usage::
+Bodies are the general engine's :class:`~fuzzymbs.mbs.spatial.FlexibleBody`, each
+held to the ground by one joint (:mod:`fuzzymbs.mbs.frame_motion`: Fixed, Prismatic,
+or a Revolute driven at a constant rate); the System solves them in minimal
+coordinates (the joint's free coordinate and the modes). Usage::
 
+    from fuzzymbs.mbs.spatial import FlexibleBody, Prismatic, Revolute, ConstantRate
+    from fuzzymbs.mbs.spatial import frame_with_z, ground
+
+    y = frame_with_z((0.0, 1.0, 0.0))  # joint axes: z along the global y
+    disc, pad = FlexibleBody("disc", disc_modal), FlexibleBody("pad", pad_modal)
     system = System()
-    system.add_body(RotatingBody(disc_modal, "y", speed=Parameter("omega", 1.0)))
-    system.add_body(TranslatingBody(pad_modal, ["y"]))
+    system.add_body(disc)
+    system.add_joint(Revolute(ground.point(axes=y), disc.point(axes=y),
+                              drive=ConstantRate(Parameter("omega", 1.0))))
+    system.add_body(pad)
+    system.add_joint(Prismatic(ground.point(axes=y), pad.point(axes=y)))
     system.add(NodalForce("press", "pad", "back", "-y", Parameter("F_n", 16e3)))
     system.add(PenaltyContact("pad-disc", "pad", "contact", "disc", "patch",
                               PolarChart("y"), penalty=1e8, friction=Parameter("mu", 0.7)))
@@ -44,6 +55,7 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.bodies import Body, FixedBody, RotatingBody, TranslatingBody, unit_vector
 from fuzzymbs.mbs.contact import Patch, PenaltyContact, build_patch
 from fuzzymbs.mbs.forces import NodalForce, Spring, resolve_nodes
+from fuzzymbs.mbs.frame_motion import frame_motions, initial_coordinates
 from fuzzymbs.mbs.kernels import layout as K
 from fuzzymbs.mbs.parameters import ParameterTable
 from fuzzymbs.mbs.profiles import TimeProfile
@@ -82,19 +94,39 @@ class System:
 
     def __init__(self) -> None:
         self.bodies: dict[str, Body] = {}
+        self.joints: list = []
         self.elements: list[Element] = []
 
-    def add_body(self, body: Body) -> Body:
-        """Add a body; its name must be unique."""
-        if not isinstance(body, FixedBody | TranslatingBody | RotatingBody):
+    def add_body(self, body):
+        """Add a body; its name must be unique.
+
+        A :class:`~fuzzymbs.mbs.spatial.FlexibleBody` (then give it one joint to the
+        ground with :meth:`add_joint`), or a frame motion given directly
+        (:class:`FixedBody`, :class:`TranslatingBody`, :class:`RotatingBody`).
+        """
+        is_flexible = getattr(body, "role", None) == "body" and hasattr(body, "modal")
+        if not (is_flexible or isinstance(body, FixedBody | TranslatingBody | RotatingBody)):
             raise InvalidParameterError(
-                f"add_body needs a FixedBody, TranslatingBody or "
-                f"RotatingBody, got {type(body).__name__}"
+                f"add_body needs a spatial.FlexibleBody (or a FixedBody, TranslatingBody or "
+                f"RotatingBody), got {type(body).__name__}"
             )
+        if getattr(body, "engine", "spatial") != "spatial":
+            raise InvalidParameterError(f"body {body.name!r} is a planar body; a System is spatial")
         if body.name in self.bodies:
             raise InvalidParameterError(f"a body named {body.name!r} exists already")
         self.bodies[body.name] = body
         return body
+
+    def add_joint(self, joint):
+        """Hold a body to the ground: a spatial Fixed, Prismatic or driven Revolute joint
+        (see :mod:`fuzzymbs.mbs.frame_motion`)."""
+        if getattr(joint, "role", None) != "joint" or getattr(joint, "engine", "") != "spatial":
+            raise InvalidParameterError(
+                f"add_joint needs a spatial joint (Fixed, Prismatic, Revolute), got "
+                f"{type(joint).__name__}"
+            )
+        self.joints.append(joint)
+        return joint
 
     def add(self, *elements: Element) -> None:
         """Add force elements (NodalForce, Spring, PenaltyContact)."""
@@ -110,17 +142,15 @@ class System:
             names.add(e.name)
             self.elements.append(e)
 
-    def body(self, name: str, what: str) -> Body:
-        try:
-            return self.bodies[name]
-        except KeyError:
-            raise InvalidParameterError(
-                f"{what}: unknown body {name!r}; bodies are {sorted(self.bodies)}"
-            ) from None
-
     def compile(self) -> CompiledSystem:
         """Flatten into kernel arrays (see the module docstring)."""
-        return _compile(self)
+        motions = frame_motions(self.bodies, self.joints)
+        compiled = _compile(motions, self.elements)
+        starts = [initial_coordinates(self.bodies[n], motions[n]) for n in motions]
+        compiled.initial = np.concatenate(
+            [np.concatenate([q for q, _ in starts]), np.concatenate([v for _, v in starts])]
+        )
+        return compiled
 
 
 @dataclass
@@ -133,6 +163,7 @@ class CompiledSystem:
     body_dofs: dict[str, slice]
     bodies: dict[str, Body]
     translation_axes: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    initial: NDArray[np.float64] | None = None
 
     @property
     def n_state(self) -> int:
@@ -168,6 +199,13 @@ class CompiledSystem:
         """Zero initial conditions for ``batch`` samples, shape (batch, 2n)."""
         return np.zeros((batch, self.n_state))
 
+    def initial_state(self, batch: int = 1) -> NDArray[np.float64]:
+        """The bodies' initial coordinates and rates (a FlexibleBody's ``coordinates``,
+        ``rates`` and slide velocity; zero otherwise), shape (batch, 2n)."""
+        if self.initial is None:
+            return self.zero_state(batch)
+        return np.tile(self.initial, (batch, 1))
+
 
 def _node_row(body: Body, node: int, direction: NDArray[np.float64]) -> NDArray[np.float64]:
     """d . u_node as a row over the body's coordinates: [d . P_a, d . Psi_k]."""
@@ -176,6 +214,15 @@ def _node_row(body: Body, node: int, direction: NDArray[np.float64]) -> NDArray[
         parts.append(body.axes @ direction)
     parts.append(direction @ body.modal.mode_shapes[node])
     return np.concatenate(parts)
+
+
+def _body(bodies: dict[str, Body], name: str, what: str) -> Body:
+    try:
+        return bodies[name]
+    except KeyError:
+        raise InvalidParameterError(
+            f"{what}: unknown body {name!r}; bodies are {sorted(bodies)}"
+        ) from None
 
 
 class _Pools:
@@ -232,15 +279,15 @@ def _lookup_constants(patch: Patch) -> list[float]:
     return [u_scale, float(u_uniform), v_scale, float(v_uniform)]
 
 
-def _compile(system: System) -> CompiledSystem:
-    if not system.bodies:
+def _compile(motions: dict[str, Body], elements: list[Element]) -> CompiledSystem:
+    if not motions:
         raise InvalidParameterError("the system has no bodies")
     table = ParameterTable()
     pools = _Pools()
     profiles: list[tuple[int, int]] = []
-    names = list(system.bodies)
+    names = list(motions)
     index = {n: i for i, n in enumerate(names)}
-    bodies = [system.bodies[n] for n in names]
+    bodies = [motions[n] for n in names]
 
     # coordinates
     body_dofs: dict[str, slice] = {}
@@ -256,12 +303,12 @@ def _compile(system: System) -> CompiledSystem:
         dof_c[q] = 2.0 * body.damping_ratio * body.modal.frequencies
 
     # tracked nodes: every node a contact pass reads, grouped by body
-    contacts = [e for e in system.elements if isinstance(e, PenaltyContact)]
+    contacts = [e for e in elements if isinstance(e, PenaltyContact)]
     tracked: dict[str, set[int]] = {n: set() for n in names}
     resolved = []
     for c in contacts:
-        sb = system.body(c.slave_body, f"contact {c.name!r} slave_body")
-        mb = system.body(c.master_body, f"contact {c.name!r} master_body")
+        sb = _body(motions, c.slave_body, f"contact {c.name!r} slave_body")
+        mb = _body(motions, c.master_body, f"contact {c.name!r} master_body")
         if sb is mb:
             raise InvalidParameterError(f"contact {c.name!r}: slave and master are the same body")
         sn = resolve_nodes(
@@ -322,16 +369,16 @@ def _compile(system: System) -> CompiledSystem:
 
     # linear spring/damper groups
     lg_rows = []
-    for e in system.elements:
+    for e in elements:
         if not isinstance(e, Spring):
             continue
-        ba = system.body(e.body_a, f"spring {e.name!r} body_a")
+        ba = _body(motions, e.body_a, f"spring {e.name!r} body_a")
         na = resolve_nodes(
             ba.modal.n_nodes, ba.modal.node_sets, e.nodes_a, f"spring {e.name!r} nodes_a"
         )
         ends = [(ba, na, -1.0)]
         if e.body_b is not None:
-            bb = system.body(e.body_b, f"spring {e.name!r} body_b")
+            bb = _body(motions, e.body_b, f"spring {e.name!r} body_b")
             if e.nodes_b is None:
                 raise InvalidParameterError(f"spring {e.name!r}: body_b given without nodes_b")
             nb_ = resolve_nodes(
@@ -373,10 +420,10 @@ def _compile(system: System) -> CompiledSystem:
 
     # nodal forces
     nf_rows = []
-    for e in system.elements:
+    for e in elements:
         if not isinstance(e, NodalForce):
             continue
-        body = system.body(e.body, f"nodal force {e.name!r} body")
+        body = _body(motions, e.body, f"nodal force {e.name!r} body")
         nodes = resolve_nodes(
             body.modal.n_nodes, body.modal.node_sets, e.nodes, f"nodal force {e.name!r} nodes"
         )
@@ -444,4 +491,4 @@ def _compile(system: System) -> CompiledSystem:
         np.array(ci_rows, dtype=np.int64).reshape(-1, 14),
         np.array(cf_rows, dtype=np.float64).reshape(-1, 15),
     )
-    return CompiledSystem(data, table, ndof, body_dofs, dict(system.bodies), translation_axes)
+    return CompiledSystem(data, table, ndof, body_dofs, dict(motions), translation_axes)

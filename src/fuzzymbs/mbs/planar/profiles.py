@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.parameters import Parameter, Scalar
 
 CONSTANT_RATE = 0
 SPIN_UP = 1
@@ -27,16 +28,27 @@ def _finite(owner: str, **values: float) -> None:
 
 @dataclass(frozen=True)
 class ConstantRate:
-    """f(t) = start + rate t (a crank at constant speed: rate in rad/s)."""
+    """f(t) = start + rate t (a crank at constant speed: rate in rad/s).
 
-    rate: float
+    In a :class:`~fuzzymbs.mbs.system.System` (minimal coordinates) ``rate`` may be a
+    :class:`~fuzzymbs.mbs.parameters.Parameter`, bound to a sample column; the
+    mechanism engines take numbers (``MechanismModel`` builds one mechanism per sample).
+    """
+
+    rate: Scalar
     start: float = 0.0
     code = CONSTANT_RATE
 
     def __post_init__(self) -> None:
-        _finite("ConstantRate", rate=self.rate, start=self.start)
+        rate = self.rate.default if isinstance(self.rate, Parameter) else self.rate
+        _finite("ConstantRate", rate=rate, start=self.start)
 
     def pack(self) -> list[float]:
+        if isinstance(self.rate, Parameter):
+            raise InvalidParameterError(
+                f"ConstantRate rate is Parameter {self.rate.name!r}, which only a System binds; "
+                "a Mechanism takes numbers (build one per sample, as MechanismModel does)"
+            )
         return [self.start, self.rate, 0.0, 0.0]
 
 

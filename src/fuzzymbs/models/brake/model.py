@@ -4,9 +4,11 @@ Disc, lower and upper pad and caliper are finite-element bodies reduced
 modally (:mod:`fuzzymbs.models.brake.geometry`), joined with the multibody
 engine (:mod:`fuzzymbs.mbs`):
 
-* disc: :class:`~fuzzymbs.mbs.bodies.RotatingBody` about y at ``disc_speed``;
-* pads and caliper: :class:`~fuzzymbs.mbs.bodies.TranslatingBody` in y, each
-  with its elastic modes;
+* disc: a :class:`~fuzzymbs.mbs.spatial.FlexibleBody` on a
+  :class:`~fuzzymbs.mbs.spatial.Revolute` joint about y, driven at ``disc_speed``;
+* pads and caliper: flexible bodies on :class:`~fuzzymbs.mbs.spatial.Prismatic`
+  joints along y, each with its elastic modes (the System solves the four in
+  minimal coordinates, :mod:`fuzzymbs.mbs.frame_motion`);
 * 25 nodal forces ``nodal_force`` per pad on its back face, pressing it on the disc;
 * 25 springs ``pad_spring_stiffness`` (y) per pad from its back face to the caliper jaw;
 * 4 springs ``caliper_spring_stiffness`` (y) from the lower jaw to ground;
@@ -32,11 +34,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.bodies import RotatingBody, TranslatingBody
 from fuzzymbs.mbs.contact import PenaltyContact, PolarChart
 from fuzzymbs.mbs.forces import NodalForce, Spring
 from fuzzymbs.mbs.integrate import SimulationModel
 from fuzzymbs.mbs.parameters import Parameter
+from fuzzymbs.mbs.planar.profiles import ConstantRate
+from fuzzymbs.mbs.spatial.bodies import FlexibleBody, frame_with_z, ground
+from fuzzymbs.mbs.spatial.joints import Prismatic, Revolute
 from fuzzymbs.mbs.step_stability import StepStability, rk4_step_stability
 from fuzzymbs.mbs.system import CompiledSystem, Coordinate, System
 from fuzzymbs.models.brake.geometry import BrakeBodies, BrakeDesign, build_bodies
@@ -123,12 +127,15 @@ def brake_system(
         raise InvalidParameterError(f"contact must be one of {CONTACT_TREATMENTS}, got {contact!r}")
     p = {name: Parameter(name, value) for name, value in DEFAULTS.items()}
     system = System()
-    system.add_body(
-        RotatingBody(bodies.disc, "y", speed=p["disc_speed"], damping_ratio=modal_damping_ratio)
-    )
-    system.add_body(TranslatingBody(bodies.lower_pad, ["y"], damping_ratio=modal_damping_ratio))
-    system.add_body(TranslatingBody(bodies.upper_pad, ["y"], damping_ratio=modal_damping_ratio))
-    system.add_body(TranslatingBody(bodies.caliper, ["y"], damping_ratio=modal_damping_ratio))
+    y = frame_with_z((0.0, 1.0, 0.0))  # every joint acts along the disc's axis, global y
+    disc = system.add_body(FlexibleBody("disc", bodies.disc, damping_ratio=modal_damping_ratio))
+    drive = ConstantRate(p["disc_speed"])
+    system.add_joint(Revolute(ground.point(axes=y), disc.point(axes=y), drive, "disc_bearing"))
+    for modal in (bodies.lower_pad, bodies.upper_pad, bodies.caliper):
+        body = system.add_body(FlexibleBody(modal.name, modal, damping_ratio=modal_damping_ratio))
+        system.add_joint(
+            Prismatic(ground.point(axes=y), body.point(axes=y), name=f"{modal.name}_guide")
+        )
     chart = PolarChart("y", "x")  # the same polar chart about the disc axis on every body
     common = {
         "penalty": p["penalty_stiffness"],
