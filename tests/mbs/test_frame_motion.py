@@ -55,7 +55,8 @@ def cluster(name="cluster"):
     )
 
 
-def general_system(speed=Parameter("omega", 3.0)):
+def general_system():
+    speed = Parameter("omega", 3.0)
     system = System()
     disc = system.add_body(FlexibleBody("disc", cluster("disc"), damping_ratio=0.01))
     system.add_joint(Revolute(ground.point(axes=Y), disc.point(axes=Y), ConstantRate(speed)))
@@ -196,7 +197,7 @@ def test_what_the_minimal_form_cannot_hold_is_refused_by_name():
 def test_a_parameter_rate_is_refused_by_the_absolute_coordinate_engine():
     body = FlexibleBody("disc", cluster())
     joint = Revolute(ground.point(axes=Y), body.point(axes=Y), ConstantRate(Parameter("w", 2.0)))
-    with pytest.raises(InvalidParameterError, match="Parameter 'w'.*only a System binds"):
+    with pytest.raises(InvalidParameterError, match=r"Parameter 'w'.*only a System binds"):
         Mechanism().add(body, joint).pack()
 
 
