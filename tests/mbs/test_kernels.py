@@ -3,8 +3,8 @@
 import numba as nb
 import numpy as np
 
+from fuzzymbs.mbs.contact import is_uniform_grid
 from fuzzymbs.mbs.kernels import charts, simd
-from fuzzymbs.mbs.system import is_uniform_grid
 
 
 @nb.njit

@@ -285,3 +285,30 @@ def build_patch(
                 n = -n
             normals[i, j] = n
     return Patch(ug, vg, grid, normals, periodic)
+
+
+def is_uniform_grid(grid: NDArray[np.float64], cells: int) -> bool:
+    """True if the first ``cells`` intervals of ``grid`` are equal to 1e-12 relative."""
+    h = (grid[cells] - grid[0]) / cells
+    return bool(np.all(np.abs(np.diff(grid[: cells + 1]) - h) <= 1e-12 * abs(h)))
+
+
+def lookup_constants(patch: Patch) -> list[float]:
+    """Scales and uniformity flags of the O(1) cell look-up (the brake kernels'
+    CF_USCALE...CF_VUNIFORM; the spatial SurfaceContact's data).
+
+    Index scale = cells / span of each grid direction; a periodic angle grid spans 2 pi
+    and is uniform only if its wrap-around cell has the width of the others.
+    """
+    u = patch.u
+    v = patch.v
+    u_scale = (u.size - 1) / (u[-1] - u[0])
+    u_uniform = is_uniform_grid(u, u.size - 1)
+    if patch.periodic:
+        v_scale = v.size / (2.0 * np.pi)
+        wrap = v[0] + 2.0 * np.pi - v[-1]
+        v_uniform = is_uniform_grid(v, v.size - 1) and abs(wrap - (v[1] - v[0])) < 1e-9
+    else:
+        v_scale = (v.size - 1) / (v[-1] - v[0])
+        v_uniform = is_uniform_grid(v, v.size - 1)
+    return [u_scale, float(u_uniform), v_scale, float(v_uniform)]

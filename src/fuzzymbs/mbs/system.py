@@ -53,7 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.bodies import Body, FixedBody, RotatingBody, TranslatingBody, unit_vector
-from fuzzymbs.mbs.contact import Patch, PenaltyContact, build_patch
+from fuzzymbs.mbs.contact import PenaltyContact, build_patch, lookup_constants
 from fuzzymbs.mbs.forces import NodalForce, Spring, resolve_nodes
 from fuzzymbs.mbs.frame_motion import frame_motions, initial_coordinates
 from fuzzymbs.mbs.kernels import layout as K
@@ -253,32 +253,6 @@ def _add_profile(pools: _Pools, profiles: list, profile: TimeProfile) -> int:
     return len(profiles) - 1
 
 
-def is_uniform_grid(grid: NDArray[np.float64], cells: int) -> bool:
-    """True if the first ``cells`` intervals of ``grid`` are equal to 1e-12 relative."""
-    h = (grid[cells] - grid[0]) / cells
-    return bool(np.all(np.abs(np.diff(grid[: cells + 1]) - h) <= 1e-12 * abs(h)))
-
-
-def _lookup_constants(patch: Patch) -> list[float]:
-    """Scales and uniformity flags of the O(1) cell look-up (layout.CF_USCALE...CF_VUNIFORM).
-
-    Index scale = cells / span of each grid direction; a periodic angle grid spans 2 pi
-    and is uniform only if its wrap-around cell has the width of the others.
-    """
-    u = patch.u
-    v = patch.v
-    u_scale = (u.size - 1) / (u[-1] - u[0])
-    u_uniform = is_uniform_grid(u, u.size - 1)
-    if patch.periodic:
-        v_scale = v.size / (2.0 * np.pi)
-        wrap = v[0] + 2.0 * np.pi - v[-1]
-        v_uniform = is_uniform_grid(v, v.size - 1) and abs(wrap - (v[1] - v[0])) < 1e-9
-    else:
-        v_scale = (v.size - 1) / (v[-1] - v[0])
-        v_uniform = is_uniform_grid(v, v.size - 1)
-    return [u_scale, float(u_uniform), v_scale, float(v_uniform)]
-
-
 def _compile(motions: dict[str, Body], elements: list[Element]) -> CompiledSystem:
     if not motions:
         raise InvalidParameterError("the system has no bodies")
@@ -470,7 +444,7 @@ def _compile(motions: dict[str, Body], elements: list[Element]) -> CompiledSyste
         ci_rows.append(row)
         cf_rows.append(
             np.concatenate(
-                [frame, [c.regularization_velocity, c.normal_damping], _lookup_constants(patch)]
+                [frame, [c.regularization_velocity, c.normal_damping], lookup_constants(patch)]
             )
         )
 

@@ -6,7 +6,9 @@ Public API (see docs/mechanisms.md, "Spatial mechanisms")::
     from fuzzymbs.mbs.spatial import (Mechanism, RigidBody, FlexibleBody, ground, frame_with_z,
                                       Spherical, Revolute, Universal, Cylindrical,
                                       Prismatic, Fixed, SpringDamper, MarkerLoad, UserForce,
-                                      user_force, Contact, contacts, Bushing, simulate,
+                                      user_force, Contact, contacts, SurfaceContact,
+                                      surface_contacts, CartesianChart, PolarChart,
+                                      Bushing, simulate,
                                       ConstantRate, SpinUp, Harmonic, MechanismModel,
                                       linearize)
 """
@@ -37,6 +39,10 @@ _LAZY: dict[str, str] = {
     "Contact": "fuzzymbs.mbs.spatial.forces",
     "Bushing": "fuzzymbs.mbs.spatial.forces",
     "contacts": "fuzzymbs.mbs.spatial.forces",
+    "SurfaceContact": "fuzzymbs.mbs.spatial.forces",
+    "surface_contacts": "fuzzymbs.mbs.spatial.forces",
+    "CartesianChart": "fuzzymbs.mbs.contact",
+    "PolarChart": "fuzzymbs.mbs.contact",
     "MechanismModel": "fuzzymbs.mbs.mechanism_model",
     "linearize": "fuzzymbs.mbs.spatial.linearization",
     "ConstantRate": "fuzzymbs.mbs.planar.profiles",

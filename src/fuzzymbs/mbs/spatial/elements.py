@@ -10,6 +10,7 @@ import math
 import numba as nb
 import numpy as np
 
+from fuzzymbs.mbs.kernels.charts import locate
 from fuzzymbs.mbs.planar.kernels import profile
 from fuzzymbs.mbs.spatial.kinematics import (
     add_point_row,
@@ -18,6 +19,7 @@ from fuzzymbs.mbs.spatial.kinematics import (
     cross,
     marker_axes,
     marker_state,
+    rotation,
     to_body_frame,
 )
 
@@ -26,6 +28,14 @@ MARKER_LOAD = 1
 USER_FORCE = 2
 CONTACT = 3
 BUSHING = 4
+SURFACE_CONTACT = 5
+#: Where a contact's reaction acts, as :func:`element_force` returns it: the point (3,
+#: global) for a Contact; for a SurfaceContact the surface point in the master's frame
+#: (3), then the cell (i, j), its bilinear coordinates (xi, eta) and 1 if on the patch.
+CONTACT_POINT_SIZE = 8
+# a SurfaceContact's numbers after its law (stiffness, damping, friction, eps):
+# chart kind, periodic, nu, nv, chart frame (9), look-up scales (4), then the grids
+_SC_HEAD = 21
 #: Numbers a user force function receives for each marker: position (3), velocity (3),
 #: angular velocity (3, global) and the axes x, y, z (3 each, global).
 USER_STATE_SIZE = 18
@@ -110,6 +120,145 @@ def contact_force(markers, bodies, data, d, kj, q, v, si, sj, force, point):
     for c in range(3):
         force[c] = press * normal[c] - scale * slip[c]
     return gap
+
+
+@nb.njit(cache=True)
+def surface_contact_force(markers, bodies, data, d, kj, q, v, si, force, point):
+    """Penalty contact of marker i's point with the meshed surface of marker j's body
+    (:class:`fuzzymbs.mbs.spatial.forces.SurfaceContact`): the force on marker i into
+    ``force``, the surface point and cell into ``point`` (:data:`CONTACT_POINT_SIZE`);
+    returns the gap [m] (negative: penetration; +inf off the patch).
+
+    The point is looked up in the chart of the master frame, the cell's four nodes give
+    the deformed surface point and its velocity by their bilinear weights, the cell's
+    undeformed normal turns with the frame (as the brake's contact kernel does).
+    """
+    for c in range(3):
+        force[c] = 0.0
+    point[7] = 0.0
+    body = markers[kj, 0]
+    po = bodies[body, 0]
+    vo = bodies[body, 1]
+    r = bodies[body, 3]
+    polar = data[d + 4] != 0.0
+    periodic = data[d + 5] != 0.0
+    nu = int(data[d + 6])
+    nv = int(data[d + 7])
+    fr = d + 8
+    scales = (data[d + 17], data[d + 18] != 0.0, data[d + 19], data[d + 20] != 0.0)
+    o_u = d + _SC_HEAD
+    o_v = o_u + nu
+    o_n = o_v + nv
+    ncv = nv if periodic else nv - 1
+    o_x = o_n + 3 * (nu - 1) * ncv
+    o_psi = o_x + 3 * nu * nv
+    # the point in the master frame, then in the chart
+    arm = np.empty(3)
+    for c in range(3):
+        arm[c] = si[0, c] - q[po + c]
+    local = np.empty(3)
+    to_body_frame(q, po, arm, local)
+    a = 0.0
+    b = 0.0
+    for c in range(3):
+        a += (local[c] - data[fr + c]) * data[fr + 3 + c]
+        b += (local[c] - data[fr + c]) * data[fr + 6 + c]
+    if polar:
+        u = math.sqrt(a * a + b * b)
+        w = math.atan2(b, a)
+    else:
+        u = a
+        w = b
+    on, i, j, xi, eta = locate(u, w, data[o_u : o_u + nu], data[o_v : o_v + nv], periodic, scales)
+    if not on:
+        return math.inf
+    j1 = j + 1 if j + 1 < nv else 0
+    corners = (i * nv + j, (i + 1) * nv + j, (i + 1) * nv + j1, i * nv + j1)
+    weights = ((1.0 - xi) * (1.0 - eta), xi * (1.0 - eta), xi * eta, (1.0 - xi) * eta)
+    s = np.zeros(3)  # the surface point, master frame, deformed
+    sd = np.zeros(3)  # its elastic velocity, master frame
+    for k in range(4):
+        node = corners[k]
+        wk = weights[k]
+        for c in range(3):
+            s[c] += wk * data[o_x + 3 * node + c]
+            for m in range(r):
+                psi = data[o_psi + (3 * node + c) * r + m]
+                s[c] += wk * psi * q[po + 7 + m]
+                sd[c] += wk * psi * v[vo + 6 + m]
+    rot = np.empty((3, 3))
+    rotation(q, po + 3, rot)
+    ws = np.empty(3)
+    cross(v[vo + 3 : vo + 6], s, ws)
+    cell = 3 * (i * ncv + j)
+    normal = np.zeros(3)
+    gap = 0.0
+    slip = np.empty(3)
+    for c in range(3):
+        xm = q[po + c]
+        vm = v[vo + c]
+        for k in range(3):
+            xm += rot[c, k] * s[k]
+            vm += rot[c, k] * (ws[k] + sd[k])
+            normal[c] += rot[c, k] * data[o_n + cell + k]
+        slip[c] = si[1, c] - vm
+        gap += normal[c] * (si[0, c] - xm)
+    for c in range(3):
+        point[c] = s[c]
+    point[3] = i
+    point[4] = j
+    point[5] = xi
+    point[6] = eta
+    point[7] = 1.0
+    if gap >= 0.0:
+        return gap
+    closing = normal[0] * slip[0] + normal[1] * slip[1] + normal[2] * slip[2]
+    press = -data[d] * gap - data[d + 1] * closing
+    if press <= 0.0:
+        return gap
+    eps = data[d + 3]
+    sliding = 0.0
+    for c in range(3):
+        slip[c] -= closing * normal[c]
+        sliding += slip[c] ** 2
+    scale = data[d + 2] * press / math.sqrt(sliding + eps * eps)
+    for c in range(3):
+        force[c] = press * normal[c] - scale * slip[c]
+    return gap
+
+
+@nb.njit(cache=True)
+def add_surface_point_row(body, bodies, data, d, q, point, weight, target):
+    """target += weight^T dp/d(r', w, q') for the surface point of a SurfaceContact
+    (``point`` from :func:`surface_contact_force`): the frame's rows at the point, and
+    the modal rows of its four nodes, each by its bilinear weight."""
+    vo = bodies[body, 1]
+    r = bodies[body, 3]
+    for c in range(3):
+        target[vo + c] += weight[c]
+    add_turn_row(body, bodies, q, point[:3].copy(), weight, target)
+    if r == 0:
+        return
+    local = np.empty(3)
+    to_body_frame(q, bodies[body, 0], weight, local)
+    periodic = data[d + 5] != 0.0
+    nu = int(data[d + 6])
+    nv = int(data[d + 7])
+    ncv = nv if periodic else nv - 1
+    o_psi = d + _SC_HEAD + nu + nv + 3 * (nu - 1) * ncv + 3 * nu * nv
+    i = int(point[3])
+    j = int(point[4])
+    xi = point[5]
+    eta = point[6]
+    j1 = j + 1 if j + 1 < nv else 0
+    corners = (i * nv + j, (i + 1) * nv + j, (i + 1) * nv + j1, i * nv + j1)
+    weights = ((1.0 - xi) * (1.0 - eta), xi * (1.0 - eta), xi * eta, (1.0 - xi) * eta)
+    for k in range(4):
+        for c in range(3):
+            share = weights[k] * local[c]
+            row = o_psi + (3 * corners[k] + c) * r
+            for m in range(r):
+                target[vo + 6 + m] += data[row + m] * share
 
 
 @nb.njit(cache=True)
@@ -244,6 +393,10 @@ def element_force(e, t, layout, data, q, v, user_force, si, sj, load, point):
         load[:3] = force
     elif kind == BUSHING:
         bushing_load(markers, bodies, data, d, ki, kj, q, v, si, sj, load)
+    elif kind == SURFACE_CONTACT:
+        force = np.empty(3)
+        surface_contact_force(markers, bodies, data, d, kj, q, v, si, force, point)
+        load[:3] = force
     else:
         state_i = np.empty(USER_STATE_SIZE)
         state_j = np.zeros(USER_STATE_SIZE)
@@ -261,7 +414,7 @@ def force_terms(t, layout, data, q, v, user_force, forces):
     si = np.empty((6, 3))
     sj = np.empty((6, 3))
     load = np.empty(6)
-    point = np.empty(3)
+    point = np.empty(CONTACT_POINT_SIZE)
     for e in range(elements.shape[0]):
         kind = elements[e, 0]
         ki = elements[e, 1]
@@ -272,7 +425,11 @@ def force_terms(t, layout, data, q, v, user_force, forces):
         if kj < 0 or kind == MARKER_LOAD:
             continue
         if kind == CONTACT:  # the surface's point moves with marker j's frame
-            add_frame_point_row(markers[kj, 0], bodies, q, point, -load[:3], forces)
+            add_frame_point_row(markers[kj, 0], bodies, q, point[:3].copy(), -load[:3], forces)
+        elif kind == SURFACE_CONTACT:
+            if point[7] != 0.0:
+                d = elements[e, 3]
+                add_surface_point_row(markers[kj, 0], bodies, data, d, q, point, -load[:3], forces)
         elif kind == BUSHING:  # marker j: the force and the angular spring's torque
             add_point_row(kj, markers, bodies, data, q, sj[3].copy(), -load[:3], forces)
             span = np.empty(3)

@@ -11,6 +11,9 @@ from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import ContactBase, ForceBase, UserForceBase
+from fuzzymbs.mbs.bodies import unit_vector
+from fuzzymbs.mbs.contact import Patch, build_patch, lookup_constants
+from fuzzymbs.mbs.forces import resolve_nodes
 from fuzzymbs.mbs.planar.forces import user_force
 from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
 from fuzzymbs.mbs.spatial import elements
@@ -195,6 +198,107 @@ class Bushing(ForceBase):
         ]
 
 
+@dataclass(frozen=True, eq=False)
+class SurfaceContact(ContactBase):
+    """Penalty contact of a point (marker i, usually a node of another body) with a meshed
+    surface of a flexible body, which deforms with that body's modes: the brake's
+    node-to-surface contact, on bodies in any frame motion.
+
+    The surface is the master body's nodes ``nodes`` (a node-set name or indices),
+    arranged as a tensor grid in ``chart`` (:class:`~fuzzymbs.mbs.contact.CartesianChart`
+    or :class:`~fuzzymbs.mbs.contact.PolarChart`, in the master body's frame); marker j
+    is any marker of the master body (only its body is read). The point is looked up in
+    the chart (the chart moves with the frame), the cell's four nodes give the surface
+    point by their bilinear weights, deformed, and the cell's undeformed normal turns
+    with the frame -- as in :mod:`fuzzymbs.mbs.contact`. Normal force
+    f_N = stiffness max(0, -g) - damping g', friction as :class:`Contact`; the
+    reaction acts on the surface's material point (the four nodes, weighted). Off the
+    patch there is no force. For a node set, add one per node
+    (:func:`surface_contacts`). ``normal`` (master frame) says which side of the patch
+    the point is on, as for :class:`~fuzzymbs.mbs.contact.PenaltyContact` (default:
+    towards the point's start). Not on a stiffened master body (its nodes' foreshortening
+    is not carried).
+    """
+
+    nodes: object = None
+    chart: object = None
+    normal: object = None
+    kind = elements.SURFACE_CONTACT
+    engine = "spatial"
+    marker_type = Marker
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        master = self.marker_j.body
+        if master is None or not hasattr(master, "modal"):
+            raise InvalidParameterError(
+                f"SurfaceContact {self.label()}: the surface needs a flexible body's nodes; "
+                "marker j is on "
+                + ("the ground" if master is None else f"rigid body {master.name!r}")
+            )
+        if master.stiffened:
+            raise InvalidParameterError(
+                f"SurfaceContact {self.label()}: body {master.name!r} is stiffened; its "
+                "surface nodes would miss their foreshortening"
+            )
+        if not hasattr(self.chart, "frame"):
+            raise InvalidParameterError(
+                f"SurfaceContact {self.label()}: chart must be a CartesianChart or "
+                f"PolarChart, got {self.chart!r}"
+            )
+        if self.radius is not None:
+            raise InvalidParameterError(f"SurfaceContact {self.label()} takes no radius")
+
+    def patch(self, start_i: MarkerStart) -> Patch:
+        """The surface's grid of the master body's nodes (its normals towards ``normal``
+        or the point's start)."""
+        body = self.marker_j.body
+        modal = body.modal
+        nodes = resolve_nodes(
+            modal.n_nodes, modal.node_sets, self.nodes, f"SurfaceContact {self.label()} nodes"
+        )
+        kind, frame = self.chart.frame()
+        start = body.orientation.T @ (start_i[0] - body.position)  # the point, master frame
+        side = None if self.normal is None else unit_vector(self.normal, "SurfaceContact normal")
+        return build_patch(
+            self.label(), kind, frame, modal.node_positions, nodes, start[None, :], side
+        )
+
+    def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
+        patch = self.patch(start_i)
+        modal = self.marker_j.body.modal
+        kind, frame = self.chart.frame()
+        nodes = patch.grid.reshape(-1)
+        return [
+            *self.law()[:4],
+            float(kind),
+            float(patch.periodic),
+            float(patch.u.size),
+            float(patch.v.size),
+            *frame,
+            *lookup_constants(patch),
+            *patch.u,
+            *patch.v,
+            *patch.normals.ravel(),
+            *modal.node_positions[nodes].ravel(),
+            *modal.mode_shapes[nodes].ravel(),
+        ]
+
+
+def surface_contacts(
+    body, nodes, surface: Marker, surface_nodes, chart, **law
+) -> list[SurfaceContact]:
+    """One :class:`SurfaceContact` per node of ``body``'s node set ``nodes`` against the
+    surface ``surface_nodes`` of marker ``surface``'s body; ``law``: the contact's numbers
+    (stiffness, damping, friction, regularization, normal)."""
+    modal = body.modal
+    index = resolve_nodes(modal.n_nodes, modal.node_sets, nodes, f"body {body.name!r} nodes")
+    return [
+        SurfaceContact(body.node(int(k)), surface, nodes=surface_nodes, chart=chart, **law)
+        for k in index
+    ]
+
+
 def contacts(markers: Sequence[Marker], surface: Marker, **law: float) -> list[Contact]:
     """One :class:`Contact` per marker of a node set against one surface."""
     return [Contact(marker, surface, **law) for marker in markers]
@@ -205,9 +309,11 @@ __all__ = [
     "Contact",
     "MarkerLoad",
     "SpringDamper",
+    "SurfaceContact",
     "UserForce",
     "contacts",
+    "surface_contacts",
     "user_force",
 ]
 
-ForceElement = SpringDamper | MarkerLoad | UserForce | Contact | Bushing
+ForceElement = SpringDamper | MarkerLoad | UserForce | Contact | Bushing | SurfaceContact

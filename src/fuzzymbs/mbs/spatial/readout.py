@@ -11,10 +11,13 @@ import numpy as np
 from fuzzymbs.mbs.spatial.elements import (
     BUSHING,
     CONTACT,
+    CONTACT_POINT_SIZE,
     SPRING_DAMPER,
+    SURFACE_CONTACT,
     bushing_offsets,
     contact_force,
     element_force,
+    surface_contact_force,
 )
 from fuzzymbs.mbs.spatial.kernels import body_terms
 from fuzzymbs.mbs.spatial.kinematics import add_point_row, marker_state, rotation
@@ -47,7 +50,7 @@ def energy_at(states, layout, data, out):
     the closed contacts and the bushings' 1/2 d^T K d + 1/2 theta^T K_angle theta.
     """
     force = np.empty(3)
-    point = np.empty(3)
+    point = np.empty(CONTACT_POINT_SIZE)
     offset = np.empty(6)
     turn = np.empty(6)
     axes = np.empty((3, 3))
@@ -107,7 +110,12 @@ def energy_at(states, layout, data, out):
                     elastic += 0.5 * row[o_k + m] * q[po + 7 + m] ** 2
             for e in range(elements.shape[0]):
                 kind = elements[e, 0]
-                if kind != SPRING_DAMPER and kind != CONTACT and kind != BUSHING:
+                if not (
+                    kind == SPRING_DAMPER
+                    or kind == CONTACT
+                    or kind == BUSHING
+                    or kind == SURFACE_CONTACT
+                ):
                     continue
                 d = elements[e, 3]
                 marker_state(elements[e, 1], markers, bodies, row, q, v, si)
@@ -133,10 +141,15 @@ def energy_at(states, layout, data, out):
                         elastic += 0.5 * row[d + r] * offset[r] ** 2
                         elastic += 0.5 * row[d + 3 + r] * turn[r] ** 2
                     continue
-                if kind == CONTACT:
-                    gap = contact_force(
-                        markers, bodies, row, d, elements[e, 2], q, v, si, sj, force, point
-                    )
+                if kind == CONTACT or kind == SURFACE_CONTACT:
+                    if kind == CONTACT:
+                        gap = contact_force(
+                            markers, bodies, row, d, elements[e, 2], q, v, si, sj, force, point
+                        )
+                    else:
+                        gap = surface_contact_force(
+                            markers, bodies, row, d, elements[e, 2], q, v, si, force, point
+                        )
                     if gap < 0.0:
                         elastic += 0.5 * row[d] * gap * gap
                     continue
@@ -157,7 +170,7 @@ def element_forces_at(element, times, states, layout, data, user_force, out):
     si = np.empty((6, 3))
     sj = np.empty((6, 3))
     load = np.empty(6)
-    point = np.empty(3)
+    point = np.empty(CONTACT_POINT_SIZE)
     for s in range(states.shape[0]):
         for i in range(states.shape[1]):
             x = states[s, i]
