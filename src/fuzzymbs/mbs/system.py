@@ -142,6 +142,14 @@ class System:
             names.add(e.name)
             self.elements.append(e)
 
+    def as_mechanism(self, sample=None):
+        """This system in absolute coordinates, a :class:`~fuzzymbs.mbs.spatial.Mechanism`
+        at one sample (:func:`fuzzymbs.mbs.system_mechanism.as_mechanism`)."""
+        # imported here: the spatial engine's modules are not needed to build or run a System
+        from fuzzymbs.mbs.system_mechanism import as_mechanism
+
+        return as_mechanism(self, sample)
+
     def compile(self) -> CompiledSystem:
         """Flatten into kernel arrays (see the module docstring)."""
         motions = frame_motions(self.bodies, self.joints)
