@@ -261,3 +261,34 @@ def test_a_slide_agrees_with_the_absolute_coordinate_engine():
     np.testing.assert_allclose(modes, minimal[:, 1:], atol=1e-8 * np.abs(minimal[:, 1:]).max())
     # momentum exchange through C_t: the slide leaves the constant rate by 9.7e-4 m
     assert np.abs(slide - 0.3 * times).max() > 1e-4
+
+
+def test_as_mechanism_refuses_what_has_no_absolute_form():
+    from fuzzymbs.mbs.profiles import TimeProfile
+
+    with pytest.raises(InvalidParameterError, match=r"unknown parameter\(s\) \['omegaa'\]"):
+        add_forces(general_system()).as_mechanism({"omegaa": 2.0})
+    direct = System()
+    direct.add_body(FixedBody(cluster("base")))
+    with pytest.raises(InvalidParameterError, match="'base' is a FixedBody"):
+        direct.as_mechanism()
+    system = general_system()
+    system.add(NodalForce("pulse", "pad", "tip", "y", 1.0, profile=TimeProfile([0, 1], [0, 1])))
+    with pytest.raises(InvalidParameterError, match="'pulse'.*TimeProfile"):
+        system.as_mechanism()
+
+
+def test_as_mechanism_writes_each_element_in_the_general_vocabulary():
+    system = add_forces(general_system())
+    mechanism = system.as_mechanism({"omega": 5.0, "force": 2.0})
+    assert len(mechanism.bodies) == 3 and len(mechanism.joints) == 3
+    forces = {type(e).__name__: e for e in mechanism.forces}
+    assert len(mechanism.forces) == 2  # the press on one node, the spring on one node pair
+    np.testing.assert_array_equal(forces["MarkerLoad"].force, (0.0, -2.0, 0.0))  # sample, -y
+    # a 3D spring: stiffness along all three axes, no angular springs
+    assert list(forces["Bushing"].stiffness) == [1e3, 1e3, 1e3, 0.0, 0.0, 0.0]
+    hinge = next(j for j in mechanism.joints if type(j).__name__ == "Revolute")
+    assert hinge.drive.rate == 5.0
+    np.testing.assert_array_equal(hinge.marker_j.body.angular_velocity, (0.0, 5.0, 0.0))
+    # copies: the System's own disc keeps its start at rest
+    np.testing.assert_array_equal(system.bodies["disc"].angular_velocity, 0.0)
