@@ -274,7 +274,7 @@ def test_as_mechanism_refuses_what_has_no_absolute_form():
         direct.as_mechanism()
     system = general_system()
     system.add(NodalForce("pulse", "pad", "tip", "y", 1.0, profile=TimeProfile([0, 1], [0, 1])))
-    with pytest.raises(InvalidParameterError, match="'pulse'.*TimeProfile"):
+    with pytest.raises(InvalidParameterError, match=r"'pulse'.*TimeProfile"):
         system.as_mechanism()
 
 
