@@ -109,6 +109,8 @@ def store(key: str, body: ModalBody) -> Path:
         arrays[f"node_set.{name}"] = value
     for name, value in body.face_sets.items():
         arrays[f"face_set.{name}"] = value
+    if body.stress_stiffening is not None:
+        arrays["stress_stiffening"] = body.stress_stiffening
     return save_npz_atomically(_path(key), arrays)
 
 
@@ -133,10 +135,20 @@ def load(key: str, name: str) -> ModalBody | None:
                 if k.startswith("face_set.")
             }
             mass = float(data["mass"])
+            stiffening = (
+                np.array(data["stress_stiffening"]) if "stress_stiffening" in data.files else None
+            )
     except Exception as error:  # corrupt or truncated entry: recompute
         warnings.warn(f"ignoring unreadable FE cache entry {path}: {error}", stacklevel=2)
         return None
-    return ModalBody(name=name, mass=mass, node_sets=node_sets, face_sets=face_sets, **fields)
+    return ModalBody(
+        name=name,
+        mass=mass,
+        node_sets=node_sets,
+        face_sets=face_sets,
+        stress_stiffening=stiffening,
+        **fields,
+    )
 
 
 def clear() -> int:

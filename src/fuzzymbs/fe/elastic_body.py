@@ -215,11 +215,7 @@ class ElasticBody:
         equals assembling the vector form, at a ninth of the local matrix size.
         Hexahedra use full Gauss integration (2 or 3 points per direction).
         """
-        if isinstance(self.mesh, MeshHex1):  # MeshHex2 is a subclass of MeshHex1
-            order = 2 if isinstance(self.mesh, MeshHex2) else 1
-            basis = Basis(self.mesh, self.element, intorder=2 * order)
-        else:
-            basis = Basis(self.mesh, self.element)
+        basis = self.scalar_basis()
         if basis.N != self.n_nodes or not np.allclose(
             basis.doflocs, self.mesh.doflocs, rtol=0.0, atol=1e-12 * np.abs(self.nodes).max()
         ):  # pragma: no cover - guards the node-ordering assumption against skfem changes
@@ -253,6 +249,14 @@ class ElasticBody:
         # exact symmetry (assembly round-off) keeps eigsh and Cholesky-type solvers happy
         self._stiffness = ((stiffness + stiffness.T) * 0.5).tocsr()
         self._mass = ((mass + mass.T) * 0.5).tocsr()
+
+    def scalar_basis(self) -> Basis:
+        """The scalar scikit-fem basis of the mesh's Lagrange element; hexahedra with full
+        Gauss integration (2 or 3 points per direction)."""
+        if isinstance(self.mesh, MeshHex1):  # MeshHex2 is a subclass of MeshHex1
+            order = 2 if isinstance(self.mesh, MeshHex2) else 1
+            return Basis(self.mesh, self.element, intorder=2 * order)
+        return Basis(self.mesh, self.element)
 
     def _assembled(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """(K, M), assembled on first use."""

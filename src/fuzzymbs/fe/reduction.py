@@ -28,6 +28,7 @@ by default: the multibody engine carries rigid motion itself.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -43,6 +44,7 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.fe import cache as fe_cache
 from fuzzymbs.fe.inertia import cross_axis, inertia_integrals
 from fuzzymbs.fe.reducible import ReducibleBody
+from fuzzymbs.fe.stress_stiffening import stress_stiffening as centrifugal_stiffening
 from fuzzymbs.fe.surfaces import boundary_faces
 from fuzzymbs.mbs.modal_body import ModalBody
 
@@ -537,6 +539,7 @@ def reduce_body(
     max_frequency: float | None = None,
     rigid_body_modes: RigidOption = "exclude",
     cache: bool = True,
+    stress_stiffening: bool = False,
 ) -> ModalBody:
     """Reduce a body and package it as a :class:`~fuzzymbs.mbs.modal_body.ModalBody`.
 
@@ -572,6 +575,10 @@ def reduce_body(
         free-free body in the basis.
     cache
         Load/store the result in the on-disk cache (:mod:`fuzzymbs.fe.cache`).
+    stress_stiffening
+        Also compute the geometric stiffness of the body's own centrifugal prestress
+        (``ModalBody.stress_stiffening``, :mod:`fuzzymbs.fe.stress_stiffening`): a
+        clamped body turning about its frame origin, a rotor blade, a spin-up beam.
 
     Returns
     -------
@@ -613,6 +620,8 @@ def reduce_body(
         "node_sets": sets,
         "face_sets": faces,
     }
+    if stress_stiffening:  # only then: the keys of the bodies cached before stay valid
+        key_inputs["stress_stiffening"] = True
     key = fe_cache.reduction_key(body, key_inputs) if cache else None
     if key is not None:
         stored = fe_cache.load(key, name=body.name)
@@ -634,6 +643,10 @@ def reduce_body(
             body, n_modes, interface_nodes, interface_components, rigid_body_modes, max_frequency
         )
     modal_body = assemble_modal_body(body, basis, sets, faces)
+    if stress_stiffening:
+        modal_body = dataclasses.replace(
+            modal_body, stress_stiffening=centrifugal_stiffening(body, basis.modes)
+        )
     if key is not None:
         fe_cache.store(key, modal_body)
     return modal_body

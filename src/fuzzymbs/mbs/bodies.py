@@ -193,15 +193,19 @@ class RotatingBody(_Body):
     def rotated_matrices(self) -> dict[str, NDArray[np.float64]]:
         """G_e, C_e and the loads for the rotation axis e (from the SID integrals).
 
-        ``G = sum_i e_i G_i``, ``C = sum_ij e_i e_j C_ij``,
+        ``G = sum_i e_i G_i``, ``C = sum_ij e_i e_j (C_ij + K_ij)`` (K_ij the modal
+        body's ``stress_stiffening``, if computed: the centrifugal prestress),
         ``c = sum_ij e_i e_j c_ij`` (``Psi^T M E E xbar``) and
         ``g = C_r^T e`` (``Psi^T M E xbar``, the Euler load).
         """
         e = self.axis
         m = self.modal
+        centrifugal = np.einsum("i,j,ijkl->kl", e, e, m.centrifugal)
+        if m.stress_stiffening is not None:  # the prestress of the same spin: Omega^2 K_e
+            centrifugal = centrifugal + np.einsum("i,j,ijkl->kl", e, e, m.stress_stiffening)
         return {
             "gyroscopic": np.einsum("i,ijk->jk", e, m.gyroscopic),
-            "centrifugal": np.einsum("i,j,ijkl->kl", e, e, m.centrifugal),
+            "centrifugal": centrifugal,
             "centrifugal_load": np.einsum("i,j,ijk->k", e, e, m.centrifugal_load),
             "euler_load": m.rotation_coupling.T @ e,
         }

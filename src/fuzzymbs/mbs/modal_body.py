@@ -63,6 +63,12 @@ class ModalBody:
         Named surface faces as rows of indices into the kept nodes
         (quadrilateral faces: 4 or 8/9 columns), used to interpolate a master
         surface with its shape functions.
+    stress_stiffening : ndarray, shape (3, 3, r, r), optional
+        ``K_ij = Psi^T K_G(sigma_ij) Psi``: the geometric stiffness of the stress of
+        the unit centrifugal load state ``w_i w_j`` of a clamped body
+        (:mod:`fuzzymbs.fe.stress_stiffening`; ``reduce_body(...,
+        stress_stiffening=True)``), None when not computed. A body turning at w
+        stiffens by ``sum_ij w_i w_j K_ij``.
     """
 
     name: str
@@ -80,6 +86,7 @@ class ModalBody:
     centrifugal_load: NDArray[np.float64]
     node_sets: dict[str, NDArray[np.int64]] = field(default_factory=dict)
     face_sets: dict[str, NDArray[np.int64]] = field(default_factory=dict)
+    stress_stiffening: NDArray[np.float64] | None = None
 
     @property
     def n_modes(self) -> int:
