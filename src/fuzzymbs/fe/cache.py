@@ -26,7 +26,7 @@ import numpy as np
 
 from fuzzymbs.fe.reducible import ReducibleBody
 from fuzzymbs.files import save_npz_atomically
-from fuzzymbs.mbs.modal_body import ModalBody
+from fuzzymbs.mbs.modal_body import ModalBody, StressStiffening
 
 __all__ = ["cache_dir", "clear", "load", "reduction_key", "store"]
 
@@ -110,7 +110,8 @@ def store(key: str, body: ModalBody) -> Path:
     for name, value in body.face_sets.items():
         arrays[f"face_set.{name}"] = value
     if body.stress_stiffening is not None:
-        arrays["stress_stiffening"] = body.stress_stiffening
+        arrays["stress_stiffening.acceleration"] = body.stress_stiffening.acceleration
+        arrays["stress_stiffening.spin"] = body.stress_stiffening.spin
     return save_npz_atomically(_path(key), arrays)
 
 
@@ -135,9 +136,12 @@ def load(key: str, name: str) -> ModalBody | None:
                 if k.startswith("face_set.")
             }
             mass = float(data["mass"])
-            stiffening = (
-                np.array(data["stress_stiffening"]) if "stress_stiffening" in data.files else None
-            )
+            stiffening = None
+            if "stress_stiffening.spin" in data.files:
+                stiffening = StressStiffening(
+                    acceleration=np.array(data["stress_stiffening.acceleration"]),
+                    spin=np.array(data["stress_stiffening.spin"]),
+                )
     except Exception as error:  # corrupt or truncated entry: recompute
         warnings.warn(f"ignoring unreadable FE cache entry {path}: {error}", stacklevel=2)
         return None

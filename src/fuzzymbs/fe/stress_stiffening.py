@@ -19,8 +19,10 @@ the reduced basis, K_ij = Psi^T K_G(sigma_ij) Psi, so that a body turning at w h
 the modal stiffness diag(omega^2) + sum_ij w_i w_j (C_ij + K_ij): C_ij the spin
 softening (:class:`~fuzzymbs.mbs.modal_body.ModalBody` ``centrifugal``), K_ij the
 stiffening that linear floating-frame theory misses (Kane, Ryan & Banerjee 1987).
-This is stress stiffness from the reference load state: exact to first order in the
-prestress, which suffices while the deflection stays small against the body.
+A uniform body force b per unit mass (gravity, a frame's acceleration) stiffens it in
+the same way by sum_i b_i K_i, K_i from the unit body force along e_i. This is stress
+stiffness from the reference load state: exact to first order in the prestress, which
+suffices while the deflection stays small against the body.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from skfem import BilinearForm, asm
 from skfem.models.elasticity import lame_parameters
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.modal_body import StressStiffening
 
 #: The six unit load states (i, j), i <= j, of the products w_i w_j.
 PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
@@ -85,21 +88,37 @@ def geometric_stiffness(body, displacement: NDArray[np.float64]) -> sp.csr_matri
     return ((matrix + matrix.T) * 0.5).tocsr()
 
 
-def stress_stiffening(body, modes: NDArray[np.float64]) -> NDArray[np.float64]:
-    """K_ij = Psi^T K_G(sigma_ij) Psi, shape (3, 3, r, r), for the full-DOF basis ``modes``
-    (3n, r) of a clamped ``body`` (:class:`~fuzzymbs.fe.elastic_body.ElasticBody`)."""
+def unit_body_force_loads(body) -> NDArray[np.float64]:
+    """Nodal loads (3n, 3) of a unit body force per unit mass along x, y and z: M e_i."""
+    loads = np.empty((body.n_dofs, 3))
+    for i in range(3):
+        field = np.zeros((body.n_nodes, 3))
+        field[:, i] = 1.0
+        loads[:, i] = body.mass_matrix @ field.reshape(-1)
+    return loads
+
+
+def stress_stiffening(body, modes: NDArray[np.float64]) -> StressStiffening:
+    """K_i and K_ij (:class:`~fuzzymbs.mbs.modal_body.StressStiffening`) of a clamped
+    ``body`` (:class:`~fuzzymbs.fe.elastic_body.ElasticBody`) on its full-DOF basis
+    ``modes`` (3n, r): Psi^T K_G(sigma) Psi of the unit body forces along x, y, z and of
+    the six centrifugal unit states."""
     if body.is_free:
         raise InvalidParameterError(
-            f"body {body.name!r} is free-free: the stress of its centrifugal load needs a "
+            f"body {body.name!r} is free-free: the stress of its inertia loads needs a "
             "clamped body (its inertia relief is not computed); use fixed=..."
         )
-    deflections = body.static_deflection(unit_centrifugal_loads(body))
+    loads = np.hstack([unit_body_force_loads(body), unit_centrifugal_loads(body)])
+    deflections = body.static_deflection(loads)  # one factorisation for the nine states
     r = modes.shape[1]
-    result = np.zeros((3, 3, r, r))
-    for column, (i, j) in enumerate(PAIRS):
+
+    def projected(column: int) -> NDArray[np.float64]:
         k_g = geometric_stiffness(body, deflections[:, column])
-        projected = modes.T @ (k_g @ modes)
-        projected = 0.5 * (projected + projected.T)
-        result[i, j] = projected
-        result[j, i] = projected
-    return result
+        matrix = modes.T @ (k_g @ modes)
+        return 0.5 * (matrix + matrix.T)
+
+    acceleration = np.stack([projected(i) for i in range(3)])
+    spin = np.zeros((3, 3, r, r))
+    for column, (i, j) in enumerate(PAIRS):
+        spin[i, j] = spin[j, i] = projected(3 + column)
+    return StressStiffening(acceleration=acceleration, spin=spin)

@@ -202,7 +202,7 @@ class RotatingBody(_Body):
         m = self.modal
         centrifugal = np.einsum("i,j,ijkl->kl", e, e, m.centrifugal)
         if m.stress_stiffening is not None:  # the prestress of the same spin: Omega^2 K_e
-            centrifugal = centrifugal + np.einsum("i,j,ijkl->kl", e, e, m.stress_stiffening)
+            centrifugal = centrifugal + np.einsum("i,j,ijkl->kl", e, e, m.stress_stiffening.spin)
         return {
             "gyroscopic": np.einsum("i,ijk->jk", e, m.gyroscopic),
             "centrifugal": centrifugal,

@@ -63,12 +63,10 @@ class ModalBody:
         Named surface faces as rows of indices into the kept nodes
         (quadrilateral faces: 4 or 8/9 columns), used to interpolate a master
         surface with its shape functions.
-    stress_stiffening : ndarray, shape (3, 3, r, r), optional
-        ``K_ij = Psi^T K_G(sigma_ij) Psi``: the geometric stiffness of the stress of
-        the unit centrifugal load state ``w_i w_j`` of a clamped body
-        (:mod:`fuzzymbs.fe.stress_stiffening`; ``reduce_body(...,
-        stress_stiffening=True)``), None when not computed. A body turning at w
-        stiffens by ``sum_ij w_i w_j K_ij``.
+    stress_stiffening : StressStiffening, optional
+        The geometric stiffness of a clamped body's prestress under its own inertia
+        loads (:mod:`fuzzymbs.fe.stress_stiffening`; ``reduce_body(...,
+        stress_stiffening=True)``), None when not computed. Both engines use it.
     """
 
     name: str
@@ -86,7 +84,7 @@ class ModalBody:
     centrifugal_load: NDArray[np.float64]
     node_sets: dict[str, NDArray[np.int64]] = field(default_factory=dict)
     face_sets: dict[str, NDArray[np.int64]] = field(default_factory=dict)
-    stress_stiffening: NDArray[np.float64] | None = None
+    stress_stiffening: StressStiffening | None = None
 
     @property
     def n_modes(self) -> int:
@@ -97,6 +95,30 @@ class ModalBody:
     def n_nodes(self) -> int:
         """Number k of kept nodes."""
         return int(self.node_positions.shape[0])
+
+
+@dataclass(frozen=True)
+class StressStiffening:
+    """The geometric stiffness of a body's prestress under its own inertia loads, on its
+    modes (body frame, about the frame origin).
+
+    A body force b per unit mass (gravity less the frame's acceleration) and a spin w
+    stress the body; that stress stiffens it by ``sum_i b_i K_i + sum_ij w_i w_j K_ij``.
+    The spatial engine carries it energy-consistently: the first moment gains
+    ``-1/2 sum_i (q^T K_i q) e_i`` and the inertia ``-(q^T K_ij q)_ij``, so gravity,
+    frame acceleration and spin stiffen through the equations of motion themselves.
+
+    Attributes
+    ----------
+    acceleration : ndarray, shape (3, r, r)
+        K_i: that of a unit body force per unit mass along e_i.
+    spin : ndarray, shape (3, 3, r, r)
+        K_ij (symmetric in i, j): that of the centrifugal unit state w_i w_j,
+        ``delta_ij x - (x_i e_j + x_j e_i) / 2`` per unit mass.
+    """
+
+    acceleration: NDArray[np.float64]
+    spin: NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -125,3 +147,13 @@ class GeometricStiffening:
     axial: NDArray[np.float64]
     spin: NDArray[np.float64]
     nodes: NDArray[np.float64] | None = None
+
+    def stress(self) -> StressStiffening:
+        """The same as a :class:`StressStiffening`: a body force along the axis stretches
+        the beam (K_i = e_i K_a), a spin across it too (K_ij = (delta_ij - e_i e_j) K_s)."""
+        e = np.asarray(self.axis, dtype=float)
+        across = np.eye(3) - np.outer(e, e)
+        return StressStiffening(
+            acceleration=np.einsum("i,xy->ixy", e, self.axial),
+            spin=np.einsum("ij,xy->ijxy", across, self.spin),
+        )
