@@ -625,7 +625,8 @@ def reduce_body(
     key = fe_cache.reduction_key(body, key_inputs) if cache else None
     if key is not None:
         stored = fe_cache.load(key, name=body.name)
-        if stored is not None:
+        # an entry without the stiffening asked for (an older file) is computed again
+        if stored is not None and (not stress_stiffening or stored.stress_stiffening):
             return stored
 
     if method == "modal":
