@@ -626,7 +626,7 @@ def reduce_body(
     if key is not None:
         stored = fe_cache.load(key, name=body.name)
         # an entry without the stiffening asked for (an older file) is computed again
-        if stored is not None and (not stress_stiffening or stored.stress_stiffening):
+        if stored is not None and (not stress_stiffening or stored.stress_stiffening is not None):
             return stored
 
     if method == "modal":

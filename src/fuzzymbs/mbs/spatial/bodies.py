@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.modal_body import GeometricStiffening, ModalBody
+from fuzzymbs.mbs.modal_body import GeometricStiffening, ModalBody, StressStiffening
 
 
 def _vector(value: ArrayLike, what: str) -> NDArray[np.float64]:
@@ -244,8 +244,10 @@ class FlexibleBody:
         A slender body's foreshortening (``ReducedBeam.stiffening()``): its first moment
         and inertia carry it, so that spin about a perpendicular axis, gravity and frame
         acceleration along the axis stiffen (or soften) the modes, energy-conserving, as
-        in the planar engine. Not included: the stiffening by forces at the nodes (the
-        markers do not carry the foreshortening).
+        in the planar engine; node markers carry their node's foreshortening, so forces
+        along the beam at its nodes stiffen it too. A body reduced from FE with
+        ``stress_stiffening=True`` needs none: its ``ModalBody.stress_stiffening`` (the
+        prestress of unit body forces and spins) enters the same way by itself.
     """
 
     name: str
@@ -276,6 +278,14 @@ class FlexibleBody:
                     f"body {self.name!r}: stiffening must be a GeometricStiffening with a unit "
                     f"axis and {r} x {r} matrices (ReducedBeam.stiffening()), got {st!r}"
                 )
+        if (
+            self.stiffening is not None
+            and getattr(self.modal, "stress_stiffening", None) is not None
+        ):
+            raise InvalidParameterError(
+                f"body {self.name!r}: its modal body carries its own stress stiffening; a "
+                "beam's stiffening on top would count it twice"
+            )
         if not isinstance(self.modal, ModalBody):
             raise InvalidParameterError(
                 f"body {self.name!r}: modal must be a ModalBody, got {type(self.modal).__name__}"
@@ -396,14 +406,23 @@ class FlexibleBody:
 
     @property
     def stiffened(self) -> bool:
-        return self.stiffening is not None
+        return self.stiffening is not None or self.modal.stress_stiffening is not None
 
     def _stiffening_data(self) -> list[float]:
-        """K_a, K_s (r x r each) and the axis (3), or nothing."""
-        if self.stiffening is None:
+        """K_i (3 r r), K_ij (9 r r) and a beam's axis (3; zero otherwise), or nothing."""
+        stress = self.stress_stiffening
+        if stress is None:
             return []
-        st = self.stiffening
-        return [*np.ravel(st.axial), *np.ravel(st.spin), *st.axis]
+        axis = self.stiffening.axis if self.stiffening is not None else np.zeros(3)
+        return [*np.ravel(stress.acceleration), *np.ravel(stress.spin), *axis]
+
+    @property
+    def stress_stiffening(self) -> StressStiffening | None:
+        """The stiffening the kernels carry: a beam's (``stiffening``), else the modal
+        body's own (``ModalBody.stress_stiffening``), else None."""
+        if self.stiffening is not None:
+            return self.stiffening.stress()
+        return self.modal.stress_stiffening
 
     def initial_state(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(r, p, q) and (r', w in the body frame, q')."""

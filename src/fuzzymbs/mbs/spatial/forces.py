@@ -216,8 +216,8 @@ class SurfaceContact(ContactBase):
     patch there is no force. For a node set, add one per node
     (:func:`surface_contacts`). ``normal`` (master frame) says which side of the patch
     the point is on, as for :class:`~fuzzymbs.mbs.contact.PenaltyContact` (default:
-    towards the point's start). Not on a stiffened master body (its nodes' foreshortening
-    is not carried).
+    towards the point's start). Not on a stiffened beam (its nodes' foreshortening is not
+    carried).
     """
 
     nodes: object = None
@@ -236,10 +236,10 @@ class SurfaceContact(ContactBase):
                 "marker j is on "
                 + ("the ground" if master is None else f"rigid body {master.name!r}")
             )
-        if master.stiffened:
+        if master.stiffening is not None:
             raise InvalidParameterError(
-                f"SurfaceContact {self.label()}: body {master.name!r} is stiffened; its "
-                "surface nodes would miss their foreshortening"
+                f"SurfaceContact {self.label()}: body {master.name!r} is a stiffened beam; "
+                "its surface nodes would miss their foreshortening"
             )
         if not hasattr(self.chart, "frame"):
             raise InvalidParameterError(

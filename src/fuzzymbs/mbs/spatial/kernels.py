@@ -30,8 +30,8 @@ projected onto the joints after every accepted step.
 Layout arrays (int64):
 
 - bodies  (nb, 5): position offset (7 + r per body), velocity offset (6 + r per
-  body), data offset, mode count r, stiffened (1: the body data end with K_a, K_s
-  (r r each) and the axis e (3))
+  body), data offset, mode count r, stiffened (1: the body data end with K_i (3 r r),
+  K_ij (9 r r) and a beam's axis e (3; zero for other bodies))
 - markers (nk, 2): body (-1 ground), data offset (point 3, axes 9, mode shape 3 r)
 - joints  (nj, 6): kind, marker i, marker j, first row, data offset, drive profile (-1 none)
 - forces  (nf, 5): kind, marker i, marker j (-1 none), data offset, profile (-1 none)
@@ -109,12 +109,14 @@ def body_terms(bodies, data, q, v, mass, forces):
     (from E_i E_j v = e_j v_i - delta_ij v). Gravity g: m g, S~ A^T g, C_t^T A^T g.
     The modes add -omega^2 q - 2 zeta omega q'.
 
-    A stiffened body (a beam along the unit axis e, foreshortened by -1/2 q^T G(x) q)
-    has S(q) - 1/2 (q^T K_a q) e as its first moment, S_q = C_t - e (K_a q)^T in place
-    of C_t, and J(q) - (q^T K_s q) (I - e e^T); its Lagrange equations add
-    A e (q'^T K_a q') to the translation's forces, 2 (q^T K_s q') (I - e e^T) w to the
-    rotation's and -(|w|^2 - (e . w)^2) K_s q to the modes' (the centrifugal stiffening;
-    gravity and frame acceleration stiffen through S_q), as the planar engine's beams.
+    A stiffened body (:class:`~fuzzymbs.mbs.modal_body.StressStiffening`: K_i of a unit
+    body force along e_i, K_ij of the centrifugal unit state w_i w_j) has
+    S(q) - 1/2 sum_i (q^T K_i q) e_i as its first moment, S_q = C_t - sum_i e_i (K_i q)^T
+    in place of C_t, and J(q) - (q^T K_ij q)_ij; its Lagrange equations add
+    A sum_i e_i (q'^T K_i q') to the translation's forces, 2 (q^T K_ij q')_ij w to the
+    rotation's and -sum_ij w_i w_j K_ij q to the modes' (the centrifugal stiffening;
+    gravity and frame acceleration stiffen through S_q). A beam's foreshortening is the
+    case K_i = e_i K_a, K_ij = (delta_ij - e_i e_j) K_s, as the planar engine's beams.
     """
     g = data[0:3]
     rot = np.empty((3, 3))
@@ -138,38 +140,44 @@ def body_terms(bodies, data, q, v, mass, forces):
         o_d = o_k + r
         modal = q[po + 7 : po + 7 + r]
         modal_rate = v[vo + 6 : vo + 6 + r]
-        # S_q (C_t, less e (K_a q)^T on a stiffened body) and the foreshortening's scalars
+        # a stiffened body (StressStiffening: K_i, K_ij): K_i q, q^T K_i q, q'^T K_i q'
+        # and the inertia's q^T K_ij q, q^T K_ij q'
         shape = np.empty((3, r))
-        kaq = np.zeros(r)
-        ksq = np.zeros(r)
-        axis = np.zeros(3)
-        axial_form = 0.0  # q^T K_a q
-        spin_along = 0.0  # q^T K_s q
-        spin_rate = 0.0  # q^T K_s q'
-        axial_curvature = 0.0  # q'^T K_a q'
+        kaq = np.zeros((3, r))
+        axial_form = np.zeros(3)
+        axial_curvature = np.zeros(3)
+        spin_form = np.zeros((3, 3))
+        spin_rate = np.zeros((3, 3))
         stiffened = bodies[b, 4] != 0
         if stiffened:
             o_ka = o_d + r
-            o_ks = o_ka + r * r
+            o_ks = o_ka + 3 * r * r
             for i in range(3):
-                axis[i] = data[o_ks + r * r + i]
-            for x in range(r):
-                kav = 0.0
-                for y in range(r):
-                    kaq[x] += data[o_ka + x * r + y] * modal[y]
-                    ksq[x] += data[o_ks + x * r + y] * modal[y]
-                    kav += data[o_ka + x * r + y] * modal_rate[y]
-                axial_form += modal[x] * kaq[x]
-                spin_along += modal[x] * ksq[x]
-                spin_rate += modal_rate[x] * ksq[x]
-                axial_curvature += modal_rate[x] * kav
+                for x in range(r):
+                    kav = 0.0
+                    for y in range(r):
+                        kaq[i, x] += data[o_ka + (i * r + x) * r + y] * modal[y]
+                        kav += data[o_ka + (i * r + x) * r + y] * modal_rate[y]
+                    axial_form[i] += modal[x] * kaq[i, x]
+                    axial_curvature[i] += modal_rate[x] * kav
+                for j in range(i, 3):
+                    form = 0.0
+                    rate = 0.0
+                    for x in range(r):
+                        ksq = 0.0
+                        for y in range(r):
+                            ksq += data[o_ks + ((3 * i + j) * r + x) * r + y] * modal[y]
+                        form += modal[x] * ksq
+                        rate += modal_rate[x] * ksq
+                    spin_form[i, j] = spin_form[j, i] = form
+                    spin_rate[i, j] = spin_rate[j, i] = rate
         for i in range(3):
             for x in range(r):
-                shape[i, x] = data[o_ct + i * r + x] - axis[i] * kaq[x]
+                shape[i, x] = data[o_ct + i * r + x] - kaq[i, x]
         # S(q), S_q q', J(q)
         ct_rate = np.zeros(3)
         for i in range(3):
-            first[i] = data[d + 1 + i] - 0.5 * axial_form * axis[i]
+            first[i] = data[d + 1 + i] - 0.5 * axial_form[i]
             for x in range(r):
                 first[i] += data[o_ct + i * r + x] * modal[x]
                 ct_rate[i] += shape[i, x] * modal_rate[x]
@@ -183,9 +191,7 @@ def body_terms(bodies, data, q, v, mass, forces):
                     for y in range(r):
                         cq += data[o_cc + ((3 * i + j) * r + x) * r + y] * modal[y]
                     value -= modal[x] * cq
-                if stiffened:
-                    value -= spin_along * ((1.0 if i == j else 0.0) - axis[i] * axis[j])
-                inertia[i, j] = value
+                inertia[i, j] = value - spin_form[i, j]
         # translation block and its coupling to rotation (-A S~) and modes (A C_t)
         # (A S~)_ij = sum_k A_ik S~_kj, S~ = skew(S)
         for i in range(3):
@@ -221,7 +227,7 @@ def body_terms(bodies, data, q, v, mass, forces):
         for i in range(3):
             acc = 0.0
             for j in range(3):
-                acc += rot[i, j] * (quadratic[j] - axis[j] * axial_curvature)
+                acc += rot[i, j] * (quadratic[j] - axial_curvature[j])
             forces[vo + i] += m * g[i] - acc
             local_g[i] = rot[0, i] * g[0] + rot[1, i] * g[1] + rot[2, i] * g[2]
         # rotation forces: S~ A^T g - w~ J w - 2 (w (a + q).q' - int rho Psi q' (u . w))
@@ -248,19 +254,15 @@ def body_terms(bodies, data, q, v, mass, forces):
                     part += modal_rate[x] * inner
                 spread += w[k] * part
             forces[vo + 3 + j] += moment[j] - gyro[j] - 2.0 * (w[j] * along - spread)
-        if stiffened:  # - J' w of the foreshortening's inertia
-            axial_spin = axis[0] * w[0] + axis[1] * w[1] + axis[2] * w[2]
+        if stiffened:  # - J' w of the stiffening's inertia -(q^T K_ij q)
             for j in range(3):
-                forces[vo + 3 + j] += 2.0 * spin_rate * (w[j] - axis[j] * axial_spin)
+                for k in range(3):
+                    forces[vo + 3 + j] += 2.0 * spin_rate[j, k] * w[k]
         # modal forces: S_q^T A^T g - sum_ij w_i w_j (c_ij + C_ij q) - 2 sum_i w_i G_i q'
-        #               - omega^2 q - 2 zeta omega q' (- (|w|^2 - (e . w)^2) K_s q)
-        perpendicular_spin = 0.0
-        if stiffened:
-            axial_spin = axis[0] * w[0] + axis[1] * w[1] + axis[2] * w[2]
-            perpendicular_spin = w[0] ** 2 + w[1] ** 2 + w[2] ** 2 - axial_spin**2
+        #               - omega^2 q - 2 zeta omega q' (- sum_ij w_i w_j K_ij q)
+        o_ks = o_d + r + 3 * r * r
         for x in range(r):
             value = -data[o_k + x] * modal[x] - data[o_d + x] * modal_rate[x]
-            value -= perpendicular_spin * ksq[x]
             for i in range(3):
                 value += shape[i, x] * local_g[i]
                 coriolis = 0.0
@@ -271,6 +273,8 @@ def body_terms(bodies, data, q, v, mass, forces):
                     centrifugal = data[o_cl + (3 * i + j) * r + x]
                     for y in range(r):
                         centrifugal += data[o_cc + ((3 * i + j) * r + x) * r + y] * modal[y]
+                        if stiffened:
+                            centrifugal += data[o_ks + ((3 * i + j) * r + x) * r + y] * modal[y]
                     value -= w[i] * w[j] * centrifugal
             forces[vo + 6 + x] += value
 

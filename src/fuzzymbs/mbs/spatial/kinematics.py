@@ -48,9 +48,9 @@ def spin_terms(w, s, sd, ws, quadratic):
 
 @nb.njit(cache=True)
 def stiffening_axis_offset(bodies, body):
-    """Where a stiffened body's axis e (3) sits in its data (after K_a and K_s)."""
+    """Where a stiffened body's beam axis e (3) sits in its data (after K_i and K_ij)."""
     r = bodies[body, 3]
-    return bodies[body, 2] + 13 + 6 * r + 12 * r * r + 9 * r + 3 * r + 2 * r * r
+    return bodies[body, 2] + 13 + 6 * r + 12 * r * r + 9 * r + 3 * r + 12 * r * r
 
 
 @nb.njit(cache=True)

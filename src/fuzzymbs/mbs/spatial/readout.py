@@ -89,18 +89,19 @@ def energy_at(states, layout, data, out):
                 rotation(q, po + 3, rot)
                 o_ct = d + 13
                 o_k = o_ct + 6 * r + 3 * r * r + 9 * r * r + 9 * r + r
-                # a stiffened body's foreshortening: S - 1/2 (q^T K_a q) e
+                # a stiffened body's first moment: S - 1/2 sum_i (q^T K_i q) e_i
                 o_ka = o_k + 2 * r
-                o_axis = o_ka + 2 * r * r
-                axial_form = 0.0
-                if bodies[b, 4] != 0:
-                    for m in range(r):
-                        for k in range(r):
-                            axial_form += q[po + 7 + m] * row[o_ka + m * r + k] * q[po + 7 + k]
                 for i in range(3):
                     first = row[d + 1 + i]
                     if bodies[b, 4] != 0:
-                        first -= 0.5 * axial_form * row[o_axis + i]
+                        for m in range(r):
+                            for k in range(r):
+                                first -= (
+                                    0.5
+                                    * q[po + 7 + m]
+                                    * row[o_ka + (i * r + m) * r + k]
+                                    * q[po + 7 + k]
+                                )
                     for m in range(r):
                         first += row[o_ct + i * r + m] * q[po + 7 + m]
                     for k in range(3):
