@@ -57,6 +57,26 @@ def user_state(k, markers, bodies, data, q, v, state, out):
 
 
 @nb.njit(cache=True)
+def contact_law(data, d, gap, normal, slip, force):
+    """The penalty law with regularised Coulomb friction (``data[d:d + 4]``: stiffness,
+    damping, friction, eps) for a closed gap (< 0) and the slip velocity ``slip`` of the
+    point over the surface (overwritten): the force on the point into ``force`` (zero
+    while the normal force would pull)."""
+    closing = normal[0] * slip[0] + normal[1] * slip[1] + normal[2] * slip[2]
+    press = -data[d] * gap - data[d + 1] * closing
+    if press <= 0.0:
+        return
+    eps = data[d + 3]
+    sliding = 0.0
+    for c in range(3):
+        slip[c] -= closing * normal[c]
+        sliding += slip[c] ** 2
+    scale = data[d + 2] * press / math.sqrt(sliding + eps * eps)
+    for c in range(3):
+        force[c] = press * normal[c] - scale * slip[c]
+
+
+@nb.njit(cache=True)
 def contact_force(markers, bodies, data, d, kj, q, v, si, sj, force, point):
     """Penalty contact of marker i's point with marker j's surface: the force on marker i
     into ``force``, the contact point on the surface into ``point`` (global); returns
@@ -107,18 +127,7 @@ def contact_force(markers, bodies, data, d, kj, q, v, si, sj, force, point):
         cross(sj[5], arm, turn)
         for c in range(3):
             slip[c] -= v[vo + c] + turn[c]
-    closing = normal[0] * slip[0] + normal[1] * slip[1] + normal[2] * slip[2]
-    press = -data[d] * gap - data[d + 1] * closing
-    if press <= 0.0:
-        return gap
-    eps = data[d + 3]
-    sliding = 0.0
-    for c in range(3):
-        slip[c] -= closing * normal[c]
-        sliding += slip[c] ** 2
-    scale = data[d + 2] * press / math.sqrt(sliding + eps * eps)
-    for c in range(3):
-        force[c] = press * normal[c] - scale * slip[c]
+    contact_law(data, d, gap, normal, slip, force)
     return gap
 
 
@@ -212,18 +221,7 @@ def surface_contact_force(markers, bodies, data, d, kj, q, v, si, force, point):
     point[7] = 1.0
     if gap >= 0.0:
         return gap
-    closing = normal[0] * slip[0] + normal[1] * slip[1] + normal[2] * slip[2]
-    press = -data[d] * gap - data[d + 1] * closing
-    if press <= 0.0:
-        return gap
-    eps = data[d + 3]
-    sliding = 0.0
-    for c in range(3):
-        slip[c] -= closing * normal[c]
-        sliding += slip[c] ** 2
-    scale = data[d + 2] * press / math.sqrt(sliding + eps * eps)
-    for c in range(3):
-        force[c] = press * normal[c] - scale * slip[c]
+    contact_law(data, d, gap, normal, slip, force)
     return gap
 
 
