@@ -218,3 +218,12 @@ def rotation_matrix(axis: NDArray[np.float64], angle: float) -> NDArray[np.float
 
 
 Body = FixedBody | TranslatingBody | RotatingBody
+
+
+def node_row(body: Body, node: int, direction: NDArray[np.float64]) -> NDArray[np.float64]:
+    """d . u_node as a row over the body's coordinates: [d . P_a, d . Psi_k]."""
+    parts = []
+    if isinstance(body, TranslatingBody):
+        parts.append(body.axes @ direction)
+    parts.append(direction @ body.modal.mode_shapes[node])
+    return np.concatenate(parts)

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.bodies import unit_vector
 from fuzzymbs.mbs.forces import NodeRef
+from fuzzymbs.mbs.kernels import layout as K
 from fuzzymbs.mbs.parameters import Scalar
 
 CARTESIAN = 0
@@ -128,6 +129,67 @@ class PenaltyContact:
     regularization_velocity: float = 1e-3
     normal_damping: float = 0.0
     normal: ArrayLike | str | None = None
+
+    table = "contacts"
+
+    def _ends(self, ctx):
+        """(slave body, master body, slave nodes, master nodes), checked."""
+        sb = ctx.body(self.slave_body, f"contact {self.name!r} slave_body")
+        mb = ctx.body(self.master_body, f"contact {self.name!r} master_body")
+        if sb is mb:
+            raise InvalidParameterError(
+                f"contact {self.name!r}: slave and master are the same body"
+            )
+        sn = ctx.nodes(sb, self.slave_nodes, f"contact {self.name!r} slave_nodes")
+        mn = ctx.nodes(mb, self.master_nodes, f"contact {self.name!r} master_nodes")
+        return sb, mb, sn, mn
+
+    def track(self, ctx) -> None:
+        """The kernels follow every slave and master node of the pass."""
+        sb, mb, sn, mn = self._ends(ctx)
+        ctx.tracked[sb.name].update(sn.tolist())
+        ctx.tracked[mb.name].update(mn.tolist())
+
+    def compile(self, ctx) -> None:
+        """Rows ``ci`` (layout ``C_*``) and ``cf`` (chart frame, eps, normal damping, the
+        cell look-up constants) of the pass; the master patch as a tensor grid."""
+        sb, mb, sn, mn = self._ends(ctx)
+        kind, frame = self.chart.frame()
+        slave_ref = sb.origin + sb.modal.node_positions[sn] - mb.origin  # master frame, t = 0
+        side = (
+            None
+            if self.normal is None
+            else unit_vector(self.normal, f"contact {self.name!r} normal")
+        )
+        patch = build_patch(self.name, kind, frame, mb.modal.node_positions, mn, slave_ref, side)
+        grid_tracked = np.vectorize(lambda n, name=mb.name: ctx.tracked_id[(name, int(n))])(
+            patch.grid
+        )
+        slave_tracked = [ctx.tracked_id[(sb.name, int(n))] for n in sn]
+        pools = ctx.pools
+        row = np.zeros(14, dtype=np.int64)
+        row[K.C_SBODY] = ctx.index[sb.name]
+        row[K.C_MBODY] = ctx.index[mb.name]
+        row[K.C_SLAVE0] = pools.addi(slave_tracked)
+        row[K.C_NSLAVE] = len(slave_tracked)
+        row[K.C_KIND] = kind
+        row[K.C_NU] = patch.u.size
+        row[K.C_NV] = patch.v.size
+        row[K.C_U0] = pools.addf(patch.u)
+        row[K.C_V0] = pools.addf(patch.v)
+        row[K.C_GRID0] = pools.addi(grid_tracked)
+        row[K.C_NORMAL0] = pools.addf(patch.normals)
+        row[K.C_PEN] = ctx.table.add(self.penalty, f"contact {self.name!r} penalty", 0.0)
+        row[K.C_MU] = ctx.table.add(self.friction, f"contact {self.name!r} friction", 0.0)
+        row[K.C_PERIODIC] = int(patch.periodic)
+        floats = np.concatenate(
+            [
+                frame,
+                [self.regularization_velocity, self.normal_damping],
+                lookup_constants(patch),
+            ]
+        )
+        ctx.rows[self.table].append((row, floats))
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.regularization_velocity) and self.regularization_velocity > 0):

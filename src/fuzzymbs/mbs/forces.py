@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.bodies import unit_vector
+from fuzzymbs.mbs.bodies import RotatingBody, TranslatingBody, node_row, unit_vector
 from fuzzymbs.mbs.parameters import Scalar
 from fuzzymbs.mbs.profiles import TimeProfile
 
@@ -54,8 +54,35 @@ class NodalForce:
     magnitude: Scalar
     profile: TimeProfile | None = None
 
+    table = "nodal_forces"
+
     def unit_direction(self) -> NDArray[np.float64]:
         return unit_vector(self.direction, f"nodal force {self.name!r} direction")
+
+    def track(self, ctx) -> None:
+        """No node needs tracking: the force folds into a generalised force vector."""
+
+    def compile(self, ctx) -> None:
+        """Row (body, vector offset, profile, magnitude slot, rotating flag): on a rotating
+        body the inertial direction d enters through three vectors (see the kernels)."""
+        body = ctx.body(self.body, f"nodal force {self.name!r} body")
+        nodes = ctx.nodes(body, self.nodes, f"nodal force {self.name!r} nodes")
+        d = self.unit_direction()
+        psi_sum = body.modal.mode_shapes[nodes].sum(axis=0)  # (3, r)
+        slot = ctx.table.add(self.magnitude, f"nodal force {self.name!r} magnitude")
+        prof = -1 if self.profile is None else ctx.add_profile(self.profile)
+        pools = ctx.pools
+        if isinstance(body, RotatingBody):
+            ax = body.axis
+            v0 = pools.addf(d @ psi_sum)
+            pools.addf((ax @ d) * (ax @ psi_sum))
+            pools.addf(np.cross(ax, d) @ psi_sum)
+            ctx.rows[self.table].append((ctx.index[body.name], v0, prof, slot, 1))
+        else:
+            vec = [body.axes @ d * nodes.size] if isinstance(body, TranslatingBody) else []
+            vec.append(d @ psi_sum)
+            row = (ctx.index[body.name], pools.addf(np.concatenate(vec)), prof, slot, 0)
+            ctx.rows[self.table].append(row)
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,11 +117,62 @@ class Spring:
     damping: Scalar = 0.0
     direction: ArrayLike | str | None = None
 
+    table = "springs"
+
     def directions(self) -> NDArray[np.float64]:
         """Rows of unit directions the springs act along (1 row, or 3 for 3D)."""
         if self.direction is None:
             return np.eye(3)
         return unit_vector(self.direction, f"spring {self.name!r} direction")[None, :]
+
+    def track(self, ctx) -> None:
+        """No node needs tracking: the springs fold into a small matrix."""
+
+    def compile(self, ctx) -> None:
+        """Row (dof list, size, unit matrices, stiffness slot, damping slot): the pairs'
+        unit stiffness sum_k w_k w_k^T over the coordinates the springs touch."""
+        ba = ctx.body(self.body_a, f"spring {self.name!r} body_a")
+        na = ctx.nodes(ba, self.nodes_a, f"spring {self.name!r} nodes_a")
+        ends = [(ba, na, -1.0)]
+        if self.body_b is not None:
+            bb = ctx.body(self.body_b, f"spring {self.name!r} body_b")
+            if self.nodes_b is None:
+                raise InvalidParameterError(f"spring {self.name!r}: body_b given without nodes_b")
+            nb_ = ctx.nodes(bb, self.nodes_b, f"spring {self.name!r} nodes_b")
+            if nb_.size != na.size:
+                raise InvalidParameterError(
+                    f"spring {self.name!r}: nodes_a and nodes_b must pair up, got {na.size} "
+                    f"and {nb_.size} nodes"
+                )
+            if bb is ba:
+                raise InvalidParameterError(
+                    f"spring {self.name!r}: both ends on body {ba.name!r}; "
+                    "internal stiffness belongs in the modal body"
+                )
+            ends.append((bb, nb_, 1.0))
+        for body, _, _ in ends:
+            if isinstance(body, RotatingBody):
+                raise InvalidParameterError(
+                    f"spring {self.name!r}: springs on rotating body {body.name!r} are not "
+                    "supported (their geometry would be time-varying); use contact or a "
+                    "fixed body"
+                )
+        dofs = np.concatenate([np.arange(ctx.n_dofs)[ctx.body_dofs[b.name]] for b, _, _ in ends])
+        if dofs.size == 0:
+            return  # both ends without coordinates: nothing moves
+        unit = np.zeros((dofs.size, dofs.size))
+        for d in self.directions():
+            for k in range(na.size):
+                w = np.concatenate(
+                    [sign * node_row(body, nodes[k], d) for body, nodes, sign in ends]
+                )
+                unit += np.outer(w, w)
+        d0 = ctx.pools.addi(dofs)
+        m0 = ctx.pools.addf(unit)
+        ctx.pools.addf(unit)
+        ks = ctx.table.add(self.stiffness, f"spring {self.name!r} stiffness", 0.0)
+        cs = ctx.table.add(self.damping, f"spring {self.name!r} damping", 0.0)
+        ctx.rows[self.table].append((d0, dofs.size, m0, ks, cs))
 
 
 def resolve_nodes(modal_nodes: int, node_sets: dict, ref: NodeRef, what: str) -> NDArray[np.int64]:

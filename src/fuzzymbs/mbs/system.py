@@ -52,13 +52,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.bodies import Body, FixedBody, RotatingBody, TranslatingBody, unit_vector
-from fuzzymbs.mbs.contact import PenaltyContact, build_patch, lookup_constants
-from fuzzymbs.mbs.forces import NodalForce, Spring, resolve_nodes
+from fuzzymbs.mbs.bodies import (
+    Body,
+    FixedBody,
+    RotatingBody,
+    TranslatingBody,
+    node_row,
+    unit_vector,
+)
+from fuzzymbs.mbs.compile_context import TABLES, CompileContext
+from fuzzymbs.mbs.contact import PenaltyContact
+from fuzzymbs.mbs.forces import NodalForce, Spring
 from fuzzymbs.mbs.frame_motion import frame_motions, initial_coordinates
 from fuzzymbs.mbs.kernels import layout as K
 from fuzzymbs.mbs.parameters import ParameterTable
-from fuzzymbs.mbs.profiles import TimeProfile
 
 Element = NodalForce | Spring | PenaltyContact
 
@@ -129,13 +136,15 @@ class System:
         return joint
 
     def add(self, *elements: Element) -> None:
-        """Add force elements (NodalForce, Spring, PenaltyContact)."""
+        """Add force elements (NodalForce, Spring, PenaltyContact); each compiles itself
+        (:mod:`fuzzymbs.mbs.compile_context`)."""
         names = {e.name for e in self.elements}
         for e in elements:
-            if not isinstance(e, NodalForce | Spring | PenaltyContact):
+            if not (hasattr(e, "compile") and getattr(e, "table", None) in TABLES):
                 raise InvalidParameterError(
                     f"unknown element type {type(e).__name__}; use NodalForce, Spring or "
-                    "PenaltyContact"
+                    "PenaltyContact (an element compiles itself into one of the tables "
+                    f"{TABLES}, fuzzymbs.mbs.compile_context)"
                 )
             if e.name in names:
                 raise InvalidParameterError(f"an element named {e.name!r} exists already")
@@ -200,7 +209,7 @@ class CompiledSystem:
                 f"output: body {spec.body!r} has {body.modal.n_nodes} nodes, node {spec.node} "
                 "is out of range"
             )
-        w[dofs] = _node_row(body, spec.node, d)
+        w[dofs] = node_row(body, spec.node, d)
         return w
 
     def zero_state(self, batch: int = 1) -> NDArray[np.float64]:
@@ -215,61 +224,10 @@ class CompiledSystem:
         return np.tile(self.initial, (batch, 1))
 
 
-def _node_row(body: Body, node: int, direction: NDArray[np.float64]) -> NDArray[np.float64]:
-    """d . u_node as a row over the body's coordinates: [d . P_a, d . Psi_k]."""
-    parts = []
-    if isinstance(body, TranslatingBody):
-        parts.append(body.axes @ direction)
-    parts.append(direction @ body.modal.mode_shapes[node])
-    return np.concatenate(parts)
-
-
-def _body(bodies: dict[str, Body], name: str, what: str) -> Body:
-    try:
-        return bodies[name]
-    except KeyError:
-        raise InvalidParameterError(
-            f"{what}: unknown body {name!r}; bodies are {sorted(bodies)}"
-        ) from None
-
-
-class _Pools:
-    def __init__(self) -> None:
-        self.f: list[NDArray[np.float64]] = []
-        self.nf = 0
-        self.i: list[NDArray[np.int64]] = []
-        self.ni = 0
-
-    def addf(self, arr: ArrayLike) -> int:
-        a = np.ascontiguousarray(arr, dtype=np.float64).reshape(-1)
-        self.f.append(a)
-        self.nf += a.size
-        return self.nf - a.size
-
-    def addi(self, arr: ArrayLike) -> int:
-        a = np.ascontiguousarray(arr, dtype=np.int64).reshape(-1)
-        self.i.append(a)
-        self.ni += a.size
-        return self.ni - a.size
-
-
-def _add_profile(pools: _Pools, profiles: list, profile: TimeProfile) -> int:
-    start = pools.addf(profile.times)
-    pools.addf(profile.values)
-    pools.addf(profile.cumulative())
-    profiles.append((start, profile.times.size))
-    return len(profiles) - 1
-
-
 def _compile(motions: dict[str, Body], elements: list[Element]) -> CompiledSystem:
     if not motions:
         raise InvalidParameterError("the system has no bodies")
-    table = ParameterTable()
-    pools = _Pools()
-    profiles: list[tuple[int, int]] = []
-    names = list(motions)
-    index = {n: i for i, n in enumerate(names)}
-    bodies = [motions[n] for n in names]
+    bodies = list(motions.values())
 
     # coordinates
     body_dofs: dict[str, slice] = {}
@@ -283,36 +241,22 @@ def _compile(motions: dict[str, Body], elements: list[Element]) -> CompiledSyste
         q = slice(body_dofs[body.name].start + body.n_translations, body_dofs[body.name].stop)
         dof_k2[q] = body.modal.frequencies**2
         dof_c[q] = 2.0 * body.damping_ratio * body.modal.frequencies
+    ctx = CompileContext(motions, body_dofs, ndof)
+    pools, table = ctx.pools, ctx.table
 
-    # tracked nodes: every node a contact pass reads, grouped by body
-    contacts = [e for e in elements if isinstance(e, PenaltyContact)]
-    tracked: dict[str, set[int]] = {n: set() for n in names}
-    resolved = []
-    for c in contacts:
-        sb = _body(motions, c.slave_body, f"contact {c.name!r} slave_body")
-        mb = _body(motions, c.master_body, f"contact {c.name!r} master_body")
-        if sb is mb:
-            raise InvalidParameterError(f"contact {c.name!r}: slave and master are the same body")
-        sn = resolve_nodes(
-            sb.modal.n_nodes, sb.modal.node_sets, c.slave_nodes, f"contact {c.name!r} slave_nodes"
-        )
-        mn = resolve_nodes(
-            mb.modal.n_nodes, mb.modal.node_sets, c.master_nodes, f"contact {c.name!r} master_nodes"
-        )
-        tracked[sb.name].update(sn.tolist())
-        tracked[mb.name].update(mn.tolist())
-        resolved.append((c, sb, mb, sn, mn))
-    tracked_id: dict[tuple[str, int], int] = {}
+    # tracked nodes: every node an element reads (contact passes), grouped by body
+    for e in elements:
+        e.track(ctx)
     node_xbar = []
     bi = np.zeros((len(bodies), 11), dtype=np.int64)
     bf = np.zeros((len(bodies), 15))
     translation_axes = {}
     for b, body in enumerate(bodies):
         modal = body.modal
-        nodes = sorted(tracked[body.name])
+        nodes = sorted(ctx.tracked[body.name])
         bi[b, K.B_NODE0] = len(node_xbar)
         for n in nodes:
-            tracked_id[(body.name, n)] = len(node_xbar)
+            ctx.tracked_id[(body.name, n)] = len(node_xbar)
             node_xbar.append(modal.node_positions[n])
         bi[b, K.B_NODE1] = len(node_xbar)
         block = modal.mode_shapes[nodes]  # (node, xyz, mode)
@@ -345,116 +289,16 @@ def _compile(motions: dict[str, Body], elements: list[Element]) -> CompiledSyste
             pools.addf(mats["centrifugal_load"])
             pools.addf(mats["euler_load"])
             bi[b, K.B_SPEED] = table.add(body.speed, f"body {body.name!r} rotation speed")
-            bi[b, K.B_PROF] = _add_profile(pools, profiles, body.profile)
+            bi[b, K.B_PROF] = ctx.add_profile(body.profile)
         else:
             bi[b, K.B_KIND] = K.KIND_FIXED
 
-    # linear spring/damper groups
-    lg_rows = []
-    for e in elements:
-        if not isinstance(e, Spring):
-            continue
-        ba = _body(motions, e.body_a, f"spring {e.name!r} body_a")
-        na = resolve_nodes(
-            ba.modal.n_nodes, ba.modal.node_sets, e.nodes_a, f"spring {e.name!r} nodes_a"
-        )
-        ends = [(ba, na, -1.0)]
-        if e.body_b is not None:
-            bb = _body(motions, e.body_b, f"spring {e.name!r} body_b")
-            if e.nodes_b is None:
-                raise InvalidParameterError(f"spring {e.name!r}: body_b given without nodes_b")
-            nb_ = resolve_nodes(
-                bb.modal.n_nodes, bb.modal.node_sets, e.nodes_b, f"spring {e.name!r} nodes_b"
-            )
-            if nb_.size != na.size:
-                raise InvalidParameterError(
-                    f"spring {e.name!r}: nodes_a and nodes_b must pair up, got {na.size} and "
-                    f"{nb_.size} nodes"
-                )
-            if bb is ba:
-                raise InvalidParameterError(
-                    f"spring {e.name!r}: both ends on body {ba.name!r}; "
-                    "internal stiffness belongs in the modal body"
-                )
-            ends.append((bb, nb_, 1.0))
-        for body, _, _ in ends:
-            if isinstance(body, RotatingBody):
-                raise InvalidParameterError(
-                    f"spring {e.name!r}: springs on rotating body {body.name!r} are not supported"
-                    " (their geometry would be time-varying); use contact or a fixed body"
-                )
-        dofs = np.concatenate([np.arange(ndof)[body_dofs[b.name]] for b, _, _ in ends])
-        if dofs.size == 0:
-            continue  # both ends without coordinates: nothing moves
-        unit = np.zeros((dofs.size, dofs.size))
-        for d in e.directions():
-            for k in range(na.size):
-                w = np.concatenate(
-                    [sign * _node_row(body, nodes[k], d) for body, nodes, sign in ends]
-                )
-                unit += np.outer(w, w)
-        d0 = pools.addi(dofs)
-        m0 = pools.addf(unit)
-        pools.addf(unit)
-        ks = table.add(e.stiffness, f"spring {e.name!r} stiffness", 0.0)
-        cs = table.add(e.damping, f"spring {e.name!r} damping", 0.0)
-        lg_rows.append((d0, dofs.size, m0, ks, cs))
-
-    # nodal forces
-    nf_rows = []
-    for e in elements:
-        if not isinstance(e, NodalForce):
-            continue
-        body = _body(motions, e.body, f"nodal force {e.name!r} body")
-        nodes = resolve_nodes(
-            body.modal.n_nodes, body.modal.node_sets, e.nodes, f"nodal force {e.name!r} nodes"
-        )
-        d = e.unit_direction()
-        psi_sum = body.modal.mode_shapes[nodes].sum(axis=0)  # (3, r)
-        slot = table.add(e.magnitude, f"nodal force {e.name!r} magnitude")
-        prof = -1 if e.profile is None else _add_profile(pools, profiles, e.profile)
-        if isinstance(body, RotatingBody):
-            ax = body.axis
-            v0 = pools.addf(d @ psi_sum)
-            pools.addf((ax @ d) * (ax @ psi_sum))
-            pools.addf(np.cross(ax, d) @ psi_sum)
-            nf_rows.append((index[body.name], v0, prof, slot, 1))
-        else:
-            vec = [body.axes @ d * nodes.size] if isinstance(body, TranslatingBody) else []
-            vec.append(d @ psi_sum)
-            nf_rows.append((index[body.name], pools.addf(np.concatenate(vec)), prof, slot, 0))
-
-    # contact passes
-    ci_rows = []
-    cf_rows = []
-    for c, sb, mb, sn, mn in resolved:
-        kind, frame = c.chart.frame()
-        slave_ref = sb.origin + sb.modal.node_positions[sn] - mb.origin  # master frame at t=0
-        side = None if c.normal is None else unit_vector(c.normal, f"contact {c.name!r} normal")
-        patch = build_patch(c.name, kind, frame, mb.modal.node_positions, mn, slave_ref, side)
-        grid_tracked = np.vectorize(lambda n, name=mb.name: tracked_id[(name, int(n))])(patch.grid)
-        slave_tracked = [tracked_id[(sb.name, int(n))] for n in sn]
-        row = np.zeros(14, dtype=np.int64)
-        row[K.C_SBODY] = index[sb.name]
-        row[K.C_MBODY] = index[mb.name]
-        row[K.C_SLAVE0] = pools.addi(slave_tracked)
-        row[K.C_NSLAVE] = len(slave_tracked)
-        row[K.C_KIND] = kind
-        row[K.C_NU] = patch.u.size
-        row[K.C_NV] = patch.v.size
-        row[K.C_U0] = pools.addf(patch.u)
-        row[K.C_V0] = pools.addf(patch.v)
-        row[K.C_GRID0] = pools.addi(grid_tracked)
-        row[K.C_NORMAL0] = pools.addf(patch.normals)
-        row[K.C_PEN] = table.add(c.penalty, f"contact {c.name!r} penalty", 0.0)
-        row[K.C_MU] = table.add(c.friction, f"contact {c.name!r} friction", 0.0)
-        row[K.C_PERIODIC] = int(patch.periodic)
-        ci_rows.append(row)
-        cf_rows.append(
-            np.concatenate(
-                [frame, [c.regularization_velocity, c.normal_damping], lookup_constants(patch)]
-            )
-        )
+    # the element tables, in the layout's order (rows and slots keep it)
+    for name in TABLES:
+        for e in elements:
+            if e.table == name:
+                e.compile(ctx)
+    contacts = ctx.rows["contacts"]
 
     if not table.slots:
         table.add(0.0, "unused")
@@ -467,10 +311,10 @@ def _compile(motions: dict[str, Body], elements: list[Element]) -> CompiledSyste
         dof_c,
         np.concatenate(pools.f) if pools.f else np.zeros(1),
         np.concatenate(pools.i) if pools.i else np.zeros(1, dtype=np.int64),
-        np.array(profiles, dtype=np.int64).reshape(-1, 2),
-        np.array(lg_rows, dtype=np.int64).reshape(-1, 5),
-        np.array(nf_rows, dtype=np.int64).reshape(-1, 5),
-        np.array(ci_rows, dtype=np.int64).reshape(-1, 14),
-        np.array(cf_rows, dtype=np.float64).reshape(-1, 15),
+        np.array(ctx.profiles, dtype=np.int64).reshape(-1, 2),
+        np.array(ctx.rows["springs"], dtype=np.int64).reshape(-1, 5),
+        np.array(ctx.rows["nodal_forces"], dtype=np.int64).reshape(-1, 5),
+        np.array([row for row, _ in contacts], dtype=np.int64).reshape(-1, 14),
+        np.array([floats for _, floats in contacts], dtype=np.float64).reshape(-1, 15),
     )
     return CompiledSystem(data, table, ndof, body_dofs, dict(motions), translation_axes)
