@@ -287,3 +287,26 @@ def test_as_mechanism_writes_each_element_in_the_general_vocabulary():
     np.testing.assert_array_equal(hinge.marker_j.body.angular_velocity, (0.0, 5.0, 0.0))
     # copies: the System's own disc keeps its start at rest
     np.testing.assert_array_equal(system.bodies["disc"].angular_velocity, 0.0)
+
+
+def test_a_turning_body_carries_its_spin_stiffening_into_the_system():
+    # a beam's foreshortening and an FE body's own prestress reach the rotating frame
+    # motion as the same Omega^2 K_e (K_e = sum_ij e_i e_j K_ij; for a beam along x
+    # turning about z, K_zz = K_s): without it the System would silently drop it
+    from fuzzymbs.fe.beam import PlanarBeam
+
+    beam = PlanarBeam(
+        length=1.0, youngs_modulus=2.1e11, density=7800.0, area=9e-5, second_moment=6.75e-11
+    ).reduce(4)
+    z = frame_with_z((0.0, 0.0, 1.0))
+    for stiffened in (True, False):
+        body = FlexibleBody(
+            "strip", beam.modal_body(), stiffening=beam.stiffening() if stiffened else None
+        )
+        system = System()
+        system.add_body(body)
+        system.add_joint(Revolute(ground.point(axes=z), body.point(axes=z), ConstantRate(3.0)))
+        rotating = system.compile().bodies["strip"]
+        softening = body.modal.centrifugal[2, 2]
+        expected = softening + (beam.geometric_spin if stiffened else 0.0)
+        np.testing.assert_allclose(rotating.rotated_matrices()["centrifugal"], expected)

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.modal_body import ModalBody
+from fuzzymbs.mbs.modal_body import ModalBody, StressStiffening
 from fuzzymbs.mbs.parameters import Scalar
 from fuzzymbs.mbs.profiles import TimeProfile
 
@@ -167,11 +167,15 @@ class RotatingBody(_Body):
         Dimensionless speed history (default constant 1).
     origin, damping_ratio, name
         As for :class:`FixedBody`; the axis passes through ``origin``.
+    stiffening : StressStiffening, optional
+        The spin's stress stiffening (its ``spin`` part K_ij is used); default the
+        modal body's own (``ModalBody.stress_stiffening``), if computed.
     """
 
     axis: NDArray[np.float64]
     speed: Scalar
     profile: TimeProfile
+    stiffening: StressStiffening | None
 
     def __init__(
         self,
@@ -183,26 +187,28 @@ class RotatingBody(_Body):
         origin: ArrayLike = (0.0, 0.0, 0.0),
         damping_ratio: float | ArrayLike = 0.0,
         name: str | None = None,
+        stiffening: StressStiffening | None = None,
     ) -> None:
         nm = name or modal.name
         super().__init__(modal, nm, _origin(origin, nm), _damping_ratios(modal, damping_ratio))
         object.__setattr__(self, "axis", unit_vector(axis, f"body {nm!r} rotation axis"))
         object.__setattr__(self, "speed", speed)
         object.__setattr__(self, "profile", profile or TimeProfile.constant())
+        object.__setattr__(self, "stiffening", stiffening or modal.stress_stiffening)
 
     def rotated_matrices(self) -> dict[str, NDArray[np.float64]]:
         """G_e, C_e and the loads for the rotation axis e (from the SID integrals).
 
-        ``G = sum_i e_i G_i``, ``C = sum_ij e_i e_j (C_ij + K_ij)`` (K_ij the modal
-        body's ``stress_stiffening``, if computed: the centrifugal prestress),
+        ``G = sum_i e_i G_i``, ``C = sum_ij e_i e_j (C_ij + K_ij)`` (K_ij the body's
+        ``stiffening``, if any: the centrifugal prestress),
         ``c = sum_ij e_i e_j c_ij`` (``Psi^T M E E xbar``) and
         ``g = C_r^T e`` (``Psi^T M E xbar``, the Euler load).
         """
         e = self.axis
         m = self.modal
         centrifugal = np.einsum("i,j,ijkl->kl", e, e, m.centrifugal)
-        if m.stress_stiffening is not None:  # the prestress of the same spin: Omega^2 K_e
-            centrifugal = centrifugal + np.einsum("i,j,ijkl->kl", e, e, m.stress_stiffening.spin)
+        if self.stiffening is not None:  # the prestress of the same spin: Omega^2 K_e
+            centrifugal = centrifugal + np.einsum("i,j,ijkl->kl", e, e, self.stiffening.spin)
         return {
             "gyroscopic": np.einsum("i,ijk->jk", e, m.gyroscopic),
             "centrifugal": centrifugal,

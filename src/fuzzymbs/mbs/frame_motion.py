@@ -133,7 +133,9 @@ def frame_motion(body, joint) -> FrameMotion:
                 "minimal form turns the frame about its origin)"
             )
         _at_rest(body, where, allowed=None, spin=scalar_default(drive.rate) * axis)
-        return RotatingBody(body.modal, axis, speed=drive.rate, **common)
+        # a beam's foreshortening or the FE body's own prestress: the same spin stiffening
+        stiffening = getattr(body, "stress_stiffening", None)
+        return RotatingBody(body.modal, axis, speed=drive.rate, stiffening=stiffening, **common)
     raise InvalidParameterError(
         f"{where}: a System holds a body by Fixed, Prismatic or a driven Revolute, not {kind}"
     )
