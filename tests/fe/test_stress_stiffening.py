@@ -65,6 +65,7 @@ def spin_stiffened_beam():
     return body.reduce(6, cache=False, stress_stiffening=True)
 
 
+@pytest.mark.slow  # the System's linearisation kernels compile for about 20 s
 def test_a_turning_beam_stiffens_by_southwells_coefficients():
     from fuzzymbs.mbs.bodies import RotatingBody
     from fuzzymbs.mbs.linearize import eigenanalysis
