@@ -32,13 +32,13 @@ REFERENCE = Path(__file__).resolve().parents[2] / "data" / "spin_up_beam_referen
 
 
 def kane_beam():
-    from tests.mbs.test_fe_spin_up import fe_beam
+    from ..test_fe_spin_up import fe_beam
 
     return fe_beam()
 
 
 def test_the_fe_spin_up_beam_in_space_follows_the_nonlinear_beam():
-    from tests.mbs.test_fe_spin_up import KEYS, SPEEDS, tip_deflection
+    from ..test_fe_spin_up import KEYS, SPEEDS, tip_deflection
 
     modal = kane_beam()
     tip = int(modal.node_sets["tip"][0])
