@@ -310,3 +310,24 @@ def test_a_turning_body_carries_its_spin_stiffening_into_the_system():
         softening = body.modal.centrifugal[2, 2]
         expected = softening + (beam.geometric_spin if stiffened else 0.0)
         np.testing.assert_allclose(rotating.rotated_matrices()["centrifugal"], expected)
+
+
+def test_the_spin_up_profile_matches_the_mechanism_engines_drive():
+    # Kane's ramp twice: the brake kernels' profile (speed multiplier, its integral and
+    # slope) against the mechanism engines' SpinUp drive (angle, rate, acceleration), two
+    # codes of one formula; and p(0) = 0, p(T) = 1 with zero slope at both ends
+    from fuzzymbs.mbs.kernels.kinematics import spin_up
+    from fuzzymbs.mbs.planar.profiles import SpinUp as Drive
+    from fuzzymbs.mbs.planar.profiles import evaluate
+    from fuzzymbs.mbs.profiles import SpinUpProfile
+
+    duration, speed = 15.0, 4.0
+    times = np.linspace(0.0, 20.0, 81)  # the runs start at t = 0
+    angle, rate, acceleration = evaluate(Drive(speed, duration), times)
+    ours = np.array([spin_up(duration, t) for t in times])
+    np.testing.assert_allclose(speed * ours[:, 1], angle, rtol=1e-13, atol=1e-12)
+    np.testing.assert_allclose(speed * ours[:, 0], rate, rtol=1e-13, atol=1e-12)
+    np.testing.assert_allclose(speed * ours[:, 2], acceleration, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(SpinUpProfile(duration)(times), ours[:, 0], atol=1e-15)
+    edges = np.array([spin_up(duration, t) for t in (0.0, duration)])
+    np.testing.assert_allclose(edges[:, [0, 2]], [[0.0, 0.0], [1.0, 0.0]], atol=1e-15)

@@ -22,7 +22,7 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.bodies import FixedBody, RotatingBody, TranslatingBody
 from fuzzymbs.mbs.forces import resolve_nodes
 from fuzzymbs.mbs.parameters import ParameterTable
-from fuzzymbs.mbs.profiles import TimeProfile
+from fuzzymbs.mbs.profiles import SpinUpProfile, TimeProfile
 
 Body = FixedBody | TranslatingBody | RotatingBody
 
@@ -84,10 +84,7 @@ class CompileContext:
         """Node indices of ``body`` from a node-set name or indices."""
         return resolve_nodes(body.modal.n_nodes, body.modal.node_sets, ref, what)
 
-    def add_profile(self, profile: TimeProfile) -> int:
-        """Store a time profile (knots, values, integrals); its index in ``ptab``."""
-        start = self.pools.addf(profile.times)
-        self.pools.addf(profile.values)
-        self.pools.addf(profile.cumulative())
-        self.profiles.append((start, profile.times.size))
+    def add_profile(self, profile: TimeProfile | SpinUpProfile) -> int:
+        """Store a time profile (its own ``store``); its index in ``ptab``."""
+        self.profiles.append(profile.store(self.pools))
         return len(self.profiles) - 1

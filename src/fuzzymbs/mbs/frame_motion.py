@@ -14,7 +14,8 @@ joint to the ground                            frame motion                 coor
 :class:`~fuzzymbs.mbs.spatial.Fixed`           fixed in space               modes
 :class:`~fuzzymbs.mbs.spatial.Prismatic`       slides along marker i's z     slide, modes
 :class:`~fuzzymbs.mbs.spatial.Revolute` with   turns about marker i's z at  modes
-``drive=ConstantRate(rate)``                   the prescribed rate
+``drive=ConstantRate(rate)`` or                the prescribed speed (Kane's
+``SpinUp(speed, duration)``                    ramp exact in the kernels)
 =============================================  ==========================  ===============
 
 (:class:`~fuzzymbs.mbs.bodies.FixedBody`, :class:`~fuzzymbs.mbs.bodies.TranslatingBody`
@@ -37,7 +38,8 @@ from numpy.typing import NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.bodies import FixedBody, RotatingBody, TranslatingBody
 from fuzzymbs.mbs.parameters import scalar_default
-from fuzzymbs.mbs.planar.profiles import ConstantRate
+from fuzzymbs.mbs.planar.profiles import ConstantRate, SpinUp
+from fuzzymbs.mbs.profiles import SpinUpProfile
 
 #: How far a joint's markers may miss each other at the start, relative to the body's
 #: size (the general engine's start check uses the same scale of round-off).
@@ -72,8 +74,8 @@ def frame_motion(body, joint) -> FrameMotion:
         Its orientation must be the identity (the frame parallel to the global axes).
     joint : fuzzymbs.mbs.spatial.Fixed, Prismatic or Revolute
         Between one of the body's markers and a ground marker; a Revolute needs
-        ``drive=ConstantRate(rate)`` with start 0 (``rate`` may be a
-        :class:`~fuzzymbs.mbs.parameters.Parameter`).
+        ``drive=ConstantRate(rate)`` or ``SpinUp(speed, duration)`` with start 0 (the
+        rate or speed may be a :class:`~fuzzymbs.mbs.parameters.Parameter`).
 
     Returns
     -------
@@ -121,10 +123,11 @@ def frame_motion(body, joint) -> FrameMotion:
         return TranslatingBody(body.modal, [z_i], **common)
     if kind == "Revolute":
         drive = joint.drive
-        if not isinstance(drive, ConstantRate) or drive.start != 0.0:
+        if not isinstance(drive, ConstantRate | SpinUp) or drive.start != 0.0:
             raise InvalidParameterError(
-                f"{where}: a System turns a body only at a prescribed rate, "
-                "drive=ConstantRate(rate) with start 0; a free turn needs spatial.Mechanism"
+                f"{where}: a System turns a body at a prescribed speed, "
+                "drive=ConstantRate(rate) or SpinUp(speed, duration) with start 0; a free "
+                "turn needs spatial.Mechanism"
             )
         off_axis = np.cross(body.position - _marker_point(ground_marker), axis)
         if np.linalg.norm(off_axis) > MEET_TOLERANCE * _size(body):
@@ -132,10 +135,17 @@ def frame_motion(body, joint) -> FrameMotion:
                 f"{where}: the body's frame origin must lie on the joint's axis (the "
                 "minimal form turns the frame about its origin)"
             )
-        _at_rest(body, where, allowed=None, spin=scalar_default(drive.rate) * axis)
+        if isinstance(drive, SpinUp):  # from rest, Kane's ramp exact in the kernels
+            speed, profile, spin = drive.speed, SpinUpProfile(drive.duration), 0.0 * axis
+        else:
+            speed, profile = drive.rate, None
+            spin = scalar_default(drive.rate) * axis
+        _at_rest(body, where, allowed=None, spin=spin)
         # a beam's foreshortening or the FE body's own prestress: the same spin stiffening
         stiffening = getattr(body, "stress_stiffening", None)
-        return RotatingBody(body.modal, axis, speed=drive.rate, stiffening=stiffening, **common)
+        return RotatingBody(
+            body.modal, axis, speed, profile=profile, stiffening=stiffening, **common
+        )
     raise InvalidParameterError(
         f"{where}: a System holds a body by Fixed, Prismatic or a driven Revolute, not {kind}"
     )

@@ -67,3 +67,40 @@ class TimeProfile:
     def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
         """p(t) (NumPy, for checks and plots)."""
         return np.interp(t, self.times, self.values)
+
+    def store(self, pools) -> tuple[int, int]:
+        """Knots, values and integrals into the float pool: the ``ptab`` row (start, n)."""
+        start = pools.addf(self.times)
+        pools.addf(self.values)
+        pools.addf(self.cumulative())
+        return start, int(self.times.size)
+
+
+@dataclass(frozen=True)
+class SpinUpProfile:
+    """Kane, Ryan and Banerjee's smooth spin-up: p(t) = t/T - sin(2 pi t/T) / (2 pi) for
+    t < T, then 1 -- from rest to full speed with zero acceleration at both ends, exact in
+    the kernels (a turning body's driven ``Revolute`` with ``drive=SpinUp``).
+
+    Parameters
+    ----------
+    duration : float
+        T [s], > 0.
+    """
+
+    duration: float
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.duration) and self.duration > 0):
+            raise InvalidParameterError(
+                f"SpinUpProfile duration must be > 0 s, got {self.duration!r}"
+            )
+
+    def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
+        """p(t) (NumPy, for checks and plots)."""
+        x = np.asarray(t, dtype=float) / self.duration
+        return np.where(x < 1.0, x - np.sin(2.0 * np.pi * x) / (2.0 * np.pi), 1.0)
+
+    def store(self, pools) -> tuple[int, int]:
+        """The duration into the float pool: the ``ptab`` row (start, -1) marks it."""
+        return pools.addf([self.duration]), -1

@@ -34,7 +34,7 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.contact import PenaltyContact
 from fuzzymbs.mbs.forces import NodalForce, Spring, resolve_nodes
 from fuzzymbs.mbs.parameters import Parameter
-from fuzzymbs.mbs.planar.profiles import ConstantRate
+from fuzzymbs.mbs.planar.profiles import ConstantRate, SpinUp
 from fuzzymbs.mbs.spatial.bodies import frame_with_z, ground
 from fuzzymbs.mbs.spatial.forces import Bushing, MarkerLoad, SurfaceContact
 from fuzzymbs.mbs.spatial.system import Mechanism
@@ -91,6 +91,8 @@ def as_mechanism(system, sample: Mapping[str, float] | None = None) -> Mechanism
 
     for joint in system.joints:
         drive = joint.drive
+        if isinstance(drive, SpinUp):  # starts from rest
+            drive = SpinUp(_value(drive.speed, sample), drive.duration, drive.start)
         if isinstance(drive, ConstantRate):
             rate = _value(drive.rate, sample)
             drive = ConstantRate(rate, drive.start)
@@ -112,6 +114,8 @@ def _parameters(system):
     for joint in system.joints:
         if isinstance(joint.drive, ConstantRate):
             yield joint.drive.rate
+        elif isinstance(joint.drive, SpinUp):
+            yield joint.drive.speed
     for e in system.elements:
         if isinstance(e, NodalForce):
             yield e.magnitude

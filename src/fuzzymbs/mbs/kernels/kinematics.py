@@ -37,9 +37,13 @@ L = V.LANES
 
 @nb.njit(cache=True)
 def profile_value(fpool, ptab, k, t):
-    """Value, integral from t = 0, and slope (right-continuous) of profile k at time t."""
+    """Value, integral from t = 0, and slope (right-continuous) of profile k at time t:
+    knots (``ptab[k, 1]`` of them), or Kane's spin-up over ``fpool[ptab[k, 0]]`` seconds
+    (``ptab[k, 1] == -1``, :class:`~fuzzymbs.mbs.profiles.SpinUpProfile`)."""
     s = ptab[k, 0]
     m = ptab[k, 1]
+    if m < 0:
+        return spin_up(fpool[s], t)
     ts = fpool[s : s + m]
     vs = fpool[s + m : s + 2 * m]
     cs = fpool[s + 2 * m : s + 3 * m]
@@ -78,6 +82,20 @@ def _profile_lanes(fpool, ptab, k, t):
 
         return lane_times
     return None
+
+
+@nb.njit(cache=True)
+def spin_up(duration, t):
+    """p, its integral from 0 and its slope for Kane's spin-up over ``duration``: p = x -
+    sin(2 pi x) / (2 pi), x = t / T, for t < T, then 1."""
+    if t >= duration:
+        return 1.0, t - 0.5 * duration, 0.0
+    if t <= 0.0:
+        return 0.0, 0.0, 0.0
+    phase = 2.0 * np.pi * t / duration
+    value = t / duration - np.sin(phase) / (2.0 * np.pi)
+    integral = 0.5 * t * t / duration + duration / (4.0 * np.pi**2) * (np.cos(phase) - 1.0)
+    return value, integral, (1.0 - np.cos(phase)) / duration
 
 
 @nb.njit(cache=True)

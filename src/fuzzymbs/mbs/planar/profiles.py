@@ -26,6 +26,15 @@ def _finite(owner: str, **values: float) -> None:
             raise InvalidParameterError(f"{owner} {name} must be finite, got {value!r}")
 
 
+def _numbers_only(what: str, value: Scalar) -> None:
+    """The mechanism engines pack numbers: a Parameter is bound only by a System."""
+    if isinstance(value, Parameter):
+        raise InvalidParameterError(
+            f"{what} is Parameter {value.name!r}, which only a System binds; a Mechanism "
+            "takes numbers (build one per sample, as MechanismModel does)"
+        )
+
+
 @dataclass(frozen=True)
 class ConstantRate:
     """f(t) = start + rate t (a crank at constant speed: rate in rad/s).
@@ -44,33 +53,32 @@ class ConstantRate:
         _finite("ConstantRate", rate=rate, start=self.start)
 
     def pack(self) -> list[float]:
-        if isinstance(self.rate, Parameter):
-            raise InvalidParameterError(
-                f"ConstantRate rate is Parameter {self.rate.name!r}, which only a System binds; "
-                "a Mechanism takes numbers (build one per sample, as MechanismModel does)"
-            )
+        _numbers_only("ConstantRate rate", self.rate)
         return [self.start, self.rate, 0.0, 0.0]
 
 
 @dataclass(frozen=True)
 class SpinUp:
-    """Smooth spin-up to ``speed`` in ``duration`` (Kane, Ryan & Banerjee 1987).
+    """Smooth spin-up to ``speed`` in ``duration`` (Kane, Ryan & Banerjee 1987); in a
+    :class:`~fuzzymbs.mbs.system.System` ``speed`` may be a Parameter.
 
     f(t) = (W/T) (t^2/2 + (T/(2 pi))^2 (cos(2 pi t/T) - 1)) for t < T, then
     W (t - T/2): the speed rises from 0 to W with zero acceleration at both ends.
     """
 
-    speed: float
+    speed: Scalar
     duration: float
     start: float = 0.0
     code = SPIN_UP
 
     def __post_init__(self) -> None:
-        _finite("SpinUp", speed=self.speed, start=self.start)
+        speed = self.speed.default if isinstance(self.speed, Parameter) else self.speed
+        _finite("SpinUp", speed=speed, start=self.start)
         if not (np.isfinite(self.duration) and self.duration > 0):
             raise InvalidParameterError(f"SpinUp duration must be > 0 s, got {self.duration!r}")
 
     def pack(self) -> list[float]:
+        _numbers_only("SpinUp speed", self.speed)
         return [self.start, self.speed, self.duration, 0.0]
 
 
