@@ -1,10 +1,10 @@
-"""The brake on the general engine (30 us of the press-on): its System written as a spatial Mechanism (absolute
-coordinates, Lagrange multipliers for the disc's driven hinge and the pads' and caliper's
-slides, SurfaceContact, Bushing and MarkerLoad elements; Dormand-Prince) against the
-brake's minimal-coordinate kernels (ROS34PW2, the SIMD contact passes). Two formulations
-and two codes from one set of bodies and joints: they must agree to the integration
-tolerance over the press-on transient (contact closing at 73 points per pad, friction
-at 0.7).
+"""The brake on the general engine, over the first 30 us of the press-on: its System
+written as a spatial Mechanism (absolute coordinates, Lagrange multipliers for the disc's
+driven hinge and the pads' and caliper's slides, SurfaceContact, Bushing and MarkerLoad
+elements; Dormand-Prince) against the brake's minimal-coordinate kernels (ROS34PW2, the
+SIMD contact passes). Two formulations and two codes from one set of bodies and joints:
+they must agree to the integration tolerance over the press-on transient (contact closing
+at 73 points per pad, friction at 0.7).
 """
 
 import numpy as np
