@@ -1,10 +1,13 @@
 """Multibody engine: modal bodies, force laws, contact, integrators, eigenvalues.
 
-Public API (see docs/embs.md)::
+Public API (see docs/embs.md; a System's bodies and joints are
+:mod:`fuzzymbs.mbs.spatial`'s ``FlexibleBody`` and ``Fixed``, ``Prismatic``,
+``Revolute``)::
 
     from fuzzymbs.mbs import (System, FixedBody, TranslatingBody, RotatingBody,
                               NodalForce, Spring, PenaltyContact, symmetric_contact,
                               CartesianChart, PolarChart, Parameter, TimeProfile,
+                              SpinUpProfile, StressStiffening,
                               NodeDisplacement, Coordinate, simulate, SimulationModel,
                               simulate_reference, steady_state, eigenanalysis,
                               rk4_step_stability, rk4_step_limit)
@@ -29,6 +32,8 @@ _LAZY: dict[str, str] = {
     "PolarChart": "fuzzymbs.mbs.contact",
     "Parameter": "fuzzymbs.mbs.parameters",
     "TimeProfile": "fuzzymbs.mbs.profiles",
+    "SpinUpProfile": "fuzzymbs.mbs.profiles",
+    "StressStiffening": "fuzzymbs.mbs.modal_body",
     "System": "fuzzymbs.mbs.system",
     "CompiledSystem": "fuzzymbs.mbs.system",
     "NodeDisplacement": "fuzzymbs.mbs.system",
