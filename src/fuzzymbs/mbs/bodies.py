@@ -194,7 +194,9 @@ class RotatingBody(_Body):
         object.__setattr__(self, "axis", unit_vector(axis, f"body {nm!r} rotation axis"))
         object.__setattr__(self, "speed", speed)
         object.__setattr__(self, "profile", profile or TimeProfile.constant())
-        object.__setattr__(self, "stiffening", stiffening or modal.stress_stiffening)
+        if stiffening is None:
+            stiffening = modal.stress_stiffening
+        object.__setattr__(self, "stiffening", stiffening)
 
     def rotated_matrices(self) -> dict[str, NDArray[np.float64]]:
         """G_e, C_e and the loads for the rotation axis e (from the SID integrals).

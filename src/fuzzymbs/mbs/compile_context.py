@@ -82,7 +82,7 @@ class CompileContext:
 
     def nodes(self, body: Body, ref, what: str) -> NDArray[np.int64]:
         """Node indices of ``body`` from a node-set name or indices."""
-        return resolve_nodes(body.modal.n_nodes, body.modal.node_sets, ref, what)
+        return resolve_nodes(body.modal, ref, what)
 
     def add_profile(self, profile: TimeProfile | SpinUpProfile) -> int:
         """Store a time profile (its own ``store``); its index in ``ptab``."""

@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.bodies import RotatingBody, TranslatingBody, node_row, unit_vector
+from fuzzymbs.mbs.modal_body import ModalBody
 from fuzzymbs.mbs.parameters import Scalar
 from fuzzymbs.mbs.profiles import TimeProfile
 
@@ -175,8 +176,11 @@ class Spring:
         ctx.rows[self.table].append((d0, dofs.size, m0, ks, cs))
 
 
-def resolve_nodes(modal_nodes: int, node_sets: dict, ref: NodeRef, what: str) -> NDArray[np.int64]:
-    """Node indices from a node-set name or an index array, checked against the body."""
+def resolve_nodes(modal: ModalBody, ref: NodeRef, what: str) -> NDArray[np.int64]:
+    """Node indices of ``modal``'s kept nodes from a node-set name or an index array,
+    checked against the body (``what`` names the input in the error)."""
+    node_sets = modal.node_sets
+    modal_nodes = modal.n_nodes
     if isinstance(ref, str):
         if ref not in node_sets:
             raise InvalidParameterError(

@@ -48,7 +48,7 @@ MEET_TOLERANCE = 1e-9
 FrameMotion = FixedBody | TranslatingBody | RotatingBody
 
 
-def _marker_point(marker) -> NDArray[np.float64]:
+def start_point(marker) -> NDArray[np.float64]:
     """A marker's global point at the start (the body's frame parallel to the global axes)."""
     point = np.asarray(marker.position, dtype=float)
     if marker.body is None:
@@ -98,7 +98,7 @@ def frame_motion(body, joint) -> FrameMotion:
             "bodies needs spatial.Mechanism"
         )
     ground_marker, body_marker = on_ground[0], on_body[0]
-    miss = np.linalg.norm(_marker_point(ground_marker) - _marker_point(body_marker))
+    miss = np.linalg.norm(start_point(ground_marker) - start_point(body_marker))
     if miss > MEET_TOLERANCE * _size(body):
         raise InvalidParameterError(
             f"{where}: its markers are {miss:.3g} m apart at the start; place them together"
@@ -129,7 +129,7 @@ def frame_motion(body, joint) -> FrameMotion:
                 "drive=ConstantRate(rate) or SpinUp(speed, duration) with start 0; a free "
                 "turn needs spatial.Mechanism"
             )
-        off_axis = np.cross(body.position - _marker_point(ground_marker), axis)
+        off_axis = np.cross(body.position - start_point(ground_marker), axis)
         if np.linalg.norm(off_axis) > MEET_TOLERANCE * _size(body):
             raise InvalidParameterError(
                 f"{where}: the body's frame origin must lie on the joint's axis (the "

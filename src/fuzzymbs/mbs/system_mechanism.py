@@ -33,6 +33,7 @@ import numpy as np
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.contact import PenaltyContact
 from fuzzymbs.mbs.forces import NodalForce, Spring, resolve_nodes
+from fuzzymbs.mbs.frame_motion import start_point
 from fuzzymbs.mbs.parameters import Parameter
 from fuzzymbs.mbs.planar.profiles import ConstantRate, SpinUp
 from fuzzymbs.mbs.spatial.bodies import frame_with_z, ground
@@ -44,11 +45,6 @@ def _value(scalar, sample: Mapping[str, float]) -> float:
     if isinstance(scalar, Parameter):
         return float(sample.get(scalar.name, scalar.default))
     return float(scalar)
-
-
-def _nodes(body, ref, what: str) -> np.ndarray:
-    modal = body.modal
-    return resolve_nodes(modal.n_nodes, modal.node_sets, ref, what)
 
 
 def as_mechanism(system, sample: Mapping[str, float] | None = None) -> Mechanism:
@@ -135,7 +131,7 @@ def _elements(element, bodies, sample):
             raise InvalidParameterError(f"{where}: a NodalForce's TimeProfile has no spatial form")
         body = bodies[element.body]
         force = _value(element.magnitude, sample) * element.unit_direction()
-        nodes = _nodes(body, element.nodes, where)
+        nodes = resolve_nodes(body.modal, element.nodes, where)
         return [MarkerLoad(body.node(int(k)), force=tuple(force)) for k in nodes]
     if isinstance(element, Spring):
         directions = element.directions()
@@ -144,15 +140,15 @@ def _elements(element, bodies, sample):
         k = _value(element.stiffness, sample)
         c = _value(element.damping, sample)
         body_a = bodies[element.body_a]
-        nodes_a = _nodes(body_a, element.nodes_a, where)
+        nodes_a = resolve_nodes(body_a.modal, element.nodes_a, where)
         if element.body_b is None:
             ends = [
-                (body_a.node(int(a), axes=axes), ground.point(_start(body_a, a), axes))
-                for a in nodes_a
+                (node, ground.point(start_point(node), axes))
+                for node in (body_a.node(int(a), axes=axes) for a in nodes_a)
             ]
         else:
             body_b = bodies[element.body_b]
-            nodes_b = _nodes(body_b, element.nodes_b, where)
+            nodes_b = resolve_nodes(body_b.modal, element.nodes_b, where)
             ends = [
                 (body_a.node(int(a), axes=axes), body_b.node(int(b), axes=axes))
                 for a, b in zip(nodes_a, nodes_b, strict=True)
@@ -177,12 +173,6 @@ def _elements(element, bodies, sample):
                 regularization=element.regularization_velocity,
                 name=f"{element.name}[{k}]",
             )
-            for k in _nodes(slave, element.slave_nodes, where)
+            for k in resolve_nodes(slave.modal, element.slave_nodes, where)
         ]
     raise InvalidParameterError(f"{where}: no spatial form for {type(element).__name__}")
-
-
-def _start(body, node: int) -> np.ndarray:
-    """A node's global position at the start (the frame parallel to the global axes)."""
-    modal = body.modal
-    return body.position + modal.node_positions[node] + modal.mode_shapes[node] @ body.coordinates

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.forces import resolve_nodes
 from fuzzymbs.mbs.modal_body import GeometricStiffening, ModalBody, StressStiffening
 
 
@@ -353,20 +354,7 @@ class FlexibleBody:
     def nodes(self, which: str | ArrayLike, axes: ArrayLike | None = None) -> Marker:
         """A marker at the mean of a node set (a name in ``modal.node_sets`` or indices):
         the interface point of an RBE3 element with equal weights; axes as :meth:`node`."""
-        if isinstance(which, str):
-            if which not in self.modal.node_sets:
-                raise InvalidParameterError(
-                    f"body {self.name!r} has no node set {which!r}; sets: "
-                    f"{sorted(self.modal.node_sets)}"
-                )
-            index = np.asarray(self.modal.node_sets[which], dtype=np.int64)
-        else:
-            index = np.asarray(which, dtype=np.int64).reshape(-1)
-        if index.size == 0 or index.min() < 0 or index.max() >= self.modal.n_nodes:
-            raise InvalidParameterError(
-                f"body {self.name!r}: a node set needs node indices from 0 to "
-                f"{self.modal.n_nodes - 1}, got {which!r}"
-            )
+        index = resolve_nodes(self.modal, which, f"body {self.name!r} nodes")
         return Marker(
             self,
             self.modal.node_positions[index].mean(axis=0),

@@ -254,9 +254,7 @@ class SurfaceContact(ContactBase):
         or the point's start)."""
         body = self.marker_j.body
         modal = body.modal
-        nodes = resolve_nodes(
-            modal.n_nodes, modal.node_sets, self.nodes, f"SurfaceContact {self.label()} nodes"
-        )
+        nodes = resolve_nodes(modal, self.nodes, f"SurfaceContact {self.label()} nodes")
         kind, frame = self.chart.frame()
         start = body.orientation.T @ (start_i[0] - body.position)  # the point, master frame
         side = None if self.normal is None else unit_vector(self.normal, "SurfaceContact normal")
@@ -291,8 +289,7 @@ def surface_contacts(
     """One :class:`SurfaceContact` per node of ``body``'s node set ``nodes`` against the
     surface ``surface_nodes`` of marker ``surface``'s body; ``law``: the contact's numbers
     (stiffness, damping, friction, regularization, normal)."""
-    modal = body.modal
-    index = resolve_nodes(modal.n_nodes, modal.node_sets, nodes, f"body {body.name!r} nodes")
+    index = resolve_nodes(body.modal, nodes, f"body {body.name!r} nodes")
     return [
         SurfaceContact(body.node(int(k)), surface, nodes=surface_nodes, chart=chart, **law)
         for k in index
