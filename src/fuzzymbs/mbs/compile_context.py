@@ -19,12 +19,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.bodies import FixedBody, RotatingBody, TranslatingBody
+from fuzzymbs.mbs.bodies import Body
 from fuzzymbs.mbs.forces import resolve_nodes
 from fuzzymbs.mbs.parameters import ParameterTable
 from fuzzymbs.mbs.profiles import SpinUpProfile, TimeProfile
-
-Body = FixedBody | TranslatingBody | RotatingBody
 
 #: The element tables, in the order of the kernels' layout.
 TABLES = ("springs", "nodal_forces", "contacts")

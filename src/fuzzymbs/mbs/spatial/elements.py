@@ -132,6 +132,30 @@ def contact_force(markers, bodies, data, d, kj, q, v, si, sj, force, point):
 
 
 @nb.njit(cache=True)
+def surface_offsets(data, d):
+    """A SurfaceContact's grid sizes and where its arrays start in ``data``:
+    (nu, nv, cells along v, u grid, v grid, normals, node positions, mode shapes)."""
+    nu = int(data[d + 6])
+    nv = int(data[d + 7])
+    ncv = nv if data[d + 5] != 0.0 else nv - 1  # a periodic angle grid wraps around
+    o_u = d + _SC_HEAD
+    o_v = o_u + nu
+    o_n = o_v + nv
+    o_x = o_n + 3 * (nu - 1) * ncv
+    return nu, nv, ncv, o_u, o_v, o_n, o_x, o_x + 3 * nu * nv
+
+
+@nb.njit(cache=True)
+def cell_corners(i, j, xi, eta, nv):
+    """The four grid nodes of cell (i, j) (the v index wraps) and their bilinear weights
+    at (xi, eta), in the brake kernel's order."""
+    j1 = j + 1 if j + 1 < nv else 0
+    corners = (i * nv + j, (i + 1) * nv + j, (i + 1) * nv + j1, i * nv + j1)
+    weights = ((1.0 - xi) * (1.0 - eta), xi * (1.0 - eta), xi * eta, (1.0 - xi) * eta)
+    return corners, weights
+
+
+@nb.njit(cache=True)
 def surface_contact_force(markers, bodies, data, d, kj, q, v, si, force, point):
     """Penalty contact of marker i's point with the meshed surface of marker j's body
     (:class:`fuzzymbs.mbs.spatial.forces.SurfaceContact`): the force on marker i into
@@ -151,16 +175,9 @@ def surface_contact_force(markers, bodies, data, d, kj, q, v, si, force, point):
     r = bodies[body, 3]
     polar = data[d + 4] != 0.0
     periodic = data[d + 5] != 0.0
-    nu = int(data[d + 6])
-    nv = int(data[d + 7])
     fr = d + 8
     scales = (data[d + 17], data[d + 18] != 0.0, data[d + 19], data[d + 20] != 0.0)
-    o_u = d + _SC_HEAD
-    o_v = o_u + nu
-    o_n = o_v + nv
-    ncv = nv if periodic else nv - 1
-    o_x = o_n + 3 * (nu - 1) * ncv
-    o_psi = o_x + 3 * nu * nv
+    nu, nv, ncv, o_u, o_v, o_n, o_x, o_psi = surface_offsets(data, d)
     # the point in the master frame, then in the chart
     arm = np.empty(3)
     for c in range(3):
@@ -181,9 +198,7 @@ def surface_contact_force(markers, bodies, data, d, kj, q, v, si, force, point):
     on, i, j, xi, eta = locate(u, w, data[o_u : o_u + nu], data[o_v : o_v + nv], periodic, scales)
     if not on:
         return math.inf
-    j1 = j + 1 if j + 1 < nv else 0
-    corners = (i * nv + j, (i + 1) * nv + j, (i + 1) * nv + j1, i * nv + j1)
-    weights = ((1.0 - xi) * (1.0 - eta), xi * (1.0 - eta), xi * eta, (1.0 - xi) * eta)
+    corners, weights = cell_corners(i, j, xi, eta, nv)
     s = np.zeros(3)  # the surface point, master frame, deformed
     sd = np.zeros(3)  # its elastic velocity, master frame
     for k in range(4):
@@ -239,18 +254,8 @@ def add_surface_point_row(body, bodies, data, d, q, point, weight, target):
         return
     local = np.empty(3)
     to_body_frame(q, bodies[body, 0], weight, local)
-    periodic = data[d + 5] != 0.0
-    nu = int(data[d + 6])
-    nv = int(data[d + 7])
-    ncv = nv if periodic else nv - 1
-    o_psi = d + _SC_HEAD + nu + nv + 3 * (nu - 1) * ncv + 3 * nu * nv
-    i = int(point[3])
-    j = int(point[4])
-    xi = point[5]
-    eta = point[6]
-    j1 = j + 1 if j + 1 < nv else 0
-    corners = (i * nv + j, (i + 1) * nv + j, (i + 1) * nv + j1, i * nv + j1)
-    weights = ((1.0 - xi) * (1.0 - eta), xi * (1.0 - eta), xi * eta, (1.0 - xi) * eta)
+    _, nv, _, _, _, _, _, o_psi = surface_offsets(data, d)
+    corners, weights = cell_corners(int(point[3]), int(point[4]), point[5], point[6], nv)
     for k in range(4):
         for c in range(3):
             share = weights[k] * local[c]
