@@ -22,6 +22,10 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.forces import resolve_nodes
 from fuzzymbs.mbs.modal_body import GeometricStiffening, ModalBody, StressStiffening
 
+#: The kernels' stiffening codes (the bodies table's last column): none; a beam whose
+#: nodes foreshorten (its markers carry G(x_k)); stress stiffening only (no marker data).
+NOT_STIFFENED, FORESHORTENED_NODES, STRESS_ONLY = 0, 1, 2
+
 
 def _vector(value: ArrayLike, what: str) -> NDArray[np.float64]:
     array = np.asarray(value, dtype=float)
@@ -103,7 +107,7 @@ class Marker:
         modes = 0 if self.body is None else self.body.mode_count
         shape = np.zeros((3, modes)) if self.shape is None else self.shape
         packed = [*self.position, *self.axes.ravel(), *shape.ravel()]
-        if self.body is not None and self.body.stiffened:
+        if self.body is not None and self.body.stiffening_code == FORESHORTENED_NODES:
             fore = np.zeros((modes, modes)) if self.foreshortening is None else self.foreshortening
             packed.extend(np.ravel(fore))
         return packed
@@ -200,6 +204,7 @@ class RigidBody:
 
     mode_count = 0
     stiffened = False
+    stiffening_code = NOT_STIFFENED
     role = "body"
     engine = "spatial"
 
@@ -395,6 +400,14 @@ class FlexibleBody:
     @property
     def stiffened(self) -> bool:
         return self.stiffening is not None or self.modal.stress_stiffening is not None
+
+    @property
+    def stiffening_code(self) -> int:
+        """:data:`FORESHORTENED_NODES` for a beam's stiffening (its node markers carry the
+        foreshortening), :data:`STRESS_ONLY` for an FE body's, else :data:`NOT_STIFFENED`."""
+        if self.stiffening is not None:
+            return FORESHORTENED_NODES
+        return STRESS_ONLY if self.stiffened else NOT_STIFFENED
 
     def _stiffening_data(self) -> list[float]:
         """K_i (3 r r), K_ij (9 r r) and a beam's axis (3; zero otherwise), or nothing."""

@@ -30,8 +30,9 @@ projected onto the joints after every accepted step.
 Layout arrays (int64):
 
 - bodies  (nb, 5): position offset (7 + r per body), velocity offset (6 + r per
-  body), data offset, mode count r, stiffened (1: the body data end with K_i (3 r r),
-  K_ij (9 r r) and a beam's axis e (3; zero for other bodies))
+  body), data offset, mode count r, stiffening (0 none; else the body data end with
+  K_i (3 r r), K_ij (9 r r) and a beam's axis e (3); 1: a beam, whose markers carry
+  their nodes' foreshortening, 2: stress stiffening only, axis zero, no marker data)
 - markers (nk, 2): body (-1 ground), data offset (point 3, axes 9, mode shape 3 r)
 - joints  (nj, 6): kind, marker i, marker j, first row, data offset, drive profile (-1 none)
 - forces  (nf, 5): kind, marker i, marker j (-1 none), data offset, profile (-1 none)

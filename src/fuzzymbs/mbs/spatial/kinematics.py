@@ -11,6 +11,8 @@ import math
 import numba as nb
 import numpy as np
 
+from fuzzymbs.mbs.spatial.bodies import FORESHORTENED_NODES
+
 
 @nb.njit(cache=True)
 def rotation(q, o, out):
@@ -55,12 +57,12 @@ def stiffening_axis_offset(bodies, body):
 
 @nb.njit(cache=True)
 def marker_foreshortening(k, markers, bodies, data, q, gq, axis):
-    """A marker on a stiffened body: G q into ``gq`` and the axis into ``axis``; False (and
+    """A marker on a stiffened beam: G q into ``gq`` and the axis into ``axis``; False (and
     zeros) for any other marker."""
     body = markers[k, 0]
     gq[:] = 0.0
     axis[:] = 0.0
-    if body < 0 or bodies[body, 4] == 0:
+    if body < 0 or bodies[body, 4] != FORESHORTENED_NODES:
         return False
     r = bodies[body, 3]
     po = bodies[body, 0]
@@ -107,10 +109,10 @@ def marker_state(k, markers, bodies, data, q, v, out):
             psi = data[d + 12 + i * r + m]
             s[i] += psi * q[po + 7 + m]
             sd[i] += psi * v[vo + 6 + m]
-    # on a stiffened body the point moves back along the axis by 1/2 q^T G q: its rate
+    # on a stiffened beam the point moves back along the axis by 1/2 q^T G q: its rate
     # is q'^T G q, the velocity-quadratic part of its acceleration q'^T G q'
     shorten = np.zeros(3)  # the foreshortening's acceleration, q'^T G q' along the axis
-    if bodies[body, 4] != 0:
+    if bodies[body, 4] == FORESHORTENED_NODES:
         gq = np.empty(r)
         axis = np.empty(3)
         marker_foreshortening(k, markers, bodies, data, q, gq, axis)
@@ -233,7 +235,7 @@ def add_point_row(k, markers, bodies, data, q, point, weight, target):
         for i in range(3):
             for m in range(r):
                 target[vo + 6 + m] += data[d + 12 + i * r + m] * local[i]
-        if bodies[body, 4] != 0:  # the modal Jacobian of a stiffened body: Psi - e (G q)^T
+        if bodies[body, 4] == FORESHORTENED_NODES:  # a stiffened beam: Psi - e (G q)^T
             gq = np.empty(r)
             axis = np.empty(3)
             marker_foreshortening(k, markers, bodies, data, q, gq, axis)

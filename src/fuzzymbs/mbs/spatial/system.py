@@ -73,7 +73,7 @@ class Mechanism(Assembly):
         bodies, qs, vs = [], [], []
         nq = n = 0
         for b in self.bodies:
-            bodies.append([nq, n, len(data), b.mode_count, int(b.stiffened)])
+            bodies.append([nq, n, len(data), b.mode_count, b.stiffening_code])
             data.extend(b.pack())
             q, v = b.initial_state()
             qs.append(q)
