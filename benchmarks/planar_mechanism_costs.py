@@ -7,7 +7,8 @@ positions: the figures docs/benchmarks.md ("Mechanisms") and docs/mechanisms.md
 1. One evaluation of the constrained accelerations of the registered ``slider-crank``
    (15 coordinates, 9 joint rows) at its start, timed over 50,000 calls inside a
    compiled loop, with its parts: the body terms, the joint terms, the force terms;
-   and the steps its run at the defaults takes.
+   the steps its run at the defaults takes, and at rtol 1e-3 to 1e-7 with the
+   largest eigenvalue modulus (what limits Dormand-Prince's steps).
 2. The N-four-bar (IFToMM A02, :mod:`tests.mbs.planar.test_n_four_bar`'s mechanism) over
    20 s at several tolerances: whether the run passes its singular positions, and B0's
    largest error against the exact one-degree-of-freedom motion.
@@ -26,6 +27,7 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.planar import kernels, simulate
+from fuzzymbs.mbs.planar.linearization import linearize
 from fuzzymbs.mbs.planar.system import pack_batch
 from fuzzymbs.models.mechanisms.slider_crank import slider_crank
 
@@ -148,12 +150,30 @@ def singular_amplification() -> list[tuple[float, float]]:
     return rows
 
 
+def step_limit() -> tuple[float, list[tuple[float, int, int]]]:
+    """The slider-crank's largest eigenvalue modulus [rad/s] (linearised at rest) and its
+    steps over the default run at rtol 1e-3 to 1e-7 (atol = rtol / 100): where the count
+    does not move with the tolerance, stability, not accuracy, sets it."""
+    model = slider_crank()
+    at_rest = linearize(model.build(model.sample_parameters({})[0]))
+    largest = float(np.abs(at_rest.eigenvalues).max())
+    rows = []
+    for rtol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7):
+        run = slider_crank(rtol=rtol, atol=rtol * 1e-2).run({})
+        rows.append((rtol, int(run.accepted[0]), int(run.rejected[0])))
+    return largest, rows
+
+
 def main() -> None:
     print("one evaluation of the slider-crank's constrained accelerations [us]:")
     for name, value in evaluation_cost().items():
         print(f"  {name:15s} {value:6.2f}")
     run = slider_crank().run({})
     print(f"  steps at the defaults: {run.accepted[0]} accepted, {run.rejected[0]} rejected")
+    largest, rows = step_limit()
+    print(f"  largest eigenvalue modulus {largest:.0f} rad/s; steps over the run by tolerance:")
+    for rtol, accepted, rejected in rows:
+        print(f"    rtol {rtol:g}: {accepted} accepted, {rejected} rejected")
     print("N-four-bar over 20 s:")
     for windows, rtol, outcome in four_bar_tolerances():
         print(f"  N = {windows:2d}, rtol {rtol:g}: {outcome}")
