@@ -19,7 +19,8 @@ rod's chord (pin to pin) [m] and the slider position [m].
 * fuzzymbs: ``slider_crank()`` at its defaults -- a floating frame on the chord,
   6 pinned-pinned modes of a 12-element Euler-Bernoulli beam (5 bending, the
   first axial), geometric stiffening through the nodes' foreshortening;
-  Dormand-Prince 5(4), rtol 1e-6, atol 1e-8, joints projected after every step;
+  DOP853 (the engine's pair for flexible bodies), rtol 1e-6, atol 1e-8, joints projected
+  after every step;
   all 64 samples in one call (the kernels release the GIL, samples are shared
   by Numba's thread count of cores).
 * Exudyn: one system per sample, built, assembled and solved in a Python loop

@@ -37,7 +37,12 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs import planar, spatial
 from fuzzymbs.mbs.assembly import Assembly
-from fuzzymbs.mbs.planar.simulation import DEFAULT_ATOL, DEFAULT_RTOL
+from fuzzymbs.mbs.planar.simulation import (
+    DEFAULT_ATOL,
+    DEFAULT_METHOD,
+    DEFAULT_RTOL,
+    INTEGRATOR_NAMES,
+)
 
 OutputReader = Callable[[Any], NDArray[np.float64]]
 
@@ -60,6 +65,8 @@ class MechanismModel:
         Output times [s].
     rtol, atol : float
         Step-control tolerances.
+    method : {"auto", "dop853", "dopri5"}
+        The explicit Runge-Kutta pair (:func:`fuzzymbs.mbs.planar.simulate`).
     """
 
     def __init__(
@@ -70,6 +77,7 @@ class MechanismModel:
         times: ArrayLike,
         rtol: float = DEFAULT_RTOL,
         atol: float = DEFAULT_ATOL,
+        method: str = DEFAULT_METHOD,
     ) -> None:
         self.build = build
         self.defaults = {name: float(value) for name, value in parameters.items()}
@@ -79,8 +87,13 @@ class MechanismModel:
             raise InvalidParameterError("times must be at least two strictly increasing values [s]")
         if not (rtol > 0 and atol > 0):
             raise InvalidParameterError(f"rtol and atol must be > 0, got {rtol!r}, {atol!r}")
+        if method not in INTEGRATOR_NAMES:
+            raise InvalidParameterError(
+                f"unknown integration method {method!r}; choose one of {sorted(INTEGRATOR_NAMES)}"
+            )
         self.rtol = float(rtol)
         self.atol = float(atol)
+        self.method = method
         self.parameters = tuple(self.defaults)
         self.outputs = {name: unit for name, (_, unit) in self.readers.items()}
         self.coords = {"time": self.times}
@@ -91,8 +104,8 @@ class MechanismModel:
     def time_integration(self) -> str:
         """The time integration in words (for study summaries)."""
         return (
-            f"Dormand-Prince 5(4), rtol {self.rtol:g}, atol {self.atol:g}, joints projected "
-            "after every step"
+            f"{INTEGRATOR_NAMES[self.method]}, rtol {self.rtol:g}, atol {self.atol:g}, "
+            "joints projected after every step"
         )
 
     def tightened(self, factor: float = 10.0) -> MechanismModel:
@@ -139,7 +152,7 @@ class MechanismModel:
                 "build must return a planar or a spatial Mechanism, the same kind for every "
                 f"sample; got {sorted(map(str, engines))}"
             )
-        return simulate(mechanisms, self.times, rtol=self.rtol, atol=self.atol)
+        return simulate(mechanisms, self.times, rtol=self.rtol, atol=self.atol, method=self.method)
 
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
         """Outputs ``{name: (B, T)}``, with ``failed`` and ``failure_reason`` per sample."""

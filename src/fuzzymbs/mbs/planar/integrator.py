@@ -1,4 +1,4 @@
-"""Time integration of planar mechanisms: Dormand-Prince 5(4), one sample per call.
+"""Time integration of planar mechanisms: an explicit Runge-Kutta pair, one sample per call.
 
 Each sample has its own steps (its trajectory is the same in any batch) and
 hits every output time exactly; the error control covers every coordinate and
@@ -13,6 +13,7 @@ import math
 
 import numba as nb
 import numpy as np
+from scipy.integrate._ivp import dop853_coefficients as _dop853
 
 from fuzzymbs.mbs.planar.kernels import (
     FINISHED,
@@ -24,9 +25,15 @@ from fuzzymbs.mbs.planar.kernels import (
     project,
 )
 
-# Dormand-Prince 5(4) (Hairer, Norsett & Wanner, Solving ODEs I, table II.5.2)
-_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
-_A = np.array(
+#: the explicit Runge-Kutta pairs, by name (``simulate(method=...)``)
+DOPRI5 = 0
+DOP853 = 1
+METHODS = {"dopri5": DOPRI5, "dop853": DOP853}
+
+# Dormand-Prince 5(4) (Hairer, Norsett & Wanner, Solving ODEs I, table II.5.2): six
+# stages, the seventh evaluated at the 5th-order solution (FSAL) for the error estimate
+_C5 = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0])
+_A5 = np.array(
     [
         [0, 0, 0, 0, 0, 0],
         [1 / 5, 0, 0, 0, 0, 0],
@@ -34,48 +41,99 @@ _A = np.array(
         [44 / 45, -56 / 15, 32 / 9, 0, 0, 0],
         [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0],
         [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0],
-        [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
     ]
 )
-_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0])
-_E = _B - np.array([5179 / 57600, 0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40])
+_B5 = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
+_E5 = np.append(_B5, 0.0) - np.array(
+    [5179 / 57600, 0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40]
+)
+# Dormand & Prince's 8(5,3) (Hairer, Norsett & Wanner I, sec. II.10; the code DOP853):
+# twelve stages and the thirteenth at the solution, whose 5th- and 3rd-order error
+# estimates are combined. Its stability region reaches |h lambda| = 5.9 along the
+# imaginary axis, where Dormand-Prince 5(4)'s ends near 1: for undamped stiff modes
+# that is 2.5 times the step per evaluation (docs/mechanisms.md). The coefficients are
+# SciPy's, which transcribes them from Hairer's DOP853.
+_C8 = np.ascontiguousarray(_dop853.C[:12])
+_A8 = np.ascontiguousarray(_dop853.A[:12, :12])
+_B8 = np.ascontiguousarray(_dop853.B)
+_E8 = np.ascontiguousarray(_dop853.E5)
+_E8_LOW = np.ascontiguousarray(_dop853.E3)
 
 
 @nb.njit(cache=True)
-def stage_time(t, stage, step):
+def tableau(method):
+    """(c, a, b, e, e_low, exponent) of the pair ``method``: stage times, coefficients,
+    weights, error weights (over the stages and the evaluation at the solution; e_low
+    zero for a single estimate) and the step-size exponent 1 / (estimate order + 1)."""
+    if method == DOP853:
+        return _C8, _A8, _B8, _E8, _E8_LOW, 1.0 / 8.0
+    return _C5, _A5, _B5, _E5, np.zeros(7), 1.0 / 5.0
+
+
+@nb.njit(cache=True)
+def stage_time(t, c, stage, step):
     """The time stage ``stage`` of a step from t is evaluated at."""
-    return t + _C[stage] * step
+    return t + c[stage] * step
 
 
 @nb.njit(cache=True)
-def stage_state(x, k, stage, step, trial):
-    """trial = x + step sum_j A[stage, j] k[j]: the state stage ``stage`` is evaluated at
-    (stage 6 gives the 5th-order solution, at which stage 7 is evaluated: FSAL)."""
+def stage_state(x, k, a, stage, step, trial):
+    """trial = x + step sum_j a[stage, j] k[j]: the state stage ``stage`` is evaluated at."""
     for i in range(x.size):
         acc = 0.0
         for j in range(stage):
-            acc += _A[stage, j] * k[j, i]
+            acc += a[stage, j] * k[j, i]
         trial[i] = x[i] + step * acc
 
 
 @nb.njit(cache=True)
-def error_norm(x, trial, k, step, rtol, atol):
-    """Root mean square of the embedded error estimate, each component scaled by
-    atol + rtol max(|x|, |trial|) (Hairer, Norsett & Wanner I, eq. II.4.11)."""
-    err = 0.0
+def solution_state(x, k, b, step, trial):
+    """trial = x + step sum_j b[j] k[j]: the step's solution (the last row of ``k`` is then
+    evaluated there)."""
     for i in range(x.size):
-        e = 0.0
-        for j in range(7):
-            e += _E[j] * k[j, i]
-        scale = atol + rtol * max(abs(x[i]), abs(trial[i]))
-        err += (step * e / scale) ** 2
-    return math.sqrt(err / x.size)
+        acc = 0.0
+        for j in range(b.size):
+            acc += b[j] * k[j, i]
+        trial[i] = x[i] + step * acc
 
 
 @nb.njit(cache=True)
-def step_factor(err):
-    """The next step over this one: 0.9 err^(-1/5), kept within 0.2 to 5."""
-    return min(5.0, max(0.2, 0.9 * err ** (-0.2))) if err > 0.0 else 5.0
+def error_norm(x, trial, k, step, rtol, atol, e, e_low):
+    """Error estimate of a step, each component scaled by atol + rtol max(|x|, |trial|).
+
+    One estimate (``e_low`` zero): its root mean square (Hairer, Norsett & Wanner I,
+    eq. II.4.11). Two (DOP853): ||e5||^2 / sqrt(||e5||^2 + 0.01 ||e3||^2), which
+    behaves like an order-8 estimate where both are small (Hairer & Wanner's DOP853).
+    """
+    combined = False
+    for j in range(e_low.size):
+        if e_low[j] != 0.0:
+            combined = True
+    err = 0.0
+    low = 0.0
+    for i in range(x.size):
+        high = 0.0
+        third = 0.0
+        for j in range(e.size):
+            high += e[j] * k[j, i]
+            third += e_low[j] * k[j, i]
+        scale = atol + rtol * max(abs(x[i]), abs(trial[i]))
+        if combined:
+            err += (high / scale) ** 2
+            low += (third / scale) ** 2
+        else:
+            err += (step * high / scale) ** 2
+    if not combined:
+        return math.sqrt(err / x.size)
+    if err == 0.0 and low == 0.0:
+        return 0.0
+    return abs(step) * err / math.sqrt((err + 0.01 * low) * x.size)
+
+
+@nb.njit(cache=True)
+def step_factor(err, exponent):
+    """The next step over this one: 0.9 err^(-exponent), kept within 0.2 to 5."""
+    return min(5.0, max(0.2, 0.9 * err ** (-exponent))) if err > 0.0 else 5.0
 
 
 @nb.njit(cache=True)
@@ -88,9 +146,21 @@ def _derivative(t, x, n, layout, data, user_force, system, solution, out):
 
 @nb.njit(cache=True)
 def integrate_sample(
-    times, x0, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states
+    times,
+    x0,
+    layout,
+    data,
+    user_force,
+    method,
+    rtol,
+    atol,
+    first_step,
+    max_steps,
+    tolerance,
+    states,
 ):
-    """Integrate one sample from ``times[0]``, storing (z, v) at every time.
+    """Integrate one sample from ``times[0]`` with the pair ``method`` (:data:`METHODS`),
+    storing (z, v) at every time.
 
     Returns (status, accepted steps, rejected steps, largest joint residual).
     Rows of ``states`` after a failure stay NaN.
@@ -101,8 +171,10 @@ def integrate_sample(
     size = 2 * n
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
+    nodes, a, b, e, e_low, exponent = tableau(method)
+    stages = b.size
     x = x0.copy()
-    k = np.empty((7, size))
+    k = np.empty((stages + 1, size))
     trial = np.empty(size)
     t = times[0]
     worst = project(t, x[:n], x[n:], layout, data, tolerance)
@@ -119,25 +191,21 @@ def integrate_sample(
         while t < target:
             last = h >= target - t
             step = target - t if last else h
-            for stage in range(1, 7):
-                stage_state(x, k, stage, step, trial)
+            for stage in range(1, stages + 1):
+                if stage < stages:
+                    stage_state(x, k, a, stage, step, trial)
+                    time = stage_time(t, nodes, stage, step)
+                else:  # the solution, evaluated for the error estimate (FSAL)
+                    solution_state(x, k, b, step, trial)
+                    time = t + step
                 if not _derivative(
-                    stage_time(t, stage, step),
-                    trial,
-                    n,
-                    layout,
-                    data,
-                    user_force,
-                    system,
-                    solution,
-                    k[stage],
+                    time, trial, n, layout, data, user_force, system, solution, k[stage]
                 ):
                     return NOT_FINITE, accepted, rejected, worst
-            # trial holds the 5th-order solution (stage 7 is evaluated at it: FSAL)
-            err = error_norm(x, trial, k, step, rtol, atol)
+            err = error_norm(x, trial, k, step, rtol, atol, e, e_low)
             if not math.isfinite(err):
                 return NOT_FINITE, accepted, rejected, worst
-            factor = step_factor(err)
+            factor = step_factor(err, exponent)
             if err <= 1.0:
                 t = target if last else t + step
                 x[:] = trial
@@ -150,7 +218,7 @@ def integrate_sample(
                     if not _derivative(t, x, n, layout, data, user_force, system, solution, k[0]):
                         return NOT_FINITE, accepted, rejected, worst
                 else:
-                    k[0, :] = k[6]
+                    k[0, :] = k[stages]
                 if not last or factor < 1.0:
                     h = step * factor
             else:
@@ -173,6 +241,7 @@ def integrate_range(
     layout,
     data,
     user_force,
+    method,
     rtol,
     atol,
     first_step,
@@ -194,6 +263,7 @@ def integrate_range(
             layout,
             data[s],
             user_force,
+            method,
             rtol,
             atol,
             first_step,

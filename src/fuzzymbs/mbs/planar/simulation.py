@@ -1,6 +1,7 @@
 """Time integration of a batch of planar mechanisms, and what a run reports.
 
-Explicit Dormand-Prince 5(4) with its own step size per sample (so a
+An explicit Runge-Kutta pair (DOP853 by default, or Dormand-Prince 5(4)),
+with its own step size per sample (so a
 sample's trajectory is the same whatever batch it runs in), every output time
 hit exactly, and the joints projected after every accepted step
 (:mod:`fuzzymbs.mbs.planar.kernels`). The error control covers every
@@ -23,6 +24,17 @@ from fuzzymbs.mbs.planar.system import Mechanism, PackedBatch, pack_batch
 #: has the convergence measurement behind them).
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-8
+#: Default Runge-Kutta pair: "auto" takes DOP853 for a mechanism with flexible bodies
+#: (their undamped stiff modes) and Dormand-Prince 5(4) for a rigid one (whose
+#: singular positions DOP853's error estimate cannot pass); docs/mechanisms.md has the
+#: measurements behind both.
+DEFAULT_METHOD = "auto"
+#: The pairs in words (for study summaries).
+INTEGRATOR_NAMES = {
+    "auto": "DOP853 with flexible bodies, else Dormand-Prince 5(4)",
+    "dop853": "DOP853 (Dormand-Prince 8(5,3))",
+    "dopri5": "Dormand-Prince 5(4)",
+}
 #: Largest joint residual left by the projection after a step [m or rad].
 PROJECTION_TOLERANCE = 1e-10
 
@@ -33,6 +45,18 @@ STATUS_TEXT = {
     kernels.TOO_MANY_STEPS: "step budget exhausted",
     kernels.PROJECTION_FAILED: "joint projection did not converge (a locked or singular position)",
 }
+
+
+def integrator_method(method: str, flexible: bool) -> int:
+    """The kernels' code of the Runge-Kutta pair ``method`` (:data:`INTEGRATOR_NAMES`) for a
+    mechanism with (``flexible``) or without modal coordinates, or a clear error."""
+    if method not in INTEGRATOR_NAMES:
+        raise InvalidParameterError(
+            f"unknown integration method {method!r}; choose one of {sorted(INTEGRATOR_NAMES)}"
+        )
+    if method == "auto":
+        method = "dop853" if flexible else "dopri5"
+    return integrator.METHODS[method]
 
 
 def describe_failure(
@@ -201,6 +225,7 @@ def simulate(
     atol: float = DEFAULT_ATOL,
     first_step: float | None = None,
     max_steps: int = 10_000_000,
+    method: str = DEFAULT_METHOD,
 ) -> PlanarResult:
     """Integrate one mechanism or a batch of one structure over ``times``.
 
@@ -216,8 +241,12 @@ def simulate(
         Initial step [s] (default a thousandth of the span).
     max_steps : int
         Steps per sample before the run is stopped as failed.
+    method : {"auto", "dop853", "dopri5"}
+        The explicit Runge-Kutta pair: "auto" takes DOP853 if a body has modes, else
+        Dormand-Prince 5(4) (docs/mechanisms.md, "Integrator").
     """
     batch = pack_batch(mechanisms if isinstance(mechanisms, list) else [mechanisms])
+    pair = integrator_method(method, bool(np.any(batch.layout.bodies[:, 1] > 0)))
     t = np.asarray(times, dtype=float)
     if t.ndim != 1 or t.size < 2 or not np.isfinite(t).all() or np.any(np.diff(t) <= 0):
         raise InvalidParameterError(
@@ -241,6 +270,7 @@ def simulate(
             arrays,
             batch.data,
             batch.user_force,
+            pair,
             float(rtol),
             float(atol),
             step,

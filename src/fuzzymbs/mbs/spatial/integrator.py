@@ -1,5 +1,5 @@
-"""Time integration of spatial mechanisms: Dormand-Prince 5(4) per sample (the planar
-engine's stages, error norm and step control) on the positions with the Euler
+"""Time integration of spatial mechanisms: an explicit Runge-Kutta pair per sample (the
+planar engine's tableaus, stages, error norm and step control) on the positions with the Euler
 parameters' kinematics, joints projected after every accepted step; ranges of samples
 run with the GIL released.
 """
@@ -11,7 +11,14 @@ import math
 import numba as nb
 import numpy as np
 
-from fuzzymbs.mbs.planar.integrator import error_norm, stage_state, stage_time, step_factor
+from fuzzymbs.mbs.planar.integrator import (
+    error_norm,
+    solution_state,
+    stage_state,
+    stage_time,
+    step_factor,
+    tableau,
+)
 from fuzzymbs.mbs.spatial.kernels import (
     FINISHED,
     NOT_FINITE,
@@ -53,9 +60,20 @@ def _derivative(t, x, layout, data, user_force, system, solution, out):
 
 @nb.njit(cache=True)
 def integrate_sample(
-    times, x0, layout, data, user_force, rtol, atol, first_step, max_steps, tolerance, states
+    times,
+    x0,
+    layout,
+    data,
+    user_force,
+    method,
+    rtol,
+    atol,
+    first_step,
+    max_steps,
+    tolerance,
+    states,
 ):
-    """Dormand-Prince 5(4) for one sample, as the planar engine's
+    """The Runge-Kutta pair ``method`` for one sample, as the planar engine's
     (:func:`fuzzymbs.mbs.planar.integrator.integrate_sample`), on (q, v) with the
     Euler parameters' kinematics; (status, accepted, rejected, largest residual)."""
     sizes = layout[4]
@@ -65,8 +83,10 @@ def integrate_sample(
     size = nq + n
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
+    nodes, a, b, e, e_low, exponent = tableau(method)
+    stages = b.size
     x = x0.copy()
-    k = np.empty((7, size))
+    k = np.empty((stages + 1, size))
     trial = np.empty(size)
     t = times[0]
     worst = project(t, x[:nq], x[nq:], layout, data, tolerance)
@@ -83,23 +103,21 @@ def integrate_sample(
         while t < target:
             last = h >= target - t
             step = target - t if last else h
-            for stage in range(1, 7):
-                stage_state(x, k, stage, step, trial)
+            for stage in range(1, stages + 1):
+                if stage < stages:
+                    stage_state(x, k, a, stage, step, trial)
+                    time = stage_time(t, nodes, stage, step)
+                else:  # the solution, evaluated for the error estimate (FSAL)
+                    solution_state(x, k, b, step, trial)
+                    time = t + step
                 if not _derivative(
-                    stage_time(t, stage, step),
-                    trial,
-                    layout,
-                    data,
-                    user_force,
-                    system,
-                    solution,
-                    k[stage],
+                    time, trial, layout, data, user_force, system, solution, k[stage]
                 ):
                     return NOT_FINITE, accepted, rejected, worst
-            err = error_norm(x, trial, k, step, rtol, atol)
+            err = error_norm(x, trial, k, step, rtol, atol, e, e_low)
             if not math.isfinite(err):
                 return NOT_FINITE, accepted, rejected, worst
-            factor = step_factor(err)
+            factor = step_factor(err, exponent)
             if err <= 1.0:
                 t = target if last else t + step
                 x[:] = trial
@@ -132,6 +150,7 @@ def integrate_range(
     layout,
     data,
     user_force,
+    method,
     rtol,
     atol,
     first_step,
@@ -148,6 +167,7 @@ def integrate_range(
             layout,
             data[s],
             user_force,
+            method,
             rtol,
             atol,
             first_step,

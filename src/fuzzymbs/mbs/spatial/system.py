@@ -22,7 +22,7 @@ from fuzzymbs.mbs.assembly import Assembly
 from fuzzymbs.mbs.kernels.threads import for_each_range
 from fuzzymbs.mbs.planar.kernels import no_user_force
 from fuzzymbs.mbs.planar.linearization import free_directions
-from fuzzymbs.mbs.planar.simulation import describe_failure
+from fuzzymbs.mbs.planar.simulation import DEFAULT_METHOD, describe_failure, integrator_method
 from fuzzymbs.mbs.spatial import elements, integrator, kernels, readout
 from fuzzymbs.mbs.spatial.bodies import Body, Marker
 from fuzzymbs.mbs.spatial.forces import ForceElement
@@ -317,8 +317,10 @@ def simulate(
     rtol: float = DEFAULT_RTOL,
     atol: float = DEFAULT_ATOL,
     max_steps: int = 10_000_000,
+    method: str = DEFAULT_METHOD,
 ) -> SpatialResult:
-    """Integrate one spatial mechanism or a batch of one structure over ``times``."""
+    """Integrate one spatial mechanism or a batch of one structure over ``times``
+    (``method``: the explicit Runge-Kutta pair, as :func:`fuzzymbs.mbs.planar.simulate`)."""
     batch = mechanisms if isinstance(mechanisms, list) else [mechanisms]
     rows, states, layout = [], [], None
     for i, mechanism in enumerate(batch):
@@ -350,6 +352,7 @@ def simulate(
     out = np.full((len(batch), t.size, initial.shape[1]), np.nan)
     report = np.zeros((len(batch), 4))
     step = (t[-1] - t[0]) * 1e-3
+    pair = integrator_method(method, bool(np.any(layout[0][:, 3] > 0)))
 
     def run(start: int, stop: int) -> None:
         integrator.integrate_range(
@@ -360,6 +363,7 @@ def simulate(
             layout,
             data,
             user,
+            pair,
             float(rtol),
             float(atol),
             step,

@@ -15,6 +15,9 @@ from fuzzymbs.study.registry import ParameterInfo, register_model
 _TOLERANCES = {
     "rtol": "relative tolerance of the step control (default 1e-6)",
     "atol": "absolute tolerance of the step control (default 1e-8)",
+    "integrator": (
+        'Runge-Kutta pair: "auto" (default: DOP853 with flexible bodies), "dop853" or "dopri5"'
+    ),
 }
 
 register_model(

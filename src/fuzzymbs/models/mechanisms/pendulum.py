@@ -64,6 +64,7 @@ def flexible_pendulum(
     elements: int = ELEMENTS,
     rtol: float | None = None,
     atol: float | None = None,
+    integrator: str = "auto",
 ) -> MechanismModel:
     """The registered ``flexible-pendulum`` model."""
     tolerances = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
@@ -75,5 +76,6 @@ def flexible_pendulum(
             "tip_deflection": (lambda r: deflection_in_frame(r, "beam", "tip"), "m"),
         },
         times=np.linspace(0.0, duration, int(time_steps)),
+        method=integrator,
         **tolerances,
     )

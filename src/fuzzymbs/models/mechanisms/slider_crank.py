@@ -106,8 +106,10 @@ def slider_crank(
     elements: int = ELEMENTS,
     rtol: float | None = None,
     atol: float | None = None,
+    integrator: str = "auto",
 ) -> MechanismModel:
-    """The registered ``slider-crank`` model."""
+    """The registered ``slider-crank`` model (``integrator``: the Runge-Kutta pair,
+    :func:`fuzzymbs.mbs.planar.simulate`'s ``method``)."""
     if int(elements) % 2:
         raise ValueError(
             f"slider-crank needs an even element count (a node at the midpoint), got {elements}"
@@ -124,5 +126,6 @@ def slider_crank(
             "crank_torque": (lambda r: r.reaction("crank")[..., 2], "N m"),
         },
         times=np.linspace(0.0, duration, int(time_steps)),
+        method=integrator,
         **tolerances,
     )

@@ -59,6 +59,7 @@ def spin_up_beam(
     elements: int = ELEMENTS,
     rtol: float | None = None,
     atol: float | None = None,
+    integrator: str = "auto",
 ) -> MechanismModel:
     """The registered ``spin-up-beam`` model."""
     tolerances = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
@@ -67,5 +68,6 @@ def spin_up_beam(
         parameters=PARAMETERS,
         outputs={"tip_deflection": (lambda r: deflection_in_frame(r, "beam", "tip"), "m")},
         times=np.linspace(0.0, duration, int(time_steps)),
+        method=integrator,
         **tolerances,
     )
