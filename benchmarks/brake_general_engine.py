@@ -7,10 +7,10 @@ The brake's System (minimal coordinates: the pads' and caliper's slides and ever
 modes; ROS34PW2 on the SIMD kernels) and the same model written by
 ``System.as_mechanism()`` for the absolute-coordinate engine (Lagrange multipliers for the
 disc's driven hinge and the three slides, 250 force elements: 73 x 2 SurfaceContacts, 54
-Bushings, 50 MarkerLoads; Dormand-Prince 5(4)), both at the same rtol over the press-on
-transient. Prints each run's wall time (after a first run that compiles) and the largest
-differences: the pads' slides [m] and each body's modal coordinates relative to their
-largest value.
+Bushings, 50 MarkerLoads; DOP853, the engine's pair for flexible bodies), both at the
+same rtol over the press-on transient. Prints each run's wall time (after a first run
+that compiles) and the largest differences: the pads' slides [m] and each body's modal
+coordinates relative to their largest value.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def main() -> None:
     theirs = absolute(mine.time)
     end = time.perf_counter()
     print(f"minimal form (ROS34PW2):          {middle - start:6.2f} s")
-    print(f"absolute form (Dormand-Prince):   {end - middle:6.2f} s")
+    print(f"absolute form (DOP853):           {end - middle:6.2f} s")
     for pad in ("lower_pad", "upper_pad"):
         ours = mine.outputs[f"{pad}0"][0]
         gap = np.abs(theirs.position(pad)[0][:, 1] - ours).max()

@@ -84,7 +84,8 @@ The machine (:func:`bench_common.machine`); the Numba compile time (cold: a
 fresh interpreter with an empty ``NUMBA_CACHE_DIR``; and this process's first
 call, which compiles or loads Numba's cache); fuzzymbs's time for the 64
 samples in one call after that warm-up call, with Numba's default threads and
-with one; Exudyn's time for the 64 samples (building the systems included; the
+with one, and with one on Dormand-Prince 5(4) (the pair it used before DOP853);
+Exudyn's time for the 64 samples (building the systems included; the
 ``SolveDynamic`` share given too) and per sample; the ratios Exudyn / fuzzymbs
 on the machine and per core (fuzzymbs on one thread; Exudyn runs a sample on
 one core). Each time is the smaller of two repeats, as wall time and as this
@@ -491,6 +492,10 @@ def main(cold: bool = True) -> dict[str, Any]:
         figures["fuzzymbs_seconds_1_thread"], figures["fuzzymbs_cpu_seconds_1_thread"] = best_times(
             lambda: model(samples)
         )
+        log(f"fuzzymbs, {count} samples, 1 thread, Dormand-Prince 5(4) ...")
+        previous = slider_crank(integrator="dopri5")
+        previous({name: column[:2] for name, column in samples.items()})  # warm-up
+        figures["fuzzymbs_dopri5_seconds_1_thread"], _ = best_times(lambda: previous(samples))
     finally:
         numba.set_num_threads(threads)
 
@@ -532,6 +537,12 @@ def main(cold: bool = True) -> dict[str, Any]:
             fz1,
             figures["fuzzymbs_cpu_seconds_1_thread"],
             "",
+        ),
+        (
+            "fuzzymbs, the same with Dormand-Prince 5(4), 1 thread",
+            figures["fuzzymbs_dopri5_seconds_1_thread"],
+            float("nan"),
+            " (the pair before DOP853)",
         ),
         (
             f"exudyn, {count} samples one by one",

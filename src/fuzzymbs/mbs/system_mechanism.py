@@ -4,7 +4,7 @@ A :class:`~fuzzymbs.mbs.system.System` built from general bodies
 (:class:`~fuzzymbs.mbs.spatial.FlexibleBody` on joints to the ground) runs in
 minimal coordinates; :func:`as_mechanism` writes the same model for the
 absolute-coordinate engine (:class:`~fuzzymbs.mbs.spatial.Mechanism`, Lagrange
-multipliers, Dormand-Prince), element by element:
+multipliers, an explicit Runge-Kutta pair), element by element:
 
 =====================================  ===========================================
 System element                          spatial element
