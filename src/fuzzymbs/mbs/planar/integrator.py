@@ -13,7 +13,7 @@ import math
 
 import numba as nb
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as _dop853
+from scipy.integrate import DOP853 as _SCIPY_DOP853
 
 from fuzzymbs.mbs.planar.kernels import (
     FINISHED,
@@ -51,13 +51,14 @@ _E5 = np.append(_B5, 0.0) - np.array(
 # twelve stages and the thirteenth at the solution, whose 5th- and 3rd-order error
 # estimates are combined. Its stability region reaches |h lambda| = 5.9 along the
 # imaginary axis, where Dormand-Prince 5(4)'s ends near 1: for undamped stiff modes
-# that is 2.5 times the step per evaluation (docs/mechanisms.md). The coefficients are
-# SciPy's, which transcribes them from Hairer's DOP853.
-_C8 = np.ascontiguousarray(_dop853.C[:12])
-_A8 = np.ascontiguousarray(_dop853.A[:12, :12])
-_B8 = np.ascontiguousarray(_dop853.B)
-_E8 = np.ascontiguousarray(_dop853.E5)
-_E8_LOW = np.ascontiguousarray(_dop853.E3)
+# that is five times the step for 13 evaluations instead of 7 (docs/mechanisms.md). The
+# coefficients are the public class attributes of SciPy's DOP853, which transcribes them
+# from Hairer's code.
+_C8 = np.ascontiguousarray(_SCIPY_DOP853.C)
+_A8 = np.ascontiguousarray(_SCIPY_DOP853.A)
+_B8 = np.ascontiguousarray(_SCIPY_DOP853.B)
+_E8 = np.ascontiguousarray(_SCIPY_DOP853.E5)
+_E8_LOW = np.ascontiguousarray(_SCIPY_DOP853.E3)
 
 
 @nb.njit(cache=True)
