@@ -99,6 +99,19 @@ def solution_state(x, k, b, step, trial):
 
 
 @nb.njit(cache=True)
+def stage_input(x, k, pair, stage, t, step, trial):
+    """The state (into ``trial``) and the time (returned) stage ``stage`` of a step of the
+    pair ``pair`` (:func:`tableau`) from (t, x) is evaluated at; the stage after the last
+    is the step's solution, evaluated for the error estimate (FSAL)."""
+    nodes, a, b = pair[0], pair[1], pair[2]
+    if stage < b.size:
+        stage_state(x, k, a, stage, step, trial)
+        return stage_time(t, nodes, stage, step)
+    solution_state(x, k, b, step, trial)
+    return t + step
+
+
+@nb.njit(cache=True)
 def error_norm(x, trial, k, step, rtol, atol, e, e_low):
     """Error estimate of a step, each component scaled by atol + rtol max(|x|, |trial|).
 
@@ -146,22 +159,13 @@ def _derivative(t, x, n, layout, data, user_force, system, solution, out):
 
 
 @nb.njit(cache=True)
-def integrate_sample(
-    times,
-    x0,
-    layout,
-    data,
-    user_force,
-    method,
-    rtol,
-    atol,
-    first_step,
-    max_steps,
-    tolerance,
-    states,
-):
-    """Integrate one sample from ``times[0]`` with the pair ``method`` (:data:`METHODS`),
-    storing (z, v) at every time.
+def integrate_sample(times, x0, layout, data, user_force, control, states):
+    """Integrate one sample from ``times[0]``, storing (z, v) at every time.
+
+    ``control`` = (method, rtol, atol, first step, step budget, projection tolerance):
+    the pair's code (:data:`METHODS`), the step control's tolerances, the first step [s],
+    the steps (accepted and rejected) allowed, and the largest joint residual the
+    projection after each step may leave.
 
     Returns (status, accepted steps, rejected steps, largest joint residual).
     Rows of ``states`` after a failure stay NaN.
@@ -172,7 +176,9 @@ def integrate_sample(
     size = 2 * n
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
-    nodes, a, b, e, e_low, exponent = tableau(method)
+    method, rtol, atol, first_step, max_steps, tolerance = control
+    pair = tableau(method)
+    _, _, b, e, e_low, exponent = pair
     stages = b.size
     x = x0.copy()
     k = np.empty((stages + 1, size))
@@ -193,12 +199,7 @@ def integrate_sample(
             last = h >= target - t
             step = target - t if last else h
             for stage in range(1, stages + 1):
-                if stage < stages:
-                    stage_state(x, k, a, stage, step, trial)
-                    time = stage_time(t, nodes, stage, step)
-                else:  # the solution, evaluated for the error estimate (FSAL)
-                    solution_state(x, k, b, step, trial)
-                    time = t + step
+                time = stage_input(x, k, pair, stage, t, step, trial)
                 if not _derivative(
                     time, trial, n, layout, data, user_force, system, solution, k[stage]
                 ):
@@ -242,12 +243,7 @@ def integrate_range(
     layout,
     data,
     user_force,
-    method,
-    rtol,
-    atol,
-    first_step,
-    max_steps,
-    tolerance,
+    control,
     states,
     report,
 ):
@@ -264,12 +260,7 @@ def integrate_range(
             layout,
             data[s],
             user_force,
-            method,
-            rtol,
-            atol,
-            first_step,
-            max_steps,
-            tolerance,
+            control,
             states[s],
         )
         report[s, 0] = status

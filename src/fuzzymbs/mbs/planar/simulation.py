@@ -246,7 +246,7 @@ def simulate(
         Dormand-Prince 5(4) (docs/mechanisms.md, "Integrator").
     """
     batch = pack_batch(mechanisms if isinstance(mechanisms, list) else [mechanisms])
-    pair = integrator_method(method, bool(np.any(batch.layout.bodies[:, 1] > 0)))
+    code = integrator_method(method, bool(np.any(batch.layout.bodies[:, 1] > 0)))
     t = np.asarray(times, dtype=float)
     if t.ndim != 1 or t.size < 2 or not np.isfinite(t).all() or np.any(np.diff(t) <= 0):
         raise InvalidParameterError(
@@ -270,12 +270,7 @@ def simulate(
             arrays,
             batch.data,
             batch.user_force,
-            pair,
-            float(rtol),
-            float(atol),
-            step,
-            int(max_steps),
-            PROJECTION_TOLERANCE,
+            (code, float(rtol), float(atol), step, int(max_steps), PROJECTION_TOLERANCE),
             states,
             report,
         )

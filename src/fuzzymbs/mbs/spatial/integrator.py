@@ -11,14 +11,7 @@ import math
 import numba as nb
 import numpy as np
 
-from fuzzymbs.mbs.planar.integrator import (
-    error_norm,
-    solution_state,
-    stage_state,
-    stage_time,
-    step_factor,
-    tableau,
-)
+from fuzzymbs.mbs.planar.integrator import error_norm, stage_input, step_factor, tableau
 from fuzzymbs.mbs.spatial.kernels import (
     FINISHED,
     NOT_FINITE,
@@ -59,21 +52,8 @@ def _derivative(t, x, layout, data, user_force, system, solution, out):
 
 
 @nb.njit(cache=True)
-def integrate_sample(
-    times,
-    x0,
-    layout,
-    data,
-    user_force,
-    method,
-    rtol,
-    atol,
-    first_step,
-    max_steps,
-    tolerance,
-    states,
-):
-    """The Runge-Kutta pair ``method`` for one sample, as the planar engine's
+def integrate_sample(times, x0, layout, data, user_force, control, states):
+    """The Runge-Kutta pair ``control[0]`` for one sample, as the planar engine's
     (:func:`fuzzymbs.mbs.planar.integrator.integrate_sample`), on (q, v) with the
     Euler parameters' kinematics; (status, accepted, rejected, largest residual)."""
     sizes = layout[4]
@@ -83,7 +63,9 @@ def integrate_sample(
     size = nq + n
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
-    nodes, a, b, e, e_low, exponent = tableau(method)
+    method, rtol, atol, first_step, max_steps, tolerance = control
+    pair = tableau(method)
+    _, _, b, e, e_low, exponent = pair
     stages = b.size
     x = x0.copy()
     k = np.empty((stages + 1, size))
@@ -104,12 +86,7 @@ def integrate_sample(
             last = h >= target - t
             step = target - t if last else h
             for stage in range(1, stages + 1):
-                if stage < stages:
-                    stage_state(x, k, a, stage, step, trial)
-                    time = stage_time(t, nodes, stage, step)
-                else:  # the solution, evaluated for the error estimate (FSAL)
-                    solution_state(x, k, b, step, trial)
-                    time = t + step
+                time = stage_input(x, k, pair, stage, t, step, trial)
                 if not _derivative(
                     time, trial, layout, data, user_force, system, solution, k[stage]
                 ):
@@ -150,12 +127,7 @@ def integrate_range(
     layout,
     data,
     user_force,
-    method,
-    rtol,
-    atol,
-    first_step,
-    max_steps,
-    tolerance,
+    control,
     states,
     report,
 ):
@@ -167,12 +139,7 @@ def integrate_range(
             layout,
             data[s],
             user_force,
-            method,
-            rtol,
-            atol,
-            first_step,
-            max_steps,
-            tolerance,
+            control,
             states[s],
         )
         report[s, 0] = status

@@ -352,7 +352,7 @@ def simulate(
     out = np.full((len(batch), t.size, initial.shape[1]), np.nan)
     report = np.zeros((len(batch), 4))
     step = (t[-1] - t[0]) * 1e-3
-    pair = integrator_method(method, bool(np.any(layout[0][:, 3] > 0)))
+    code = integrator_method(method, bool(np.any(layout[0][:, 3] > 0)))
 
     def run(start: int, stop: int) -> None:
         integrator.integrate_range(
@@ -363,12 +363,7 @@ def simulate(
             layout,
             data,
             user,
-            pair,
-            float(rtol),
-            float(atol),
-            step,
-            int(max_steps),
-            PROJECTION_TOLERANCE,
+            (code, float(rtol), float(atol), step, int(max_steps), PROJECTION_TOLERANCE),
             out,
             report,
         )
