@@ -24,14 +24,9 @@ from fuzzymbs.mbs.spatial.kernels import (
 
 
 @nb.njit(cache=True)
-def _derivative(t, x, layout, data, user_force, system, solution, out):
+def _position_rates(layout, q, v, out):
+    """The positions' rates into ``out[:nq]``: r' = v, p' = 1/2 p (0, w), q' = q'."""
     bodies = layout[0]
-    sizes = layout[4]
-    nq = sizes[0]
-    n = sizes[1]
-    q = x[:nq]
-    v = x[nq:]
-    ok = accelerations(t, q, v, layout, data, user_force, system, solution)
     for b in range(bodies.shape[0]):
         po = bodies[b, 0]
         vo = bodies[b, 1]
@@ -39,13 +34,23 @@ def _derivative(t, x, layout, data, user_force, system, solution, out):
             out[po + i] = v[vo + i]
         e0, e1, e2, e3 = q[po + 3], q[po + 4], q[po + 5], q[po + 6]
         wx, wy, wz = v[vo + 3], v[vo + 4], v[vo + 5]
-        # p' = 1/2 p (0, w)
         out[po + 3] = 0.5 * (-e1 * wx - e2 * wy - e3 * wz)
         out[po + 4] = 0.5 * (e0 * wx + e2 * wz - e3 * wy)
         out[po + 5] = 0.5 * (e0 * wy - e1 * wz + e3 * wx)
         out[po + 6] = 0.5 * (e0 * wz + e1 * wy - e2 * wx)
         for x in range(bodies[b, 3]):
             out[po + 7 + x] = v[vo + 6 + x]
+
+
+@nb.njit(cache=True)
+def _derivative(t, x, layout, data, user_force, system, solution, out):
+    sizes = layout[4]
+    nq = sizes[0]
+    n = sizes[1]
+    q = x[:nq]
+    v = x[nq:]
+    ok = accelerations(t, q, v, layout, data, user_force, system, solution)
+    _position_rates(layout, q, v, out)
     for i in range(n):
         out[nq + i] = solution[i]
     return ok
@@ -103,8 +108,11 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
                 if not residual <= tolerance:
                     return PROJECTION_FAILED, accepted, rejected, residual
                 worst = max(worst, residual)
-                if not _derivative(t, x, layout, data, user_force, system, solution, k[0]):
-                    return NOT_FINITE, accepted, rejected, worst
+                # the next step's first stage: the position rates at the projected state, the
+                # accelerations of the solution's evaluation (the projection moves the state
+                # by its tolerance, which changes them at round-off: docs/mechanisms.md)
+                _position_rates(layout, x[:nq], x[nq:], k[0])
+                k[0, nq:] = k[stages, nq:]
                 if not last or factor < 1.0:
                     h = step * factor
             else:
