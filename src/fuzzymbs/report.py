@@ -205,7 +205,7 @@ def _signal_table(
     dataset: xarray.Dataset, name: str, lower: np.ndarray, upper: np.ndarray, unit: str
 ) -> str:
     """Per level: the band's range over the whole signal and its widest point."""
-    from fuzzymbs.plot import _coordinate
+    from fuzzymbs.plot import scaled_coordinate
 
     dims = dataset[f"{name}_lower"].dims[1:]
     width = upper - lower
@@ -222,7 +222,7 @@ def _signal_table(
         where = np.unravel_index(int(np.nanargmax(width[j])), width[j].shape)
         at = []
         for dim, k in zip(dims, where, strict=True):
-            values, coord_scale, coord_name = _coordinate(dataset, dim, dataset.sizes[dim])
+            values, coord_scale, coord_name = scaled_coordinate(dataset, dim, dataset.sizes[dim])
             at.append(f"{coord_name} = {values[k]:.4g} {coord_scale.unit}".strip())
         rows.append(
             [
