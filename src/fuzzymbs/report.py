@@ -163,8 +163,24 @@ def checks(dataset: xarray.Dataset) -> list[Check]:
 
 
 def reproduce_command(dataset: xarray.Dataset, directory: str | Path | None = None) -> str:
-    """The command that reproduces the result: the one recorded by the CLI (attribute
-    ``command``), else ``fuzzymbs run STUDY_FILE --out DIR``."""
+    """The command that reproduces the result.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        A study result.
+    directory : str or Path, optional
+        The result's folder, named in the template below.
+
+    Returns
+    -------
+    str
+        The command the CLI recorded (attribute ``command``: ``cd FOLDER && ...``, with
+        the ``PYTHONPATH`` a model loaded by a module path needs;
+        :func:`fuzzymbs.study.pipeline.reproducible_command`), which runs as written;
+        else, for a study built in Python, the template
+        ``fuzzymbs run STUDY_FILE --out DIR``.
+    """
     if dataset.attrs.get("command"):
         return str(dataset.attrs["command"])
     study_file = dataset.attrs.get("study_file", "STUDY_FILE.toml")
