@@ -35,6 +35,7 @@ def measure() -> list[dict]:
     """One row per case and method."""
     from fuzzymbs.fuzzy import plan
     from fuzzymbs.fuzzy.band_scale import band_miss
+    from fuzzymbs.fuzzy.numbers import triangular_numbers
     from fuzzymbs.fuzzy.validation import check_plan
     from fuzzymbs.models.closed_form.hard_cases import dense_truth, hard_cases
 
@@ -42,10 +43,10 @@ def measure() -> list[dict]:
     for case in hard_cases():
         truth = None
         for method in METHODS:
-            options = {"nonmonotonic": [next(iter(case.numbers))]} if method == "extended" else {}
+            options = {"nonmonotonic": [next(iter(case.triangles))]} if method == "extended" else {}
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # the retransformation's own warnings
-                scheme = plan(case.numbers, method, LEVELS, **options)
+                scheme = plan(triangular_numbers(case.triangles), method, LEVELS, **options)
                 outputs = scheme.evaluate(case.model)
                 fuzzy = scheme.retransform(outputs)
             cuts = {name: (result.lower, result.upper) for name, result in fuzzy.items()}

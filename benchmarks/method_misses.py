@@ -18,6 +18,7 @@ import numpy as np
 
 from fuzzymbs.fuzzy import plan
 from fuzzymbs.fuzzy.band_scale import band_miss
+from fuzzymbs.fuzzy.numbers import triangular_numbers
 from fuzzymbs.models.closed_form.hard_cases import dense_truth, hard_cases
 
 LEVELS = np.linspace(0.0, 1.0, 6)
@@ -26,7 +27,7 @@ METHODS = ("reduced", "extended", "general", "grid", "sparse", "adaptive")
 
 def _options(method: str, case) -> dict:
     if method == "extended":  # every parameter non-monotonic: what a screening names here
-        return {"nonmonotonic": list(case.numbers)}
+        return {"nonmonotonic": list(case.triangles)}
     if method == "sparse":
         return {"sparse_level": 4}
     return {}
@@ -38,7 +39,11 @@ def main() -> None:
         truth = dense_truth(case, LEVELS)
         for method in METHODS:
             scheme = plan(
-                case.numbers, method=method, levels=LEVELS, max_runs=None, **_options(method, case)
+                triangular_numbers(case.triangles),
+                method=method,
+                levels=LEVELS,
+                max_runs=None,
+                **_options(method, case),
             )
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")

@@ -1,5 +1,13 @@
 """Command line: --version, the HTML report of a run, --no-report and ``fuzzymbs report``."""
 
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
 from typer.testing import CliRunner
 
 import fuzzymbs
@@ -32,11 +40,67 @@ def test_run_writes_the_report_and_records_its_command(tmp_path):
     assert result.exit_code == 0, result.output
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "report: " in result.output and "<h2>Checks</h2>" in page
-    command = f"fuzzymbs run {study_file} --out {out}"
-    assert command in page
+    # recorded with the folder it ran in: the command runs as written from anywhere
+    command = f"cd {shlex.quote(os.getcwd())} && fuzzymbs run {study_file} --out {out}"
+    assert command.replace("&", "&amp;") in page
     with xr.open_dataset(out / "result.nc") as dataset:
         assert dataset.attrs["command"] == command
         assert dataset.attrs["fuzzymbs_version"] == fuzzymbs.__version__
+
+
+def test_the_recorded_command_of_a_user_module_study_runs_as_written(tmp_path, monkeypatch):
+    # examples/cantilever.toml's model is a module of the user's, found through
+    # PYTHONPATH and with paths relative to the folder the command is typed in: the
+    # recorded command must name that folder and set PYTHONPATH again
+    import xarray as xr
+
+    fuzzymbs_script = shutil.which("fuzzymbs", path=str(Path(sys.executable).parent))
+    if fuzzymbs_script is None:
+        pytest.skip("no fuzzymbs script beside the interpreter (not installed)")
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    models = tmp_path / "models"
+    models.mkdir()
+    # a name of its own: another test imports examples/cantilever_model.py in this process
+    shutil.copy(examples / "cantilever_model.py", models / "recorded_cantilever.py")
+    study = (examples / "cantilever.toml").read_text(encoding="utf-8")
+    study = study.replace('"cantilever_model:', '"recorded_cantilever:')
+    (tmp_path / "cantilever.toml").write_text(study, encoding="utf-8")
+    # the fuzzymbs under test after the user's folder, as a user's PYTHONPATH may hold it
+    python_path = os.pathsep.join(["models", str(Path(fuzzymbs.__file__).resolve().parents[1])])
+    monkeypatch.setenv("PYTHONPATH", python_path)
+    monkeypatch.syspath_prepend(str(models))  # what PYTHONPATH does when Python starts
+    monkeypatch.chdir(tmp_path)
+    arguments = ["run", "cantilever.toml", "--out", "out", "--allow-code", "-q", "--no-plots"]
+    result = runner.invoke(app, arguments)
+    assert result.exit_code == 0, result.output
+    with xr.open_dataset(tmp_path / "out" / "result.nc") as dataset:
+        command = dataset.attrs["command"]
+        first = dataset["tip_deflection_upper"].values
+    words = shlex.split(command)
+    assert words[:3] == ["cd", str(Path.cwd()), "&&"]
+    assert words[3:5] == [f"PYTHONPATH={python_path}", "fuzzymbs"]
+    assert command in (tmp_path / "out" / "report.html").read_text(encoding="utf-8").replace(
+        "&amp;", "&"
+    )
+    # run as written from the folder it names, anew, with nothing of this process's
+    # environment but PATH to the fuzzymbs script
+    shutil.rmtree(tmp_path / "out")
+    environment = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    environment["PATH"] = os.pathsep.join([str(Path(fuzzymbs_script).parent), os.defpath])
+    done = subprocess.run(
+        command,
+        shell=True,
+        cwd=words[1],
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    with xr.open_dataset(tmp_path / "out" / "result.nc") as dataset:
+        assert (dataset["tip_deflection_upper"].values == first).all()
+        assert dataset.attrs["command"] == command  # the same command, recorded again
 
 
 def test_no_report_option_and_the_report_command(tmp_path):

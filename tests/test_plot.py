@@ -269,7 +269,7 @@ def test_figure_cache_copies_the_figures_of_an_unchanged_result(oscillator, tmp_
         raise AssertionError("a figure was drawn although its result is in the cache")
 
     with monkeypatch.context() as patched:
-        patched.setattr(plot_module, "_save", no_drawing)
+        patched.setattr(plot_module, "save_figure", no_drawing)
         # the run's own record changes from run to run; the figures do not draw it
         again = oscillator.copy()
         again.attrs["provenance"] = '{"wall_time_s": 1.0}'

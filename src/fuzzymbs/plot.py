@@ -88,8 +88,32 @@ def _units(dataset: xarray.Dataset, output: str) -> str:
     return str(dataset[f"{output}_lower"].attrs.get("units", ""))
 
 
-def _coordinate(dataset: xarray.Dataset, dim: str, size: int) -> tuple[np.ndarray, Scale, str]:
-    """Values of coordinate ``dim`` in engineering units, their scale and readable name."""
+def scaled_coordinate(
+    dataset: xarray.Dataset, dim: str, size: int
+) -> tuple[np.ndarray, Scale, str]:
+    """The values of coordinate ``dim`` in engineering units, their scale and readable name.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        A study result (layout in :mod:`fuzzymbs.study.result`).
+    dim : str
+        The name of an output's own axis (``"time"``, ``"position"``, ...).
+    size : int
+        The axis' length, used when the dataset has no coordinate of that name.
+
+    Returns
+    -------
+    values : numpy.ndarray
+        The coordinate in the unit of ``scale`` (the sample indices 0 .. size - 1
+        when the axis has no coordinate).
+    scale : Scale
+        The SI prefix chosen from the values (:func:`fuzzymbs.units.engineering_scale`).
+    name : str
+        The readable name: the coordinate's ``long_name``, else the built-in name of
+        :data:`COORDINATE_NAMES`, else ``dim`` with spaces ("DIM (index)" without a
+        coordinate).
+    """
     if dim not in dataset.coords:
         return np.arange(size, dtype=float), Scale(1.0, ""), f"{dim} (index)"
     coordinate = dataset[dim]
@@ -219,7 +243,7 @@ def plot_output_membership(
         if reference is not None:
             reference = reference.sel({coord: value}, method="nearest")
         at = float(lower[coord])
-        _, coord_scale, coord_name = _coordinate(dataset, coord, 1)
+        _, coord_scale, coord_name = scaled_coordinate(dataset, coord, 1)
         where = f"{coord_scale(at).item():.4g} {coord_scale.unit}".strip()
         title += f" at {coord_name} = {where}"
     if lower.ndim != 1:
@@ -314,8 +338,8 @@ def plot_fuzzy_signal(dataset: xarray.Dataset, output: str) -> Figure:
         raise InvalidParameterError(f"output {output!r} is not a signal over one coordinate")
     lower = lower_array.values
     dim = lower_array.dims[1]
-    x, _, coord_name = _coordinate(dataset, dim, lower.shape[1])
-    coord_label = _coordinate(dataset, dim, lower.shape[1])[1].label(coord_name)
+    x, _, coord_name = scaled_coordinate(dataset, dim, lower.shape[1])
+    coord_label = scaled_coordinate(dataset, dim, lower.shape[1])[1].label(coord_name)
     levels = dataset["level"].values
     nominal = dataset[f"{output}_nominal"].values
     reference = dataset[f"{output}_reference"].values if f"{output}_reference" in dataset else None
@@ -430,7 +454,7 @@ def plot_influence(dataset: xarray.Dataset, output: str) -> Figure:
         right.set_xlabel("relative influence ρ")
     else:
         dim = absolute.dims[1]
-        x, coord_scale, coord_name = _coordinate(dataset, dim, absolute.shape[1])
+        x, coord_scale, coord_name = scaled_coordinate(dataset, dim, absolute.shape[1])
         # no edge lines: on a fast-oscillating signal they wash the areas out
         areas = {"colors": colors, "linewidth": 0}
         left.stackplot(x, np.nan_to_num(scale(absolute.values)), labels=names, **areas)
@@ -564,7 +588,30 @@ def _target(directory: Path, stem: str, extension: str) -> Path:
     return path
 
 
-def _save(figure: Figure, directory: Path, stem: str, formats: Sequence[str]) -> list[Path]:
+def save_figure(figure: Figure, directory: Path, stem: str, formats: Sequence[str]) -> list[Path]:
+    """Write ``figure`` as ``directory/stem.EXTENSION``, one file per format.
+
+    Parameters
+    ----------
+    figure : matplotlib.figure.Figure
+        The figure to write (PNG at :data:`PNG_DPI`).
+    directory : Path
+        An existing folder.
+    stem : str
+        The file name without extension; a plain name (no folder, no leading dot).
+    formats : sequence of str
+        File extensions, any of :data:`FORMATS`, written in this order.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Raises
+    ------
+    ValueError
+        ``stem`` would place a file outside ``directory`` or hide it.
+    """
     written = []
     for extension in formats:
         path = _target(directory, stem, extension)
@@ -613,7 +660,7 @@ def write_plots(
     if cache is None:
         written: list[Path] = []
         for figure in standard_figures(dataset, membership):
-            written += _save(figure.build(), directory, figure.stem, formats)
+            written += save_figure(figure.build(), directory, figure.stem, formats)
         return written
     return _write_cached(dataset, directory, membership, formats, Path(cache))
 
@@ -639,7 +686,7 @@ def _write_cached(
         used.update(path.name for path in kept.values())
         missing = [extension for extension, path in kept.items() if not path.is_file()]
         if missing:
-            drawn = _save(figure.build(), directory, figure.stem, missing)
+            drawn = save_figure(figure.build(), directory, figure.stem, missing)
             for path in drawn:
                 write_bytes_atomically(kept[path.suffix[1:]], path.read_bytes())
         for extension, path in kept.items():

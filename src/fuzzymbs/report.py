@@ -163,8 +163,24 @@ def checks(dataset: xarray.Dataset) -> list[Check]:
 
 
 def reproduce_command(dataset: xarray.Dataset, directory: str | Path | None = None) -> str:
-    """The command that reproduces the result: the one recorded by the CLI (attribute
-    ``command``), else ``fuzzymbs run STUDY_FILE --out DIR``."""
+    """The command that reproduces the result.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        A study result.
+    directory : str or Path, optional
+        The result's folder, named in the template below.
+
+    Returns
+    -------
+    str
+        The command the CLI recorded (attribute ``command``: ``cd FOLDER && ...``, with
+        the ``PYTHONPATH`` a model loaded by a module path needs;
+        :func:`fuzzymbs.study.pipeline.reproducible_command`), which runs as written;
+        else, for a study built in Python, the template
+        ``fuzzymbs run STUDY_FILE --out DIR``.
+    """
     if dataset.attrs.get("command"):
         return str(dataset.attrs["command"])
     study_file = dataset.attrs.get("study_file", "STUDY_FILE.toml")
@@ -205,7 +221,7 @@ def _signal_table(
     dataset: xarray.Dataset, name: str, lower: np.ndarray, upper: np.ndarray, unit: str
 ) -> str:
     """Per level: the band's range over the whole signal and its widest point."""
-    from fuzzymbs.plot import _coordinate
+    from fuzzymbs.plot import scaled_coordinate
 
     dims = dataset[f"{name}_lower"].dims[1:]
     width = upper - lower
@@ -222,7 +238,7 @@ def _signal_table(
         where = np.unravel_index(int(np.nanargmax(width[j])), width[j].shape)
         at = []
         for dim, k in zip(dims, where, strict=True):
-            values, coord_scale, coord_name = _coordinate(dataset, dim, dataset.sizes[dim])
+            values, coord_scale, coord_name = scaled_coordinate(dataset, dim, dataset.sizes[dim])
             at.append(f"{coord_name} = {values[k]:.4g} {coord_scale.unit}".strip())
         rows.append(
             [

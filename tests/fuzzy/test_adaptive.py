@@ -10,6 +10,7 @@ from fuzzymbs.fuzzy import Triangular, plan
 from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, AdaptiveWarning
 from fuzzymbs.fuzzy.band_scale import band_miss
 from fuzzymbs.fuzzy.chebyshev_grid import ChebyshevSparseGrid, evaluate_series, node_values
+from fuzzymbs.fuzzy.numbers import triangular_numbers
 from fuzzymbs.models.closed_form.hard_cases import HardCase, dense_truth, hard_cases
 
 LEVELS = np.linspace(0.0, 1.0, 6)
@@ -18,7 +19,7 @@ _SLOW = {"ringing3": pytest.mark.slow}
 
 
 def _run(case: HardCase, **options) -> tuple[AdaptivePlan, dict, float]:
-    scheme = plan(case.numbers, method="adaptive", levels=LEVELS, **options)
+    scheme = plan(triangular_numbers(case.triangles), method="adaptive", levels=LEVELS, **options)
     outputs = scheme.evaluate(case.model)
     cuts = scheme.retransform(outputs)
     truth = dense_truth(case, LEVELS)
@@ -53,7 +54,9 @@ def test_reported_error_is_honest_when_stopped_early(case):
     # a budget too small for the tolerance: the reported (certified) error must be at
     # least half the true miss whenever that miss exceeds the tolerance
     for budget in (30, 60, 120):
-        scheme = plan(case.numbers, method="adaptive", levels=LEVELS, max_runs=budget)
+        scheme = plan(
+            triangular_numbers(case.triangles), method="adaptive", levels=LEVELS, max_runs=budget
+        )
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             outputs = scheme.evaluate(case.model)
@@ -79,7 +82,7 @@ def test_each_output_is_certified_on_its_own_cut_widths():
     # output's interior maximum must be found as if it were alone (bump3 alone: true miss
     # 0.00 %, 221 runs), not measured against the large output's widths
     bump = hard_cases()[0]
-    case = HardCase("bump-and-line", _bump_beside_a_large_line, bump.numbers, bump.grid)
+    case = HardCase("bump-and-line", _bump_beside_a_large_line, bump.triangles, bump.grid)
     scheme, cuts, _ = _run(case)
     truth = dense_truth(case, LEVELS)
     miss = band_miss(cuts["small"].lower, cuts["small"].upper, *truth["small"])
@@ -97,7 +100,7 @@ def test_a_model_of_its_own_with_interior_extrema():
     case = HardCase(
         "saddle",
         _saddle,
-        {"x1": Triangular(-1.0, 0.1, 1.0), "x2": Triangular(-1, 0, 1)},
+        {"x1": (-1.0, 0.1, 1.0), "x2": (-1.0, 0.0, 1.0)},
         (401, 401),
     )
     scheme, _, miss = _run(case)
@@ -149,9 +152,9 @@ def test_gains_of_a_monotonic_signal_match_the_reduced_method():
 
 def test_rounds_are_deterministic_and_replayable():
     case = hard_cases()[0]
-    first = plan(case.numbers, method="adaptive", levels=LEVELS)
+    first = plan(triangular_numbers(case.triangles), method="adaptive", levels=LEVELS)
     outputs = first.evaluate(case.model)
-    second = plan(case.numbers, method="adaptive", levels=LEVELS)
+    second = plan(triangular_numbers(case.triangles), method="adaptive", levels=LEVELS)
     start = 0
     while True:  # replay the stored outputs round by round
         points = second.next_batch()

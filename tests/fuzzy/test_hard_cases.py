@@ -6,6 +6,7 @@ from scipy.optimize import minimize
 
 from fuzzymbs.fuzzy import plan
 from fuzzymbs.fuzzy.band_scale import band_miss, width_relative
+from fuzzymbs.fuzzy.numbers import triangular_numbers
 from fuzzymbs.models.closed_form.hard_cases import bump3, dense_truth, hard_cases, ringing3
 
 LEVELS = np.linspace(0.0, 1.0, 6)
@@ -64,7 +65,7 @@ def test_band_miss_is_the_part_of_the_true_cut_outside_on_the_width_scale():
 def test_reduced_method_misses_the_interior_extremum():
     # the reason these cases exist: corners cannot see the bump's maximum
     case = bump3()
-    scheme = plan(case.numbers, "reduced", 6)
+    scheme = plan(triangular_numbers(case.triangles), "reduced", 6)
     with pytest.warns(UserWarning):
         cut = scheme.retransform(scheme.evaluate(case.model))["z"]
     truth = dense_truth(case, scheme.levels)["z"]

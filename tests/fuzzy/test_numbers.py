@@ -15,6 +15,7 @@ from fuzzymbs.fuzzy.numbers import (
     PiecewiseLinear,
     Trapezoidal,
     Triangular,
+    triangular_numbers,
 )
 
 LEVELS = [0.0, 0.25, 0.5, 0.75, 1.0]
@@ -174,3 +175,17 @@ def test_invalid_definitions_raise_naming_the_value(factory, fragment):
 def test_alpha_cut_rejects_levels_outside_unit_interval(mu):
     with pytest.raises(InvalidFuzzyNumberError, match="mu"):
         Triangular(0.0, 1.0, 2.0).alpha_cut(mu)
+
+
+def test_triangular_numbers_from_plain_triples():
+    # what a model suggests as plain (lower, modal, upper) numbers, as fuzzy numbers
+    numbers = triangular_numbers({"k": (0.8, 1.0, 1.2), "c": [1.5, 2.0, 2.5]})
+    assert list(numbers) == ["k", "c"]
+    assert numbers["k"].to_dict() == Triangular(0.8, 1.0, 1.2).to_dict()
+    assert numbers["c"].alpha_cut(0.5) == Triangular(1.5, 2.0, 2.5).alpha_cut(0.5)
+    with pytest.raises(InvalidFuzzyNumberError, match="expected \\(lower, modal, upper\\)"):
+        triangular_numbers({"k": (0.8, 1.0)})
+    with pytest.raises(InvalidFuzzyNumberError, match="expected \\(lower, modal, upper\\)"):
+        triangular_numbers({"k": 1.0})
+    with pytest.raises(InvalidFuzzyNumberError, match="lower <= modal <= upper"):
+        triangular_numbers({"k": (1.2, 1.0, 0.8)})

@@ -374,22 +374,24 @@ def test_adaptive_count_is_its_budget_and_bounds_what_it_runs():
     # its rounds never pass (a budget too small for the tolerance stops them there)
     import warnings
 
+    from fuzzymbs.fuzzy.numbers import triangular_numbers
     from fuzzymbs.models.closed_form.hard_cases import bump3
 
     case = bump3()
-    assert run_count(case.numbers, "adaptive", 5) == 2000  # the documented default budget
-    budget = run_count(case.numbers, "adaptive", 5, max_runs=60)
+    numbers = triangular_numbers(case.triangles)
+    assert run_count(numbers, "adaptive", 5) == 2000  # the documented default budget
+    budget = run_count(numbers, "adaptive", 5, max_runs=60)
     assert budget == 60
-    scheme = plan(case.numbers, method="adaptive", levels=5, max_runs=budget)
+    scheme = plan(numbers, method="adaptive", levels=5, max_runs=budget)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # AdaptiveWarning: stopped at the budget
         scheme.evaluate(case.model)
     assert 2 * 3 + 2 <= len(scheme) <= budget
     with pytest.raises(InvalidPlanError, match="max_runs"):
-        run_count(case.numbers, "adaptive", 5, max_runs=7)  # below the first round, 2 n + 2
+        run_count(numbers, "adaptive", 5, max_runs=7)  # below the first round, 2 n + 2
     with pytest.raises(InvalidPlanError, match="sparse_level"):
-        run_count(case.numbers, "adaptive", 5, sparse_level=2)
+        run_count(numbers, "adaptive", 5, sparse_level=2)
     with pytest.raises(InvalidPlanError, match="only for method='adaptive'"):
-        run_count(case.numbers, "reduced", 5, max_runs=100)
+        run_count(numbers, "reduced", 5, max_runs=100)
     with pytest.raises(InvalidPlanError, match="levels"):
-        run_count(case.numbers, "adaptive", 0)
+        run_count(numbers, "adaptive", 0)

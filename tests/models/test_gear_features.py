@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.fuzzy.numbers import Triangular
+from fuzzymbs.fuzzy.numbers import triangular_numbers
 from fuzzymbs.models.gears import iso_pair_stiffness, make_pair
 from fuzzymbs.models.gears.features import (
     DEFAULT_MARGIN,
     FEATURES,
     SteFeatureModel,
     contact_zones,
-    fuzzy_reference_features,
+    reference_feature_spread,
     reference_features,
     ste_features,
 )
@@ -252,21 +252,25 @@ def test_feature_gains_at_the_modal_values(model, modal):
 
 
 def test_fuzzy_features_span_all_sources(pair, references):
-    fuzzy = fuzzy_reference_features(references=references)
-    assert list(fuzzy) == list(FEATURES)
-    for name, number in fuzzy.items():
-        assert isinstance(number, Triangular)
-        assert number.modal == references["model"][name]
+    spread = reference_feature_spread(references=references)
+    assert list(spread) == list(FEATURES)
+    for name, (lower, modal, upper) in spread.items():
+        assert modal == references["model"][name]
         values = [src[name] for src in references.values() if name in src]
-        assert number.lower == min(values) and number.upper == max(values)
-        assert number.lower <= number.modal <= number.upper
+        assert lower == min(values) and upper == max(values)
+        assert lower <= modal <= upper
+    # plain numbers (a model imports no part of the fuzzy engine), fuzzy numbers on demand
+    assert all(type(value) is float for triple in spread.values() for value in triple)
+    numbers = triangular_numbers(spread)
+    assert [numbers[name].support for name in FEATURES] == [
+        (spread[name][0], spread[name][2]) for name in FEATURES
+    ]
     # two sources give the mean and the single-zone level, three give the mean
-    assert fuzzy["ste_mean"].lower == references["iso6336"]["ste_mean"]
-    assert fuzzy["ste_mean"].upper == references["potential_energy"]["ste_mean"]
+    assert spread["ste_mean"][0] == references["iso6336"]["ste_mean"]
+    assert spread["ste_mean"][2] == references["potential_energy"]["ste_mean"]
     # computing from the pair gives the same numbers
-    again = fuzzy_reference_features(pair, 100.0)
-    assert all(again[name].to_dict() == fuzzy[name].to_dict() for name in FEATURES)
+    assert reference_feature_spread(pair, 100.0) == spread
     with pytest.raises(InvalidParameterError, match="lacks"):
-        fuzzy_reference_features(references=references, modal_source="iso6336")
+        reference_feature_spread(references=references, modal_source="iso6336")
     with pytest.raises(InvalidParameterError, match="not a source"):
-        fuzzy_reference_features(references=references, modal_source="fe")
+        reference_feature_spread(references=references, modal_source="fe")

@@ -10,11 +10,15 @@ from fuzzymbs import Study
 from fuzzymbs.errors import IncompleteResultError
 from fuzzymbs.fuzzy import Triangular
 from fuzzymbs.fuzzy.band_scale import band_miss
-from fuzzymbs.models.closed_form.hard_cases import _bump, bump3, dense_truth
+from fuzzymbs.fuzzy.numbers import triangular_numbers
+from fuzzymbs.models.closed_form.hard_cases import bump3, dense_truth
 
 
 def _study(**options):
-    return Study(_bump, bump3().numbers, method="adaptive", levels=5, **options)
+    case = bump3()
+    return Study(
+        case.model, triangular_numbers(case.triangles), method="adaptive", levels=5, **options
+    )
 
 
 def test_rounds_resume_from_the_store_and_agree_across_executors(tmp_path):

@@ -33,6 +33,7 @@ __all__ = [
     "check_level",
     "levelwise",
     "real_array",
+    "triangular_numbers",
 ]
 
 
@@ -304,6 +305,41 @@ class Triangular(FuzzyNumber):
 
     def to_dict(self) -> dict[str, Any]:
         return {"type": self.kind, "lower": self.lower, "modal": self._modal, "upper": self.upper}
+
+
+def triangular_numbers(triangles: Mapping[str, Sequence[float]]) -> dict[str, Triangular]:
+    """Triangular fuzzy numbers from plain ``(lower, modal, upper)`` triples.
+
+    Models state the fuzzy numbers they suggest as plain numbers (a model imports
+    no part of the fuzzy engine); this turns them into numbers for a plan or a study.
+
+    Parameters
+    ----------
+    triangles : mapping of str to sequence of float
+        ``name -> (lower, modal, upper)``, each in its parameter's unit.
+
+    Returns
+    -------
+    dict of str to Triangular
+        The same names in the same order.
+
+    Raises
+    ------
+    InvalidFuzzyNumberError
+        A value that is not three finite numbers with ``lower <= modal <= upper``.
+    """
+    numbers = {}
+    for name, triangle in triangles.items():
+        try:
+            values = tuple(triangle)
+        except TypeError:
+            values = ()
+        if len(values) != 3:
+            raise InvalidFuzzyNumberError(
+                f"{name!r}: expected (lower, modal, upper), got {triangle!r}"
+            )
+        numbers[name] = Triangular(*values)
+    return numbers
 
 
 class Trapezoidal(FuzzyNumber):

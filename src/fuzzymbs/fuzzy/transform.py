@@ -51,8 +51,7 @@ from fuzzymbs.errors import InvalidPlanError, ModelOutputError, UnsupportedOpera
 from fuzzymbs.fuzzy.grids import cartesian, unique_rows
 from fuzzymbs.fuzzy.model_calls import evaluate_table
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
-from fuzzymbs.fuzzy.plan_options import METHODS, checked_parameters, make_levels
-from fuzzymbs.fuzzy.plan_options import sparse_options as _sparse_options
+from fuzzymbs.fuzzy.plan_options import METHODS, checked_parameters, make_levels, sparse_options
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_run_limit, run_count
 from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning, retransform
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid
@@ -208,7 +207,7 @@ class Plan:
             )
         # keep the parameter order, drop repeats
         self.nonmonotonic: tuple[str, ...] = tuple(n for n in self.names if n in nonmonotonic)
-        self.sparse_level, self.search_points = _sparse_options(
+        self.sparse_level, self.search_points = sparse_options(
             method, len(self.names), sparse_level, search_points
         )
         # the size first, from closed forms: nothing below may allocate a plan too large to run
@@ -289,7 +288,7 @@ class Plan:
 
     def _build_sparse(self) -> None:
         """Modal point first, then the sparse-grid nodes mapped to the support box."""
-        assert self.sparse_level is not None  # set by _sparse_options for "sparse"
+        assert self.sparse_level is not None  # set by sparse_options for "sparse"
         count_levels, count_parameters = self.cut_lower.shape
         self._sparse_grid = SparseGrid(count_parameters, self.sparse_level)
         modal_point = np.array([[number.modal for number in self.parameters.values()]])

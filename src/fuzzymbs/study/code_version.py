@@ -29,6 +29,7 @@ import ast
 import hashlib
 import inspect
 import logging
+import os
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -229,6 +230,45 @@ def user_source_digest(model: Any, factory: Any = None) -> str | None:
             _feed_object_code(obj, digest)
         found = True
     return digest.hexdigest() if found else None
+
+
+def model_python_path(reference: str) -> str | None:
+    """The ``PYTHONPATH`` a model loaded by a module path was imported through, or None.
+
+    A ``"package.module:callable"`` model imports only where its folder is on
+    Python's path; a command finds a user's folder through ``PYTHONPATH``
+    (``PYTHONPATH=examples fuzzymbs run examples/cantilever.toml ...``), so a
+    command that reproduces the study must set it again.
+
+    Parameters
+    ----------
+    reference : str
+        The model as the study names it: a registered name or ``"package.module:callable"``.
+
+    Returns
+    -------
+    str or None
+        ``PYTHONPATH`` as this process has it (all of it: the model's module may import
+        from its other entries), if one of its entries is the folder the model's
+        top-level package or module was imported from. None for a registered model,
+        a module not imported yet, or one found without ``PYTHONPATH`` (installed).
+    """
+    module_name, sep, _ = reference.partition(":")
+    if not sep or not module_name:
+        return None
+    module = sys.modules.get(module_name.split(".")[0])
+    if module is None:
+        return None
+    if hasattr(module, "__path__"):  # a package: its folders sit in the path entry
+        roots = {Path(folder).resolve().parent for folder in module.__path__}
+    elif isinstance(getattr(module, "__file__", None), str):
+        roots = {Path(module.__file__).resolve().parent}
+    else:
+        return None
+    value = os.environ.get("PYTHONPATH", "")
+    # relative entries are relative to the working folder, as when Python started
+    entries = {Path(entry).resolve() for entry in value.split(os.pathsep) if entry}
+    return value if roots & entries else None
 
 
 def code_version(model: Any, factory: Any = None) -> dict[str, Any]:

@@ -136,7 +136,7 @@ def load_identification_file(
     from fuzzymbs.study.parameters import fuzzy_number_from_definition
     from fuzzymbs.study.planning import declared_parameters, resolve_model
     from fuzzymbs.study.registry import get_model
-    from fuzzymbs.study.studyfile import _describe_error, _model_options
+    from fuzzymbs.study.studyfile import describe_validation_error, resolve_option_paths
     from fuzzymbs.study.trust import check_study_code
 
     path = Path(path)
@@ -150,13 +150,15 @@ def load_identification_file(
     try:
         parsed = IdentificationFileModel.model_validate(raw)
     except ValidationError as exc:
-        raise StudyFileError("; ".join(_describe_error(path, e) for e in exc.errors())) from None
+        raise StudyFileError(
+            "; ".join(describe_validation_error(path, e) for e in exc.errors())
+        ) from None
     if not parsed.modal:
         raise _fail(path, "[modal] is empty; give a starting value per parameter to identify")
     if not parsed.measured:
         raise _fail(path, "[measured] is empty; give the observed outputs as fuzzy numbers")
     model_name = parsed.model.name
-    options = _model_options(path, model_name, parsed.model.options)
+    options = resolve_option_paths(path, model_name, parsed.model.options)
     runs_code = False
     spec = None
     if ":" not in model_name:
@@ -322,10 +324,10 @@ def run_identification_file(
     )
     written: list[Path] = []
     if plots:
-        from fuzzymbs.plot import _save, plot_input_memberships, plot_inverse_outputs
+        from fuzzymbs.plot import plot_input_memberships, plot_inverse_outputs, save_figure
 
-        written += _save(plot_input_memberships(dataset), out, "parameters", ("png",))
-        written += _save(plot_inverse_outputs(dataset), out, "outputs", ("png",))
+        written += save_figure(plot_input_memberships(dataset), out, "parameters", ("png",))
+        written += save_figure(plot_inverse_outputs(dataset), out, "outputs", ("png",))
     if mismatch is not None:
         raise mismatch
     return IdentificationOutput(out, result, toml_path, result_path, summary_path, written)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import shlex
 import tempfile
 import time
 from collections.abc import Iterator
@@ -179,8 +180,10 @@ def run_study_file(
     lets the file run code its author named (a module reference, an FMU, a
     program; :mod:`fuzzymbs.study.trust`). ``report`` writes ``out/report.html``
     (:mod:`fuzzymbs.report`); ``command``, the command line that ran the study, is
-    recorded in the result for its reproduction. ``formats``: the plot files' formats
-    (png, pdf, svg); the report embeds the PNG images (drawn for it if png is not asked).
+    recorded in the result for its reproduction, with the folder it ran in and the
+    ``PYTHONPATH`` a model loaded by a module path needs (:func:`reproducible_command`).
+    ``formats``: the plot files' formats (png, pdf, svg); the report embeds the PNG
+    images (drawn for it if png is not asked).
 
     Raises
     ------
@@ -226,6 +229,36 @@ def run_study_file(
         )
 
 
+def reproducible_command(command: str, model: str, folder: str | Path | None = None) -> str:
+    """``command`` as it runs from any folder: ``cd FOLDER && [PYTHONPATH=...] COMMAND``.
+
+    The command's relative paths (the study file, ``--out``) are relative to the
+    folder it was typed in, and a model loaded by a module path imports only with
+    the ``PYTHONPATH`` it was imported through (:func:`model_python_path`), so both
+    are part of the command that reproduces a result.
+
+    Parameters
+    ----------
+    command : str
+        The fuzzymbs command line as typed (POSIX shell quoting).
+    model : str
+        The study's model name (a registered name or ``"package.module:callable"``).
+    folder : str or Path, optional
+        The folder the command was typed in; the current working folder by default.
+
+    Returns
+    -------
+    str
+        A POSIX shell command line.
+    """
+    from fuzzymbs.study.code_version import model_python_path
+
+    folder = Path.cwd() if folder is None else Path(folder).resolve()
+    python_path = model_python_path(model)
+    environment = f"PYTHONPATH={shlex.quote(python_path)} " if python_path else ""
+    return f"cd {shlex.quote(str(folder))} && {environment}{command}"
+
+
 def _run_locked(
     definition: Any,
     path: Path,
@@ -269,7 +302,8 @@ def _run_locked(
         result.dataset.attrs["plots"] = json.dumps({"membership": definition.membership_plots})
         result.dataset.attrs["study_file"] = str(path.name)
         if command:
-            result.dataset.attrs["command"] = command
+            model = str(result.dataset.attrs.get("model", ""))
+            result.dataset.attrs["command"] = reproducible_command(command, model)
         result.to_netcdf(result_path)
         written = []
         if plots:

@@ -201,7 +201,23 @@ def _key(loc: tuple[Any, ...]) -> str:
     return ".".join(str(part) for part in loc) or "(top level)"
 
 
-def _describe_error(path: Path, error: dict[str, Any]) -> str:
+def describe_validation_error(path: Path, error: dict[str, Any]) -> str:
+    """One readable line for one schema error of a study or identification file.
+
+    Parameters
+    ----------
+    path : Path
+        The file, named at the start of the line.
+    error : dict
+        One entry of :meth:`pydantic.ValidationError.errors` (``loc``, ``type``,
+        ``msg``, ``input``).
+
+    Returns
+    -------
+    str
+        ``"PATH: unknown key 'k' in [section]; allowed keys: ..."``, ``"PATH: missing
+        required key 'k'"`` or ``"PATH: key 'k': MESSAGE (got VALUE)"``.
+    """
     loc = tuple(error["loc"])
     key = _key(loc)
     if error["type"] == "extra_forbidden":
@@ -258,8 +274,28 @@ def _parameter_definitions(path: Path, raw: dict[str, Any]) -> dict[str, Any]:
     return definitions
 
 
-def _model_options(path: Path, model: str, options: dict[str, Any]) -> dict[str, Any]:
-    """The model options with paths made relative to the study file's folder."""
+def resolve_option_paths(path: Path, model: str, options: dict[str, Any]) -> dict[str, Any]:
+    """The model options with their file paths resolved against the file's folder.
+
+    A relative ``path`` of the ``"fmu"`` model becomes absolute in the folder of
+    ``path``, and that folder is the ``"command"`` model's ``base_dir`` (what its
+    relative paths refer to) unless the options give one, so a study or
+    identification file means the same from any working directory.
+
+    Parameters
+    ----------
+    path : Path
+        The study or identification file whose ``[model.options]`` these are.
+    model : str
+        The ``[model] name``.
+    options : dict
+        The ``[model.options]`` table as read.
+
+    Returns
+    -------
+    dict
+        A copy of ``options``, paths resolved; other models' options unchanged.
+    """
     options = dict(options)
     folder = path.parent.resolve()
     if model == "fmu" and isinstance(options.get("path"), str):
@@ -294,7 +330,7 @@ def _parse(path: Path) -> StudyFileModel:
     try:
         parsed = StudyFileModel.model_validate(raw)
     except ValidationError as exc:
-        messages = [_describe_error(path, error) for error in exc.errors()]
+        messages = [describe_validation_error(path, error) for error in exc.errors()]
         raise StudyFileError("; ".join(messages)) from None
     return parsed
 
@@ -362,7 +398,7 @@ def load_study_file(
     definitions = _parameter_definitions(path, parsed.parameters)
 
     model = parsed.model.name
-    options = _model_options(path, model, parsed.model.options)
+    options = resolve_option_paths(path, model, parsed.model.options)
     runs_code = False
     if ":" not in model:
         try:

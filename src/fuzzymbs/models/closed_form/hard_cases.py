@@ -2,8 +2,9 @@
 
 The reduced and extended transformation methods assume outputs monotonic in
 the parameters; the general and grid methods see the model only on their
-grids. Three closed-form models, each with its fuzzy parameters, break those
-assumptions the way multibody models do:
+grids. Three closed-form models, each with its fuzzy parameters (triangular, given
+as ``(lower, modal, upper)``), break those assumptions the way multibody
+models do:
 
 - :func:`bump3`: a scalar with an interior maximum off the centre of the box
   (three parameters);
@@ -17,6 +18,10 @@ assumptions the way multibody models do:
 level's box (the grid holds each box's corners and centre; its spacing error
 is stated there), :func:`fuzzymbs.fuzzy.band_scale.band_miss` the miss of a
 method against it.
+
+A model imports no part of the fuzzy engine: the parameters are plain numbers,
+which :func:`fuzzymbs.fuzzy.numbers.triangular_numbers` turns into fuzzy numbers
+for a plan or a study.
 """
 
 from __future__ import annotations
@@ -27,11 +32,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from fuzzymbs.fuzzy.numbers import FuzzyNumber, Triangular
+from fuzzymbs.errors import InvalidParameterError
 
-__all__ = ["HardCase", "bump3", "dense_truth", "hard_cases", "ringing3", "valley4"]
+__all__ = ["HardCase", "Triangle", "bump3", "dense_truth", "hard_cases", "ringing3", "valley4"]
 
 Model = Callable[[Mapping[str, NDArray[np.float64]]], dict[str, NDArray[np.float64]]]
+#: A triangular fuzzy number as ``(lower, modal, upper)``, in the parameter's unit.
+Triangle = tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -42,7 +49,8 @@ class HardCase:
     ----------
     name : short name.
     model : batched model, samples ``{name: (B,)}`` -> ``{output: (B, *shape)}``.
-    numbers : the fuzzy parameters.
+    triangles : the fuzzy parameters, each triangular as ``(lower, modal, upper)``
+        (``triangular_numbers(case.triangles)`` gives them as fuzzy numbers).
     grid : points per axis of :func:`dense_truth` (one count per parameter) that
         resolve the truth to about 0.1 % of the cut width (measured by halving the
         spacing, tests/fuzzy/test_hard_cases.py).
@@ -50,7 +58,7 @@ class HardCase:
 
     name: str
     model: Model
-    numbers: dict[str, FuzzyNumber]
+    triangles: dict[str, Triangle]
     grid: tuple[int, ...]
 
 
@@ -64,12 +72,8 @@ def bump3() -> HardCase:
     """``z = exp(-((x1-0.35)^2 + (x2+0.25)^2)/0.18) (1 + 0.4 x3) + 0.3 x1 - 0.2 x2``,
     ``x1, x2 ~ TFN(-1, 0, 1)``, ``x3 ~ TFN(0, 0.5, 1)``: the maximum lies inside every
     cut box of levels up to about 0.65, away from the corners and the centre."""
-    numbers = {
-        "x1": Triangular(-1.0, 0.0, 1.0),
-        "x2": Triangular(-1.0, 0.0, 1.0),
-        "x3": Triangular(0.0, 0.5, 1.0),
-    }
-    return HardCase("bump3", _bump, numbers, (81, 81, 81))
+    triangles = {"x1": (-1.0, 0.0, 1.0), "x2": (-1.0, 0.0, 1.0), "x3": (0.0, 0.5, 1.0)}
+    return HardCase("bump3", _bump, triangles, (81, 81, 81))
 
 
 #: ringing3's time grid: ten periods of the modal frequency (1 Hz), 201 points
@@ -89,14 +93,14 @@ def ringing3() -> HardCase:
     """``y(t) = A exp(-zeta 2 pi f t) cos(2 pi f t)`` on 0..10 s (201 points) with
     ``f ~ TFN(0.83, 1, 1.17) Hz``, ``zeta ~ TFN(0.015, 0.02, 0.025)``,
     ``A ~ TFN(0.9, 1, 1.1)``: at 10 s the phase spans 3.4 periods over the support."""
-    numbers = {
-        "frequency": Triangular(0.83, 1.0, 1.17),
-        "damping_ratio": Triangular(0.015, 0.02, 0.025),
-        "amplitude": Triangular(0.9, 1.0, 1.1),
+    triangles = {
+        "frequency": (0.83, 1.0, 1.17),
+        "damping_ratio": (0.015, 0.02, 0.025),
+        "amplitude": (0.9, 1.0, 1.1),
     }
     # y is linear in A and monotonic in zeta at fixed f and t: their ends and
     # centre suffice; the phase needs a fine frequency axis
-    return HardCase("ringing3", _ringing, numbers, (641, 5, 5))
+    return HardCase("ringing3", _ringing, triangles, (641, 5, 5))
 
 
 def _valley(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
@@ -107,13 +111,22 @@ def _valley(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.
 def valley4() -> HardCase:
     """``z = (x1 - x2/2)^2 + (x3 - x4/2)^2 + 0.2 x1 x3 + 0.1 x4``, all ``TFN(-1, 0, 1)``:
     the minimum lies on the valley floors x1 = x2/2, x3 = x4/2 that no corner touches."""
-    numbers = {k: Triangular(-1.0, 0.0, 1.0) for k in ("x1", "x2", "x3", "x4")}
-    return HardCase("valley4", _valley, numbers, (21, 21, 21, 21))
+    triangles = {k: (-1.0, 0.0, 1.0) for k in ("x1", "x2", "x3", "x4")}
+    return HardCase("valley4", _valley, triangles, (21, 21, 21, 21))
 
 
 def hard_cases() -> list[HardCase]:
     """The three cases, in the order bump3, ringing3, valley4."""
     return [bump3(), ringing3(), valley4()]
+
+
+def _cut(triangle: Triangle, mu: float) -> tuple[float, float]:
+    """The cut at ``mu`` as :class:`fuzzymbs.fuzzy.numbers.Triangular` gives it, bit for bit
+    (the truth's grid holds the very box corners a plan samples)."""
+    lower, modal, upper = triangle
+    if mu == 1.0:
+        return modal, modal
+    return min(lower + mu * (modal - lower), modal), max(upper - mu * (upper - modal), modal)
 
 
 def dense_truth(
@@ -134,13 +147,21 @@ def dense_truth(
         over the grid of that level's box, a lower bound of the true range with an
         error below the grid's resolution (the cases' defaults resolve it to about
         0.1 % of the cut width).
+
+    Raises
+    ------
+    InvalidParameterError
+        A level outside [0, 1].
     """
+    mus = np.atleast_1d(np.asarray(levels, dtype=float))
+    if not np.all((mus >= 0.0) & (mus <= 1.0)):
+        raise InvalidParameterError(f"levels must lie in [0, 1], got {mus.tolist()}")
     counts = [(c - 1) * int(refine) + 1 for c in case.grid]
-    names = list(case.numbers)
+    names = list(case.triangles)
     truth: dict[str, tuple[list, list]] = {}
-    for mu in np.atleast_1d(np.asarray(levels, dtype=float)):
+    for mu in mus:
         axes = [
-            np.linspace(*case.numbers[n].alpha_cut(float(mu)), c)
+            np.linspace(*_cut(case.triangles[n], float(mu)), c)
             for n, c in zip(names, counts, strict=True)
         ]
         low: dict[str, NDArray] = {}

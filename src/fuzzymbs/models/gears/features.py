@@ -29,9 +29,12 @@ the same positions.
 Sources of reference values (:func:`reference_features`): the potential-energy
 reference STE (all four features), ISO 6336-1 method B (``ste_mean`` and
 ``ste_single``) and MUBOCO-PR at its analytically identified modal values (all
-four). :func:`fuzzy_reference_features` turns their spread into triangular
-fuzzy numbers for an inverse fuzzy-arithmetic identification of
-``pinion_tooth_stiffness``, ``wheel_tooth_stiffness`` and ``contact_stiffness``.
+four). :func:`reference_feature_spread` gives their spread as triangular
+fuzzy numbers ``(lower, modal, upper)`` for an inverse fuzzy-arithmetic
+identification of ``pinion_tooth_stiffness``, ``wheel_tooth_stiffness`` and
+``contact_stiffness`` (plain numbers: a model imports no part of the fuzzy
+engine; :func:`fuzzymbs.fuzzy.numbers.triangular_numbers` turns them into fuzzy
+numbers).
 """
 
 from __future__ import annotations
@@ -43,7 +46,6 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.fuzzy.numbers import Triangular
 from fuzzymbs.models.gears.geometry import GearPair
 from fuzzymbs.models.gears.iso6336 import iso_pair_stiffness
 from fuzzymbs.models.gears.model import MubocoPR
@@ -53,7 +55,7 @@ __all__ = [
     "FEATURES",
     "SteFeatureModel",
     "contact_zones",
-    "fuzzy_reference_features",
+    "reference_feature_spread",
     "reference_features",
     "ste_features",
 ]
@@ -338,7 +340,7 @@ def reference_features(
     }
 
 
-def fuzzy_reference_features(
+def reference_feature_spread(
     pair: GearPair | None = None,
     torque: float = 100.0,
     positions: int = 120,
@@ -347,7 +349,7 @@ def fuzzy_reference_features(
     margin: float = DEFAULT_MARGIN,
     references: Mapping[str, Mapping[str, float]] | None = None,
     modal_source: str = "model",
-) -> dict[str, Triangular]:
+) -> dict[str, tuple[float, float, float]]:
     """The spread of the references as triangular fuzzy numbers, one per feature.
 
     Modal value: the feature of ``modal_source`` (the model at its identified
@@ -366,7 +368,9 @@ def fuzzy_reference_features(
     Returns
     -------
     dict
-        ``feature -> Triangular(lower, modal, upper)`` [m], in :data:`FEATURES` order.
+        ``feature -> (lower, modal, upper)`` [m], in :data:`FEATURES` order: a
+        triangular fuzzy number (``triangular_numbers`` of :mod:`fuzzymbs.fuzzy.numbers`
+        builds it).
     """
     if references is None:
         if pair is None:
@@ -385,5 +389,5 @@ def fuzzy_reference_features(
     result = {}
     for name in FEATURES:
         values = [float(src[name]) for src in references.values() if name in src]
-        result[name] = Triangular(min(values), float(modal[name]), max(values))
+        result[name] = (min(values), float(modal[name]), max(values))
     return result
