@@ -52,7 +52,8 @@ def test_demo_writes_results_plots_and_summary(demo_out):
         # monotonic: the method check (24 validation runs for 17 runs: the default's
         # floor of 12 per parameter) finds round-off
         assert ds.attrs["validation_runs"] == 24 and ds.attrs["method_error"] < 1e-12
-    assert "Method check: 24 validation runs" in (demo_out / "product" / "summary.txt").read_text()
+    summary = (demo_out / "product" / "summary.txt").read_text()
+    assert "(from 24 sampled validation runs); no miss above the tolerance 1 %" in summary
 
 
 def test_method_check_reaches_the_cli_user(tmp_path, monkeypatch):
@@ -79,7 +80,8 @@ def test_method_check_reaches_the_cli_user(tmp_path, monkeypatch):
     assert result.exit_code == 0, result.output
     assert "validation run" in " ".join(result.output.split())
     summary = (tmp_path / "o" / "summary.txt").read_text()
-    assert "method error 7.69 % of the cut's width, EXCEEDS" in summary
+    assert "method error at least 7.69 % of the cut width (from 36 sampled" in summary
+    assert "validation runs), EXCEEDS the tolerance 1 %" in summary
 
 
 def test_sparse_demo_matches_closed_form_and_a_dense_search(demo_out):

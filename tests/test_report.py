@@ -64,7 +64,10 @@ def test_verdicts_against_the_tolerances(oscillator):
     )
     found = {check.name: check for check in checks(dataset)}
     assert found["status"].verdict == "pass"
-    assert found["method error"].verdict == "pass" and "0.4 %" in found["method error"].text
+    # from 3 sampled validation runs: a lower bound, never a plain pass
+    method = found["method error"]
+    assert method.verdict == "sampled" and "at least 0.4 % of the cut width" in method.text
+    assert "(from 3 sampled validation runs)" in method.text
     integration = found["time-integration error"]
     assert integration.verdict == "fail" and "2 % of the cut width" in integration.text
     assert "EXCEEDS the tolerance 1 %" in integration.text

@@ -31,6 +31,7 @@ def test_user_guide_examples_run(capsys):
     # validation runs: the first edge probe finds the valley floor, 1/12 of the mu = 0 cut
     # (reduced [0.25, 3.25] against the true [0, 3.25])
     assert namespace["miss"].max() == __import__("pytest").approx(0.25 / 3.0, rel=1e-12)
+    assert namespace["check"].bound == "lower"  # sampled: a lower bound of the miss
     # symmetric triangles: (m+1)^n + m^n = 189 unique of sum_k k^n = 225 (docs/theory.md)
     assert len(namespace["general"]) == 189
     assert namespace["general"].points_without_reuse == 225

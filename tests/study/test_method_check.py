@@ -173,7 +173,7 @@ def test_failed_validation_runs_are_reported_and_left_out():
     assert check["failed"] > 0 and len(check["failure_reasons"]) == check["failed"]
     assert result.dataset["validation_failed"].values.sum() == check["failed"]
     assert np.isfinite(result.dataset.attrs["method_error"])  # from the runs that worked
-    assert f"({check['failed']} failed)" in result.summary()
+    assert f"validation runs; {check['failed']} more failed)" in result.summary()
 
 
 def test_validation_runs_are_stored_and_resumed(tmp_path):

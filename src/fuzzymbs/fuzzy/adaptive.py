@@ -49,7 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidPlanError, ModelOutputError
-from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR
+from fuzzymbs.fuzzy.band_scale import CERTIFIED, WIDTH_FLOOR
 from fuzzymbs.fuzzy.box_search import box_extremes
 from fuzzymbs.fuzzy.chebyshev_grid import (
     ChebyshevSparseGrid,
@@ -135,6 +135,9 @@ class AdaptiveOutcome:
     pair_sum : dict of str to ndarray
         Per output, (n, L, E) corner sums of the surrogate at every cut box's
         corners (``sum_s sign_i(s) s(corner_s) / 2^(n-1)``): the gain factors' numerators.
+    bound : str
+        :data:`~fuzzymbs.fuzzy.band_scale.CERTIFIED`: ``error`` is the estimate the
+        refinement certifies, not a sampled check's lower bound.
     """
 
     lower: dict[str, NDArray[np.float64]]
@@ -145,6 +148,7 @@ class AdaptiveOutcome:
     runs: int
     rounds: int
     pair_sum: dict[str, NDArray[np.float64]]
+    bound: str = CERTIFIED
 
 
 class AdaptiveTransformation:

@@ -321,11 +321,12 @@ class AdaptivePlan:
         return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()
 
     def attrs(self) -> dict[str, Any]:
-        """Result attributes: ``method_error``, ``method_tolerance``, ``method_converged``,
-        ``adaptive_runs``, ``adaptive_rounds``."""
+        """Result attributes: ``method_error``, ``method_error_bound`` (``"certified"``),
+        ``method_tolerance``, ``method_converged``, ``adaptive_runs``, ``adaptive_rounds``."""
         outcome = self.outcome()
         return {
             "method_error": float(outcome.error),
+            "method_error_bound": outcome.bound,
             "method_tolerance": float(self.method_tolerance),
             "method_converged": int(outcome.converged),
             "adaptive_runs": int(outcome.runs),

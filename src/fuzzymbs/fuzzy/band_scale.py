@@ -9,6 +9,11 @@ cut of that output at that level,
 so that elements where every run agrees (a signal's start) do not turn
 round-off into large ratios, while a band a few tenths of a per cent of the
 peak wide is still judged on its own width.
+
+A method error on this scale is one of two kinds (:data:`LOWER_BOUND`,
+:data:`CERTIFIED`): the fixed methods' check runs the model at sampled points and can
+only show that the miss is at least what those points reach; the adaptive method's
+estimate is certified by its own refinement rounds.
 """
 
 from __future__ import annotations
@@ -18,10 +23,21 @@ import warnings
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["WIDTH_FLOOR", "band_miss", "level_widest", "width_relative"]
+__all__ = [
+    "CERTIFIED",
+    "LOWER_BOUND",
+    "WIDTH_FLOOR",
+    "band_miss",
+    "level_widest",
+    "width_relative",
+]
 
 #: floor of the local cut width, as a fraction of the widest cut of that output and level
 WIDTH_FLOOR = 0.1
+#: kind of a method error found by sampled validation runs: the true miss is at least it
+LOWER_BOUND = "lower"
+#: kind of the adaptive method's error estimate: certified by its refinement rounds
+CERTIFIED = "certified"
 
 
 def level_widest(width: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -25,7 +25,9 @@ validation runs), is the method's miss that the check found; the study's
 (:meth:`MethodSearch.outcome`). It is the formula of the true miss against
 dense-grid truth (:func:`~fuzzymbs.fuzzy.band_scale.band_miss`) with the
 validation runs in place of the truth, so it is at most the true miss where
-the method's cut lies inside the true one. :func:`excursions` reads each
+the method's cut lies inside the true one: a lower bound of the miss
+(:attr:`SearchOutcome.bound` is :data:`~fuzzymbs.fuzzy.band_scale.LOWER_BOUND`), since
+a sample can show that a cut is missed but never that it is not. :func:`excursions` reads each
 run's own excursion on the method's cut width (a diagnostic).
 
 The points, ``count`` in all, in :data:`ROUNDS` rounds (:class:`MethodSearch`;
@@ -71,6 +73,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidPlanError
+from fuzzymbs.fuzzy.band_scale import LOWER_BOUND
 from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.transform import Plan
 from fuzzymbs.fuzzy.validation_points import (
@@ -185,7 +188,8 @@ class SearchOutcome:
     Attributes
     ----------
     points : every validation point of every round, in evaluation order.
-    error : largest miss over outputs, levels and elements (NaN: nothing checked).
+    error : largest miss over outputs, levels and elements (NaN: nothing checked): a
+        lower bound of the method's true miss, which can be larger.
     per_output : output -> its largest miss.
     worst : output, level index, point index and element (flat index) of the largest
         miss, or None.
@@ -194,6 +198,8 @@ class SearchOutcome:
         of each level's box (inf / -inf where no point).
     outputs : output -> (V, *shape) the validation outputs, when kept.
     rounds : points per round.
+    bound : :data:`~fuzzymbs.fuzzy.band_scale.LOWER_BOUND`: ``error`` comes from sampled
+        validation runs, so the true miss is at least ``error``.
     """
 
     points: ValidationPoints
@@ -205,6 +211,7 @@ class SearchOutcome:
     high: dict[str, NDArray[np.float64]]
     outputs: dict[str, NDArray[np.float64]] | None
     rounds: list[int]
+    bound: str = LOWER_BOUND
 
 
 class MethodSearch:

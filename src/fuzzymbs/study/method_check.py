@@ -6,7 +6,10 @@ runs by default, at least 12 per parameter; ``validation_runs`` sets the number,
 turns the check off), reduced as they arrive, and compares their range with the
 retransformed cuts: the largest part of it outside a level's cut, on the cut-width
 scale, is the study's ``method_error`` (dataset attribute; per output in the
-provenance; printed in summary.txt). Above ``method_tolerance`` (default 1 %)
+provenance; printed in summary.txt). The runs are a sample, so it is a lower bound
+(``method_error_bound = "lower"``): the method misses at least that much, possibly
+more, and a result within the tolerance says only that no run found a larger miss.
+Above ``method_tolerance`` (default 1 %)
 the study warns with a :class:`~fuzzymbs.fuzzy.retransform.NonMonotonicWarning`
 naming the output, the level and the parameters of the worst point. Each run's
 excursion is kept in the result (``o_validation_excursion``), the runs' outputs
@@ -23,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from fuzzymbs.fuzzy.band_scale import LOWER_BOUND
 from fuzzymbs.fuzzy.retransform import NonMonotonicWarning
 from fuzzymbs.fuzzy.validation import SearchOutcome, ValidationPoints
 
@@ -63,12 +67,14 @@ class MethodCheck:
     runs, failed : validation runs made and how many of them failed.
     rounds : validation runs per round.
     error : largest miss over outputs, levels and elements, on the cut-width scale
-        (NaN: no validation run could be checked).
+        (NaN: no validation run could be checked); a lower bound of the true miss.
     tolerance : the study's ``method_tolerance``.
     per_output : output -> its largest miss.
     worst : where the largest miss is (output, level, parameter values, element), or None.
     widened : the bounds were widened with the validation outputs.
     excursion : output -> (V,) each point's largest excursion over the elements.
+    bound : :data:`~fuzzymbs.fuzzy.band_scale.LOWER_BOUND`: ``error`` comes from sampled
+        validation runs, so the true miss is at least ``error`` and can be larger.
     """
 
     runs: int
@@ -80,11 +86,13 @@ class MethodCheck:
     worst: dict[str, Any] | None
     widened: bool
     excursion: dict[str, np.ndarray] = field(repr=False)
+    bound: str = LOWER_BOUND
 
     def to_attrs(self) -> dict[str, Any]:
-        """Dataset attributes (NetCDF-safe numbers)."""
+        """Dataset attributes (NetCDF-safe numbers and strings)."""
         return {
             "method_error": float(self.error),
+            "method_error_bound": self.bound,
             "method_tolerance": float(self.tolerance),
             "validation_runs": int(self.runs),
         }
@@ -96,6 +104,7 @@ class MethodCheck:
             "failed": self.failed,
             "rounds": list(self.rounds),
             "error": self.error,
+            "bound": self.bound,
             "tolerance": self.tolerance,
             "per_output": self.per_output,
             "worst": self.worst,
@@ -151,6 +160,7 @@ def check_method(
         worst=worst,
         widened=bool(validation.widen),
         excursion=dict(outcome.point_excursion),
+        bound=outcome.bound,
     )
     if worst is not None and error > tolerance:
         where = ", ".join(f"{k}={v:.6g}" for k, v in worst["parameters"].items())

@@ -25,8 +25,10 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
            time_integration_worst, time_integration_tolerance, time_integration,
            time_integration_note;
            with validation runs: method_error (largest excursion of a validation run
-           beyond its level's cut, relative to the cut's width), method_tolerance,
-           validation_runs
+           beyond its level's cut, relative to the cut's width), method_error_bound
+           ("lower": the runs are a sample, so the method's miss is at least
+           method_error), method_tolerance, validation_runs; the adaptive method:
+           method_error with method_error_bound "certified" (its own estimate)
     o_validation                   (validation, *dims)  outputs of the validation runs (kept
                                    as the raw outputs are: by default up to 64 MiB)
     o_validation_excursion         (validation)     each run's excursion / cut width
@@ -299,7 +301,8 @@ def build_dataset(
     ``validation``: the study's validation runs (:mod:`fuzzymbs.study.method_check`):
     variables ``o_validation``, ``o_validation_excursion``, ``validation_samples``,
     ``validation_level``, ``validation_failed``, attributes ``method_error``,
-    ``method_tolerance``, ``validation_runs``; None when the check is off.
+    ``method_error_bound``, ``method_tolerance``, ``validation_runs``; None when the check
+    is off.
     """
     import xarray
 

@@ -139,9 +139,10 @@ class Study(StudyRuns):
         points inside the cut boxes that no run of the method covers, in four
         rounds (edge probes and Halton points, then a local search from the
         points that give the bounds), compared with the retransformed cuts
-        (``method_error``). Default: a fifth of the method's runs, at least 12
-        per fuzzy parameter. 0 turns the check off (for a model known to be
-        monotonic, or when every run counts).
+        (``method_error``, a lower bound of the method's miss since the runs are a
+        sample: ``method_error_bound = "lower"``). Default: a fifth of the method's
+        runs, at least 12 per fuzzy parameter. 0 turns the check off (for a model
+        known to be monotonic, or when every run counts).
     method_tolerance : float
         Method ``"adaptive"``: the certified error (cut-width scale) at which its rounds
         stop. The fixed methods: the largest method error (the validation runs' range

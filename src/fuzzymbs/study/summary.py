@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import json
-from typing import TYPE_CHECKING
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from fuzzymbs.fuzzy.band_scale import CERTIFIED, LOWER_BOUND
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray
@@ -13,6 +16,62 @@ if TYPE_CHECKING:  # pragma: no cover
 
 def _fmt(value: float) -> str:
     return "nan" if not np.isfinite(value) else f"{value:.6g}"
+
+
+def method_error_bound(attrs: Mapping[str, Any]) -> str:
+    """What a result's ``method_error`` is: ``"lower"`` (a lower bound from sampled
+    validation runs: the fixed methods) or ``"certified"`` (the adaptive method).
+
+    Parameters
+    ----------
+    attrs : mapping
+        The result dataset's attributes.
+
+    Returns
+    -------
+    str
+        The attribute ``method_error_bound``; for a result written before it, certified
+        for the adaptive method and a lower bound for every other.
+    """
+    if "method_error_bound" in attrs:
+        return str(attrs["method_error_bound"])
+    return CERTIFIED if "adaptive_runs" in attrs else LOWER_BOUND
+
+
+def sampled_method_error(
+    error: float, tolerance: float, compared: int, failed: int = 0
+) -> tuple[bool, str]:
+    """The words for a method error found by sampled validation runs.
+
+    A sample can show a miss but not its absence, so the error reads "at least", and a
+    result within the tolerance is what the sample showed, never a plain pass.
+
+    Parameters
+    ----------
+    error, tolerance : float
+        The method error and the study's ``method_tolerance`` (cut-width scale).
+    compared : int
+        Validation runs compared with the cuts; failed : int, those that failed besides.
+
+    Returns
+    -------
+    exceeds : bool
+        The error is above the tolerance (then the method fails it for certain).
+    text : str
+        "at least X % of the cut width (from N sampled validation runs)" and the verdict.
+    """
+    exceeds = bool(error > tolerance)
+    more = f"; {failed} more failed" if failed else ""
+    found = (
+        f"at least {100 * error:.3g} % of the cut width "
+        f"(from {compared} sampled validation runs{more})"
+    )
+    if exceeds:
+        return True, f"{found}, EXCEEDS the tolerance {100 * tolerance:.3g} %"
+    return False, (
+        f"{found}; no miss above the tolerance {100 * tolerance:.3g} % in {compared} "
+        "sampled points (a lower bound; the error can be larger)"
+    )
 
 
 def _adaptive_line(attrs: dict) -> str:
@@ -30,7 +89,7 @@ def _adaptive_line(attrs: dict) -> str:
 
 def _method_line(attrs: dict, provenance: dict) -> str:
     """The method check's line: validation runs, method error, worst point."""
-    if "adaptive_runs" in attrs:
+    if method_error_bound(attrs) == CERTIFIED:
         return _adaptive_line(attrs)
     check = provenance.get("method_check", {})
     runs = int(attrs["validation_runs"])
@@ -40,11 +99,8 @@ def _method_line(attrs: dict, provenance: dict) -> str:
     head = f"Method check: {runs} validation runs" + (f" ({failed} failed)" if failed else "")
     if not np.isfinite(error):
         return f"{head}; NOT CHECKED: no validation run could be compared"
-    verdict = "within" if error <= tolerance else "EXCEEDS"
-    line = (
-        f"{head}; method error {100 * error:.3g} % of the cut's width, {verdict} the "
-        f"tolerance {100 * tolerance:.3g} %"
-    )
+    _, text = sampled_method_error(error, tolerance, runs - failed, failed)
+    line = f"Method check: method error {text}"
     worst = check.get("worst")
     if worst and error > 0:
         where = ", ".join(f"{k}={_fmt(v)}" for k, v in worst["parameters"].items())
