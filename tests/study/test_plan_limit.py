@@ -46,7 +46,7 @@ def test_study_default_limit_is_the_engines():
 
 def test_study_refuses_the_issues_plans_before_building_them():
     error = _refusal(lambda: Study(total, TWELVE, method="general", levels=4))
-    assert "up to 261,453,379 model runs" in str(error) and "'reduced' 16,385" in str(error)
+    assert "needs 260,917,841 model runs" in str(error) and "'reduced' 16,385" in str(error)
     error = _refusal(lambda: Study(total, TWELVE, method="reduced", levels=1_000_000))
     assert "with levels = 10: 'reduced' 40,961" in str(error)
     # "auto": the screening and the reduced corners the extended plan holds at least

@@ -10,12 +10,16 @@ intermediate levels or building any sample array; :func:`check_run_limit`
 refuses a plan beyond ``max_runs`` with the counts of the cheaper methods.
 Derivations: docs/theory.md, "Sampling schemes and their counts".
 
-The counts treat two sample points as the same run only where the scheme makes
-them equal by construction: the same cut bound (flat branches, the point core),
-the core midpoint that is the all-modal value. Values that coincide by
+The closed forms treat two sample points as the same run only where the scheme
+makes them equal by construction: the same cut bound (flat branches, the point
+core), the core midpoint that is the all-modal value. Values that coincide by
 accident of their numbers (the midpoints of a symmetric number in the general
-method, cut bounds rounding to the same float) merge further: ``run_count`` is
-then an upper bound, never below ``len(plan(...))``.
+method, cut bounds rounding to the same float) merge further, so for the
+reduced, extended, general and grid methods ``run_count`` counts the distinct
+points of the builder's own value sets
+(:func:`~fuzzymbs.fuzzy.level_values.union_size`, linear in the parameters):
+exactly ``len(plan(...))``. Only beyond ``_EXACT_CUTS`` parameters x levels does
+the closed form, an upper bound never below ``len(plan(...))``, stand in.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from fuzzymbs.errors import InvalidPlanError, PlanTooLargeError
+from fuzzymbs.fuzzy.level_values import level_value_sets, union_size
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.plan_options import METHODS, checked_parameters, make_levels, sparse_options
 from fuzzymbs.fuzzy.sparse_grid import node_count, nodes_1d
@@ -195,34 +200,49 @@ def _grid_count(shapes: list[_Shape], steps: int) -> int:
     return _product(s.bounds(steps) for s in shapes) + int(modal_extra)
 
 
-def _sparse_count(shapes: list[_Shape], level: int) -> int:
+def _sparse_count(shapes: list[_Shape], level: int) -> tuple[int, bool]:
     """Runs of a sparse plan: Smolyak nodes mapped to the support box, plus the modal point.
 
     A crisp parameter whose support maps every 1-D node onto its value drops
     out of the grid (the nodes project onto a grid of the same level in the
     other parameters). The modal point is a node when every parameter's modal
     value is a mapped 1-D node of level ``l_i`` and ``sum (l_i - 1) <= level``.
+    Vectorised over the parameters: linear in n.
+
+    Returns
+    -------
+    count : int
+    exact : bool
+        False where a support so narrow that two of its mapped 1-D nodes round to
+        the same float (but not all of them) merges nodes: then an upper bound.
     """
-    if level <= _MODAL_SEARCH_LEVEL:
+    searched = level <= _MODAL_SEARCH_LEVEL
+    if searched:
         unit, first_level = nodes_1d(level)
     else:  # only the midpoint is looked at: an upper bound if the modal point is another node
         unit, first_level = np.array([0.5]), np.array([1])
-    dimension = 0
-    budget = 0
-    modal_is_node = True
-    for s in shapes:
-        # the same arithmetic as Plan.to_parameter_space
-        mapped = s.support_lower * (1.0 - unit) + s.support_upper * unit
-        if s.crisp and level <= _MODAL_SEARCH_LEVEL and np.all(mapped == s.modal):
-            continue  # the whole axis collapses onto the crisp value
-        dimension += 1
-        hits = first_level[mapped == s.modal]
-        if hits.size == 0:
-            modal_is_node = False
-        else:
-            budget += int(hits.min()) - 1
-    modal_is_node = modal_is_node and budget <= level
-    return node_count(dimension, level) + (0 if modal_is_node else 1)
+    table = np.array([(s.support_lower, s.support_upper, s.modal, s.crisp) for s in shapes])
+    low, high, modal, crisp = table[:, 0:1], table[:, 1:2], table[:, 2:3], table[:, 3] > 0
+    # the same arithmetic as Plan.to_parameter_space
+    mapped = low * (1.0 - unit) + high * unit
+    collapsed = crisp & np.all(mapped == modal, axis=1) if searched else np.zeros(len(shapes), bool)
+    dimension = int(np.count_nonzero(~collapsed))
+    hits = mapped == modal
+    has_hit = hits.any(axis=1)
+    first_hit = np.where(hits, first_level[None, :], np.iinfo(np.int64).max).min(axis=1)
+    kept = ~collapsed
+    modal_is_node = bool(np.all(has_hit[kept])) and int((first_hit[kept] - 1).sum()) <= level
+    exact = True
+    if searched and len(unit) > 1:
+        ordered = np.sort(mapped[kept], axis=1)
+        exact = bool(np.all(ordered[:, 1:] != ordered[:, :-1]))
+    return node_count(dimension, level) + (0 if modal_is_node else 1), exact
+
+
+#: exact counts of the level schemes build each parameter's value sets: at most this
+#: many cuts (parameters x levels), and this many values over all parameters and levels
+_EXACT_CUTS = 100_000
+_EXACT_VALUES = 2_000_000
 
 
 def _count(
@@ -232,14 +252,37 @@ def _count(
     steps: int,
     nonmonotonic: tuple[str, ...],
     sparse_level: int | None,
-) -> int:
+) -> tuple[int, bool]:
+    """The closed-form count and whether it is exact (else an upper bound)."""
     if method == "sparse":
         assert sparse_level is not None
         return _sparse_count(shapes, sparse_level)
     if method == "grid":
-        return _grid_count(shapes, steps)
+        return _grid_count(shapes, steps), False
     interior = [method == "general" or name in nonmonotonic for name in names]
-    return _level_scheme_count(shapes, interior, steps)
+    return _level_scheme_count(shapes, interior, steps), False
+
+
+def _exact_level_count(
+    numbers: tuple[FuzzyNumber, ...],
+    levels: int | ArrayLike,
+    method: str,
+    interior: list[bool],
+    steps: int,
+) -> int | None:
+    """``len(plan(...))`` of a level scheme from the builder's own value sets, or None when
+    computing them would cost more than :data:`_EXACT_CUTS` / :data:`_EXACT_VALUES`."""
+    count_levels = steps + 1
+    per_level = steps + 2 if any(interior) or method == "grid" else 2
+    if (
+        len(numbers) * count_levels > _EXACT_CUTS
+        or len(numbers) * count_levels * per_level > _EXACT_VALUES
+    ):
+        return None
+    mu = make_levels(levels)
+    cuts = np.stack([number.cuts(mu) for number in numbers], axis=1)
+    values = level_value_sets(cuts[:, :, 0], cuts[:, :, 1], method, interior)
+    return union_size(values, [number.modal for number in numbers])
 
 
 class _Request(NamedTuple):
@@ -251,15 +294,11 @@ class _Request(NamedTuple):
     steps: int
     nonmonotonic: tuple[str, ...]
     sparse_level: int | None
-
-    @property
-    def upper_bound(self) -> bool:
-        """Whether symmetric numbers may merge points the count keeps apart (general points)."""
-        return self.method == "general" or (
-            self.method == "extended" and len(self.nonmonotonic) == len(self.names)
-        )
+    numbers: tuple[FuzzyNumber, ...]
+    levels: int | ArrayLike
 
     def count(self, method: str | None = None, **changes: Any) -> int:
+        """The closed-form count of this or another method (alternatives in a refusal)."""
         method = method or self.method
         return _count(
             self.shapes,
@@ -268,7 +307,30 @@ class _Request(NamedTuple):
             changes.get("steps", self.steps),
             changes.get("nonmonotonic", self.nonmonotonic if method == "extended" else ()),
             changes.get("sparse_level", self.sparse_level if method == "sparse" else None),
+        )[0]
+
+    def exact_count(self) -> tuple[int, bool]:
+        """The plan's own count and whether it is exact (else an upper bound).
+
+        The level schemes count the distinct points of the builder's value sets
+        (:func:`~fuzzymbs.fuzzy.level_values.union_size`), where the closed form
+        would miss points that coincide by accident of the numbers (the general
+        method's midpoints of symmetric numbers); for absurdly many levels the
+        closed form, an upper bound, stands in.
+        """
+        count, exact = _count(
+            self.shapes,
+            self.names,
+            self.method,
+            self.steps,
+            self.nonmonotonic,
+            self.sparse_level,
         )
+        if exact or self.method == "sparse":
+            return count, exact
+        interior = [self.method == "general" or name in self.nonmonotonic for name in self.names]
+        found = _exact_level_count(self.numbers, self.levels, self.method, interior, self.steps)
+        return (count, False) if found is None else (found, True)
 
 
 def _request(
@@ -303,7 +365,14 @@ def _request(
     sparse_level, _ = sparse_options(method, len(names), sparse_level, None)
     shapes = [_shape(number) for number in numbers.values()]
     return _Request(
-        names, shapes, method, steps, tuple(n for n in names if n in named), sparse_level
+        names,
+        shapes,
+        method,
+        steps,
+        tuple(n for n in names if n in named),
+        sparse_level,
+        tuple(numbers.values()),
+        levels,
     )
 
 
@@ -316,12 +385,15 @@ def run_count(
     *,
     max_runs: int | None = None,
 ) -> int:
-    """Model runs of ``plan(parameters, method, levels, ...)``, in closed form, before building it.
+    """Model runs of ``plan(parameters, method, levels, ...)``, before building it.
 
-    Reads each parameter's support and core only: no intermediate cut and no
-    sample array is computed, so absurd requests (``levels = 10**6``, dozens of
-    parameters) cost microseconds. With n parameters, m level steps, p of them
-    with a point core and q = n - p with an interval core (all branches sloped):
+    No sample array is computed. The level schemes count the distinct points of
+    the builder's value sets (each parameter's cuts at every level; linear in the
+    parameters and levels); beyond 100,000 parameters x levels, and for the
+    sparse method, closed forms that read each parameter's support and core only
+    stand in, so absurd requests (``levels = 10**6``) cost microseconds. The
+    closed forms, with n parameters, m level steps, p of them with a point core
+    and q = n - p with an interval core (all branches sloped):
 
     - reduced: ``m 2^n + 2^q + [q > 0]``
     - extended (K named, k of them with a point core): ``2^(n-|K|) sum_(j=1)^m
@@ -347,11 +419,11 @@ def run_count(
     Returns
     -------
     int
-        ``len(plan(...))`` exactly when no two points coincide except by
-        construction; an upper bound otherwise. Symmetric numbers in the
-        general method (and the extended method's interior points when no other
-        parameter separates the levels) are the usual case: their midpoints
-        recur at lower levels and are run once.
+        ``len(plan(...))``, also where points coincide by accident of their
+        numbers (symmetric numbers in the general method: their midpoints
+        recur at lower levels and are run once). An upper bound only where the
+        closed form stands in for absurdly many levels, or for a sparse
+        support so narrow that two of its mapped nodes round to the same float.
 
     Raises
     ------
@@ -378,7 +450,7 @@ def run_count(
             f"{method!r} method's count follows from the parameters and levels"
         )
     request = _request(parameters, method, levels, nonmonotonic, sparse_level)
-    return request.count()
+    return request.exact_count()[0]
 
 
 def _adaptive_budget(
@@ -601,11 +673,9 @@ def check_run_limit(
         # the grid holds a 1-D axis of 2^level + 1 nodes: refuse without the exact count
         runs = 2**request.sparse_level + 1
         _refuse(request, runs, limit, _what(request, levels), "more than ")
-    runs = request.count()
+    runs, exact = request.exact_count()
     if limit is not None:
-        _refuse(
-            request, runs, limit, _what(request, levels), "up to " if request.upper_bound else ""
-        )
+        _refuse(request, runs, limit, _what(request, levels), "" if exact else "up to ")
     return runs
 
 

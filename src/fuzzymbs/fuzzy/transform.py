@@ -49,12 +49,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidPlanError, ModelOutputError, UnsupportedOperationError
 from fuzzymbs.fuzzy.grids import cartesian, unique_rows
+from fuzzymbs.fuzzy.level_values import level_value_sets
 from fuzzymbs.fuzzy.model_calls import evaluate_table
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.plan_options import METHODS, checked_parameters, make_levels, sparse_options
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_run_limit, run_count
 from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning, retransform
-from fuzzymbs.fuzzy.sparse_grid import SparseGrid
+from fuzzymbs.fuzzy.sparse_grid import SparseGrid, nodes_1d
 
 __all__ = [
     "ALL_METHODS",
@@ -72,30 +73,54 @@ __all__ = [
 ALL_METHODS: tuple[str, ...] = (*METHODS, "adaptive")
 
 
-def _general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]:
-    """Per-level point sets P_j of one parameter for the general method (Hanss 2002)."""
-    top = len(lower) - 1
-    current = np.unique(np.array([lower[top], upper[top]]))
-    points: list[NDArray[np.float64]] = [current]
-    built = current  # every value of the levels above, sorted
-    # a midpoint that equals a value of a level above up to rounding is that value: for
-    # a number symmetric about its core and evenly spaced levels, P_j's inner points are
-    # P_(j+2) (Hanss's count), which rounding at non-dyadic levels would otherwise split
-    scale = 8.0 * np.finfo(np.float64).eps * float(np.max(np.abs([lower, upper])))
-    for j in range(top - 1, -1, -1):
-        inner = 0.5 * (current[:-1] + current[1:])
-        nearest = np.clip(np.searchsorted(built, inner), 1, len(built)) - 1
-        for offset in (0, 1):
-            candidate = built[np.minimum(nearest + offset, len(built) - 1)]
-            inner = np.where(np.abs(candidate - inner) <= scale, candidate, inner)
-        current = np.concatenate(([lower[j]], inner, [upper[j]]))
-        built = np.unique(np.concatenate((built, current)))
-        points.append(current)
-    return points[::-1]
+def _first_equal(table: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Per row, the first column holding the same value (exact float equality) as each column."""
+    order = np.argsort(table, axis=1, kind="stable")
+    ordered = np.take_along_axis(table, order, axis=1)
+    starts = np.zeros(table.shape, dtype=np.intp)
+    columns = np.arange(table.shape[1])
+    starts[:, 1:] = np.where(ordered[:, 1:] != ordered[:, :-1], columns[1:], 0)
+    # stable sort: the first column of a run of equal values is the smallest one
+    first = np.take_along_axis(order, np.maximum.accumulate(starts, axis=1), axis=1)
+    result = np.empty_like(order)
+    np.put_along_axis(result, order, first, axis=1)
+    return result
 
 
-def _corner_values(lower: NDArray, upper: NDArray, j: int) -> NDArray[np.float64]:
-    return np.array([lower[j], upper[j]])
+def _entry_keys(
+    dims: NDArray[np.intp], values: NDArray[np.intp], count_parameters: int
+) -> NDArray[np.float64]:
+    """Rows (dim, value) of the entries kept (dim < n), by increasing dim, padded with (n, -1)."""
+    order = np.argsort(dims, axis=1, kind="stable")
+    dims = np.take_along_axis(dims, order, axis=1)
+    values = np.where(dims < count_parameters, np.take_along_axis(values, order, axis=1), -1)
+    keys = np.empty((len(dims), 2 * dims.shape[1]))
+    keys[:, 0::2] = dims
+    keys[:, 1::2] = values
+    return keys
+
+
+def _modal_key(
+    table: NDArray[np.float64],
+    canonical: NDArray[np.intp],
+    middle: int,
+    modal: NDArray[np.float64],
+    width: int,
+) -> NDArray[np.float64]:
+    """The modal point's entry key if it may be a node (every value a mapped node), else -2s."""
+    count_parameters = len(modal)
+    hits = table == modal[:, None]
+    if not hits.any(axis=1).all():
+        return np.full(width, -2.0)
+    position = canonical[np.arange(count_parameters), hits.argmax(axis=1)]
+    off = np.nonzero(position != canonical[:, middle])[0]
+    if 2 * len(off) > width:  # more coordinates off the centre than any node has
+        return np.full(width, -2.0)
+    dims = np.full((1, width // 2), count_parameters, dtype=np.intp)
+    values = np.full((1, width // 2), -1, dtype=np.intp)
+    dims[0, : len(off)] = off
+    values[0, : len(off)] = position[off]
+    return _entry_keys(dims, values, count_parameters)[0]
 
 
 class Plan:
@@ -229,30 +254,8 @@ class Plan:
     # ----------------------------------------------------------------- building
     def _level_values(self) -> list[list[NDArray[np.float64]]]:
         """values[j][i]: the coordinates parameter i takes at level j (all combined)."""
-        count_levels, count_parameters = self.cut_lower.shape
-        low, high = self.cut_lower, self.cut_upper
-        if self.method == "reduced":
-            return [
-                [_corner_values(low[:, i], high[:, i], j) for i in range(count_parameters)]
-                for j in range(count_levels)
-            ]
-        if self.method == "general" or self.method == "extended":
-            general = [_general_points(low[:, i], high[:, i]) for i in range(count_parameters)]
-            interior = [
-                self.method == "general" or name in self.nonmonotonic for name in self.names
-            ]
-            return [
-                [
-                    general[i][j] if interior[i] else _corner_values(low[:, i], high[:, i], j)
-                    for i in range(count_parameters)
-                ]
-                for j in range(count_levels)
-            ]
-        # grid: all cut bounds of levels j..m
-        return [
-            [np.unique(np.concatenate((low[j:, i], high[j:, i]))) for i in range(count_parameters)]
-            for j in range(count_levels)
-        ]
+        interior = [name in self.nonmonotonic for name in self.names]
+        return level_value_sets(self.cut_lower, self.cut_upper, self.method, interior)
 
     def _build(self) -> None:
         if self.method == "sparse":
@@ -287,24 +290,59 @@ class Plan:
             self._corner_index = self._corners()
 
     def _build_sparse(self) -> None:
-        """Modal point first, then the sparse-grid nodes mapped to the support box."""
+        """Modal point first, then the sparse-grid nodes mapped to the support box.
+
+        The same samples as ``unique_rows`` of the modal point and the mapped nodes
+        (first appearance, exact float equality), computed from the nodes' entries
+        off the midpoint: a node differs from the centre of the box in at most
+        ``sparse_level`` coordinates, so building costs O(N level) plus filling the
+        (N, n) table, not a sort of N rows of n numbers.
+        """
         assert self.sparse_level is not None  # set by sparse_options for "sparse"
         count_levels, count_parameters = self.cut_lower.shape
         self._sparse_grid = SparseGrid(count_parameters, self.sparse_level)
-        modal_point = np.array([[number.modal for number in self.parameters.values()]])
-        nodes = self.to_parameter_space(self._sparse_grid.nodes)
-        unique, inverse = unique_rows(np.concatenate((modal_point, nodes), axis=0))
-        self.samples = unique
+        grid = self._sparse_grid
+        dims, positions = grid.entries
+        unit, _ = nodes_1d(self.sparse_level)  # value of every position 0..denominator
+        # table[i, p]: parameter i at position p, by the same arithmetic as to_parameter_space
+        table = self.to_parameter_space(np.broadcast_to(unit, (count_parameters, len(unit))).T).T
+        canonical = _first_equal(table)  # positions mapping onto the same value merge
+        middle = grid.midpoint_position
+        used = dims < count_parameters
+        safe_dims = np.where(used, dims, 0)
+        node_canonical = np.where(used, canonical[safe_dims, positions], -1)
+        off_centre = used & (node_canonical != canonical[safe_dims, middle])
+        node_keys = _entry_keys(
+            np.where(off_centre, dims, count_parameters), node_canonical, count_parameters
+        )
+        modal = np.array([number.modal for number in self.parameters.values()])
+        modal_key = _modal_key(table, canonical, middle, modal, node_keys.shape[1])
+        unique_keys, inverse = unique_rows(np.concatenate((modal_key[None, :], node_keys)))
+        count = len(unique_keys)
+        # as unique_rows(points) writes the rows: a merged row holds its last member's values
+        last = np.full(count, -1, dtype=np.intp)
+        np.maximum.at(last, inverse, np.arange(len(inverse)))
+        samples = np.empty((count, count_parameters))
+        samples[:] = table[:, middle]
+        if last[inverse[0]] == 0:  # the modal point is a sample of its own
+            samples[inverse[0]] = modal
+        node_rows = np.nonzero(last > 0)[0]
+        members = last[node_rows] - 1
+        member_used = used[members]
+        rows = np.broadcast_to(node_rows[:, None], member_used.shape)[member_used]
+        columns = dims[members][member_used]
+        samples[rows, columns] = table[columns, positions[members][member_used]]
+        self.samples = samples
         self.samples.setflags(write=False)
         self._nominal_index = int(inverse[0])
         self._node_index: NDArray[np.intp] = inverse[1:]
         self._node_index.setflags(write=False)
-        everything = np.arange(len(unique), dtype=np.intp)
+        everything = np.arange(count, dtype=np.intp)
         everything.setflags(write=False)
         self._level_index = [everything] * count_levels
-        self._points_without_reuse = len(unique)
+        self._points_without_reuse = count
         # the interpolant behind every level's bounds needs every sample
-        usage = np.ones((count_levels, len(unique)), dtype=bool)
+        usage = np.ones((count_levels, count), dtype=bool)
         usage.setflags(write=False)
         self._level_usage = usage
 

@@ -23,6 +23,7 @@ import numpy as np
 from fuzzymbs.errors import InvalidParameterError, InvalidPlanError
 from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, adaptive_plan
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
+from fuzzymbs.fuzzy.plan_options import check_sparse_search
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_screening_run_limit
 from fuzzymbs.fuzzy.screening import DEFAULT_RTOL, Screening, check_tolerance
 from fuzzymbs.fuzzy.screening import screening_samples as make_screening_samples
@@ -275,6 +276,8 @@ def build_plan(
             method_tolerance=method_tolerance,
         )
         return adaptive, None, None
+    if method == "sparse":  # before the plan: its bounds could never be computed
+        check_sparse_search(len(fuzzy))
     plan = Plan(
         fuzzy,
         method=method,
