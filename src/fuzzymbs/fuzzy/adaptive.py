@@ -91,8 +91,9 @@ _TWINS = 4
 #: spacing and the certification's ``_NEAR``, so a smooth model differs there by its slope
 #: times 1e-4 of the support and the spread is the model's own noise
 _TWIN_OFFSET = 2e-4
-#: the rounds stop as limited by noise when the error is at most this multiple of the noise
-#: for two rounds in a row (the certification's ``|f - s|`` at a new run is itself a spread)
+#: the rounds stop as limited by noise when, stalled, the smallest error they reached is at
+#: most this multiple of the noise (the certification's ``|f - s|`` at a new run is itself
+#: a spread between noisy runs, measured at 1 to 7 times the twins' spread)
 _NOISE_FACTOR = 2.0
 #: the statuses of :attr:`AdaptiveOutcome.status`
 CONVERGED, BUDGET, NOISE = "converged", "budget", "noise"
@@ -434,11 +435,13 @@ class AdaptiveTransformation:
         return min(errors[-_STALL_ROUNDS:]) >= min(errors[:-_STALL_ROUNDS])
 
     def _noise_limited(self) -> bool:
-        """The noise is above the tolerance and the error of the last two rounds is at most
-        ``_NOISE_FACTOR`` times it: refinement cannot bring the error to the tolerance."""
-        if not self.noise > self.tolerance or len(self.errors) < 2:
+        """The error has stalled, the noise is above the tolerance, and the smallest error
+        the rounds reached is at most ``_NOISE_FACTOR`` times the noise: refinement never
+        got below the noise (under noise the error rises again as the surrogate, through
+        ever more noisy runs, grows rougher), so it cannot reach the tolerance."""
+        if not self.noise > self.tolerance or not self._stalled():
             return False
-        return max(self.errors[-2:]) <= _NOISE_FACTOR * self.noise
+        return min(self.errors) <= _NOISE_FACTOR * self.noise
 
     def _twin_points(self, room: int) -> NDArray[np.float64]:
         """Up to ``_TWINS`` points (unit cube) each ``_TWIN_OFFSET`` beside one of the last
