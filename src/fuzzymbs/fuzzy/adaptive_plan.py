@@ -172,9 +172,7 @@ class AdaptivePlan:
             self._outcome = self.engine.outcome()
             if self._outcome.status == NOISE:
                 warnings.warn(
-                    noise_message(
-                        self._outcome.runs, self._outcome.noise, self.method_tolerance
-                    ),
+                    noise_message(self._outcome.runs, self._outcome.noise, self.method_tolerance),
                     AdaptiveWarning,
                     stacklevel=2,
                 )
