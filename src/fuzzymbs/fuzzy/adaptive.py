@@ -159,11 +159,11 @@ class AdaptiveOutcome:
         refinement certifies, not a sampled check's lower bound.
     noise : float
         The model's own noise on the cut-width scale: the largest spread between a twin
-        run and the surrogate through its neighbour at a distance of ``2e-4`` of the
-        support (NaN when the error never stalled, so no twin ran).
+        run and the surrogate through its neighbour, 1e-4 of the support's width away
+        (NaN when the error never stalled, so no twin ran).
     status : {"converged", "budget", "noise"}
         Why the rounds stopped: the tolerance was reached, the budget was spent, or the
-        error stayed within a small multiple of the model's noise (refinement cannot
+        error stalled and never got below twice the model's noise (refinement cannot
         remove it).
     """
 
@@ -481,8 +481,8 @@ class AdaptiveTransformation:
         assert self._values is not None
         residuals = self._values - evaluate_series(degrees, coefficients, self._units)
         residuals[np.setdiff1d(np.arange(self.runs), self._off_grid)] = 0.0  # nodes: round-off
-        # twins stay out: two runs 2e-4 apart with a noisy difference would make the
-        # interpolant swing; they only measure the noise
+        # twins stay out: two runs 1e-4 of the support apart with a noisy difference would
+        # make the interpolant swing; they only measure the noise
         keep = np.setdiff1d(np.arange(self.runs), self._twins)
         correction = KernelCorrection(self._units[keep], residuals[keep], self._high > self._low)
         return degrees, coefficients, correction
