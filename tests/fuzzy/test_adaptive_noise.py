@@ -102,3 +102,8 @@ def test_a_study_records_and_summarises_the_noise_stop():
     attrs = result.dataset.attrs
     assert attrs["adaptive_status"] == "noise" and attrs["adaptive_runs"] < 0.25 * BUDGET
     assert "stopped by the model's own noise" in result.summary()
+    # report.html's checks table says so too
+    from fuzzymbs.report import checks
+
+    method = [c for c in checks(result.dataset) if c.name == "method error"]
+    assert len(method) == 1 and "stopped by the model's own noise" in method[0].text
