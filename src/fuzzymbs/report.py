@@ -132,7 +132,14 @@ def checks(dataset: xarray.Dataset) -> list[Check]:
                     f"{100 * error:.3g} % of the cut's width certified by the adaptive method "
                     f"({int(attrs['adaptive_runs'])} runs, {int(attrs['adaptive_rounds'])} "
                     f"rounds); {'within' if verdict == 'pass' else 'EXCEEDS'} the tolerance "
-                    f"{100 * tolerance:.3g} %",
+                    f"{100 * tolerance:.3g} %"
+                    + (
+                        f"; stopped by the model's own noise, about "
+                        f"{100 * float(attrs['adaptive_noise']):.3g} % of the cut width "
+                        "(integrate more accurately or raise method_tolerance)"
+                        if attrs.get("adaptive_status") == "noise"
+                        else ""
+                    ),
                 )
             )
         else:  # from sampled validation runs: a lower bound, never a plain pass

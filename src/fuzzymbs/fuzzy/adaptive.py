@@ -65,6 +65,7 @@ from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 __all__ = [
     "DEFAULT_ADAPTIVE_MAX_RUNS",
     "DEFAULT_ADAPTIVE_TOLERANCE",
+    "NOISE",
     "AdaptiveOutcome",
     "AdaptiveTransformation",
     "check_adaptive_options",
@@ -80,6 +81,24 @@ _NEAR = 0.02
 _REFINE_SHARE = 0.8
 #: Halton candidates for exploration points per parameter
 _EXPLORE_POOL = 512
+#: rounds in a row without a new smallest error (above the tolerance) before twin runs probe
+#: the model's noise; 3, because the hard test cases' errors rise for up to two rounds while
+#: the refinement resolves an extremum (bump3: 0.026, 0.085, 0.076, then 0.0048)
+_STALL_ROUNDS = 3
+#: twin runs per probing round, each beside one of the last round's certification runs
+_TWINS = 4
+#: a twin's offset from its run (unit cube, every moving coordinate): far below the node
+#: spacing and the certification's ``_NEAR``, so a smooth model differs there by its slope
+#: times 1e-4 of the support and the spread is the model's own noise
+_TWIN_OFFSET = 2e-4
+#: the rounds stop as limited by noise when, stalled, the smallest error they reached is at
+#: most this multiple of the noise (the certification's ``|f - s|`` at a new run is itself
+#: a spread between noisy runs, measured at 1 to 7 times the twins' spread)
+_NOISE_FACTOR = 2.0
+#: the statuses of :attr:`AdaptiveOutcome.status`
+CONVERGED, BUDGET, NOISE = "converged", "budget", "noise"
+#: a batch label: a twin run (off the grid, outside the surrogate)
+TWIN = "twin"
 
 #: a surrogate: the sparse grid's Chebyshev series (degrees, coefficients) and the
 #: kernel correction through the runs off the grid (None before there are any)
@@ -138,6 +157,14 @@ class AdaptiveOutcome:
     bound : str
         :data:`~fuzzymbs.fuzzy.band_scale.CERTIFIED`: ``error`` is the estimate the
         refinement certifies, not a sampled check's lower bound.
+    noise : float
+        The model's own noise on the cut-width scale: the largest spread between a twin
+        run and the surrogate through its neighbour, 1e-4 of the support's width away
+        (NaN when the error never stalled, so no twin ran).
+    status : {"converged", "budget", "noise"}
+        Why the rounds stopped: the tolerance was reached, the budget was spent, or the
+        error stalled and never got below twice the model's noise (refinement cannot
+        remove it).
     """
 
     lower: dict[str, NDArray[np.float64]]
@@ -149,6 +176,8 @@ class AdaptiveOutcome:
     rounds: int
     pair_sum: dict[str, NDArray[np.float64]]
     bound: str = CERTIFIED
+    noise: float = float("nan")
+    status: str = CONVERGED
 
 
 class AdaptiveTransformation:
@@ -210,7 +239,11 @@ class AdaptiveTransformation:
         self.errors: list[float] = []
         self.done = False
         self.converged = False
-        self._pending: tuple[NDArray[np.float64], list[tuple[int, ...] | None]] | None = None
+        self.status = ""
+        # twin runs (measure the model's noise, never enter the surrogate) and their spreads
+        self._twins = np.empty(0, dtype=np.intp)
+        self.noise = float("nan")
+        self._pending: tuple[NDArray[np.float64], list[tuple[int, ...] | str | None]] | None = None
         self._surrogate: Surrogate | None = None
         self._bounds: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
         self._certified = False
@@ -270,7 +303,7 @@ class AdaptiveTransformation:
             if self._surrogate is None
             else self._predict(self._surrogate, self.to_unit(batch))
         )
-        fresh = [(q, row) for row, q in enumerate(nodes) if q is not None]
+        fresh = [(q, row) for row, q in enumerate(nodes) if isinstance(q, tuple)]
         if fresh:
             self.grid.set_values([q for q, _ in fresh], flat[[row for _, row in fresh]])
         self.samples = np.concatenate((self.samples, batch))
@@ -278,9 +311,15 @@ class AdaptiveTransformation:
         self._values = flat if self._values is None else np.concatenate((self._values, flat))
         self._pending = None
         self.rounds += 1
+        first = self.runs - len(batch)
         self._off_grid = np.concatenate(
-            (self._off_grid, self.runs - len(batch) + np.flatnonzero([q is None for q in nodes]))
+            (self._off_grid, first + np.flatnonzero([q is None for q in nodes]))
         )
+        twins = first + np.flatnonzero([q == TWIN for q in nodes])
+        if len(twins):
+            self._twins = np.concatenate((self._twins, twins))
+            spread = self._spread(twins - first)
+            self.noise = spread if np.isnan(self.noise) else max(self.noise, spread)
 
     def _flatten(self, outputs: Mapping[str, ArrayLike], count: int) -> NDArray[np.float64]:
         """Outputs as one (B, E) matrix; the layout is fixed by the first batch."""
@@ -312,7 +351,7 @@ class AdaptiveTransformation:
         return np.concatenate(parts, axis=1)
 
     # ---------------------------------------------------------------- planning
-    def _plan_round(self) -> tuple[NDArray[np.float64], list[tuple[int, ...] | None]]:
+    def _plan_round(self) -> tuple[NDArray[np.float64], list[tuple[int, ...] | str | None]]:
         """Points of the next round and, per point, its grid node (None: off the grid)."""
         dimension = len(self.names)
         if self.rounds == 0:
@@ -325,7 +364,7 @@ class AdaptiveTransformation:
                     nodes += self.grid.add_index(step)
             units = node_values(np.array(nodes, dtype=np.int64))
             points = self.to_parameters(units)
-            labels: list[tuple[int, ...] | None] = list(nodes)
+            labels: list[tuple[int, ...] | str | None] = list(nodes)
             modal_unit = self.to_unit(self._modal)
             # a node that is the modal point up to round-off of the unit map is run there
             same = np.all(np.abs(units - modal_unit) <= 1e-12, axis=1)
@@ -348,6 +387,9 @@ class AdaptiveTransformation:
             self.errors.append(self.error)
             if self._certified and self.error <= self.tolerance:
                 self._finish(converged=True)
+                return np.empty((0, dimension)), []
+            if self._noise_limited():
+                self._finish(converged=False, status=NOISE)
                 return np.empty((0, dimension)), []
         self._surrogate, self._bounds = surrogate, bounds
         self._reported = self._widened()
@@ -376,8 +418,54 @@ class AdaptiveTransformation:
             for index in refine:
                 self._drop_index(index)
             return np.empty((0, dimension)), []
-        labels = [*nodes, *([None] * len(extra))]
+        labels: list[tuple[int, ...] | str | None] = [*nodes, *([None] * len(extra))]
+        if self._stalled():
+            twins = self._twin_points(self.max_runs - self.runs - len(units))
+            units = np.concatenate((units, twins))
+            labels += [TWIN] * len(twins)
         return self.to_parameters(units), labels
+
+    # ------------------------------------------------------------------- noise
+    def _stalled(self) -> bool:
+        """The error, above the tolerance, has not reached a new smallest value for
+        ``_STALL_ROUNDS`` rounds in a row: time to measure the model's noise."""
+        errors = self.errors
+        if len(errors) <= _STALL_ROUNDS or errors[-1] <= self.tolerance:
+            return False
+        return min(errors[-_STALL_ROUNDS:]) >= min(errors[:-_STALL_ROUNDS])
+
+    def _noise_limited(self) -> bool:
+        """The error has stalled, the noise is above the tolerance, and the smallest error
+        the rounds reached is at most ``_NOISE_FACTOR`` times the noise: refinement never
+        got below the noise (under noise the error rises again as the surrogate, through
+        ever more noisy runs, grows rougher), so it cannot reach the tolerance."""
+        if not self.noise > self.tolerance or not self._stalled():
+            return False
+        return min(self.errors) <= _NOISE_FACTOR * self.noise
+
+    def _twin_points(self, room: int) -> NDArray[np.float64]:
+        """Up to ``_TWINS`` points (unit cube) each ``_TWIN_OFFSET`` beside one of the last
+        round's certification runs (the most doubtful first), inside the cube."""
+        batch = self._last_batch
+        bases = batch[np.isin(batch, self._off_grid)][: min(_TWINS, max(room, 0))]
+        moving = self._high > self._low
+        units = self._units[bases]
+        step = np.where(units + _TWIN_OFFSET <= 1.0, _TWIN_OFFSET, -_TWIN_OFFSET)
+        return np.where(moving, units + step, units)
+
+    def _spread(self, rows: NDArray[np.intp]) -> float:
+        """The largest ``|f - s|`` (cut-width scale of the highest level holding the point)
+        at the batch's twins ``rows``: ``s`` was built through the neighbour a twin sits
+        beside, so this is the model's spread over ``_TWIN_OFFSET``."""
+        assert self._values is not None
+        index = self.runs - len(self._last_predicted) + rows
+        error = np.abs(self._values[index] - self._last_predicted[rows])
+        scale = self._scale() if self._bounds is not None else None
+        if scale is None:
+            return 0.0
+        holding = self._levels_holding(self._units[index])
+        relative = error / scale[holding]
+        return float(np.max(np.where(np.isfinite(relative), relative, 0.0), initial=0.0))
 
     def _drop_index(self, index: tuple[int, ...]) -> None:
         self.grid.indices.remove(index)
@@ -393,7 +481,10 @@ class AdaptiveTransformation:
         assert self._values is not None
         residuals = self._values - evaluate_series(degrees, coefficients, self._units)
         residuals[np.setdiff1d(np.arange(self.runs), self._off_grid)] = 0.0  # nodes: round-off
-        correction = KernelCorrection(self._units, residuals, self._high > self._low)
+        # twins stay out: two runs 1e-4 of the support apart with a noisy difference would
+        # make the interpolant swing; they only measure the noise
+        keep = np.setdiff1d(np.arange(self.runs), self._twins)
+        correction = KernelCorrection(self._units[keep], residuals[keep], self._high > self._low)
         return degrees, coefficients, correction
 
     @staticmethod
@@ -636,9 +727,10 @@ class AdaptiveTransformation:
         assert self._values is not None
         return self._values[:, offset : offset + size].reshape(self.runs, *shape)
 
-    def _finish(self, converged: bool) -> None:
+    def _finish(self, converged: bool, status: str | None = None) -> None:
         self.done = True
         self.converged = converged
+        self.status = status or (CONVERGED if converged else BUDGET)
         self._pending = None
 
     def outcome(self) -> AdaptiveOutcome:
@@ -669,6 +761,8 @@ class AdaptiveTransformation:
             self.runs,
             self.rounds,
             pair_sum,
+            noise=float(self.noise),
+            status=self.status or (CONVERGED if self.converged else BUDGET),
         )
 
     def _corner_sums(self) -> NDArray[np.float64]:

@@ -25,6 +25,7 @@ from fuzzymbs.errors import InvalidPlanError, ModelOutputError
 from fuzzymbs.fuzzy.adaptive import (
     DEFAULT_ADAPTIVE_MAX_RUNS,
     DEFAULT_ADAPTIVE_TOLERANCE,
+    NOISE,
     AdaptiveOutcome,
     AdaptiveTransformation,
     check_adaptive_options,
@@ -35,11 +36,35 @@ from fuzzymbs.fuzzy.plan_options import checked_parameters, make_levels
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS
 from fuzzymbs.fuzzy.retransform import FuzzyResult
 
-__all__ = ["AdaptivePlan", "AdaptiveWarning", "adaptive_plan"]
+__all__ = ["AdaptivePlan", "AdaptiveWarning", "adaptive_plan", "noise_message"]
 
 
 class AdaptiveWarning(UserWarning):
-    """The adaptive method stopped at its run budget before its error reached the tolerance."""
+    """The adaptive method stopped before its error reached the tolerance: at its run budget,
+    or because the model's own noise is larger than what refinement can remove."""
+
+
+def noise_message(runs: int, noise: float, tolerance: float) -> str:
+    """The one line that says the model's noise stopped the adaptive method.
+
+    Parameters
+    ----------
+    runs : int
+        Runs the method used.
+    noise, tolerance : float
+        The measured noise and ``method_tolerance``, on the cut-width scale.
+
+    Returns
+    -------
+    str
+        What stopped the rounds and what to do about it.
+    """
+    return (
+        f"adaptive method stopped after {runs} runs: the model's own noise, about "
+        f"{100 * noise:.3g} % of the cut width, exceeds what refinement can remove "
+        f"(tolerance {100 * tolerance:.3g} %); integrate more accurately (a converged "
+        "integrator or a tighter tolerance) or raise method_tolerance"
+    )
 
 
 class AdaptivePlan:
@@ -136,7 +161,8 @@ class AdaptivePlan:
 
     def outcome(self) -> AdaptiveOutcome:
         """Cuts, certified error, runs and rounds (once the rounds are done); warns with
-        :class:`AdaptiveWarning` if the budget stopped them above the tolerance."""
+        :class:`AdaptiveWarning` if the budget or the model's noise stopped them above the
+        tolerance."""
         if not self.engine.done:
             raise ModelOutputError(
                 "the adaptive method has rounds left: call next_batch()/add() until "
@@ -144,7 +170,13 @@ class AdaptivePlan:
             )
         if self._outcome is None:
             self._outcome = self.engine.outcome()
-            if not self._outcome.converged:
+            if self._outcome.status == NOISE:
+                warnings.warn(
+                    noise_message(self._outcome.runs, self._outcome.noise, self.method_tolerance),
+                    AdaptiveWarning,
+                    stacklevel=2,
+                )
+            elif not self._outcome.converged:
                 warnings.warn(
                     f"the adaptive method stopped at its run budget (max_runs = "
                     f"{self.max_runs}, {self._outcome.runs} runs) with a certified error of "
@@ -322,7 +354,9 @@ class AdaptivePlan:
 
     def attrs(self) -> dict[str, Any]:
         """Result attributes: ``method_error``, ``method_error_bound`` (``"certified"``),
-        ``method_tolerance``, ``method_converged``, ``adaptive_runs``, ``adaptive_rounds``."""
+        ``method_tolerance``, ``method_converged``, ``adaptive_runs``, ``adaptive_rounds``,
+        ``adaptive_status`` (``"converged"``, ``"budget"`` or ``"noise"``) and
+        ``adaptive_noise`` (the model's noise on the cut-width scale; NaN if not measured)."""
         outcome = self.outcome()
         return {
             "method_error": float(outcome.error),
@@ -331,6 +365,8 @@ class AdaptivePlan:
             "method_converged": int(outcome.converged),
             "adaptive_runs": int(outcome.runs),
             "adaptive_rounds": int(outcome.rounds),
+            "adaptive_status": outcome.status,
+            "adaptive_noise": float(outcome.noise),
         }
 
 

@@ -28,7 +28,10 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
            beyond its level's cut, relative to the cut's width), method_error_bound
            ("lower": the runs are a sample, so the method's miss is at least
            method_error), method_tolerance, validation_runs; the adaptive method:
-           method_error with method_error_bound "certified" (its own estimate)
+           method_error with method_error_bound "certified" (its own estimate),
+           adaptive_runs, adaptive_rounds, adaptive_status ("converged", "budget", or
+           "noise": stopped by the model's own noise) and adaptive_noise (that noise on
+           the cut-width scale; NaN when the error never stalled)
     o_validation                   (validation, *dims)  outputs of the validation runs (kept
                                    as the raw outputs are: by default up to 64 MiB)
     o_validation_excursion         (validation)     each run's excursion / cut width

@@ -36,7 +36,8 @@ from fuzzymbs.errors import (
     ModelOutputError,
     UnsupportedOperationError,
 )
-from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, AdaptiveWarning
+from fuzzymbs.fuzzy.adaptive import NOISE
+from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, AdaptiveWarning, noise_message
 from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, Plan, make_levels
 from fuzzymbs.study.adaptive_rounds import run_rounds
 from fuzzymbs.study.code_version import code_version
@@ -599,7 +600,13 @@ class Study(StudyRuns):
             )
         dataset.attrs.update(plan.attrs())
         outcome = plan.outcome()
-        if not outcome.converged:
+        if outcome.status == NOISE:
+            message = f"study {self.name!r}: " + noise_message(
+                outcome.runs, outcome.noise, plan.method_tolerance
+            )
+            logger.warning("%s", message)
+            warnings.warn(message, AdaptiveWarning, stacklevel=3)
+        elif not outcome.converged:
             message = (
                 f"study {self.name!r}: the adaptive method stopped at its run budget "
                 f"(max_runs = {plan.max_runs}) with a certified error of {outcome.error:.3g} "

@@ -80,6 +80,11 @@ def _adaptive_line(attrs: dict) -> str:
     tolerance = float(attrs["method_tolerance"])
     verdict = "within" if error <= tolerance else "EXCEEDS"
     stopped = "" if int(attrs["method_converged"]) else " (stopped at its run budget max_runs)"
+    if attrs.get("adaptive_status") == "noise":
+        stopped = (
+            f" (stopped by the model's own noise, about {100 * float(attrs['adaptive_noise']):.3g} "
+            "% of the cut width: integrate more accurately or raise method_tolerance)"
+        )
     return (
         f"Method check: adaptive, {int(attrs['adaptive_runs'])} runs in "
         f"{int(attrs['adaptive_rounds'])} rounds{stopped}; certified method error "
