@@ -42,6 +42,7 @@ from fuzzymbs.mbs.planar.simulation import (
     DEFAULT_METHOD,
     DEFAULT_RTOL,
     INTEGRATOR_NAMES,
+    checked_method,
 )
 
 OutputReader = Callable[[Any], NDArray[np.float64]]
@@ -87,13 +88,9 @@ class MechanismModel:
             raise InvalidParameterError("times must be at least two strictly increasing values [s]")
         if not (rtol > 0 and atol > 0):
             raise InvalidParameterError(f"rtol and atol must be > 0, got {rtol!r}, {atol!r}")
-        if method not in INTEGRATOR_NAMES:
-            raise InvalidParameterError(
-                f"unknown integration method {method!r}; choose one of {sorted(INTEGRATOR_NAMES)}"
-            )
         self.rtol = float(rtol)
         self.atol = float(atol)
-        self.method = method
+        self.method = checked_method(method)
         self.parameters = tuple(self.defaults)
         self.outputs = {name: unit for name, (_, unit) in self.readers.items()}
         self.coords = {"time": self.times}

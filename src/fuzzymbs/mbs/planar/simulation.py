@@ -47,14 +47,20 @@ STATUS_TEXT = {
 }
 
 
-def integrator_method(method: str, flexible: bool) -> int:
-    """The kernels' code of the Runge-Kutta pair ``method`` (:data:`INTEGRATOR_NAMES`) for a
-    mechanism with (``flexible``) or without modal coordinates, or a clear error."""
+def checked_method(method: str) -> str:
+    """``method`` if it names a Runge-Kutta pair (:data:`INTEGRATOR_NAMES`), else a clear
+    error."""
     if method not in INTEGRATOR_NAMES:
         raise InvalidParameterError(
             f"unknown integration method {method!r}; choose one of {sorted(INTEGRATOR_NAMES)}"
         )
-    if method == "auto":
+    return method
+
+
+def integrator_method(method: str, flexible: bool) -> int:
+    """The kernels' code of the Runge-Kutta pair ``method`` (:data:`INTEGRATOR_NAMES`) for a
+    mechanism with (``flexible``) or without modal coordinates, or a clear error."""
+    if checked_method(method) == "auto":
         method = "dop853" if flexible else "dopri5"
     return integrator.METHODS[method]
 
