@@ -318,49 +318,42 @@ class PlanarBeam:
                     shapes[:, j] *= -1.0
         h = self.length / ne
         mu = self.mass_per_length
-        # quadrature of every invariant over the elements
-        mass = 0.0
-        s0 = np.zeros(2)
-        j0 = 0.0
-        c1 = np.zeros((2, modes))
-        a = np.zeros(modes)
-        b = np.zeros(modes)
-        mqq = np.zeros((modes, modes))
-        gyro = np.zeros((modes, modes))
-        kg_spin = np.zeros((modes, modes))
-        kg_axial = np.zeros((modes, modes))
-        kg_node = np.zeros((ne + 1, modes, modes))
-        mass_parts = np.zeros((2, 2, modes, modes))
-        position_parts = np.zeros((2, 2, modes))
+        # quadrature of every invariant: all elements' Gauss points at once, axes
+        # (element e, Gauss point g, mode m); the flattened point axis is p
+        nodal = shapes.reshape(ne + 1, 3, modes)
         hn, hdn = _hermite(_GAUSS_X, h)
-        for e in range(ne):
-            x = (e + _GAUSS_X) * h
-            weight = _GAUSS_W * h
-            du = shapes[[3 * e, 3 * e + 3]]  # (2, m)
-            dw = shapes[[3 * e + 1, 3 * e + 2, 3 * e + 4, 3 * e + 5]]  # (4, m)
-            ux = np.outer(1 - _GAUSS_X, du[0]) + np.outer(_GAUSS_X, du[1])  # (g, m)
-            wy = hn @ dw
-            slope = hdn @ dw
-            kg_node[e + 1] = kg_node[e] + (slope.T * weight) @ slope
-            for g in range(_GAUSS_X.size):
-                wg = weight[g] * mu
-                phi = np.stack([ux[g], wy[g]])  # (2, m)
-                xbar = np.array([x[g], 0.0])
-                turned_phi = np.stack([-phi[1], phi[0]])
-                mass += wg
-                s0 += wg * xbar
-                j0 += wg * xbar @ xbar
-                c1 += wg * phi
-                a += wg * phi.T @ xbar
-                b += wg * phi.T @ np.array([-xbar[1], xbar[0]])
-                mqq += wg * phi.T @ phi
-                gyro += wg * phi.T @ turned_phi
-                mass_parts += wg * phi[:, None, :, None] * phi[None, :, None, :]
-                position_parts += wg * xbar[:, None, None] * phi[None, :, :]
-                spin_force = 0.5 * mu * (self.length**2 - x[g] ** 2)
-                axial_force = mu * (self.length - x[g])
-                kg_spin += weight[g] * spin_force * np.outer(slope[g], slope[g])
-                kg_axial += weight[g] * axial_force * np.outer(slope[g], slope[g])
+        bending = np.stack([nodal[:-1, 1], nodal[:-1, 2], nodal[1:, 1], nodal[1:, 2]], axis=1)
+        ux = (1.0 - _GAUSS_X)[None, :, None] * nodal[:-1, None, 0] + _GAUSS_X[
+            None, :, None
+        ] * nodal[1:, None, 0]
+        wy = np.einsum("gk,ekm->egm", hn, bending)
+        slope = np.einsum("gk,ekm->egm", hdn, bending)
+        weight = _GAUSS_W * h
+        kg_node = np.zeros((ne + 1, modes, modes))
+        np.cumsum(np.einsum("g,egi,egj->eij", weight, slope, slope), axis=0, out=kg_node[1:])
+        x = ((np.arange(ne)[:, None] + _GAUSS_X) * h).ravel()
+        w = np.tile(weight, ne)
+        wg = w * mu
+        points = x.size
+        phi = np.stack([ux.reshape(points, modes), wy.reshape(points, modes)], axis=1)
+        slope = slope.reshape(points, modes)
+        xbar = np.stack([x, np.zeros_like(x)], axis=1)
+        mass = wg.sum()
+        s0 = wg @ xbar
+        j0 = wg @ (x * x)
+        c1 = np.einsum("p,pim->im", wg, phi)
+        a = np.einsum("p,pim,pi->m", wg, phi, xbar)
+        b = np.einsum("p,pm->m", wg * x, phi[:, 1])  # phi . (-xbar_y, xbar_x), xbar_y = 0
+        mqq = np.einsum("p,pim,pin->mn", wg, phi, phi)
+        gyro = np.einsum("p,pm,pn->mn", wg, phi[:, 1], phi[:, 0]) - np.einsum(
+            "p,pm,pn->mn", wg, phi[:, 0], phi[:, 1]
+        )
+        mass_parts = np.einsum("p,pim,pjn->ijmn", wg, phi, phi)
+        position_parts = np.einsum("p,pi,pjm->ijm", wg, xbar, phi)
+        spin_force = 0.5 * mu * (self.length**2 - x**2)
+        axial_force = mu * (self.length - x)
+        kg_spin = np.einsum("p,pm,pn->mn", w * spin_force, slope, slope)
+        kg_axial = np.einsum("p,pm,pn->mn", w * axial_force, slope, slope)
         return ReducedBeam(
             nodes=np.arange(ne + 1) * h,
             node_modes=shapes.reshape(ne + 1, 3, modes),

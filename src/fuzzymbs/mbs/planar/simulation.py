@@ -11,6 +11,7 @@ coordinate, the constrained ones included.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -166,7 +167,14 @@ class PlanarResult:
         return out
 
     def solved(self) -> NDArray[np.float64]:
-        """(B, T, n + c): accelerations and multipliers at every stored state."""
+        """(B, T, n + c): accelerations and multipliers at every stored state (read-only).
+
+        Solved once per result and kept: every reaction and acceleration output reads it.
+        """
+        return self._solution
+
+    @cached_property
+    def _solution(self) -> NDArray[np.float64]:
         n, c = (int(s) for s in self.batch.layout.sizes)
         out = np.empty((*self.states.shape[:2], n + c))
         arrays = self.batch.layout.arrays()
@@ -184,6 +192,7 @@ class PlanarResult:
             )
 
         for_each_range(self.states.shape[0], run)
+        out.flags.writeable = False
         return out
 
     def element_force(self, element: str) -> NDArray[np.float64]:

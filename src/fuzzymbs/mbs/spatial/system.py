@@ -13,6 +13,7 @@ Build it as the planar one (:mod:`fuzzymbs.mbs.planar.system`)::
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -245,7 +246,11 @@ class SpatialResult:
 
     def solved(self) -> NDArray[np.float64]:
         """(B, T, n + c): the accelerations (r'', w', q'' per body) and the joints'
-        multipliers at every stored state."""
+        multipliers at every stored state (read-only; solved once per result and kept)."""
+        return self._solution
+
+    @cached_property
+    def _solution(self) -> NDArray[np.float64]:
         n, c = int(self.layout[4][1]), int(self.layout[4][2])
         out = np.empty((*self.states.shape[:2], n + c))
 
@@ -255,6 +260,7 @@ class SpatialResult:
             )
 
         for_each_range(self.states.shape[0], run)
+        out.flags.writeable = False
         return out
 
     def reaction(self, joint: str) -> NDArray[np.float64]:
