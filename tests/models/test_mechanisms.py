@@ -119,13 +119,16 @@ def test_flexible_slider_crank_follows_a_geometrically_nonlinear_rod():
 def test_slider_crank_takes_fewer_dop853_steps_than_dormand_prince_for_the_same_answer():
     # the rod's fifth bending mode (24 krad/s) holds Dormand-Prince 5(4) at the edge of its
     # stability region (near |h lambda| = 1 on the imaginary axis; DOP853's reaches 5.9):
-    # measured 1,979 against 884 accepted steps at the defaults, with the midpoint
+    # measured 1,979 against 884 accepted steps at rtol 1e-6 / atol 1e-8, with the midpoint
     # deflection 1.1e-6 and 3.7e-8 of its peak off a DOP853 run at rtol 1e-12
     # (docs/mechanisms.md, "Integrator")
     from fuzzymbs.models.mechanisms.outputs import deflection_in_frame
     from fuzzymbs.models.mechanisms.slider_crank import slider_crank
 
-    runs = {pair: slider_crank(integrator=pair).run({}) for pair in ("dopri5", "auto")}
+    runs = {
+        pair: slider_crank(integrator=pair, rtol=1e-6, atol=1e-8).run({})
+        for pair in ("dopri5", "auto")
+    }
     assert runs["auto"].accepted[0] < 0.5 * runs["dopri5"].accepted[0]
     deflections = {m: deflection_in_frame(r, "rod", "midpoint")[0] for m, r in runs.items()}
     peak = np.abs(deflections["auto"]).max()

@@ -12,12 +12,15 @@ from __future__ import annotations
 
 from fuzzymbs.study.registry import ParameterInfo, register_model
 
-_TOLERANCES = {
-    "rtol": "relative tolerance of the step control (default 1e-6)",
-    "atol": "absolute tolerance of the step control (default 1e-8)",
+_INTEGRATOR = {
     "integrator": (
         'Runge-Kutta pair: "auto" (default: DOP853 with flexible bodies), "dop853" or "dopri5"'
     ),
+}
+_ENGINE_TOLERANCES = {
+    "rtol": "relative tolerance of the step control (default 1e-6)",
+    "atol": "absolute tolerance of the step control (default 1e-8)",
+    **_INTEGRATOR,
 }
 
 register_model(
@@ -40,7 +43,7 @@ register_model(
         "time_steps": "number of output times (default 401)",
         "modes": "clamped modes of the beam (default 6, at most 8)",
         "elements": "beam elements (default 16)",
-        **_TOLERANCES,
+        **_ENGINE_TOLERANCES,
     },
 )
 
@@ -63,7 +66,7 @@ register_model(
         "time_steps": "number of output times (default 401)",
         "modes": "clamped modes of the beam (default 6)",
         "elements": "beam elements (default 16)",
-        **_TOLERANCES,
+        **_ENGINE_TOLERANCES,
     },
 )
 
@@ -94,6 +97,8 @@ register_model(
         "time_steps": "number of output times (default 501)",
         "modes": "pinned-pinned modes of the rod (default 6: five bending, the first axial)",
         "elements": "rod elements, even (default 12)",
-        **_TOLERANCES,
+        "rtol": "relative tolerance of the step control (default 1e-5)",
+        "atol": "absolute tolerance of the step control (default 1e-7)",
+        **_INTEGRATOR,
     },
 )
