@@ -153,6 +153,37 @@ def step_factor(err, exponent):
 
 
 @nb.njit(cache=True)
+def step_outcome(err, exponent, step, last, h):
+    """(accepted, next step) after a step of size ``step`` with error norm ``err``; ``last``
+    marks a step cut short to reach an output time, whose success keeps ``h`` unless the
+    error asks for less."""
+    factor = step_factor(err, exponent)
+    if err <= 1.0:
+        return True, (step * factor if not last or factor < 1.0 else h)
+    return False, step * min(1.0, factor)
+
+
+@nb.njit(cache=True)
+def budget_status(h, t, accepted, rejected, max_steps):
+    """STEP_TOO_SMALL or TOO_MANY_STEPS if the run must stop, else FINISHED (go on)."""
+    if h < 1e-14 * max(1.0, abs(t)):
+        return STEP_TOO_SMALL
+    if accepted + rejected > max_steps:
+        return TOO_MANY_STEPS
+    return FINISHED
+
+
+@nb.njit(cache=True)
+def record(report, row, outcome):
+    """Write a sample's (status, accepted, rejected, largest residual) into ``report[row]``."""
+    status, accepted, rejected, worst = outcome
+    report[row, 0] = status
+    report[row, 1] = accepted
+    report[row, 2] = rejected
+    report[row, 3] = worst
+
+
+@nb.njit(cache=True)
 def _derivative(t, x, n, layout, data, user_force, system, solution, out):
     ok = accelerations(t, x[:n], x[n:], layout, data, user_force, system, solution)
     out[:n] = x[n:]
@@ -209,8 +240,8 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
             err = error_norm(x, trial, k, step, rtol, atol, e, e_low)
             if not math.isfinite(err):
                 return NOT_FINITE, accepted, rejected, worst
-            factor = step_factor(err, exponent)
-            if err <= 1.0:
+            success, h = step_outcome(err, exponent, step, last, h)
+            if success:
                 t = target if last else t + step
                 x[:] = trial
                 accepted += 1
@@ -226,15 +257,11 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
                     k[0, n:] = k[stages, n:]
                 else:
                     k[0, :] = k[stages]
-                if not last or factor < 1.0:
-                    h = step * factor
             else:
                 rejected += 1
-                h = step * min(1.0, factor)
-            if h < 1e-14 * max(1.0, abs(t)):
-                return STEP_TOO_SMALL, accepted, rejected, worst
-            if accepted + rejected > max_steps:
-                return TOO_MANY_STEPS, accepted, rejected, worst
+            status = budget_status(h, t, accepted, rejected, max_steps)
+            if status != FINISHED:
+                return status, accepted, rejected, worst
         states[out, :] = x
     return FINISHED, accepted, rejected, worst
 
@@ -259,19 +286,11 @@ def integrate_range(
     largest joint residual of each sample.
     """
     for s in range(start, stop):
-        status, accepted, rejected, worst = integrate_sample(
-            times,
-            initial[s],
-            layout,
-            data[s],
-            user_force,
-            control,
-            states[s],
+        record(
+            report,
+            s,
+            integrate_sample(times, initial[s], layout, data[s], user_force, control, states[s]),
         )
-        report[s, 0] = status
-        report[s, 1] = accepted
-        report[s, 2] = rejected
-        report[s, 3] = worst
 
 
 @nb.njit(cache=True, nogil=True)

@@ -11,13 +11,18 @@ import math
 import numba as nb
 import numpy as np
 
-from fuzzymbs.mbs.planar.integrator import error_norm, stage_input, step_factor, tableau
+from fuzzymbs.mbs.planar.integrator import (
+    budget_status,
+    error_norm,
+    record,
+    stage_input,
+    step_outcome,
+    tableau,
+)
 from fuzzymbs.mbs.spatial.kernels import (
     FINISHED,
     NOT_FINITE,
     PROJECTION_FAILED,
-    STEP_TOO_SMALL,
-    TOO_MANY_STEPS,
     accelerations,
     project,
 )
@@ -99,8 +104,8 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
             err = error_norm(x, trial, k, step, rtol, atol, e, e_low)
             if not math.isfinite(err):
                 return NOT_FINITE, accepted, rejected, worst
-            factor = step_factor(err, exponent)
-            if err <= 1.0:
+            success, h = step_outcome(err, exponent, step, last, h)
+            if success:
                 t = target if last else t + step
                 x[:] = trial
                 accepted += 1
@@ -113,15 +118,11 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
                 # by its tolerance, which changes them at round-off: docs/mechanisms.md)
                 _position_rates(layout, x[:nq], x[nq:], k[0])
                 k[0, nq:] = k[stages, nq:]
-                if not last or factor < 1.0:
-                    h = step * factor
             else:
                 rejected += 1
-                h = step * min(1.0, factor)
-            if h < 1e-14 * max(1.0, abs(t)):
-                return STEP_TOO_SMALL, accepted, rejected, worst
-            if accepted + rejected > max_steps:
-                return TOO_MANY_STEPS, accepted, rejected, worst
+            status = budget_status(h, t, accepted, rejected, max_steps)
+            if status != FINISHED:
+                return status, accepted, rejected, worst
         states[out, :] = x
     return FINISHED, accepted, rejected, worst
 
@@ -141,19 +142,11 @@ def integrate_range(
 ):
     """:func:`integrate_sample` for sample rows ``start:stop`` (GIL released)."""
     for s in range(start, stop):
-        status, accepted, rejected, worst = integrate_sample(
-            times,
-            initial[s],
-            layout,
-            data[s],
-            user_force,
-            control,
-            states[s],
+        record(
+            report,
+            s,
+            integrate_sample(times, initial[s], layout, data[s], user_force, control, states[s]),
         )
-        report[s, 0] = status
-        report[s, 1] = accepted
-        report[s, 2] = rejected
-        report[s, 3] = worst
 
 
 @nb.njit(cache=True, nogil=True)
