@@ -680,6 +680,31 @@ def force_terms(t, layout, data, z, v, user_force, forces):
 
 
 @nb.njit(cache=True)
+def solve_constrained(mass, jac, quadratic, acceleration, system, solution):
+    """Solve [[M, G^T], [G, 0]] (a, lambda) = (f, f'' - zeta) into ``solution``.
+
+    On entry ``solution[:n]`` holds the generalised forces f; ``system`` is an
+    (n + c, n + c) scratch matrix (both engines' :func:`accelerations` end here).
+    Returns False if the matrix is singular or the result not finite.
+    """
+    n = mass.shape[0]
+    c = jac.shape[0]
+    system[:n, :n] = mass
+    system[n:, n:] = 0.0
+    for r in range(c):
+        for x in range(n):
+            system[n + r, x] = jac[r, x]
+            system[x, n + r] = jac[r, x]
+        solution[n + r] = -quadratic[r] + acceleration[r]
+    if not solve_in_place(system, solution):
+        return False
+    for i in range(n + c):
+        if not math.isfinite(solution[i]):
+            return False
+    return True
+
+
+@nb.njit(cache=True)
 def accelerations(t, z, v, layout, data, user_force, system, solution):
     """Solve the constrained equations at (t, z, v) into ``solution`` = (z'', lambda).
 
@@ -689,31 +714,20 @@ def accelerations(t, z, v, layout, data, user_force, system, solution):
     sizes = layout[4]
     n = sizes[0]
     c = sizes[1]
-    system[:, :] = 0.0
     solution[:] = 0.0
     # the mass matrix in its own C-ordered array: body_terms then compiles once, for the
     # layout Mechanism.check passes too (a block of ``system`` is not C-ordered)
     mass = np.zeros((n, n))
     body_terms(layout[0], data, z, v, mass, solution[:n])
-    system[:n, :n] = mass
     force_terms(t, layout, data, z, v, user_force, solution[:n])
     jac = np.zeros((c, n))
+    residual = np.empty(c)
+    quadratic = np.empty(c)
+    rate = np.empty(c)
+    acceleration = np.empty(c)
     if c:
-        residual = np.empty(c)
-        quadratic = np.empty(c)
-        rate = np.empty(c)
-        acceleration = np.empty(c)
         joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
-        system[n:, :n] = jac
-        system[:n, n:] = jac.T
-        for r in range(c):
-            solution[n + r] = -quadratic[r] + acceleration[r]
-    if not solve_in_place(system, solution):
-        return False
-    for i in range(n + c):
-        if not math.isfinite(solution[i]):
-            return False
-    return True
+    return solve_constrained(mass, jac, quadratic, acceleration, system, solution)
 
 
 @nb.njit(cache=True)

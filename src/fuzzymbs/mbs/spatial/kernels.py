@@ -59,7 +59,7 @@ from fuzzymbs.mbs.planar.kernels import (  # the run status codes are the planar
     profile,
     project_rows,
     remove_velocity_excess,
-    solve_in_place,
+    solve_constrained,
 )
 from fuzzymbs.mbs.spatial.elements import force_terms
 from fuzzymbs.mbs.spatial.kinematics import (
@@ -402,30 +402,18 @@ def accelerations(t, q, v, layout, data, user_force, system, solution):
     sizes = layout[4]
     n = sizes[1]
     c = sizes[2]
-    system[:, :] = 0.0
     solution[:] = 0.0
     mass = np.zeros((n, n))
     body_terms(layout[0], data, q, v, mass, solution[:n])
-    system[:n, :n] = mass
     force_terms(t, layout, data, q, v, user_force, solution[:n])
+    jac = np.zeros((c, n))
+    residual = np.empty(c)
+    quadratic = np.empty(c)
+    rate = np.empty(c)
+    acceleration = np.empty(c)
     if c:
-        jac = np.zeros((c, n))
-        residual = np.empty(c)
-        quadratic = np.empty(c)
-        rate = np.empty(c)
-        acceleration = np.empty(c)
         joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, acceleration)
-        for r in range(c):
-            for x in range(n):
-                system[n + r, x] = jac[r, x]
-                system[x, n + r] = jac[r, x]
-            solution[n + r] = -quadratic[r] + acceleration[r]
-    if not solve_in_place(system, solution):
-        return False
-    for i in range(n + c):
-        if not math.isfinite(solution[i]):
-            return False
-    return True
+    return solve_constrained(mass, jac, quadratic, acceleration, system, solution)
 
 
 @nb.njit(cache=True)
