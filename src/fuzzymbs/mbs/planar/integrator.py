@@ -23,8 +23,9 @@ from fuzzymbs.mbs.planar.kernels import (
     PROJECTION_FAILED,
     STEP_TOO_SMALL,
     TOO_MANY_STEPS,
-    accelerations,
+    accelerations_in,
     project,
+    workspace,
 )
 
 #: the explicit Runge-Kutta pairs, by name (``simulate(method=...)``)
@@ -184,8 +185,8 @@ def record(report, row, outcome):
 
 
 @nb.njit(cache=True)
-def _derivative(t, x, n, layout, data, user_force, system, solution, out):
-    ok = accelerations(t, x[:n], x[n:], layout, data, user_force, system, solution)
+def _derivative(t, x, n, layout, data, user_force, work, system, solution, out):
+    ok = accelerations_in(work, t, x[:n], x[n:], layout, data, user_force, system, solution)
     out[:n] = x[n:]
     out[n:] = solution[:n]
     return ok
@@ -209,6 +210,7 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
     size = 2 * n
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
+    work = workspace(layout)
     method, rtol, atol, first_step, max_steps, tolerance = control
     pair = tableau(method)
     _, _, b, e, e_low, exponent = pair
@@ -221,7 +223,7 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
     if not worst <= tolerance:
         return PROJECTION_FAILED, 0, 0, worst
     states[0, :] = x
-    if not _derivative(t, x, n, layout, data, user_force, system, solution, k[0]):
+    if not _derivative(t, x, n, layout, data, user_force, work, system, solution, k[0]):
         return NOT_FINITE, 0, 0, worst
     h = first_step
     accepted = 0
@@ -234,7 +236,7 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
             for stage in range(1, stages + 1):
                 time = stage_input(x, k, pair, stage, t, step, trial)
                 if not _derivative(
-                    time, trial, n, layout, data, user_force, system, solution, k[stage]
+                    time, trial, n, layout, data, user_force, work, system, solution, k[stage]
                 ):
                     return NOT_FINITE, accepted, rejected, worst
             err = error_norm(x, trial, k, step, rtol, atol, e, e_low)
@@ -301,13 +303,16 @@ def solve_range(start, stop, times, states, layout, data, user_force, out):
     c = sizes[1]
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
+    work = workspace(layout)
     for s in range(start, stop):
         for i in range(states.shape[1]):
             x = states[s, i]
             if not math.isfinite(x[0]):
                 out[s, i, :] = np.nan
                 continue
-            if accelerations(times[i], x[:n], x[n:], layout, data[s], user_force, system, solution):
+            if accelerations_in(
+                work, times[i], x[:n], x[n:], layout, data[s], user_force, system, solution
+            ):
                 out[s, i, :] = solution
             else:
                 out[s, i, :] = np.nan

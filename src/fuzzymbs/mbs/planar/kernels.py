@@ -71,6 +71,7 @@ def solve_in_place(a, b):
     NumPy's LAPACK wrapper takes.)
     """
     n = b.size
+    columns = np.empty(n, dtype=np.int64)  # the pivot row's nonzero columns
     for k in range(n):
         best = k
         largest = abs(a[k, k])
@@ -84,12 +85,20 @@ def solve_in_place(a, b):
             for j in range(n):
                 a[k, j], a[best, j] = a[best, j], a[k, j]
             b[k], b[best] = b[best], b[k]
+        # a constrained system is mostly zeros (the slider-crank's 24 x 24: 127 nonzeros);
+        # the elimination touches only the pivot row's nonzero columns
+        count = 0
+        for j in range(k + 1, n):
+            if a[k, j] != 0.0:
+                columns[count] = j
+                count += 1
         inverse = 1.0 / a[k, k]
         for i in range(k + 1, n):
             factor = a[i, k] * inverse
             if factor == 0.0:
                 continue
-            for j in range(k + 1, n):
+            for index in range(count):
+                j = columns[index]
                 a[i, j] -= factor * a[k, j]
             b[i] -= factor * b[k]
     for i in range(n - 1, -1, -1):
@@ -657,6 +666,8 @@ def element_force(e, t, layout, data, z, v, user_force, si, sj, out):
 def force_terms(t, layout, data, z, v, user_force, forces):
     """Generalised forces of every force element, added to ``forces``."""
     bodies, markers, elements = layout[0], layout[1], layout[3]
+    if elements.shape[0] == 0:
+        return
     si = np.empty(10)
     sj = np.empty(10)
     out = np.zeros(3)
@@ -705,26 +716,44 @@ def solve_constrained(mass, jac, quadratic, acceleration, system, solution):
 
 
 @nb.njit(cache=True)
+def workspace(layout):
+    """Scratch arrays of :func:`accelerations_in` for ``layout``: the mass matrix (n, n), the
+    joints' Jacobian (c, n) and four (c,) rows (allocated once per run, not per stage)."""
+    n = layout[4][0]
+    c = layout[4][1]
+    return (
+        np.empty((n, n)),
+        np.empty((c, n)),
+        np.empty(c),
+        np.empty(c),
+        np.empty(c),
+        np.empty(c),
+    )
+
+
+@nb.njit(cache=True)
 def accelerations(t, z, v, layout, data, user_force, system, solution):
     """Solve the constrained equations at (t, z, v) into ``solution`` = (z'', lambda).
 
     ``system`` is an (n + c, n + c) scratch matrix. Returns False if the
     matrix is singular or the result not finite.
     """
-    sizes = layout[4]
-    n = sizes[0]
-    c = sizes[1]
-    solution[:] = 0.0
+    return accelerations_in(workspace(layout), t, z, v, layout, data, user_force, system, solution)
+
+
+@nb.njit(cache=True)
+def accelerations_in(work, t, z, v, layout, data, user_force, system, solution):
+    """:func:`accelerations` with the scratch arrays ``work`` (:func:`workspace`)."""
+    c = layout[4][1]
     # the mass matrix in its own C-ordered array: body_terms then compiles once, for the
     # layout Mechanism.check passes too (a block of ``system`` is not C-ordered)
-    mass = np.zeros((n, n))
+    mass, jac, residual, quadratic, rate, acceleration = work
+    mass[:, :] = 0.0
+    jac[:, :] = 0.0
+    solution[:] = 0.0
+    n = mass.shape[0]
     body_terms(layout[0], data, z, v, mass, solution[:n])
     force_terms(t, layout, data, z, v, user_force, solution[:n])
-    jac = np.zeros((c, n))
-    residual = np.empty(c)
-    quadratic = np.empty(c)
-    rate = np.empty(c)
-    acceleration = np.empty(c)
     if c:
         joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
     return solve_constrained(mass, jac, quadratic, acceleration, system, solution)
