@@ -24,6 +24,7 @@ from fuzzymbs.mbs.planar.kernels import (
     STEP_TOO_SMALL,
     TOO_MANY_STEPS,
     accelerations_in,
+    failed_before,
     project,
     workspace,
 )
@@ -306,10 +307,9 @@ def solve_range(start, stop, times, states, layout, data, user_force, out):
     work = workspace(layout)
     for s in range(start, stop):
         for i in range(states.shape[1]):
-            x = states[s, i]
-            if not math.isfinite(x[0]):
-                out[s, i, :] = np.nan
+            if failed_before(states, s, i, out):
                 continue
+            x = states[s, i]
             if accelerations_in(
                 work, times[i], x[:n], x[n:], layout, data[s], user_force, system, solution
             ):

@@ -110,6 +110,16 @@ def solve_in_place(a, b):
 
 
 @nb.njit(cache=True)
+def failed_before(states, s, i, out):
+    """True, with ``out[s, i]`` set to NaN, if sample ``s`` had failed by stored time ``i``
+    (a failed run's states are NaN from the failure on)."""
+    if math.isfinite(states[s, i, 0]):
+        return False
+    out[s, i] = np.nan
+    return True
+
+
+@nb.njit(cache=True)
 def project_rows(jac, excess, target):
     """target -= G^T (G G^T)^-1 excess (the least change that removes ``excess``)."""
     c, n = jac.shape
@@ -378,6 +388,28 @@ def add_angle_load(k, markers, bodies, data, torque, target):
 
 
 @nb.njit(cache=True)
+def slide_row(ex, ey, ki, kj, markers, bodies, data, z, si, sj, row):
+    """A prismatic joint's equation on the offset d = p_j - p_i along the direction
+    e = (ex, ey) that turns with marker i: returns (e . d, its velocity-quadratic part
+    zeta) and adds dg/dz into ``row``. With e' = w e_perp, e_perp = (-ey, ex):
+    g'' = e . (a_j - a_i) + 2 w e_perp . d' - w^2 e . d + (w' e_perp . d)."""
+    px = -ey
+    py = ex
+    dx = sj[0] - si[0]
+    dy = sj[1] - si[1]
+    dvx = sj[3] - si[3]
+    dvy = sj[4] - si[4]
+    w = si[5]
+    value = ex * dx + ey * dy
+    relative = ex * (sj[6] - si[6]) + ey * (sj[7] - si[7])
+    quadratic = relative + 2.0 * w * (px * dvx + py * dvy) - w * w * value
+    add_point_load(kj, markers, bodies, data, z, sj, ex, ey, row)
+    add_point_load(ki, markers, bodies, data, z, si, -ex, -ey, row)
+    add_angle_load(ki, markers, bodies, data, px * dx + py * dy, row)
+    return value, quadratic
+
+
+@nb.njit(cache=True)
 def joint_rows(kind, drive):
     """Number of equations of a joint."""
     return (3 if kind == FIXED else 2) + (1 if drive >= 0 else 0)
@@ -529,26 +561,14 @@ def joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, accelerat
             add_point_load(ki, markers, bodies, data, z, si, 0.0, 1.0, jac[row + 1])
             add_point_load(kj, markers, bodies, data, z, sj, 0.0, -1.0, jac[row + 1])
             r = row + 2
-        else:  # prismatic: marker j slides along marker i's x axis
-            ca = math.cos(si[2])
-            sa = math.sin(si[2])
-            along = ca * dx + sa * dy
-            across = -sa * dx + ca * dy
-            dvx = sj[3] - si[3]
-            dvy = sj[4] - si[4]
-            wi = si[5]
-            residual[row] = across
-            quadratic[row] = (
-                -sa * (sj[6] - si[6])
-                + ca * (sj[7] - si[7])
-                - 2.0 * wi * (ca * dvx + sa * dvy)
-                - wi * wi * across
+        else:  # prismatic: marker j slides along marker i's x axis, not across it
+            ex = -math.sin(si[2])
+            ey = math.cos(si[2])
+            residual[row], quadratic[row] = slide_row(
+                ex, ey, ki, kj, markers, bodies, data, z, si, sj, jac[row]
             )
             rate[row] = 0.0
             acceleration[row] = 0.0
-            add_point_load(kj, markers, bodies, data, z, sj, -sa, ca, jac[row])
-            add_point_load(ki, markers, bodies, data, z, si, sa, -ca, jac[row])
-            add_angle_load(ki, markers, bodies, data, -along, jac[row])
             r = row + 1
         if kind != REVOLUTE:  # the relative angle held at its initial value
             residual[r] = sj[2] - si[2] - data[d]
@@ -563,23 +583,12 @@ def joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, accelerat
             rate[r] = fd
             acceleration[r] = fdd
             if kind == PRISMATIC:  # the slide along the axis
-                ca = math.cos(si[2])
-                sa = math.sin(si[2])
-                along = ca * dx + sa * dy
-                across = -sa * dx + ca * dy
-                dvx = sj[3] - si[3]
-                dvy = sj[4] - si[4]
-                wi = si[5]
-                residual[r] = along - f
-                quadratic[r] = (
-                    ca * (sj[6] - si[6])
-                    + sa * (sj[7] - si[7])
-                    + 2.0 * wi * (-sa * dvx + ca * dvy)
-                    - wi * wi * along
+                ex = math.cos(si[2])
+                ey = math.sin(si[2])
+                along, quadratic[r] = slide_row(
+                    ex, ey, ki, kj, markers, bodies, data, z, si, sj, jac[r]
                 )
-                add_point_load(kj, markers, bodies, data, z, sj, ca, sa, jac[r])
-                add_point_load(ki, markers, bodies, data, z, si, -ca, -sa, jac[r])
-                add_angle_load(ki, markers, bodies, data, across, jac[r])
+                residual[r] = along - f
             else:  # the relative angle
                 residual[r] = sj[2] - si[2] - f
                 quadratic[r] = 0.0

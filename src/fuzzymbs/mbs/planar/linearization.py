@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.planar import kernels
 from fuzzymbs.mbs.planar.simulation import PROJECTION_TOLERANCE
-from fuzzymbs.mbs.planar.system import Mechanism
+from fuzzymbs.mbs.planar.system import Mechanism, joint_rows
 
 
 @dataclass(frozen=True)
@@ -88,9 +88,7 @@ def linearize(
         <= PROJECTION_TOLERANCE
     ):
         raise InvalidParameterError("the state cannot be projected onto the joints")
-    jac = np.zeros((c, n))
-    if c:
-        kernels.joint_terms(t, arrays, data, x0[:n], x0[n:], jac, *(np.empty(c) for _ in range(4)))
+    _, jac = joint_rows(t, layout, data, x0)
     basis = free_directions(jac, n)
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)

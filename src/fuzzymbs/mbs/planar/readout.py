@@ -17,6 +17,7 @@ from fuzzymbs.mbs.planar.kernels import (
     add_point_load,
     body_terms,
     element_force,
+    failed_before,
     marker_state,
 )
 
@@ -107,10 +108,9 @@ def energy_at(states, layout, data, out):
     forces = np.zeros(n)
     for s in range(states.shape[0]):
         for i in range(states.shape[1]):
-            x = states[s, i]
-            if not math.isfinite(x[0]):
-                out[s, i, :] = np.nan
+            if failed_before(states, s, i, out):
                 continue
+            x = states[s, i]
             mass[:, :] = 0.0
             body_terms(layout[0], data[s], x[:n], x[n:], mass, forces)
             kinetic = 0.0
@@ -145,10 +145,9 @@ def element_forces_at(element, times, states, layout, data, user_force, out):
     load = np.zeros(3)
     for s in range(states.shape[0]):
         for i in range(states.shape[1]):
-            x = states[s, i]
-            if not math.isfinite(x[0]):
-                out[s, i, :] = np.nan
+            if failed_before(states, s, i, out):
                 continue
+            x = states[s, i]
             element_force(
                 element, times[i], layout, data[s], x[:n], x[n:], user_force, si, sj, load
             )

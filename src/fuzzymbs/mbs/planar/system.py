@@ -200,17 +200,7 @@ class Mechanism(Assembly):
         kernels.body_terms(
             layout.bodies, data, state[:n].copy(), state[n:].copy(), mass, np.zeros(n)
         )
-        jac = np.zeros((c, n))
-        if c:
-            kernels.joint_terms(
-                t0,
-                layout.arrays(),
-                data,
-                state[:n],
-                state[n:],
-                jac,
-                *(np.empty(c) for _ in range(4)),
-            )
+        _, jac = joint_rows(t0, layout, data, state)
         _, singular, vt = np.linalg.svd(jac) if c else (None, np.zeros(0), np.eye(n))
         free = vt[int(np.sum(singular > 1e-10 * max(1.0, singular.max(initial=0.0)))) :].T
         values = np.linalg.eigvalsh(free.T @ mass @ free) if free.size else np.ones(1)
@@ -229,24 +219,10 @@ class Mechanism(Assembly):
             )
 
     def _check_joints(self, t0: float, layout: Layout, data, state) -> None:
-        n, c = (int(s) for s in layout.sizes)
+        c = int(layout.sizes[1])
         if c == 0:
             return
-        residual = np.empty(c)
-        jac = np.zeros((c, n))
-        spare = np.empty(c)
-        kernels.joint_terms(
-            t0,
-            layout.arrays(),
-            data,
-            state[:n],
-            state[n:],
-            jac,
-            residual,
-            spare,
-            np.empty(c),
-            np.empty(c),
-        )
+        residual, jac = joint_rows(t0, layout, data, state)
         row = 0
         for j in self.joints:
             worst = np.abs(residual[row : row + j.equations]).max()
@@ -272,6 +248,19 @@ class Mechanism(Assembly):
                         "equations"
                     )
                 row += j.equations
+
+
+def joint_rows(
+    t: float, layout: Layout, data: NDArray[np.float64], state: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The joints' residual g (c,) and Jacobian G (c, n) at time ``t`` and ``state`` (z, v)."""
+    n, c = (int(s) for s in layout.sizes)
+    residual = np.zeros(c)
+    jac = np.zeros((c, n))
+    if c:
+        spare = [np.empty(c) for _ in range(3)]
+        kernels.joint_terms(t, layout.arrays(), data, state[:n], state[n:], jac, residual, *spare)
+    return residual, jac
 
 
 @dataclass(frozen=True)

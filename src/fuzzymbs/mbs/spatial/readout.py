@@ -8,6 +8,7 @@ import math
 import numba as nb
 import numpy as np
 
+from fuzzymbs.mbs.planar.kernels import failed_before
 from fuzzymbs.mbs.spatial.elements import (
     BUSHING,
     CONTACT,
@@ -31,10 +32,9 @@ def markers_at(wanted, states, layout, data, out):
     state = np.empty((6, 3))
     for s in range(states.shape[0]):
         for i in range(states.shape[1]):
-            x = states[s, i]
-            if not math.isfinite(x[0]):
-                out[s, i, :, :] = np.nan
+            if failed_before(states, s, i, out):
                 continue
+            x = states[s, i]
             for w in range(wanted.size):
                 marker_state(wanted[w], markers, bodies, data[s], x[:nq], x[nq:], state)
                 out[s, i, w, :3] = state[0]
@@ -67,10 +67,9 @@ def energy_at(states, layout, data, out):
         for i in range(3):
             g[i] = row[i]
         for t in range(states.shape[1]):
-            x = states[s, t]
-            if not math.isfinite(x[0]):
-                out[s, t, :] = np.nan
+            if failed_before(states, s, t, out):
                 continue
+            x = states[s, t]
             q = x[:nq]
             v = x[nq:]
             mass = np.zeros((n, n))
@@ -174,10 +173,9 @@ def element_forces_at(element, times, states, layout, data, user_force, out):
     point = np.empty(CONTACT_POINT_SIZE)
     for s in range(states.shape[0]):
         for i in range(states.shape[1]):
-            x = states[s, i]
-            if not math.isfinite(x[0]):
-                out[s, i, :] = np.nan
+            if failed_before(states, s, i, out):
                 continue
+            x = states[s, i]
             element_force(
                 element, times[i], layout, data[s], x[:nq], x[nq:], user_force, si, sj, load, point
             )
