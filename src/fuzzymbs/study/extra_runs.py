@@ -138,7 +138,7 @@ class StudyRuns:
         """The plan's first runs (run ahead while a shared-steps reference finishes): the
         adaptive method's first round, or a fixed plan's first :data:`RUN_AHEAD` samples."""
         plan = self.plan
-        if plan.method == "adaptive":
+        if plan.scheme.runs_in_rounds:
             plan.reset()
             points = plan.next_batch()
             plan.reset()

@@ -36,8 +36,7 @@ from fuzzymbs.errors import (
     ModelOutputError,
     UnsupportedOperationError,
 )
-from fuzzymbs.fuzzy.adaptive import NOISE
-from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, AdaptiveWarning, noise_message
+from fuzzymbs.fuzzy.methods.adaptive import AdaptiveWarning
 from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, Plan, make_levels
 from fuzzymbs.study.adaptive_rounds import run_rounds
 from fuzzymbs.study.code_version import code_version
@@ -158,7 +157,7 @@ class Study(StudyRuns):
         Refuse a plan needing more model runs than this before anything is
         built (:class:`~fuzzymbs.errors.PlanTooLargeError`, an InvalidPlanError,
         naming the runs of cheaper methods); for method ``"adaptive"`` its run
-        budget (this default and None mean 2,000; a :class:`~fuzzymbs.fuzzy.adaptive_plan.
+        budget (this default and None mean 2,000; a :class:`~fuzzymbs.fuzzy.methods.adaptive.
         AdaptiveWarning` says when the budget stopped it above the tolerance); default
         :data:`fuzzymbs.fuzzy.transform.DEFAULT_MAX_RUNS` (1,000,000), None: no limit.
     name, description : str, optional
@@ -259,7 +258,7 @@ class Study(StudyRuns):
             sparse_level,
             search_points,
             max_runs=max_runs,
-            method_tolerance=self.method_tolerance if method == "adaptive" else None,
+            method_tolerance=self.method_tolerance,
         )
         known_outputs = self._declared_outputs()
         self.outputs = checked_outputs(outputs, known_outputs, self.model_name)
@@ -269,7 +268,7 @@ class Study(StudyRuns):
         self.description = description
 
     @property
-    def plan(self) -> Plan | AdaptivePlan:
+    def plan(self) -> Plan:
         """The sampling plan (for ``nonmonotonic="auto"``: known after :meth:`screen`).
 
         Raises
@@ -470,8 +469,8 @@ class Study(StudyRuns):
             if self._plan is None:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
             self._choose_integration(progress)
-            if self.plan.method == "adaptive":
-                return self._run_adaptive(
+            if self.plan.scheme.runs_in_rounds:
+                return self._run_in_rounds(
                     work,
                     requested_size,
                     store,
@@ -560,7 +559,7 @@ class Study(StudyRuns):
             dataset.attrs.update(self.integration_choice.to_attrs())
         return StudyResult(dataset)
 
-    def _run_adaptive(
+    def _run_in_rounds(
         self,
         work: LazyExecutor,
         size: int,
@@ -572,8 +571,9 @@ class Study(StudyRuns):
         on_failure: str,
         started: float,
     ) -> StudyResult:
-        """The rounds of an adaptive plan (:mod:`fuzzymbs.study.adaptive_rounds`), then the
-        result; its certification replaces the validation runs of the fixed methods."""
+        """The rounds of a plan that runs in rounds (:mod:`fuzzymbs.study.adaptive_rounds`),
+        then the result; its certification replaces the validation runs of the fixed
+        methods."""
         outputs, evaluated, reused = run_rounds(self, (work, size, resume, progress, code), store)
         plan = self.plan
         count = len(plan)
@@ -599,19 +599,9 @@ class Study(StudyRuns):
                 integration=integration,
             )
         dataset.attrs.update(plan.attrs())
-        outcome = plan.outcome()
-        if outcome.status == NOISE:
-            message = f"study {self.name!r}: " + noise_message(
-                outcome.runs, outcome.noise, plan.method_tolerance
-            )
-            logger.warning("%s", message)
-            warnings.warn(message, AdaptiveWarning, stacklevel=3)
-        elif not outcome.converged:
-            message = (
-                f"study {self.name!r}: the adaptive method stopped at its run budget "
-                f"(max_runs = {plan.max_runs}) with a certified error of {outcome.error:.3g} "
-                f"of the cut width, above method_tolerance = {plan.method_tolerance:g}"
-            )
+        stopped = plan.scheme.stop_message(plan.outcome())
+        if stopped is not None:
+            message = f"study {self.name!r}: {stopped}"
             logger.warning("%s", message)
             warnings.warn(message, AdaptiveWarning, stacklevel=3)
         if self.integration_choice is not None:
