@@ -461,9 +461,10 @@ def info(
     lines.append(f"Methods: {', '.join(METHODS)}")
     for name, method in METHODS.items():
         lines.append(f"  {name}: {method.summary}")
-        for declared in method.options():
-            default = "chosen from the parameters" if declared.default is None else declared.default
-            lines.append(f"    {declared.name} (default {default!r}): {declared.help}")
+        lines += [
+            f"    {declared.name} ({declared.default_text()}): {declared.help}"
+            for declared in method.options()
+        ]
     lines.append("Executors: inline, processes[:N], dask://HOST:PORT")
     lines.append(f"Demos: {', '.join(demo_names()) or '(none)'}")
     typer.echo("\n".join(lines))

@@ -62,6 +62,18 @@ class OptionInfo(NamedTuple):
     default: Any
     help: str
 
+    def default_text(self) -> str:
+        """``"default 2,000"``, ``"default 0.01"``, ``"default none"`` or ``"default chosen
+        from the parameters"`` (for None)."""
+        value = self.default
+        if value is None:
+            return "default chosen from the parameters"
+        if isinstance(value, tuple):
+            return f"default {', '.join(value) or 'none'}"
+        if isinstance(value, int):
+            return f"default {value:,}"
+        return f"default {value:g}"
+
 
 def _base_type(hint: Any) -> tuple[Any, bool]:
     """``(type, None allowed)`` of an option's annotation (``int | None`` -> ``(int, True)``)."""
