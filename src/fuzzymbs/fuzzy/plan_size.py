@@ -87,14 +87,6 @@ class _Request(NamedTuple):
     numbers: tuple[FuzzyNumber, ...]
     levels: int | ArrayLike
 
-    @property
-    def nonmonotonic(self) -> tuple[str, ...]:
-        return getattr(self.method, "nonmonotonic", ())
-
-    @property
-    def sparse_level(self) -> int | None:
-        return getattr(self.method, "sparse_level", None)
-
     def _counting(self, steps: int | None) -> CountRequest:
         steps = self.steps if steps is None else steps
         levels = self.levels if steps == self.steps else steps
@@ -121,8 +113,6 @@ def _request(
     **options: Any,
 ) -> _Request:
     """Validate like :class:`~fuzzymbs.fuzzy.transform.Plan` (same errors), without building."""
-    if isinstance(nonmonotonic, list | tuple) and not nonmonotonic:
-        nonmonotonic = None
     scheme = method_named(method, nonmonotonic=nonmonotonic, sparse_level=sparse_level, **options)
     numbers = checked_parameters(parameters)
     names = tuple(numbers)
@@ -251,16 +241,17 @@ def _runs_text(count: int) -> str:
 def _alternatives(request: _Request, max_runs: int, fewer_levels: bool) -> str:
     """The run counts of cheaper choices for the same parameters (by the same closed forms)."""
     steps = SUGGESTED_LEVELS if fewer_levels else request.steps
+    sparse_level = getattr(request.method, "sparse_level", None)
     options: list[tuple[str, int]] = []
     if steps != request.steps:
-        label = {"sparse": f"'sparse' (sparse_level = {request.sparse_level})"}.get(
+        label = {"sparse": f"'sparse' (sparse_level = {sparse_level})"}.get(
             request.method.name, f"{request.method.name!r}"
         )
         options.append((label, request.count(steps=steps)))
     if request.method.name != "reduced":
         options.append(("'reduced'", request.count("reduced", steps=steps)))
     if len(request.names) > 1 and not (
-        request.method.name == "extended" and len(request.nonmonotonic) <= 1
+        request.method.name == "extended" and len(getattr(request.method, "nonmonotonic", ())) <= 1
     ):
         # the count depends on the chosen parameter's shape only: one count per distinct
         # shape (each count is linear in the parameters; per name it would be quadratic)
@@ -274,8 +265,8 @@ def _alternatives(request: _Request, max_runs: int, fewer_levels: bool) -> str:
             )
             options.append(("'extended' with one non-monotonic parameter", worst))
     sparse_levels = [3] if request.method.name != "sparse" else []
-    if request.method.name == "sparse" and request.sparse_level and request.sparse_level > 1:
-        sparse_levels = [min(request.sparse_level - 1, 3)]
+    if request.method.name == "sparse" and sparse_level and sparse_level > 1:
+        sparse_levels = [min(sparse_level - 1, 3)]
     for level in sparse_levels:
         options.append(
             (f"'sparse' (sparse_level = {level})", request.count("sparse", sparse_level=level))
@@ -343,8 +334,9 @@ def _what(request: _Request, levels: int | ArrayLike, method: str | None = None)
         f"the {method or repr(request.method.name)} method with {count} fuzzy "
         f"parameter{'s' if count != 1 else ''} and {_levels_text(levels, request.steps)}"
     )
-    if request.sparse_level is not None:
-        what += f" (sparse_level = {request.sparse_level})"
+    sparse_level = getattr(request.method, "sparse_level", None)
+    if sparse_level is not None:
+        what += f" (sparse_level = {sparse_level})"
     return what[0].upper() + what[1:]
 
 
@@ -394,15 +386,9 @@ def check_run_limit(
     """
     limit = _checked_limit(max_runs)
     request = _request(parameters, method, levels, nonmonotonic, sparse_level)
-    if (
-        limit is not None
-        and request.sparse_level is not None
-        and request.sparse_level > 60
-        and limit < 2**60
-    ):
-        # the grid holds a 1-D axis of 2^level + 1 nodes: refuse without the exact count
-        runs = 2**request.sparse_level + 1
-        _refuse(request, runs, limit, _what(request, levels), "more than ")
+    least = request.method.least_runs()
+    if limit is not None and least > limit:  # refused without the count (too costly to make)
+        _refuse(request, least, limit, _what(request, levels), "more than ")
     runs, exact = request.exact_count()
     if limit is not None:
         _refuse(request, runs, limit, _what(request, levels), "" if exact else "up to ")

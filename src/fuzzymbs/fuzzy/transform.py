@@ -87,8 +87,6 @@ def _scheme(
     adaptive method) takes the plan's ``max_runs`` as that budget (the default limit and
     None mean the method's default); for every other method ``max_runs`` is the limit.
     """
-    if isinstance(nonmonotonic, list | tuple) and not nonmonotonic:
-        nonmonotonic = None
     options: dict[str, Any] = {
         "nonmonotonic": nonmonotonic,
         "sparse_level": sparse_level,
@@ -433,13 +431,22 @@ class Plan:
         Returns
         -------
         FuzzyResult or dict of str to FuzzyResult
+            A dict for a mapping of outputs (the variant in rounds: of the outputs the
+            rounds saw, checked against them; a single array is the one output of its
+            shape, and ``check_monotonic`` has no effect).
         """
         if isinstance(outputs, Mapping):
             return {
-                key: retransform(self, value, failed, name=key, check_monotonic=check_monotonic)
+                key: self._retransform_one(value, failed, key, True, check_monotonic)
                 for key, value in outputs.items()
             }
-        return retransform(self, outputs, failed, name=name, check_monotonic=check_monotonic)
+        return self._retransform_one(outputs, failed, name, False, check_monotonic)
+
+    def _retransform_one(
+        self, values: ArrayLike, failed: ArrayLike | None, name: str, keyed: bool, check: bool
+    ) -> FuzzyResult:
+        """One output's result (``keyed``: ``name`` is the output's own key)."""
+        return retransform(self, values, failed, name=name, check_monotonic=check)
 
     # ------------------------------------------------------------ serialising
     def to_dict(self) -> dict[str, Any]:
@@ -606,20 +613,10 @@ class RoundsPlan(Plan):
                 pieces.setdefault(key, []).append(value)
         return {key: np.concatenate(value) for key, value in pieces.items()}
 
-    def retransform(
-        self,
-        outputs: ArrayLike | Mapping[str, ArrayLike],
-        failed: ArrayLike | None = None,
-        *,
-        name: str = "output",
-        check_monotonic: bool = True,
-    ) -> FuzzyResult | dict[str, FuzzyResult]:
-        """The certified cuts of the outputs the rounds saw.
-
-        ``outputs`` are those of every run (as :meth:`evaluate` returns them); they are
-        checked against the runs the rounds were given. A mapping gives a dict of results,
-        a single array the result of the one output of that shape. ``check_monotonic`` is
-        accepted for the plans' common signature and has no effect.
+    def _retransform_one(
+        self, values: ArrayLike, failed: ArrayLike | None, name: str, keyed: bool, check: bool
+    ) -> FuzzyResult:
+        """The certified cuts of one output the rounds saw.
 
         Raises
         ------
@@ -635,19 +632,19 @@ class RoundsPlan(Plan):
                 "its surrogate needs every run, so no level can be bounded"
             )
         outcome = self.outcome()
-        if isinstance(outputs, Mapping):
-            return {key: self._result(key, value, outcome) for key, value in outputs.items()}
+        if keyed:
+            return self._result(name, values, outcome)
         matches = [
             key
             for key, (_, shape) in self.engine.layout.items()
-            if (len(self), *shape) == np.shape(outputs)
+            if (len(self), *shape) == np.shape(values)
         ]
         if len(matches) != 1:
             raise ModelOutputError(
                 f"output {name!r}: pass the outputs as a dict {{name: array}}; the rounds saw "
                 f"{sorted(self.engine.layout)}"
             )
-        return self._result(matches[0], outputs, outcome)
+        return self._result(matches[0], values, outcome)
 
     def _result(self, key: str, values: ArrayLike, outcome: Any) -> FuzzyResult:
         if key not in outcome.lower:

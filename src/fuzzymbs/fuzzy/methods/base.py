@@ -322,6 +322,11 @@ class Method:
         ``exact`` is False, an upper bound (a method in rounds: its run budget)."""
         raise NotImplementedError
 
+    def least_runs(self) -> int:
+        """A lower bound of the runs, known without counting, where counting would cost too
+        much (a plan over the limit is refused from it); 0 by default."""
+        return 0
+
     def closed_form(self, request: CountRequest) -> int:
         """A cheap count from the numbers' shapes alone, never below :meth:`count` (what a
         refused plan's message suggests for other methods); by default :meth:`count`."""

@@ -86,6 +86,10 @@ class Sparse(Method):
         check_sparse_search(count_parameters)
 
     # ------------------------------------------------------------------ count
+    def least_runs(self) -> int:
+        """Beyond level 60: the grid's 1-D axis of ``2^level + 1`` nodes (no exact count)."""
+        return 2**self.sparse_level + 1 if self.sparse_level > 60 else 0
+
     def count(self, request: CountRequest) -> tuple[int, bool]:
         """Smolyak nodes mapped to the support box, plus the modal point unless it is one.
 
