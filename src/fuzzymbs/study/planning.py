@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError, InvalidPlanError
-from fuzzymbs.fuzzy.methods import method_named, option_users
+from fuzzymbs.fuzzy.methods import Method, method_named, option_users
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_screening_run_limit
 from fuzzymbs.fuzzy.screening import DEFAULT_RTOL, Screening, check_tolerance
@@ -216,7 +216,7 @@ def checked_outputs(
 
 def build_plan(
     fuzzy: Mapping[str, FuzzyNumber],
-    method: str,
+    method: str | Method,
     levels: int | Sequence[float],
     nonmonotonic: Sequence[str] | str | None,
     screening_rtol: float | None,
@@ -252,7 +252,7 @@ def build_plan(
         if not scheme.declares("nonmonotonic"):
             raise InvalidPlanError(
                 f"nonmonotonic={AUTO!r} is only used by method="
-                f"{' or '.join(map(repr, option_users('nonmonotonic')))}, not {method!r}"
+                f"{' or '.join(map(repr, option_users('nonmonotonic')))}, not {scheme.name!r}"
             )
         rtol = DEFAULT_RTOL if screening_rtol is None else screening_rtol
         check_tolerance("screening_rtol", rtol)

@@ -36,6 +36,7 @@ from fuzzymbs.errors import (
     ModelOutputError,
     UnsupportedOperationError,
 )
+from fuzzymbs.fuzzy.methods import Method
 from fuzzymbs.fuzzy.methods.adaptive import AdaptiveWarning
 from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, Plan, make_levels
 from fuzzymbs.study.adaptive_rounds import run_rounds
@@ -86,8 +87,11 @@ class Study(StudyRuns):
         Parameter name -> :class:`~fuzzymbs.fuzzy.numbers.FuzzyNumber`, a
         study-file definition such as ``{"type": "triangular", "modal": 2e5,
         "spread": 0.1}``, or a plain number (a crisp value overriding the default).
-    method : {"general", "reduced", "extended", "grid", "sparse", "adaptive"}
-        Transformation scheme. ``"adaptive"`` refines a surrogate of every output in
+    method : {"general", "reduced", "extended", "grid", "sparse", "adaptive"} or Method
+        Transformation method, by name or as a method object of
+        :mod:`fuzzymbs.fuzzy.methods` holding its own options (e.g.
+        ``Sparse(sparse_level=2)``; then ``sparse_level`` and ``search_points`` are not
+        given here). ``"adaptive"`` refines a surrogate of every output in
         rounds until its certified error is at most ``method_tolerance``
         (:mod:`fuzzymbs.fuzzy.adaptive`); each round runs through the executor and,
         with a store, into ``STORE/adaptive-<round>-<fingerprint>/``. Its
@@ -143,11 +147,11 @@ class Study(StudyRuns):
         sample: ``method_error_bound = "lower"``). Default: a fifth of the method's
         runs, at least 12 per fuzzy parameter. 0 turns the check off (for a model
         known to be monotonic, or when every run counts).
-    method_tolerance : float
+    method_tolerance : float, optional
         Method ``"adaptive"``: the certified error (cut-width scale) at which its rounds
-        stop. The fixed methods: the largest method error (the validation runs' range
-        beyond a level's cut, on the cut-width scale of :mod:`fuzzymbs.fuzzy.band_scale`)
-        without a
+        stop (given, it replaces the method object's own). The fixed methods: the
+        largest method error (the validation runs' range beyond a level's cut, on the
+        cut-width scale of :mod:`fuzzymbs.fuzzy.band_scale`) without a
         :class:`~fuzzymbs.fuzzy.retransform.NonMonotonicWarning`. Default 1 %.
     widen_with_validation : bool
         Widen the cuts to the validation outputs (each point's level and the
@@ -176,7 +180,7 @@ class Study(StudyRuns):
         self,
         model: str | Callable[..., Any],
         parameters: Mapping[str, Any],
-        method: str = "reduced",
+        method: str | Method = "reduced",
         levels: int | Sequence[float] = 4,
         outputs: Sequence[str] | None = None,
         *,
@@ -190,7 +194,7 @@ class Study(StudyRuns):
         choose_integration: bool = True,
         shared_steps: bool = True,
         validation_runs: int | None = None,
-        method_tolerance: float = DEFAULT_METHOD_TOLERANCE,
+        method_tolerance: float | None = None,
         widen_with_validation: bool = False,
         max_runs: int | None = DEFAULT_MAX_RUNS,
         name: str | None = None,
@@ -198,7 +202,10 @@ class Study(StudyRuns):
     ) -> None:
         for label, value in (
             ("integration_tolerance", integration_tolerance),
-            ("method_tolerance", method_tolerance),
+            (
+                "method_tolerance",
+                DEFAULT_METHOD_TOLERANCE if method_tolerance is None else method_tolerance,
+            ),
         ):
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise InvalidParameterError(f"{label} must be a positive number, got {value!r}")
@@ -223,7 +230,6 @@ class Study(StudyRuns):
         self.shared_steps = bool(shared_steps)
         self.integration_choice: ToleranceChoice | None = None
         self.validation_runs = None if validation_runs is None else int(validation_runs)
-        self.method_tolerance = float(method_tolerance)
         self.widen_with_validation = bool(widen_with_validation)
         resolved = resolve_model(model, model_options or {})
         self.model = resolved.model
@@ -258,7 +264,14 @@ class Study(StudyRuns):
             sparse_level,
             search_points,
             max_runs=max_runs,
-            method_tolerance=self.method_tolerance,
+            method_tolerance=method_tolerance,
+        )
+        # one tolerance: the method's own where it declares one (adaptive), else the check's
+        scheme = getattr(self._plan, "scheme", None)
+        if scheme is not None and scheme.declares("method_tolerance"):
+            method_tolerance = scheme.method_tolerance
+        self.method_tolerance = float(
+            DEFAULT_METHOD_TOLERANCE if method_tolerance is None else method_tolerance
         )
         known_outputs = self._declared_outputs()
         self.outputs = checked_outputs(outputs, known_outputs, self.model_name)

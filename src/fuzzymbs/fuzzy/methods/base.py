@@ -32,6 +32,7 @@ __all__ = [
     "OptionInfo",
     "Sampling",
     "option",
+    "option_type",
     "to_parameter_space",
 ]
 
@@ -120,6 +121,13 @@ def _checked_value(method: str, name: str, value: Any, hint: Any, meta: dict) ->
             raise bad()
         return names
     raise TypeError(f"option {name!r} of method {method!r}: undeclared type {hint!r}")
+
+
+def option_type(cls: type, name: str) -> tuple[Any, float | None]:
+    """``(type, minimum)`` of option ``name`` of method class ``cls`` (``int | None`` gives
+    ``int``): what a study file's schema checks of it."""
+    item = next(f for f in dataclasses.fields(cls) if f.name == name)
+    return _base_type(typing.get_type_hints(cls)[name])[0], item.metadata["minimum"]
 
 
 class NumberShape(NamedTuple):
