@@ -344,8 +344,9 @@ class Plan:
 
     @property
     def corner_index(self) -> NDArray[np.intp]:
-        """(L, 2^n) sample index of the cut-box corners (reduced, extended and grid plans)."""
-        if self._corner_index is None:
+        """(L, 2^n) sample index of the cut-box corners (methods with ``has_corners``:
+        reduced, extended and grid)."""
+        if not self.scheme.has_corners:
             which = [name for name, cls in METHOD_TYPES.items() if cls.has_corners]
             raise UnsupportedOperationError(
                 f"corner bookkeeping exists for {', '.join(which)} plans, not {self.method!r}"
