@@ -19,19 +19,22 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidPlanError
-from fuzzymbs.fuzzy.adaptive import (
-    DEFAULT_ADAPTIVE_MAX_RUNS,
-    DEFAULT_ADAPTIVE_TOLERANCE,
-    NOISE,
-    AdaptiveOutcome,
-    AdaptiveTransformation,
-    check_adaptive_options,
-)
+from fuzzymbs.fuzzy.adaptive import NOISE, AdaptiveOutcome, AdaptiveTransformation
 from fuzzymbs.fuzzy.methods.base import CountRequest, Method, option
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 
-__all__ = ["Adaptive", "AdaptiveWarning", "noise_message"]
+__all__ = [
+    "DEFAULT_ADAPTIVE_MAX_RUNS",
+    "DEFAULT_ADAPTIVE_TOLERANCE",
+    "Adaptive",
+    "AdaptiveWarning",
+    "noise_message",
+]
 
+#: certified error (on the cut-width scale) at which the adaptive method stops
+DEFAULT_ADAPTIVE_TOLERANCE = 0.01
+#: run budget of the adaptive method unless the caller sets one
+DEFAULT_ADAPTIVE_MAX_RUNS = 2000
 #: search-grid points per cut box on the surrogate unless the caller sets them
 DEFAULT_ADAPTIVE_SEARCH_POINTS = 20_000
 
@@ -110,7 +113,13 @@ class Adaptive(Method):
 
     def checked(self, names: tuple[str, ...]) -> Adaptive:
         """A budget of at least the first round; ``search_points`` at least ``3^n``."""
-        check_adaptive_options(self.method_tolerance, self.max_runs, len(names))
+        least = 2 * len(names) + 2
+        if self.max_runs < least:
+            raise InvalidPlanError(
+                f"max_runs of the adaptive method must be a whole number >= {least} (its "
+                f"first round: 2 n + 2 runs for n = {len(names)} parameters), got "
+                f"{self.max_runs!r}"
+            )
         if self.search_points < 3 ** len(names):
             raise InvalidPlanError(
                 f"search_points must be an int >= 3^n = {3 ** len(names)}, "
