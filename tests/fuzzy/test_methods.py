@@ -132,3 +132,14 @@ def test_the_study_file_has_a_key_for_every_declared_option():
     for cls in METHODS.values():
         assert {declared.name for declared in cls.options()} <= keys
     assert set(StudySection.model_fields["method"].annotation.__args__) == set(METHODS)
+
+
+@pytest.mark.parametrize("name", list(METHODS))
+def test_a_study_checks_a_method_by_validation_runs_unless_it_certifies_itself(name):
+    from fuzzymbs.study.study import Study
+
+    study = Study("product", PARAMETERS, method=name, levels=2)
+    if METHODS[name].supports_validation:
+        assert study.validation_count() == 12 * len(PARAMETERS)  # the default's floor
+    else:
+        assert study.validation_count() == 0

@@ -164,7 +164,10 @@ class StudyRuns:
 
     def validation_count(self) -> int:
         """The study's validation runs in all: ``validation_runs``, or the default
-        (:func:`~fuzzymbs.fuzzy.validation.default_validation_count`)."""
+        (:func:`~fuzzymbs.fuzzy.validation.default_validation_count`); none for a method
+        that certifies itself (``supports_validation`` False: adaptive)."""
+        if not self.plan.scheme.supports_validation:
+            return 0
         if self.validation_runs is not None:
             return self.validation_runs
         return default_validation_count(len(self.plan), len(self.plan.names))
