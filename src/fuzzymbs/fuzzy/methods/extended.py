@@ -40,15 +40,17 @@ class Extended(LevelScheme):
 
     def checked(self, names: tuple[str, ...]) -> Extended:
         """The named parameters must exist; kept in the parameters' order, repeats dropped."""
-        unknown = [name for name in self.nonmonotonic if name not in names]
+        known, named = set(names), set(self.nonmonotonic)  # sets: linear in the parameters
+        unknown = [name for name in self.nonmonotonic if name not in known]
         if unknown:
             raise InvalidPlanError(
                 f"nonmonotonic names unknown parameters {unknown}; parameters: {list(names)}"
             )
-        return replace(self, nonmonotonic=tuple(n for n in names if n in self.nonmonotonic))
+        return replace(self, nonmonotonic=tuple(n for n in names if n in named))
 
     def describe(self) -> dict[str, list[str]]:
         return {"nonmonotonic": list(self.nonmonotonic)} if self.nonmonotonic else {}
 
     def interior_flags(self, names: tuple[str, ...]) -> list[bool]:
-        return [name in self.nonmonotonic for name in names]
+        named = set(self.nonmonotonic)
+        return [name in named for name in names]
