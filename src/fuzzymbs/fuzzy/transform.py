@@ -58,7 +58,8 @@ __all__ = [
 
 #: every method :func:`plan` accepts, by its public name (:mod:`fuzzymbs.fuzzy.methods`)
 ALL_METHODS: tuple[str, ...] = tuple(METHOD_TYPES)
-#: the methods whose samples are known in advance (every method but those in rounds)
+#: the names of the methods whose samples are known in advance (every method but those in
+#: rounds); the registry of every method is :data:`fuzzymbs.fuzzy.methods.METHODS`
 METHODS: tuple[str, ...] = tuple(
     name for name, cls in METHOD_TYPES.items() if not cls.runs_in_rounds
 )
