@@ -143,3 +143,13 @@ def test_a_study_checks_a_method_by_validation_runs_unless_it_certifies_itself(n
         assert study.validation_count() == 12 * len(PARAMETERS)  # the default's floor
     else:
         assert study.validation_count() == 0
+
+
+def test_the_count_refuses_what_the_plan_refuses():
+    # the count checks the method's options as the plan does: the adaptive method's default
+    # search grid (20,000 points per cut box) cannot hold 3^10 points
+    ten = {f"x{i}": Triangular(i, i + 1.0, i + 2.0) for i in range(10)}
+    for make in (lambda: plan(ten, "adaptive", 2), lambda: run_count(ten, "adaptive", 2)):
+        with pytest.raises(InvalidPlanError, match=r"search_points must be an int >= 3\^n = 59049"):
+            make()
+    assert run_count(ten, method_named("adaptive", search_points=3**10), 2) == 2000

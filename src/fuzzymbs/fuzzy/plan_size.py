@@ -187,7 +187,8 @@ def run_count(
     16385
     >>> run_count(twelve, "general", 4)
     261453379
-    >>> run_count(twelve, "adaptive", 4)  # its budget: the most it runs
+    >>> three = {name: twelve[name] for name in ("p0", "p1", "p2")}
+    >>> run_count(three, "adaptive", 4)  # its budget: the most it runs
     2000
     """
     if max_runs is not None:

@@ -105,16 +105,18 @@ def _scheme(
 
 
 class Plan:
-    """Sample points of a transformation-method scheme and their level bookkeeping.
+    """Sample points of a transformation method and their level bookkeeping.
 
     ``plan(...)`` is the same as ``Plan(...)``. Attributes are read-only by convention.
+    A method that runs in rounds (adaptive) gives a :class:`RoundsPlan`.
 
     Parameters
     ----------
     parameters : mapping of str to FuzzyNumber
         Fuzzy parameters by name (their order fixes the sample columns).
-    method : {"general", "reduced", "extended", "grid", "sparse"}
-        Sampling scheme (see the module docstring and docs/theory.md).
+    method : {"general", "reduced", "extended", "grid", "sparse", "adaptive"} or Method
+        The method by name, or a method object of :mod:`fuzzymbs.fuzzy.methods` holding
+        its own options (then none of the options below are given).
     levels : int or array_like
         ``m`` for mu_j = j/m, or an increasing list from 0 to 1.
     nonmonotonic : iterable of str, optional
@@ -126,12 +128,17 @@ class Plan:
     search_points : int, optional
         ``"sparse"`` only: points of the tensor search grid per cut box,
         ``k = floor(search_points^(1/n))`` per parameter (default
-        ``max(20000, 3^n)``; at least ``3^n``).
+        ``max(20000, 3^n)``; at least ``3^n``); ``"adaptive"``: on its surrogate
+        (default 20,000).
     max_runs : int or None, optional
         Refuse the plan, before anything is built, if it needs more model runs
         than this (:func:`run_count`) or its level bookkeeping (levels x runs)
         more than 10 x this; default :data:`DEFAULT_MAX_RUNS` (1,000,000), None:
-        no limit. See :func:`~fuzzymbs.fuzzy.plan_size.check_run_limit`.
+        no limit. See :func:`~fuzzymbs.fuzzy.plan_size.check_run_limit`. For
+        ``method="adaptive"`` (by name) its run budget: this default and None mean
+        2,000.
+    method_tolerance : float, optional
+        ``"adaptive"`` only: the certified error at which its rounds stop (default 0.01).
 
     Attributes
     ----------
@@ -142,7 +149,9 @@ class Plan:
     levels : ndarray, shape (L,)
         Membership levels mu_0 = 0 ... mu_m = 1.
     method : str
-        One of :data:`METHODS`.
+        The method's public name (one of :data:`ALL_METHODS`).
+    scheme : Method
+        The method object: its options and capabilities.
     nonmonotonic : tuple of str
         Parameters with interior points (``"extended"`` only).
     sparse_level, search_points : int or None
@@ -156,9 +165,9 @@ class Plan:
     Raises
     ------
     InvalidPlanError
-        Unknown method, bad levels, unknown or misplaced nonmonotonic names,
-        sparse options that are invalid or given with another method,
-        parameters that are not fuzzy numbers.
+        Unknown method, bad levels, unknown nonmonotonic names, options that are
+        invalid or given to a method that does not use them (the message names the
+        option), parameters that are not fuzzy numbers.
     PlanTooLargeError
         (an InvalidPlanError) More runs than ``max_runs``; the message gives the
         runs of the reduced, extended and sparse methods and how to raise the limit.
