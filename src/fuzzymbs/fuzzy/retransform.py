@@ -41,7 +41,6 @@ from fuzzymbs.fuzzy.grids import cartesian, unique_rows
 from fuzzymbs.fuzzy.influence import Influence, influence_from_sums, influence_refusal
 from fuzzymbs.fuzzy.labels import DatasetExport, DatasetParts
 from fuzzymbs.fuzzy.numbers import check_level
-from fuzzymbs.fuzzy.plan_options import check_sparse_search
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
 __all__ = [
@@ -305,7 +304,7 @@ def points_per_parameter(search_points: int, count_parameters: int) -> int:
 def _sparse_own_bounds(plan: PlanBookkeeping, values: NDArray) -> tuple[NDArray, NDArray]:
     """Per-level min/max (L, E) of a sparse plan's candidates (see the module docstring)."""
     count_levels, count_parameters = plan.cut_lower.shape
-    check_sparse_search(count_parameters)
+    plan.scheme.check_bounds(count_parameters)  # a search it cannot run is refused
     flat = values.reshape(len(plan), -1)
     node_values = flat[plan.node_index]
     grid = plan.sparse_grid

@@ -10,6 +10,7 @@ point is sample 0 and a candidate of every level's search.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -20,15 +21,23 @@ from fuzzymbs.fuzzy.grids import unique_rows
 from fuzzymbs.fuzzy.methods.base import CountRequest, Method, NumberShape, Sampling, option
 from fuzzymbs.fuzzy.methods.base import to_parameter_space as mapped
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
-from fuzzymbs.fuzzy.plan_options import (
-    DEFAULT_SEARCH_POINTS,
-    DEFAULT_SPARSE_LEVEL,
-    check_sparse_search,
-)
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid, node_count, nodes_1d
 
-__all__ = ["Sparse"]
+__all__ = [
+    "DEFAULT_SEARCH_POINTS",
+    "DEFAULT_SPARSE_LEVEL",
+    "MAX_SEARCH_POINTS",
+    "Sparse",
+    "check_sparse_search",
+]
 
+#: default ``sparse_level`` (Smolyak's q = n + 3: exact for polynomials of total degree 3)
+DEFAULT_SPARSE_LEVEL = 3
+#: default number of search points per cut box of a sparse plan (at least 3^n are used)
+DEFAULT_SEARCH_POINTS = 20_000
+#: the most search points per cut box a sparse plan's retransformation evaluates: 3^15, the
+#: tensor grid of 15 parameters (1.7 GB of points per cut box before the interpolant runs)
+MAX_SEARCH_POINTS = 3**15
 #: the modal point's search over the 1-D sparse nodes stops at this sparse level (2^20 nodes)
 _MODAL_SEARCH_LEVEL = 20
 
@@ -242,3 +251,29 @@ def _sparse_count(shapes: list[NumberShape], level: int) -> tuple[int, bool]:
         ordered = np.sort(mapped_nodes[kept], axis=1)
         exact = bool(np.all(ordered[:, 1:] != ordered[:, :-1]))
     return node_count(dimension, level) + (0 if modal_is_node else 1), exact
+
+
+def check_sparse_search(count_parameters: int) -> None:
+    """Refuse a sparse retransformation whose search grid per cut box cannot be evaluated.
+
+    The search needs at least 3 points per parameter in every cut box, ``3^n``
+    in all; beyond :data:`MAX_SEARCH_POINTS` (n > 15) it cannot run, so a study
+    refuses such a plan before evaluating any sample, and a plan's
+    retransformation refuses it instead of running out of memory. The plan itself
+    (its samples, its interpolant) has no such limit.
+
+    Raises
+    ------
+    InvalidPlanError
+        ``3^n`` above :data:`MAX_SEARCH_POINTS`.
+    """
+    if count_parameters <= 15:  # 3^15 = MAX_SEARCH_POINTS; no huge power for large n
+        return
+    digits = int(count_parameters * math.log10(3.0))
+    raise InvalidPlanError(
+        f"the sparse method finds every cut's bounds by searching its interpolant on a "
+        f"tensor grid of at least 3 points per parameter: 3^{count_parameters} (about "
+        f"1e{digits}) points per cut box for {count_parameters} fuzzy parameters, more than "
+        f"the {MAX_SEARCH_POINTS:,} (3^15) it can evaluate: the sparse method serves at "
+        f"most 15 fuzzy parameters"
+    )
