@@ -162,7 +162,11 @@ def test_info_lists_models_with_units_and_methods():
     assert "Methods: general, reduced, extended, grid" in result.output
     # the adaptive method has no fixed run count: info names its tolerance and budget
     assert "adaptive: rounds until its certified error" in result.output
-    assert "at most max_runs (default 2,000)" in result.output
+    assert "method_tolerance (default 0.01)" in result.output
+    assert "max_runs (default 2,000): run budget" in result.output
+    # every method's options come from its declaration
+    assert "sparse_level (default 3)" in result.output
+    assert "nonmonotonic (default none)" in result.output
     assert "quickstart" in result.output
     result = runner.invoke(app, ["info", "nope"])
     assert result.exit_code == 1 and "unknown model 'nope'" in result.output

@@ -425,8 +425,7 @@ def info(
     With a .fmu file: its settable real parameters and its outputs, with units.
     """
     from fuzzymbs.errors import FuzzymbsError
-    from fuzzymbs.fuzzy.adaptive import DEFAULT_ADAPTIVE_MAX_RUNS, DEFAULT_ADAPTIVE_TOLERANCE
-    from fuzzymbs.fuzzy.transform import ALL_METHODS
+    from fuzzymbs.fuzzy.methods import METHODS
     from fuzzymbs.study.pipeline import demo_names
     from fuzzymbs.study.registry import available_models, get_model
 
@@ -459,12 +458,13 @@ def info(
         if spec.options:
             lines.append("    options:")
             lines += [f"      {k}: {v}" for k, v in spec.options.items()]
-    lines.append(f"Methods: {', '.join(ALL_METHODS)}")
-    lines.append(
-        "  adaptive: rounds until its certified error is below method_tolerance "
-        f"(default {DEFAULT_ADAPTIVE_TOLERANCE:.0%} of the cut width); the model decides "
-        f"the runs, at most max_runs (default {DEFAULT_ADAPTIVE_MAX_RUNS:,})"
-    )
+    lines.append(f"Methods: {', '.join(METHODS)}")
+    for name, method in METHODS.items():
+        lines.append(f"  {name}: {method.summary}")
+        lines += [
+            f"    {declared.name} ({declared.default_text()}): {declared.help}"
+            for declared in method.options()
+        ]
     lines.append("Executors: inline, processes[:N], dask://HOST:PORT")
     lines.append(f"Demos: {', '.join(demo_names()) or '(none)'}")
     typer.echo("\n".join(lines))

@@ -7,10 +7,11 @@ import pytest
 
 from fuzzymbs.errors import InvalidPlanError, ModelOutputError
 from fuzzymbs.fuzzy import Triangular, plan
-from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, AdaptiveWarning
 from fuzzymbs.fuzzy.band_scale import band_miss
 from fuzzymbs.fuzzy.chebyshev_grid import ChebyshevSparseGrid, evaluate_series, node_values
+from fuzzymbs.fuzzy.methods.adaptive import AdaptiveWarning
 from fuzzymbs.fuzzy.numbers import triangular_numbers
+from fuzzymbs.fuzzy.transform import RoundsPlan
 from fuzzymbs.models.closed_form.hard_cases import HardCase, dense_truth, hard_cases
 
 LEVELS = np.linspace(0.0, 1.0, 6)
@@ -18,7 +19,7 @@ LEVELS = np.linspace(0.0, 1.0, 6)
 _SLOW = {"ringing3": pytest.mark.slow}
 
 
-def _run(case: HardCase, **options) -> tuple[AdaptivePlan, dict, float]:
+def _run(case: HardCase, **options) -> tuple[RoundsPlan, dict, float]:
     scheme = plan(triangular_numbers(case.triangles), method="adaptive", levels=LEVELS, **options)
     outputs = scheme.evaluate(case.model)
     cuts = scheme.retransform(outputs)

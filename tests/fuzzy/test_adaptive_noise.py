@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fuzzymbs.fuzzy import Triangular, plan
-from fuzzymbs.fuzzy.adaptive_plan import AdaptiveWarning
+from fuzzymbs.fuzzy.methods.adaptive import AdaptiveWarning
 
 NUMBERS = {"a": Triangular(0.0, 1.0, 2.0), "b": Triangular(1.0, 2.0, 3.0)}
 BUDGET = 2000

@@ -19,10 +19,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fuzzymbs.errors import InvalidPlanError, PlanTooLargeError
+from fuzzymbs.fuzzy.methods.level_scheme import power_product_sum
 from fuzzymbs.fuzzy.numbers import Gaussian, PiecewiseLinear, Trapezoidal, Triangular
 from fuzzymbs.fuzzy.plan_size import (
     LEVEL_TABLE_FACTOR,
-    _power_product_sum,
     check_run_limit,
     check_screening_run_limit,
     screening_run_count,
@@ -213,9 +213,9 @@ def test_piecewise_number_with_a_vertical_step_is_bounded():
 
 @pytest.mark.parametrize("p", range(4))
 @pytest.mark.parametrize("q", range(4))
-def test_power_product_sum_equals_the_direct_sum(p, q):
+def testpower_product_sum_equals_the_direct_sum(p, q):
     for m in (0, 1, 2, 5, 9, 40):
-        assert _power_product_sum(m, p, q) == sum(
+        assert power_product_sum(m, p, q) == sum(
             (k + 1) ** p * (k + 2) ** q for k in range(1, m + 1)
         )
 
@@ -347,7 +347,7 @@ def test_invalid_settings_are_refused_before_the_count():
         run_count(TWELVE, "reduced", 0)
     with pytest.raises(InvalidPlanError, match="only used by method='extended'"):
         run_count(TWELVE, "reduced", 4, nonmonotonic=["x0"])
-    with pytest.raises(InvalidPlanError, match="only apply to method='sparse'"):
+    with pytest.raises(InvalidPlanError, match="only used by method='sparse'"):
         run_count(TWELVE, "reduced", 4, sparse_level=2)
     with pytest.raises(InvalidPlanError, match="unknown parameters"):
         run_count(TWELVE, "extended", 4, nonmonotonic=["nope"])
@@ -392,7 +392,7 @@ def test_adaptive_count_is_its_budget_and_bounds_what_it_runs():
         run_count(numbers, "adaptive", 5, max_runs=7)  # below the first round, 2 n + 2
     with pytest.raises(InvalidPlanError, match="sparse_level"):
         run_count(numbers, "adaptive", 5, sparse_level=2)
-    with pytest.raises(InvalidPlanError, match="only for method='adaptive'"):
+    with pytest.raises(InvalidPlanError, match="max_runs=100 is only used by method='adaptive'"):
         run_count(numbers, "reduced", 5, max_runs=100)
     with pytest.raises(InvalidPlanError, match="levels"):
         run_count(numbers, "adaptive", 0)

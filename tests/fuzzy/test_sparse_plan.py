@@ -190,7 +190,7 @@ def test_bad_sparse_options_raise(kwargs, fragment):
 
 
 def test_sparse_options_with_other_method_raise():
-    with pytest.raises(InvalidPlanError, match="only apply to method='sparse'"):
+    with pytest.raises(InvalidPlanError, match="only used by method='sparse'"):
         plan({"x": Triangular(1, 2, 3)}, method="general", sparse_level=2)
 
 
@@ -295,12 +295,12 @@ def test_study_file_with_sparse_method(tmp_path):
     with pytest.raises(StudyFileError, match="search_points"):
         load_study_file(path)
     path.write_text(textwrap.dedent(text).replace('method = "sparse"', 'method = "general"'))
-    with pytest.raises(StudyFileError, match="only apply to method='sparse'"):
+    with pytest.raises(StudyFileError, match="only used by method='sparse'"):
         load_study_file(path)
 
 
 def test_study_rejects_sparse_options_with_auto_screening():
-    with pytest.raises(InvalidPlanError, match="only apply to method='sparse'"):
+    with pytest.raises(InvalidPlanError, match="only used by method='sparse'"):
         Study(
             "product",
             {"x1": Triangular(1, 2, 3), "x2": Triangular(2, 3, 4)},

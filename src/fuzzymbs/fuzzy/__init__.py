@@ -5,6 +5,7 @@ The engine never imports a model: a model is any callable
 """
 
 from fuzzymbs.fuzzy.influence import Influence
+from fuzzymbs.fuzzy.methods import Method, method_named
 from fuzzymbs.fuzzy.numbers import FuzzyNumber, Gaussian, PiecewiseLinear, Trapezoidal, Triangular
 from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning
 from fuzzymbs.fuzzy.screening import (
@@ -14,7 +15,7 @@ from fuzzymbs.fuzzy.screening import (
     screening_samples,
 )
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid, sparse_grid
-from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, METHODS, Plan, plan, run_count
+from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, METHODS, Plan, RoundsPlan, plan, run_count
 
 __all__ = [
     "DEFAULT_MAX_RUNS",
@@ -23,14 +24,17 @@ __all__ = [
     "FuzzyResult",
     "Gaussian",
     "Influence",
+    "Method",
     "NonMonotonicWarning",
     "PiecewiseLinear",
     "Plan",
+    "RoundsPlan",
     "Screening",
     "ScreeningWarning",
     "SparseGrid",
     "Trapezoidal",
     "Triangular",
+    "method_named",
     "nonmonotonic_parameters",
     "plan",
     "run_count",

@@ -77,17 +77,20 @@ class StreamLayout:
     """
 
     def __init__(self, plan: PlanBookkeeping) -> None:
-        if plan.method == "sparse":
-            raise InvalidPlanError("sparse plans are retransformed from all samples at once")
+        if not plan.scheme.supports_streaming:
+            raise InvalidPlanError(
+                f"{plan.method} plans are retransformed from all samples at once"
+            )
         self.plan = plan
         self.count = len(plan)
         self.usage = np.asarray(plan.level_usage, dtype=bool)  # (L, N)
         self.levels = len(plan.levels)
         self.nominal_index = int(plan.nominal_index)
-        # corner sums (gain factors): reduced, extended and grid plans; the monotonicity
-        # guard: reduced and extended only (a grid's bounds use every grid point)
-        self.corners = plan.method in ("reduced", "extended", "grid")
-        self.guard = plan.method in ("reduced", "extended")
+        # corner sums (gain factors): plans with corner bookkeeping (reduced, extended,
+        # grid); the monotonicity guard: methods whose bounds assume monotonic outputs
+        # (reduced, extended; a grid's bounds use every grid point)
+        self.corners = plan.scheme.has_corners
+        self.guard = plan.scheme.guards_monotonicity
         if self.guard:
             self._guard_layout(plan)
         if self.corners:

@@ -43,12 +43,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fuzzymbs.errors import InvalidPlanError, ModelOutputError
+from fuzzymbs.errors import ModelOutputError
 from fuzzymbs.fuzzy.band_scale import CERTIFIED, WIDTH_FLOOR
 from fuzzymbs.fuzzy.box_search import box_extremes
 from fuzzymbs.fuzzy.chebyshev_grid import (
@@ -62,19 +61,8 @@ from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
-__all__ = [
-    "DEFAULT_ADAPTIVE_MAX_RUNS",
-    "DEFAULT_ADAPTIVE_TOLERANCE",
-    "NOISE",
-    "AdaptiveOutcome",
-    "AdaptiveTransformation",
-    "check_adaptive_options",
-]
+__all__ = ["NOISE", "AdaptiveOutcome", "AdaptiveTransformation"]
 
-#: certified error (on the cut-width scale) at which the adaptive method stops
-DEFAULT_ADAPTIVE_TOLERANCE = 0.01
-#: run budget of the adaptive method unless the caller sets one
-DEFAULT_ADAPTIVE_MAX_RUNS = 2000
 #: extremal points closer than this to a run (unit cube [-1, 1]^n, max norm) are not re-run
 _NEAR = 0.02
 #: frontier indices whose indicator is within this factor of the largest are refined together
@@ -103,36 +91,6 @@ TWIN = "twin"
 #: a surrogate: the sparse grid's Chebyshev series (degrees, coefficients) and the
 #: kernel correction through the runs off the grid (None before there are any)
 Surrogate = tuple[NDArray[np.int64], NDArray[np.float64], KernelCorrection | None]
-
-
-def check_adaptive_options(
-    tolerance: Any, max_runs: Any, count_parameters: int
-) -> tuple[float, int]:
-    """``(tolerance, max_runs)`` checked: a positive finite tolerance, and a budget of at
-    least the first round's runs (``2 n + 2``).
-
-    Raises
-    ------
-    InvalidPlanError
-        Names the input and what would be valid.
-    """
-    if (
-        isinstance(tolerance, bool)
-        or not isinstance(tolerance, int | float | np.floating | np.integer)
-        or not np.isfinite(tolerance)
-        or tolerance <= 0
-    ):
-        raise InvalidPlanError(
-            f"method_tolerance must be a positive number (e.g. 0.01 for 1 % of the cut "
-            f"width), got {tolerance!r}"
-        )
-    least = 2 * count_parameters + 2
-    if isinstance(max_runs, bool) or not isinstance(max_runs, int | np.integer) or max_runs < least:
-        raise InvalidPlanError(
-            f"max_runs of the adaptive method must be a whole number >= {least} (its first "
-            f"round: 2 n + 2 runs for n = {count_parameters} parameters), got {max_runs!r}"
-        )
-    return float(tolerance), int(max_runs)
 
 
 @dataclass(frozen=True)
@@ -192,9 +150,12 @@ class AdaptiveTransformation:
     tolerance : float
         Certified error (cut-width scale) at which the loop stops.
     max_runs : int
-        Run budget.
+        Run budget (at least the first round's ``2 n + 2``).
     search_points : int
         Search-grid points per cut box on the surrogate.
+        The options as :class:`~fuzzymbs.fuzzy.methods.adaptive.Adaptive` declares and
+        checks them (its :meth:`~fuzzymbs.fuzzy.methods.adaptive.Adaptive.start` makes the
+        engine).
 
     Notes
     -----
@@ -207,13 +168,13 @@ class AdaptiveTransformation:
         self,
         parameters: Mapping[str, FuzzyNumber],
         levels: NDArray[np.float64],
-        tolerance: float = DEFAULT_ADAPTIVE_TOLERANCE,
-        max_runs: int = DEFAULT_ADAPTIVE_MAX_RUNS,
-        search_points: int = 20_000,
+        tolerance: float,
+        max_runs: int,
+        search_points: int,
     ) -> None:
         self.names = tuple(parameters)
         self.levels = np.asarray(levels, dtype=float)
-        self.tolerance, self.max_runs = check_adaptive_options(tolerance, max_runs, len(self.names))
+        self.tolerance, self.max_runs = float(tolerance), int(max_runs)
         self.search_points = int(search_points)
         cuts = np.stack([parameters[n].cuts(self.levels) for n in self.names], axis=1)
         self.cut_lower = cuts[:, :, 0]

@@ -10,11 +10,12 @@ them, and imports point one way, transform -> retransform -> influence.
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from fuzzymbs.fuzzy.methods.base import Method
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
 __all__ = ["PlanBookkeeping"]
@@ -30,7 +31,10 @@ class PlanBookkeeping(Protocol):
     levels : ndarray, shape (L,)
         Membership levels mu_0 = 0 ... mu_m = 1.
     method : str
-        The sampling scheme.
+        The method's public name.
+    scheme : Method
+        The method object, whose capabilities say what the bookkeeping holds
+        (:mod:`fuzzymbs.fuzzy.methods`).
     nonmonotonic : tuple of str
         Parameters with interior points (``"extended"`` only).
     search_points : int or None
@@ -44,6 +48,7 @@ class PlanBookkeeping(Protocol):
     names: tuple[str, ...]
     levels: NDArray[np.float64]
     method: str
+    scheme: Method
     nonmonotonic: tuple[str, ...]
     search_points: int | None
     samples: NDArray[np.float64]
@@ -93,4 +98,11 @@ class PlanBookkeeping(Protocol):
 
     def to_unit_cube(self, points: ArrayLike) -> NDArray[np.float64]:
         """Map parameter points (P, n) of the support box to [0, 1]^n."""
+        ...
+
+    def retransform(
+        self, outputs: Any, failed: ArrayLike | None = None, *, check_monotonic: bool = True
+    ) -> Any:
+        """The fuzzy result of outputs at the samples (what the influence measures start
+        from)."""
         ...

@@ -32,9 +32,16 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError, UnsupportedOperationError
 from fuzzymbs.fuzzy.bookkeeping import PlanBookkeeping
 from fuzzymbs.fuzzy.labels import DatasetExport, DatasetParts
+from fuzzymbs.fuzzy.methods.registry import METHODS
 from fuzzymbs.fuzzy.numbers import real_array
 
-__all__ = ["Influence", "compute_influence", "influence_from_sums", "level_weights"]
+__all__ = [
+    "Influence",
+    "compute_influence",
+    "influence_from_sums",
+    "influence_refusal",
+    "level_weights",
+]
 
 
 def level_weights(weights: str | ArrayLike, levels: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -148,14 +155,15 @@ def compute_influence(
     failed: NDArray[np.bool_] | None,
     weights: str | ArrayLike = "membership",
 ) -> Influence:
-    """Influence measures of one output from the corner runs of a reduced, extended or
-    grid plan (a grid holds every level's cut-box corners: the reduced method's gain
-    factors, while its bounds use every grid point).
+    """Influence measures of one output, for a plan whose method supports them
+    (``plan.scheme.supports_influence``: the corner runs of a reduced, extended or grid
+    plan, the surrogate of an adaptive one): ``plan.retransform(outputs,
+    failed).influence(weights)``, the one path to them.
 
     Parameters
     ----------
     plan : Plan
-        A ``"reduced"``, ``"extended"`` or ``"grid"`` plan.
+        A plan whose method supports influence measures.
     outputs : ndarray (N, ...)
         Model output at the plan's samples.
     failed : ndarray (N,) bool or None
@@ -168,20 +176,19 @@ def compute_influence(
     UnsupportedOperationError
         For general and sparse plans (their points do not pair up in one parameter).
     """
-    if plan.method not in ("reduced", "extended", "grid"):
-        raise UnsupportedOperationError(
-            f"influence measures need the corner pairs of a reduced, extended or grid plan; "
-            f"this plan uses method={plan.method!r}"
-        )
-    from fuzzymbs.fuzzy.accumulate import OutputAccumulator, StreamLayout
+    if not plan.scheme.supports_influence:
+        raise UnsupportedOperationError(influence_refusal(plan))
+    result = plan.retransform(outputs, failed, check_monotonic=False)
+    return result.influence(weights)
 
-    values = np.asarray(outputs, dtype=float)
-    mask = np.zeros(len(values), dtype=bool) if failed is None else np.asarray(failed, bool)
-    accumulator = OutputAccumulator(StreamLayout(plan), values.shape[1:])
-    accumulator.update(0, values, mask)
-    assert accumulator.pair_sum is not None
-    return influence_from_sums(
-        plan, accumulator.pair_sum, accumulator.bad_level, values.shape[1:], weights
+
+def influence_refusal(plan: PlanBookkeeping) -> str:
+    """Why a plan's results give no influence measures (its method does not support them)."""
+    supporting = [name for name, cls in METHODS.items() if cls.supports_influence]
+    return (
+        f"influence measures need a method that supports them (corner pairs that differ in "
+        f"one parameter, or a surrogate: {', '.join(supporting)}); this plan uses "
+        f"method={plan.method!r}"
     )
 
 

@@ -1,7 +1,8 @@
 """The values each parameter takes at each level, and the number of distinct points they make.
 
 The reduced, extended, general and grid plans evaluate, at level j, the full
-factorial of one value set per parameter. :func:`level_value_sets` builds those
+factorial of one value set per parameter. :func:`bound_value_sets` and
+:func:`grid_value_sets` build those
 sets (the plan builder's own), and :func:`union_size` counts the distinct points
 of the union over the levels, plus the modal point, from the sets alone: the
 exact ``len(plan(...))`` at a cost linear in the parameters, without building a
@@ -16,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["general_points", "level_value_sets", "union_size"]
+__all__ = ["bound_value_sets", "general_points", "grid_value_sets", "union_size"]
 
 
 def general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]:
@@ -53,41 +54,42 @@ def general_points(lower: NDArray, upper: NDArray) -> list[NDArray[np.float64]]:
     return points[::-1]
 
 
-def level_value_sets(
-    cut_lower: NDArray[np.float64],
-    cut_upper: NDArray[np.float64],
-    method: str,
-    interior: Sequence[bool],
+def bound_value_sets(
+    cut_lower: NDArray[np.float64], cut_upper: NDArray[np.float64], interior: Sequence[bool]
 ) -> list[list[NDArray[np.float64]]]:
-    """``values[j][i]``: the coordinates parameter i takes at level j (all combined).
+    """``values[j][i]``: the cut bounds ``{a^(j), b^(j)}`` of parameter i at level j, or the
+    general method's points ``P_j`` for the parameters marked ``interior`` (the reduced,
+    extended and general methods).
 
     Parameters
     ----------
     cut_lower, cut_upper : ndarray, shape (L, n)
         Cut bounds of every parameter at every level.
-    method : {"reduced", "extended", "general", "grid"}
-        The scheme.
     interior : sequence of bool, length n
-        Parameters that take the general method's points (``"extended"``; every
-        parameter for ``"general"``, none for ``"reduced"``).
+        Parameters that take the general method's points.
     """
     count_levels, count_parameters = cut_lower.shape
     low, high = cut_lower, cut_upper
-    if method == "grid":  # all cut bounds of levels j..m
-        return [
-            [np.unique(np.concatenate((low[j:, i], high[j:, i]))) for i in range(count_parameters)]
-            for j in range(count_levels)
-        ]
     general = {
-        i: general_points(low[:, i], high[:, i])
-        for i in range(count_parameters)
-        if method == "general" or (method == "extended" and interior[i])
+        i: general_points(low[:, i], high[:, i]) for i in range(count_parameters) if interior[i]
     }
     return [
         [
             general[i][j] if i in general else np.array([low[j, i], high[j, i]])
             for i in range(count_parameters)
         ]
+        for j in range(count_levels)
+    ]
+
+
+def grid_value_sets(
+    cut_lower: NDArray[np.float64], cut_upper: NDArray[np.float64]
+) -> list[list[NDArray[np.float64]]]:
+    """``values[j][i]``: every cut bound of parameter i at levels j..m (the grid method)."""
+    count_levels, count_parameters = cut_lower.shape
+    low, high = cut_lower, cut_upper
+    return [
+        [np.unique(np.concatenate((low[j:, i], high[j:, i]))) for i in range(count_parameters)]
         for j in range(count_levels)
     ]
 
@@ -107,7 +109,7 @@ def union_size(values: Sequence[Sequence[NDArray[np.float64]]], modal: Sequence[
     Parameters
     ----------
     values : sequence (levels) of sequences (parameters) of ndarray
-        As returned by :func:`level_value_sets`.
+        As returned by :func:`bound_value_sets` or :func:`grid_value_sets`.
     modal : sequence of float
         The modal value of every parameter.
     """

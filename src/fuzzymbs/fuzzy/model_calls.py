@@ -1,7 +1,7 @@
 """A batched model called on the rows of a table of parameter points, chunk by chunk.
 
 Every plan evaluates its model this way (:meth:`fuzzymbs.fuzzy.transform.Plan.evaluate`,
-each round of :meth:`fuzzymbs.fuzzy.adaptive_plan.AdaptivePlan.evaluate`), with the
+each round of :meth:`fuzzymbs.fuzzy.transform.RoundsPlan.evaluate`), with the
 same checks of what the model returns.
 """
 

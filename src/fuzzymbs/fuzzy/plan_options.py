@@ -1,16 +1,13 @@
-"""What a plan is asked for, checked: the methods, the membership levels, the fuzzy
-parameters and the sparse-grid options.
+"""What a plan is asked for, checked: the membership levels and the fuzzy parameters.
 
-Both :mod:`fuzzymbs.fuzzy.transform` (which builds plans) and
-:mod:`fuzzymbs.fuzzy.plan_size` (which counts their runs before anything is
-built) read these, so they live below both.
+The methods (:mod:`fuzzymbs.fuzzy.methods`), :mod:`fuzzymbs.fuzzy.transform`
+(which builds plans) and :mod:`fuzzymbs.fuzzy.plan_size` (which counts their
+runs before anything is built) read these, so they live below all three.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -18,27 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidPlanError
 from fuzzymbs.fuzzy.numbers import FuzzyNumber, real_array
 
-__all__ = [
-    "DEFAULT_SEARCH_POINTS",
-    "DEFAULT_SPARSE_LEVEL",
-    "MAX_SEARCH_POINTS",
-    "METHODS",
-    "check_sparse_search",
-    "checked_parameters",
-    "make_levels",
-    "sparse_options",
-]
-
-#: sampling schemes understood by :func:`plan`
-METHODS: tuple[str, ...] = ("general", "reduced", "extended", "grid", "sparse")
-
-#: default ``sparse_level`` (Smolyak's q = n + 3: exact for polynomials of total degree 3)
-DEFAULT_SPARSE_LEVEL = 3
-#: default number of search points per cut box of a sparse plan (at least 3^n are used)
-DEFAULT_SEARCH_POINTS = 20_000
-#: the most search points per cut box a sparse plan's retransformation evaluates: 3^15, the
-#: tensor grid of 15 parameters (1.7 GB of points per cut box before the interpolant runs)
-MAX_SEARCH_POINTS = 3**15
+__all__ = ["checked_parameters", "make_levels"]
 
 
 def make_levels(levels: int | ArrayLike) -> NDArray[np.float64]:
@@ -105,70 +82,3 @@ def checked_parameters(parameters: Mapping[str, FuzzyNumber]) -> dict[str, Fuzzy
                 f"got {type(number).__name__}"
             )
     return dict(parameters)
-
-
-def sparse_options(
-    method: str, count_parameters: int, sparse_level: Any, search_points: Any
-) -> tuple[int | None, int | None]:
-    """Checked ``(sparse_level, search_points)`` with defaults for "sparse", (None, None) else."""
-    if method != "sparse":
-        given = [
-            f"{key}={value!r}"
-            for key, value in (("sparse_level", sparse_level), ("search_points", search_points))
-            if value is not None
-        ]
-        if given:
-            raise InvalidPlanError(
-                f"{', '.join(given)} only apply to method='sparse', not {method!r}"
-            )
-        return None, None
-    if sparse_level is None:
-        sparse_level = DEFAULT_SPARSE_LEVEL
-    if (
-        isinstance(sparse_level, bool)
-        or not isinstance(sparse_level, int | np.integer)
-        or sparse_level < 1
-    ):
-        raise InvalidPlanError(
-            f"sparse_level must be an int >= 1 (Smolyak level q - n; {DEFAULT_SPARSE_LEVEL} "
-            f"by default), got {sparse_level!r}"
-        )
-    minimum = 3**count_parameters
-    if search_points is None:
-        search_points = max(DEFAULT_SEARCH_POINTS, minimum)
-    if (
-        isinstance(search_points, bool)
-        or not isinstance(search_points, int | np.integer)
-        or search_points < minimum
-    ):
-        raise InvalidPlanError(
-            f"search_points must be an int >= 3^n = {minimum} for n = {count_parameters} "
-            f"parameters (at least 3 points per parameter in each cut box), got {search_points!r}"
-        )
-    return int(sparse_level), int(search_points)
-
-
-def check_sparse_search(count_parameters: int) -> None:
-    """Refuse a sparse retransformation whose search grid per cut box cannot be evaluated.
-
-    The search needs at least 3 points per parameter in every cut box, ``3^n``
-    in all; beyond :data:`MAX_SEARCH_POINTS` (n > 15) it cannot run, so a study
-    refuses such a plan before evaluating any sample, and a plan's
-    retransformation refuses it instead of running out of memory. The plan itself
-    (its samples, its interpolant) has no such limit.
-
-    Raises
-    ------
-    InvalidPlanError
-        ``3^n`` above :data:`MAX_SEARCH_POINTS`.
-    """
-    if count_parameters <= 15:  # 3^15 = MAX_SEARCH_POINTS; no huge power for large n
-        return
-    digits = int(count_parameters * math.log10(3.0))
-    raise InvalidPlanError(
-        f"the sparse method finds every cut's bounds by searching its interpolant on a "
-        f"tensor grid of at least 3 points per parameter: 3^{count_parameters} (about "
-        f"1e{digits}) points per cut box for {count_parameters} fuzzy parameters, more than "
-        f"the {MAX_SEARCH_POINTS:,} (3^15) it can evaluate: the sparse method serves at "
-        f"most 15 fuzzy parameters"
-    )

@@ -38,10 +38,9 @@ from fuzzymbs.fuzzy.accumulate import (
 )
 from fuzzymbs.fuzzy.bookkeeping import PlanBookkeeping
 from fuzzymbs.fuzzy.grids import cartesian, unique_rows
-from fuzzymbs.fuzzy.influence import Influence, influence_from_sums
+from fuzzymbs.fuzzy.influence import Influence, influence_from_sums, influence_refusal
 from fuzzymbs.fuzzy.labels import DatasetExport, DatasetParts
 from fuzzymbs.fuzzy.numbers import check_level
-from fuzzymbs.fuzzy.plan_options import check_sparse_search
 from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
 __all__ = [
@@ -182,13 +181,8 @@ class FuzzyResult(DatasetExport):
                 "influence needs the plan and the sample outputs; this FuzzyResult was built "
                 "from bounds only (use plan.retransform(outputs).influence())"
             )
-        if self._plan.method not in ("reduced", "extended", "grid", "adaptive") or (
-            self._sums is None
-        ):
-            raise UnsupportedOperationError(
-                f"influence measures need the corner pairs of a reduced, extended or grid plan; "
-                f"this plan uses method={self._plan.method!r}"
-            )
+        if not self._plan.scheme.supports_influence or self._sums is None:
+            raise UnsupportedOperationError(influence_refusal(self._plan))
         pair_sum, bad_level = self._sums
         return influence_from_sums(self._plan, pair_sum, bad_level, self.shape, weights)
 
@@ -252,7 +246,7 @@ def retransform(
     values = _checked_outputs(plan, outputs, mask, name)
     count_levels = len(plan.levels)
     shape = values.shape[1:]
-    if plan.method == "sparse":
+    if plan.scheme.interpolates:
         if mask.any():
             raise IncompleteResultError(
                 f"output {name!r}: {int(mask.sum())} of {len(plan)} samples of the sparse plan "
@@ -310,7 +304,7 @@ def points_per_parameter(search_points: int, count_parameters: int) -> int:
 def _sparse_own_bounds(plan: PlanBookkeeping, values: NDArray) -> tuple[NDArray, NDArray]:
     """Per-level min/max (L, E) of a sparse plan's candidates (see the module docstring)."""
     count_levels, count_parameters = plan.cut_lower.shape
-    check_sparse_search(count_parameters)
+    plan.scheme.check_bounds(count_parameters)  # a search it cannot run is refused
     flat = values.reshape(len(plan), -1)
     node_values = flat[plan.node_index]
     grid = plan.sparse_grid

@@ -5,36 +5,16 @@ the bookkeeping that says which points belong to which membership level (and,
 for the reduced and extended schemes, which corner runs pair up in one
 parameter). Retransformation and influence measures use that bookkeeping only.
 
-Schemes (``mu_j``, j = 0..m, with cuts ``[a_i^(j), b_i^(j)]`` of parameter i):
+The methods (general, reduced, extended, grid, sparse, adaptive) are objects
+of :mod:`fuzzymbs.fuzzy.methods`, one module each: a plan asks its method
+(:attr:`Plan.scheme`) for its samples, its count and its capabilities. A
+method that runs in rounds (adaptive) makes a :class:`RoundsPlan`, the variant
+of :class:`Plan` whose points come round by round.
 
-``"general"``
-    Per parameter the points ``P_m`` = the core bounds (one point for a
-    single-point core) and, for j < m, ``P_j = {a^(j)} + midpoints of
-    consecutive points of P_(j+1) + {b^(j)}`` (Hanss 2002: M_j = m + 1 - j
-    points); all combinations at every level.
-``"reduced"``
-    The 2^n corners of the cut box at every level (the core box at level m,
-    one point for single-point cores). Exact for models monotonic in every
-    parameter.
-``"extended"``
-    The reduced corners plus, for the parameters named ``nonmonotonic``, the
-    general-method points ``P_j``: at level j the full factorial of ``P_j``
-    for those parameters and ``{a^(j), b^(j)}`` for all others.
-``"grid"``
-    At level j the full factorial of all cut bounds of levels j..m (the full
-    alpha-bound grid; exact on the grid for any model).
-``"sparse"``
-    The nodes of a Smolyak sparse grid on Clenshaw-Curtis points
-    (:mod:`fuzzymbs.fuzzy.sparse_grid`, level ``sparse_level``) mapped to the
-    support box (the mu = 0 cut); retransformation interpolates the outputs
-    and searches each cut box for the interpolant's min/max (Klimke &
-    Wohlmuth, Fuzzy Sets and Systems 154 (2005) 432). Every sample serves
-    every level.
-
-Every plan also contains the all-modal point (sample 0), evaluated at level m
-(for ``"sparse"``: a candidate of every level's search).
-Identical points are evaluated once: points are built from the same cut values
-and merged by exact floating-point equality.
+Every fixed plan contains the all-modal point (sample 0), evaluated at level m
+(for ``"sparse"``: a candidate of every level's search). Identical points are
+evaluated once: points are built from the same cut values and merged by exact
+floating-point equality.
 """
 
 from __future__ import annotations
@@ -47,15 +27,21 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fuzzymbs.errors import InvalidPlanError, ModelOutputError, UnsupportedOperationError
-from fuzzymbs.fuzzy.grids import cartesian, unique_rows
-from fuzzymbs.fuzzy.level_values import level_value_sets
+from fuzzymbs.errors import (
+    IncompleteResultError,
+    InvalidPlanError,
+    ModelOutputError,
+    UnsupportedOperationError,
+)
+from fuzzymbs.fuzzy.methods.base import Method, to_parameter_space
+from fuzzymbs.fuzzy.methods.registry import METHODS as METHOD_TYPES
+from fuzzymbs.fuzzy.methods.registry import method_named
 from fuzzymbs.fuzzy.model_calls import evaluate_table
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
-from fuzzymbs.fuzzy.plan_options import METHODS, checked_parameters, make_levels, sparse_options
+from fuzzymbs.fuzzy.plan_options import checked_parameters, make_levels
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_run_limit, run_count
 from fuzzymbs.fuzzy.retransform import FuzzyResult, NonMonotonicWarning, retransform
-from fuzzymbs.fuzzy.sparse_grid import SparseGrid, nodes_1d
+from fuzzymbs.fuzzy.sparse_grid import SparseGrid
 
 __all__ = [
     "ALL_METHODS",
@@ -63,77 +49,74 @@ __all__ = [
     "METHODS",
     "NonMonotonicWarning",
     "Plan",
+    "RoundsPlan",
     "make_levels",
     "plan",
     "run_count",
 ]
 
 
-#: every method :func:`plan` accepts: the fixed schemes and "adaptive" (an AdaptivePlan)
-ALL_METHODS: tuple[str, ...] = (*METHODS, "adaptive")
+#: every method :func:`plan` accepts, by its public name (:mod:`fuzzymbs.fuzzy.methods`)
+ALL_METHODS: tuple[str, ...] = tuple(METHOD_TYPES)
+#: the names of the methods whose samples are known in advance (every method but those in
+#: rounds); the registry of every method is :data:`fuzzymbs.fuzzy.methods.METHODS`
+METHODS: tuple[str, ...] = tuple(
+    name for name, cls in METHOD_TYPES.items() if not cls.runs_in_rounds
+)
 
 
-def _first_equal(table: NDArray[np.float64]) -> NDArray[np.intp]:
-    """Per row, the first column holding the same value (exact float equality) as each column."""
-    order = np.argsort(table, axis=1, kind="stable")
-    ordered = np.take_along_axis(table, order, axis=1)
-    starts = np.zeros(table.shape, dtype=np.intp)
-    columns = np.arange(table.shape[1])
-    starts[:, 1:] = np.where(ordered[:, 1:] != ordered[:, :-1], columns[1:], 0)
-    # stable sort: the first column of a run of equal values is the smallest one
-    first = np.take_along_axis(order, np.maximum.accumulate(starts, axis=1), axis=1)
-    result = np.empty_like(order)
-    np.put_along_axis(result, order, first, axis=1)
-    return result
+def _runs_in_rounds(method: Any) -> bool:
+    """Whether ``method`` (a name or a method object) runs in rounds."""
+    if isinstance(method, Method):
+        return method.runs_in_rounds
+    return (
+        isinstance(method, str) and method in METHOD_TYPES and METHOD_TYPES[method].runs_in_rounds
+    )
 
 
-def _entry_keys(
-    dims: NDArray[np.intp], values: NDArray[np.intp], count_parameters: int
-) -> NDArray[np.float64]:
-    """Rows (dim, value) of the entries kept (dim < n), by increasing dim, padded with (n, -1)."""
-    order = np.argsort(dims, axis=1, kind="stable")
-    dims = np.take_along_axis(dims, order, axis=1)
-    values = np.where(dims < count_parameters, np.take_along_axis(values, order, axis=1), -1)
-    keys = np.empty((len(dims), 2 * dims.shape[1]))
-    keys[:, 0::2] = dims
-    keys[:, 1::2] = values
-    return keys
+def _scheme(
+    method: str | Method,
+    nonmonotonic: Iterable[str] | str | None,
+    sparse_level: int | None,
+    search_points: int | None,
+    method_tolerance: float | None,
+    max_runs: int | None,
+) -> tuple[Method, int | None]:
+    """The method object of a plan request and the run limit the plan is checked against.
 
-
-def _modal_key(
-    table: NDArray[np.float64],
-    canonical: NDArray[np.intp],
-    middle: int,
-    modal: NDArray[np.float64],
-    width: int,
-) -> NDArray[np.float64]:
-    """The modal point's entry key if it may be a node (every value a mapped node), else -2s."""
-    count_parameters = len(modal)
-    hits = table == modal[:, None]
-    if not hits.any(axis=1).all():
-        return np.full(width, -2.0)
-    position = canonical[np.arange(count_parameters), hits.argmax(axis=1)]
-    off = np.nonzero(position != canonical[:, middle])[0]
-    if 2 * len(off) > width:  # more coordinates off the centre than any node has
-        return np.full(width, -2.0)
-    dims = np.full((1, width // 2), count_parameters, dtype=np.intp)
-    values = np.full((1, width // 2), -1, dtype=np.intp)
-    dims[0, : len(off)] = off
-    values[0, : len(off)] = position[off]
-    return _entry_keys(dims, values, count_parameters)[0]
+    A method named by a string that declares its own ``max_runs`` (its run budget: the
+    adaptive method) takes the plan's ``max_runs`` as that budget (the default limit and
+    None mean the method's default); for every other method ``max_runs`` is the limit.
+    """
+    options: dict[str, Any] = {
+        "nonmonotonic": nonmonotonic,
+        "sparse_level": sparse_level,
+        "search_points": search_points,
+        "method_tolerance": method_tolerance,
+    }
+    if (
+        isinstance(method, str)
+        and method in METHOD_TYPES
+        and METHOD_TYPES[method].declares("max_runs")
+    ):
+        options["max_runs"] = None if max_runs == DEFAULT_MAX_RUNS else max_runs
+        return method_named(method, **options), None
+    return method_named(method, **options), max_runs
 
 
 class Plan:
-    """Sample points of a transformation-method scheme and their level bookkeeping.
+    """Sample points of a transformation method and their level bookkeeping.
 
     ``plan(...)`` is the same as ``Plan(...)``. Attributes are read-only by convention.
+    A method that runs in rounds (adaptive) gives a :class:`RoundsPlan`.
 
     Parameters
     ----------
     parameters : mapping of str to FuzzyNumber
         Fuzzy parameters by name (their order fixes the sample columns).
-    method : {"general", "reduced", "extended", "grid", "sparse"}
-        Sampling scheme (see the module docstring and docs/theory.md).
+    method : {"general", "reduced", "extended", "grid", "sparse", "adaptive"} or Method
+        The method by name, or a method object of :mod:`fuzzymbs.fuzzy.methods` holding
+        its own options (then none of the options below are given).
     levels : int or array_like
         ``m`` for mu_j = j/m, or an increasing list from 0 to 1.
     nonmonotonic : iterable of str, optional
@@ -145,12 +128,17 @@ class Plan:
     search_points : int, optional
         ``"sparse"`` only: points of the tensor search grid per cut box,
         ``k = floor(search_points^(1/n))`` per parameter (default
-        ``max(20000, 3^n)``; at least ``3^n``).
+        ``max(20000, 3^n)``; at least ``3^n``); ``"adaptive"``: on its surrogate
+        (default 20,000).
     max_runs : int or None, optional
         Refuse the plan, before anything is built, if it needs more model runs
         than this (:func:`run_count`) or its level bookkeeping (levels x runs)
         more than 10 x this; default :data:`DEFAULT_MAX_RUNS` (1,000,000), None:
-        no limit. See :func:`~fuzzymbs.fuzzy.plan_size.check_run_limit`.
+        no limit. See :func:`~fuzzymbs.fuzzy.plan_size.check_run_limit`. For
+        ``method="adaptive"`` (by name) its run budget: this default and None mean
+        2,000.
+    method_tolerance : float, optional
+        ``"adaptive"`` only: the certified error at which its rounds stop (default 0.01).
 
     Attributes
     ----------
@@ -161,7 +149,9 @@ class Plan:
     levels : ndarray, shape (L,)
         Membership levels mu_0 = 0 ... mu_m = 1.
     method : str
-        One of :data:`METHODS`.
+        The method's public name (one of :data:`ALL_METHODS`).
+    scheme : Method
+        The method object: its options and capabilities.
     nonmonotonic : tuple of str
         Parameters with interior points (``"extended"`` only).
     sparse_level, search_points : int or None
@@ -175,9 +165,9 @@ class Plan:
     Raises
     ------
     InvalidPlanError
-        Unknown method, bad levels, unknown or misplaced nonmonotonic names,
-        sparse options that are invalid or given with another method,
-        parameters that are not fuzzy numbers.
+        Unknown method, bad levels, unknown nonmonotonic names, options that are
+        invalid or given to a method that does not use them (the message names the
+        option), parameters that are not fuzzy numbers.
     PlanTooLargeError
         (an InvalidPlanError) More runs than ``max_runs``; the message gives the
         runs of the reduced, extended and sparse methods and how to raise the limit.
@@ -190,168 +180,77 @@ class Plan:
     33
     """
 
-    def __new__(cls, parameters: Any = None, method: str = "reduced", *args: Any, **kwargs: Any):
-        """``method="adaptive"`` gives an :class:`~fuzzymbs.fuzzy.adaptive_plan.AdaptivePlan`
-        (its points come in rounds); every other method a :class:`Plan`."""
-        if method == "adaptive":
-            from fuzzymbs.fuzzy.adaptive_plan import adaptive_plan
-
-            return adaptive_plan(parameters, *args, **kwargs)
+    def __new__(cls, parameters: Any = None, method: Any = "reduced", *args: Any, **kwargs: Any):
+        """A method that runs in rounds (adaptive) gives a :class:`RoundsPlan`; every other
+        method a :class:`Plan`."""
+        if cls is Plan and _runs_in_rounds(method):
+            cls = RoundsPlan
         return super().__new__(cls)
 
     def __init__(
         self,
         parameters: Mapping[str, FuzzyNumber],
-        method: str = "reduced",
+        method: str | Method = "reduced",
         levels: int | ArrayLike = 4,
         nonmonotonic: Iterable[str] | None = None,
         *,
         sparse_level: int | None = None,
         search_points: int | None = None,
         max_runs: int | None = DEFAULT_MAX_RUNS,
+        method_tolerance: float | None = None,
     ) -> None:
-        if not isinstance(method, str) or method not in METHODS:
-            raise InvalidPlanError(f"unknown method {method!r}; valid methods: {list(ALL_METHODS)}")
+        scheme, limit = _scheme(
+            method, nonmonotonic, sparse_level, search_points, method_tolerance, max_runs
+        )
         self.parameters: dict[str, FuzzyNumber] = checked_parameters(parameters)
         self.names: tuple[str, ...] = tuple(self.parameters)
-        self.method = method
-        if nonmonotonic is None:
-            nonmonotonic = ()
-        if isinstance(nonmonotonic, str):
-            nonmonotonic = (nonmonotonic,)
-        nonmonotonic = tuple(nonmonotonic)
-        unknown = [name for name in nonmonotonic if name not in self.parameters]
-        if unknown:
-            raise InvalidPlanError(
-                f"nonmonotonic names unknown parameters {unknown}; parameters: {list(self.names)}"
-            )
-        if nonmonotonic and method != "extended":
-            raise InvalidPlanError(
-                f"nonmonotonic={list(nonmonotonic)} is only used by method='extended', "
-                f"not {method!r}"
-            )
-        # keep the parameter order, drop repeats
-        self.nonmonotonic: tuple[str, ...] = tuple(n for n in self.names if n in nonmonotonic)
-        self.sparse_level, self.search_points = sparse_options(
-            method, len(self.names), sparse_level, search_points
-        )
-        # the size first, from closed forms: nothing below may allocate a plan too large to run
-        check_run_limit(
-            self.parameters,
-            method,
-            levels,
-            self.nonmonotonic,
-            self.sparse_level,
-            max_runs=max_runs,
-        )
+        #: the method object: its options and capabilities (:mod:`fuzzymbs.fuzzy.methods`)
+        self.scheme: Method = scheme.checked(self.names)
+        # the size first, from the method's count: nothing below may allocate a plan too
+        # large to run
+        check_run_limit(self.parameters, self.scheme, levels, max_runs=limit)
         self.levels = make_levels(levels)
-
         cuts = np.stack([number.cuts(self.levels) for number in self.parameters.values()], axis=1)
         self.cut_lower: NDArray[np.float64] = cuts[:, :, 0]  # (L, n)
         self.cut_upper: NDArray[np.float64] = cuts[:, :, 1]
-        self._build()
+        self._start()
 
-    # ----------------------------------------------------------------- building
-    def _level_values(self) -> list[list[NDArray[np.float64]]]:
-        """values[j][i]: the coordinates parameter i takes at level j (all combined)."""
-        interior = [name in self.nonmonotonic for name in self.names]
-        return level_value_sets(self.cut_lower, self.cut_upper, self.method, interior)
+    def _start(self) -> None:
+        """Build the samples and their bookkeeping (the method's builder)."""
+        sampling = self.scheme.build(self.parameters, self.cut_lower, self.cut_upper)
+        self.samples: NDArray[np.float64] = sampling.samples
+        self._level_index = sampling.level_index
+        self._nominal_index = sampling.nominal_index
+        self._points_without_reuse = sampling.points_without_reuse
+        self._level_usage = sampling.level_usage
+        self._corner_index = sampling.corner_index
+        self._extras = sampling.extras
 
-    def _build(self) -> None:
-        if self.method == "sparse":
-            self._build_sparse()
-            return
-        count_levels = len(self.levels)
-        modal_point = np.array([[number.modal for number in self.parameters.values()]])
-        level_points = [cartesian(values) for values in self._level_values()]
-        # nominal point first, then levels from the core down, so that samples
-        # are ordered by first use from the top level
-        blocks = [modal_point, *level_points[::-1]]
-        sizes = [len(block) for block in blocks]
-        unique, inverse = unique_rows(np.concatenate(blocks, axis=0))
-        self.samples: NDArray[np.float64] = unique
-        self.samples.setflags(write=False)
-        offsets = np.cumsum([0, *sizes])
-        nominal = int(inverse[0])
-        per_level_from_top = [inverse[offsets[k + 1] : offsets[k + 2]] for k in range(count_levels)]
-        self._level_index: list[NDArray[np.intp]] = per_level_from_top[::-1]
-        # the nominal point lies in the core box: it belongs to the top level
-        self._level_index[-1] = np.concatenate((self._level_index[-1], [nominal]))
-        self._nominal_index = nominal
-        # runs if every level were evaluated on its own (repeats inside a level merged)
-        self._points_without_reuse = sum(len(unique_rows(points)[0]) for points in level_points)
-        usage = np.zeros((count_levels, len(unique)), dtype=bool)
-        for j, index in enumerate(self._level_index):
-            usage[j, index] = True
-        usage.setflags(write=False)
-        self._level_usage = usage
-        if self.method in ("reduced", "extended", "grid"):
-            # the grid holds every level's cut-box corners too: its influence measures
-            self._corner_index = self._corners()
+    # ----------------------------------------------------------------- options
+    @property
+    def method(self) -> str:
+        """The method's public name."""
+        return self.scheme.name
 
-    def _build_sparse(self) -> None:
-        """Modal point first, then the sparse-grid nodes mapped to the support box.
+    @property
+    def nonmonotonic(self) -> tuple[str, ...]:
+        """Parameters with interior points (``"extended"`` only, else empty)."""
+        return getattr(self.scheme, "nonmonotonic", ())
 
-        The same samples as ``unique_rows`` of the modal point and the mapped nodes
-        (first appearance, exact float equality), computed from the nodes' entries
-        off the midpoint: a node differs from the centre of the box in at most
-        ``sparse_level`` coordinates, so building costs O(N level) plus filling the
-        (N, n) table, not a sort of N rows of n numbers.
-        """
-        assert self.sparse_level is not None  # set by sparse_options for "sparse"
-        count_levels, count_parameters = self.cut_lower.shape
-        self._sparse_grid = SparseGrid(count_parameters, self.sparse_level)
-        grid = self._sparse_grid
-        dims, positions = grid.entries
-        unit, _ = nodes_1d(self.sparse_level)  # value of every position 0..denominator
-        # table[i, p]: parameter i at position p, by the same arithmetic as to_parameter_space
-        table = self.to_parameter_space(np.broadcast_to(unit, (count_parameters, len(unit))).T).T
-        canonical = _first_equal(table)  # positions mapping onto the same value merge
-        middle = grid.midpoint_position
-        used = dims < count_parameters
-        safe_dims = np.where(used, dims, 0)
-        node_canonical = np.where(used, canonical[safe_dims, positions], -1)
-        off_centre = used & (node_canonical != canonical[safe_dims, middle])
-        node_keys = _entry_keys(
-            np.where(off_centre, dims, count_parameters), node_canonical, count_parameters
-        )
-        modal = np.array([number.modal for number in self.parameters.values()])
-        modal_key = _modal_key(table, canonical, middle, modal, node_keys.shape[1])
-        unique_keys, inverse = unique_rows(np.concatenate((modal_key[None, :], node_keys)))
-        count = len(unique_keys)
-        # as unique_rows(points) writes the rows: a merged row holds its last member's values
-        last = np.full(count, -1, dtype=np.intp)
-        np.maximum.at(last, inverse, np.arange(len(inverse)))
-        samples = np.empty((count, count_parameters))
-        samples[:] = table[:, middle]
-        if last[inverse[0]] == 0:  # the modal point is a sample of its own
-            samples[inverse[0]] = modal
-        node_rows = np.nonzero(last > 0)[0]
-        members = last[node_rows] - 1
-        member_used = used[members]
-        rows = np.broadcast_to(node_rows[:, None], member_used.shape)[member_used]
-        columns = dims[members][member_used]
-        samples[rows, columns] = table[columns, positions[members][member_used]]
-        self.samples = samples
-        self.samples.setflags(write=False)
-        self._nominal_index = int(inverse[0])
-        self._node_index: NDArray[np.intp] = inverse[1:]
-        self._node_index.setflags(write=False)
-        everything = np.arange(count, dtype=np.intp)
-        everything.setflags(write=False)
-        self._level_index = [everything] * count_levels
-        self._points_without_reuse = count
-        # the interpolant behind every level's bounds needs every sample
-        usage = np.ones((count_levels, count), dtype=bool)
-        usage.setflags(write=False)
-        self._level_usage = usage
+    @property
+    def sparse_level(self) -> int | None:
+        """Sparse-grid level ``q - n`` (``"sparse"`` only, else None)."""
+        return getattr(self.scheme, "sparse_level", None)
 
+    @property
+    def search_points(self) -> int | None:
+        """Search points per cut box (methods that search cut boxes, else None)."""
+        return getattr(self.scheme, "search_points", None)
+
+    # ------------------------------------------------------- interpolating plans
     def to_parameter_space(self, unit_points: ArrayLike) -> NDArray[np.float64]:
         """Map points of the unit cube [0, 1]^n to the support box (the mu = 0 cut)."""
-        unit = np.asarray(unit_points, dtype=float)
-        low, high = self.cut_lower[0], self.cut_upper[0]
-        # this form maps 0 and 1 exactly onto the support bounds
-        return low * (1.0 - unit) + high * unit
+        return to_parameter_space(unit_points, self.cut_lower[0], self.cut_upper[0])
 
     def to_unit_cube(self, points: ArrayLike) -> NDArray[np.float64]:
         """Map parameter points (P, n) of the support box to [0, 1]^n.
@@ -369,19 +268,21 @@ class Plan:
     @property
     def sparse_grid(self) -> SparseGrid:
         """The :class:`~fuzzymbs.fuzzy.sparse_grid.SparseGrid` of a sparse plan (unit cube)."""
-        self._require_sparse("sparse_grid")
-        return self._sparse_grid
+        self._require_interpolant("sparse_grid")
+        return self._extras["sparse_grid"]
 
     @property
     def node_index(self) -> NDArray[np.intp]:
         """(N_nodes,) sample index of every sparse-grid node (sparse plans only)."""
-        self._require_sparse("node_index")
-        return self._node_index
+        self._require_interpolant("node_index")
+        return self._extras["node_index"]
 
-    def _require_sparse(self, what: str) -> None:
-        if self.method != "sparse":
+    def _require_interpolant(self, what: str) -> None:
+        if not self.scheme.interpolates:
+            which = [name for name, cls in METHOD_TYPES.items() if cls.interpolates]
             raise UnsupportedOperationError(
-                f"{what} exists for method='sparse' plans only, not {self.method!r}"
+                f"{what} exists for the plans of an interpolating method "
+                f"({', '.join(f'method={name!r}' for name in which)}) only, not {self.method!r}"
             )
 
     def interpolate(self, outputs: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
@@ -398,7 +299,7 @@ class Plan:
         -------
         ndarray, shape (P, ...)
         """
-        self._require_sparse("interpolate")
+        self._require_interpolant("interpolate")
         values = np.asarray(outputs, dtype=float)
         if values.ndim == 0 or values.shape[0] != len(self):
             raise ModelOutputError(
@@ -420,30 +321,7 @@ class Plan:
                 "points must lie in the support box of the parameters (the interpolant does "
                 f"not extrapolate); {int(outside.any(axis=1).sum())} point(s) are outside"
             )
-        return self._sparse_grid.interpolate(self.to_unit_cube(array), values[self._node_index])
-
-    def _corners(self) -> NDArray[np.intp]:
-        """Sample index of every corner: (L, 2^n), corner s uses b_i where bit n-1-i of s is set.
-
-        Corner s and s + 2^(n-1-i) differ only in parameter i (a_i then b_i).
-        """
-        count_levels, count_parameters = self.cut_lower.shape
-        bits = (
-            np.arange(2**count_parameters)[:, None] >> np.arange(count_parameters - 1, -1, -1)
-        ) & 1
-        corner_index = np.empty((count_levels, 2**count_parameters), dtype=np.intp)
-        for j in range(count_levels):
-            corners = np.where(bits == 1, self.cut_upper[j], self.cut_lower[j])
-            corner_index[j] = self._locate(corners)
-        return corner_index
-
-    def _locate(self, points: NDArray[np.float64]) -> NDArray[np.intp]:
-        """Sample index of each row of ``points`` (which must be samples, exactly)."""
-        combined = np.concatenate((self.samples, points), axis=0)
-        unique, inverse = unique_rows(combined)
-        if len(unique) != len(self.samples):  # pragma: no cover - internal consistency
-            raise RuntimeError("corner point missing from the sample table")
-        return inverse[len(self.samples) :]
+        return self.sparse_grid.interpolate(self.to_unit_cube(array), values[self.node_index])
 
     # ------------------------------------------------------------------ queries
     def __len__(self) -> int:
@@ -476,11 +354,12 @@ class Plan:
 
     @property
     def corner_index(self) -> NDArray[np.intp]:
-        """(L, 2^n) sample index of the cut-box corners (reduced, extended and grid plans)."""
-        if self.method not in ("reduced", "extended", "grid"):
+        """(L, 2^n) sample index of the cut-box corners (methods with ``has_corners``:
+        reduced, extended and grid)."""
+        if not self.scheme.has_corners:
+            which = [name for name, cls in METHOD_TYPES.items() if cls.has_corners]
             raise UnsupportedOperationError(
-                f"corner bookkeeping exists for reduced, extended and grid plans, "
-                f"not {self.method!r}"
+                f"corner bookkeeping exists for {', '.join(which)} plans, not {self.method!r}"
             )
         return self._corner_index
 
@@ -506,7 +385,7 @@ class Plan:
         Level j's bounds use the points of every level >= j.
         """
         mask = self.check_failed(failed)
-        direct = np.any(self._level_usage & mask[None, :], axis=1)
+        direct = np.any(self.level_usage & mask[None, :], axis=1)
         return np.logical_or.accumulate(direct[::-1])[::-1]
 
     # --------------------------------------------------------------- evaluation
@@ -563,28 +442,32 @@ class Plan:
         Returns
         -------
         FuzzyResult or dict of str to FuzzyResult
+            A dict for a mapping of outputs (the variant in rounds: of the outputs the
+            rounds saw, checked against them; a single array is the one output of its
+            shape, and ``check_monotonic`` has no effect).
         """
         if isinstance(outputs, Mapping):
             return {
-                key: retransform(self, value, failed, name=key, check_monotonic=check_monotonic)
+                key: self._retransform_one(value, failed, key, True, check_monotonic)
                 for key, value in outputs.items()
             }
-        return retransform(self, outputs, failed, name=name, check_monotonic=check_monotonic)
+        return self._retransform_one(outputs, failed, name, False, check_monotonic)
+
+    def _retransform_one(
+        self, values: ArrayLike, failed: ArrayLike | None, name: str, keyed: bool, check: bool
+    ) -> FuzzyResult:
+        """One output's result (``keyed``: ``name`` is the output's own key)."""
+        return retransform(self, values, failed, name=name, check_monotonic=check)
 
     # ------------------------------------------------------------ serialising
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able description: method, levels, parameters, nonmonotonic, sparse options."""
-        description: dict[str, Any] = {
+        """JSON-able description: method, levels, parameters and the method's options."""
+        return {
             "method": self.method,
             "levels": self.levels.tolist(),
             "parameters": {name: number.to_dict() for name, number in self.parameters.items()},
+            **self.scheme.describe(),
         }
-        if self.nonmonotonic:
-            description["nonmonotonic"] = list(self.nonmonotonic)
-        if self.method == "sparse":
-            description["sparse_level"] = self.sparse_level
-            description["search_points"] = self.search_points
-        return description
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, max_runs: int | None = None) -> Plan:
@@ -597,15 +480,13 @@ class Plan:
             parameters = {
                 name: FuzzyNumber.from_dict(value) for name, value in data["parameters"].items()
             }
-            return cls(
-                parameters,
-                method=data["method"],
-                levels=data["levels"],
-                nonmonotonic=data.get("nonmonotonic"),
-                sparse_level=data.get("sparse_level"),
-                search_points=data.get("search_points"),
-                max_runs=max_runs,
-            )
+            options = {
+                key: value
+                for key, value in data.items()
+                if key not in ("method", "levels", "parameters")
+            }
+            scheme = method_named(data["method"], **options)
+            return cls(parameters, method=scheme, levels=data["levels"], max_runs=max_runs)
         except (KeyError, AttributeError, TypeError) as error:
             raise InvalidPlanError(
                 f"a plan description needs 'method', 'levels' and 'parameters', got {data!r}"
@@ -617,6 +498,190 @@ class Plan:
         digest.update(json.dumps(self.to_dict(), sort_keys=True).encode())
         digest.update(np.ascontiguousarray(self.samples, dtype="<f8").tobytes())
         return digest.hexdigest()
+
+
+class RoundsPlan(Plan):
+    """The plan of a method that runs in rounds (adaptive): points proposed until done.
+
+    ``plan(parameters, method="adaptive", levels=m)`` returns one. Its points are not
+    known in advance: each round's points follow from the outputs of the rounds before
+    (the method's engine). A caller either drives the rounds (:meth:`next_batch` /
+    :meth:`add`, what a study does with its executors and store) or lets
+    :meth:`evaluate` do it with a model; afterwards :attr:`samples` holds every run in
+    round order (row 0 is the modal point) and :meth:`retransform` gives the certified
+    cuts. The arguments are those of :class:`Plan`; a method given by name takes
+    ``max_runs`` as its run budget (the plan limit's default, and None, mean the
+    method's default of 2,000).
+    """
+
+    def _start(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Start again from the first round (a study replays its stored rounds)."""
+        self.engine = self.scheme.start(self.parameters, self.levels)
+        self._outcome: Any = None
+
+    @property
+    def method_tolerance(self) -> float:
+        """The certified error at which the rounds stop (cut-width scale)."""
+        return self.scheme.method_tolerance  # type: ignore[attr-defined]
+
+    @property
+    def max_runs(self) -> int:
+        """The run budget."""
+        return self.scheme.max_runs  # type: ignore[attr-defined]
+
+    # ------------------------------------------------------------------ rounds
+    def next_batch(self) -> NDArray[np.float64]:
+        """Points (B, n) of the next round; none once the rounds are done."""
+        return self.engine.next_batch()
+
+    def add(self, points: ArrayLike, outputs: Mapping[str, ArrayLike]) -> None:
+        """The model's outputs ``{name: (B, ...)}`` at the points of :meth:`next_batch`."""
+        self._outcome = None
+        self.engine.add(points, outputs)
+
+    @property
+    def done(self) -> bool:
+        """No round is left (converged, or the budget is spent)."""
+        return self.engine.done
+
+    def outcome(self) -> Any:
+        """Cuts, certified error, runs and rounds (once the rounds are done); the method
+        warns if its budget or the model's noise stopped them above the tolerance."""
+        if not self.engine.done:
+            raise ModelOutputError(
+                f"the {self.method} method has rounds left: call next_batch()/add() until "
+                "next_batch() returns no point (or use evaluate(model))"
+            )
+        if self._outcome is None:
+            self._outcome = self.engine.outcome()
+            self.scheme.judge(self._outcome)  # type: ignore[attr-defined]
+        return self._outcome
+
+    def attrs(self) -> dict[str, Any]:
+        """The result attributes of the outcome (the method's certified error and rounds)."""
+        return self.scheme.attrs(self.outcome())  # type: ignore[attr-defined]
+
+    # ----------------------------------------------------------------- samples
+    @property  # type: ignore[override]
+    def samples(self) -> NDArray[np.float64]:
+        """(N, n) every run so far in round order; before the first round the modal point."""
+        if self.engine.runs == 0:
+            return np.array([[number.modal for number in self.parameters.values()]])
+        return self.engine.samples
+
+    def __repr__(self) -> str:
+        return (
+            f"RoundsPlan(method={self.method!r}, parameters={list(self.names)}, "
+            f"levels={len(self.levels)}, runs={self.engine.runs}, "
+            f"rounds={self.engine.rounds}, done={self.engine.done})"
+        )
+
+    @property
+    def nominal_index(self) -> int:
+        """Row of ``samples`` holding the all-modal point (the first run)."""
+        return 0
+
+    @property
+    def points_without_reuse(self) -> int:
+        """Runs so far (every run is a distinct point)."""
+        return len(self)
+
+    @property
+    def level_usage(self) -> NDArray[np.bool_]:
+        """(L, N) all True: every run enters the surrogate behind every level."""
+        return np.ones((len(self.levels), len(self)), dtype=bool)
+
+    def level_indices(self, level: int) -> NDArray[np.intp]:
+        """Every run (each enters the surrogate behind every level)."""
+        return np.arange(len(self), dtype=np.intp)
+
+    # --------------------------------------------------------------- evaluate
+    def evaluate(
+        self,
+        model: Callable[[dict[str, NDArray[np.float64]]], Mapping[str, Any]],
+        chunk_size: int | None = None,
+    ) -> dict[str, NDArray]:
+        """Run every round with ``model`` (``chunk_size`` samples per call) from the first,
+        with the same checks of the model's outputs as :meth:`Plan.evaluate`.
+
+        Returns
+        -------
+        dict of str to ndarray
+            Every output at every run, leading axis N in round order (row 0 the modal point).
+        """
+        self.reset()
+        pieces: dict[str, list[NDArray]] = {}
+        while True:
+            points = self.next_batch()
+            if len(points) == 0:
+                break
+            outputs = evaluate_table(model, self.names, points, chunk_size)
+            self.add(points, outputs)
+            for key, value in outputs.items():
+                pieces.setdefault(key, []).append(value)
+        return {key: np.concatenate(value) for key, value in pieces.items()}
+
+    def _retransform_one(
+        self, values: ArrayLike, failed: ArrayLike | None, name: str, keyed: bool, check: bool
+    ) -> FuzzyResult:
+        """The certified cuts of one output the rounds saw.
+
+        Raises
+        ------
+        ModelOutputError
+            Outputs that are not those of the rounds, or rounds not finished.
+        IncompleteResultError
+            Failed runs (the surrogate needs every run).
+        """
+        mask = self.check_failed(failed)
+        if mask.any():
+            raise IncompleteResultError(
+                f"{int(mask.sum())} of {len(self)} runs of the {self.method} method failed; "
+                "its surrogate needs every run, so no level can be bounded"
+            )
+        outcome = self.outcome()
+        if keyed:
+            return self._result(name, values, outcome)
+        matches = [
+            key
+            for key, (_, shape) in self.engine.layout.items()
+            if (len(self), *shape) == np.shape(values)
+        ]
+        if len(matches) != 1:
+            raise ModelOutputError(
+                f"output {name!r}: pass the outputs as a dict {{name: array}}; the rounds saw "
+                f"{sorted(self.engine.layout)}"
+            )
+        return self._result(matches[0], values, outcome)
+
+    def _result(self, key: str, values: ArrayLike, outcome: Any) -> FuzzyResult:
+        if key not in outcome.lower:
+            raise ModelOutputError(
+                f"output {key!r} was not among the outputs the rounds saw: {sorted(outcome.lower)}"
+            )
+        array = np.asarray(values, dtype=float)
+        expected = self.engine.output(key)
+        if array.shape != expected.shape or not np.array_equal(array, expected):
+            raise ModelOutputError(
+                f"output {key!r} differs from the outputs the {self.method} rounds were given "
+                "(its bounds come from those runs)"
+            )
+        return FuzzyResult(
+            self.levels,
+            outcome.lower[key],
+            outcome.upper[key],
+            nominal=outcome.nominal[key],
+            method=self.method,
+            _plan=self,
+            _sums=(outcome.pair_sum[key], np.zeros(len(self.levels), dtype=bool)),
+        )
+
+    def fingerprint(self) -> str:
+        """SHA-256 of :meth:`to_dict` (the runs follow from it and the model)."""
+        return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()
 
 
 #: build a sampling plan: ``plan(...)`` is ``Plan(...)``, one signature documented on :class:`Plan`

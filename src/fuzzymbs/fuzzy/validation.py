@@ -367,7 +367,7 @@ class MethodSearch:
         boxes = self._boxes
         # per (level, side): start -> [elements it gives, output, element, its value there]
         score: dict[tuple[int, int], dict[int, list[Any]]] = {}
-        interpolated = plan.method == "sparse"
+        interpolated = plan.scheme.interpolates
         for name, extremes in self._extremes.items():
             lower, upper = self._cuts[name]
             lower_from, upper_from = self._bounds_from.get(name, (None, None))

@@ -264,7 +264,7 @@ def interpolant_optima(
     bounds lie there, often away from every run: the true model at these points checks
     them. Empty for other plans (their bounds are runs) or failed runs."""
     n = len(plan.names)
-    if plan.method != "sparse" or not outputs or limit <= 0:
+    if not plan.scheme.interpolates or not outputs or limit <= 0:
         return np.empty((0, n))
     if failed is not None and np.any(failed):
         return np.empty((0, n))

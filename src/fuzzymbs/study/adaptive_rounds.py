@@ -1,7 +1,7 @@
 """The rounds of an adaptive study, each a table of points run through the executor and store.
 
 A study with ``method="adaptive"`` drives its
-:class:`~fuzzymbs.fuzzy.adaptive_plan.AdaptivePlan` round by round: the plan
+:class:`~fuzzymbs.fuzzy.transform.RoundsPlan` round by round: the plan
 proposes the round's points, the study evaluates them chunk by chunk on its
 executor into ``STORE/adaptive-<round>-<fingerprint>/`` (like the screening and
 validation runs), and hands the outputs back. The points of round k follow

@@ -138,7 +138,7 @@ class StudyRuns:
         """The plan's first runs (run ahead while a shared-steps reference finishes): the
         adaptive method's first round, or a fixed plan's first :data:`RUN_AHEAD` samples."""
         plan = self.plan
-        if plan.method == "adaptive":
+        if plan.scheme.runs_in_rounds:
             plan.reset()
             points = plan.next_batch()
             plan.reset()
@@ -164,7 +164,10 @@ class StudyRuns:
 
     def validation_count(self) -> int:
         """The study's validation runs in all: ``validation_runs``, or the default
-        (:func:`~fuzzymbs.fuzzy.validation.default_validation_count`)."""
+        (:func:`~fuzzymbs.fuzzy.validation.default_validation_count`); none for a method
+        that certifies itself (``supports_validation`` False: adaptive)."""
+        if not self.plan.scheme.supports_validation:
+            return 0
         if self.validation_runs is not None:
             return self.validation_runs
         return default_validation_count(len(self.plan), len(self.plan.names))

@@ -15,15 +15,14 @@ import json
 import math
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError, InvalidPlanError
-from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, adaptive_plan
+from fuzzymbs.fuzzy.methods import Method, method_named, option_users
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
-from fuzzymbs.fuzzy.plan_options import check_sparse_search
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_screening_run_limit
 from fuzzymbs.fuzzy.screening import DEFAULT_RTOL, Screening, check_tolerance
 from fuzzymbs.fuzzy.screening import screening_samples as make_screening_samples
@@ -217,7 +216,7 @@ def checked_outputs(
 
 def build_plan(
     fuzzy: Mapping[str, FuzzyNumber],
-    method: str,
+    method: str | Method,
     levels: int | Sequence[float],
     nonmonotonic: Sequence[str] | str | None,
     screening_rtol: float | None,
@@ -225,7 +224,7 @@ def build_plan(
     search_points: int | None,
     max_runs: int | None = DEFAULT_MAX_RUNS,
     method_tolerance: float | None = None,
-) -> tuple[Plan | AdaptivePlan | None, Screening | None, float | None]:
+) -> tuple[Plan | None, Screening | None, float | None]:
     """``(plan, screening samples, screening tolerance)`` of a study.
 
     With ``nonmonotonic="auto"`` the plan is None (built after the screening)
@@ -233,9 +232,9 @@ def build_plan(
     built now and the other two are None. ``max_runs`` limits the plan's runs
     (:class:`~fuzzymbs.fuzzy.transform.Plan`); for ``"auto"`` the screening
     runs plus the reduced corners the extended plan holds at least. For
-    ``method="adaptive"`` the plan is an
-    :class:`~fuzzymbs.fuzzy.adaptive_plan.AdaptivePlan` with ``max_runs`` as its run
-    budget and ``method_tolerance`` as its tolerance.
+    ``method="adaptive"`` the plan is a :class:`~fuzzymbs.fuzzy.transform.RoundsPlan`
+    with ``max_runs`` as its run budget and ``method_tolerance`` as its tolerance
+    (``method_tolerance`` is given to the methods that declare it).
 
     Raises
     ------
@@ -248,13 +247,12 @@ def build_plan(
         sample is built.
     """
     if isinstance(nonmonotonic, str) and nonmonotonic == AUTO:
-        if method != "extended":
+        # the method's other options checked as for its plan
+        scheme = method_named(method, sparse_level=sparse_level, search_points=search_points)
+        if not scheme.declares("nonmonotonic"):
             raise InvalidPlanError(
-                f"nonmonotonic={AUTO!r} is only used by method='extended', not {method!r}"
-            )
-        if sparse_level is not None or search_points is not None:
-            raise InvalidPlanError(
-                "sparse_level and search_points only apply to method='sparse', not 'extended'"
+                f"nonmonotonic={AUTO!r} is only used by method="
+                f"{' or '.join(map(repr, option_users('nonmonotonic')))}, not {scheme.name!r}"
             )
         rtol = DEFAULT_RTOL if screening_rtol is None else screening_rtol
         check_tolerance("screening_rtol", rtol)
@@ -265,26 +263,18 @@ def build_plan(
             f"screening_rtol={screening_rtol!r} is only used with "
             f"nonmonotonic={AUTO!r}, not {nonmonotonic!r}"
         )
-    if method == "adaptive":
-        adaptive = adaptive_plan(
-            fuzzy,
-            levels,
-            nonmonotonic,
-            sparse_level=sparse_level,
-            search_points=search_points,
-            max_runs=max_runs,
-            method_tolerance=method_tolerance,
-        )
-        return adaptive, None, None
-    if method == "sparse":  # before the plan: its bounds could never be computed
-        check_sparse_search(len(fuzzy))
-    plan = Plan(
-        fuzzy,
-        method=method,
-        levels=levels,
+    scheme = method_named(
+        method,
         nonmonotonic=nonmonotonic,
         sparse_level=sparse_level,
         search_points=search_points,
-        max_runs=max_runs,
     )
+    if method_tolerance is not None and scheme.declares("method_tolerance"):
+        scheme = replace(scheme, method_tolerance=method_tolerance)
+    if scheme.declares("max_runs"):  # the method's own run budget
+        if max_runs is not None and max_runs != DEFAULT_MAX_RUNS:
+            scheme = replace(scheme, max_runs=max_runs)
+        max_runs = None
+    scheme.check_bounds(len(fuzzy))  # before the plan: bounds that could never be computed
+    plan = Plan(fuzzy, method=scheme, levels=levels, max_runs=max_runs)
     return plan, None, None

@@ -73,7 +73,7 @@ class ChunkFeed:
         self.chunk_store = chunk_store
         self.keep_raw = keep_raw
         # sparse and adaptive plans bound their cuts by a surrogate of every sample
-        self.layout = None if plan.method in ("sparse", "adaptive") else StreamLayout(plan)
+        self.layout = StreamLayout(plan) if plan.scheme.supports_streaming else None
         self.failed = np.zeros(count, dtype=bool)
         self.reasons = np.full(count, "", dtype=object)
         self.accumulators: dict[str, OutputAccumulator] = {}

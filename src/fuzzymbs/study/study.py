@@ -36,8 +36,8 @@ from fuzzymbs.errors import (
     ModelOutputError,
     UnsupportedOperationError,
 )
-from fuzzymbs.fuzzy.adaptive import NOISE
-from fuzzymbs.fuzzy.adaptive_plan import AdaptivePlan, AdaptiveWarning, noise_message
+from fuzzymbs.fuzzy.methods import Method
+from fuzzymbs.fuzzy.methods.adaptive import AdaptiveWarning
 from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, Plan, make_levels
 from fuzzymbs.study.adaptive_rounds import run_rounds
 from fuzzymbs.study.code_version import code_version
@@ -87,8 +87,11 @@ class Study(StudyRuns):
         Parameter name -> :class:`~fuzzymbs.fuzzy.numbers.FuzzyNumber`, a
         study-file definition such as ``{"type": "triangular", "modal": 2e5,
         "spread": 0.1}``, or a plain number (a crisp value overriding the default).
-    method : {"general", "reduced", "extended", "grid", "sparse", "adaptive"}
-        Transformation scheme. ``"adaptive"`` refines a surrogate of every output in
+    method : {"general", "reduced", "extended", "grid", "sparse", "adaptive"} or Method
+        Transformation method, by name or as a method object of
+        :mod:`fuzzymbs.fuzzy.methods` holding its own options (e.g.
+        ``Sparse(sparse_level=2)``; then ``sparse_level`` and ``search_points`` are not
+        given here). ``"adaptive"`` refines a surrogate of every output in
         rounds until its certified error is at most ``method_tolerance``
         (:mod:`fuzzymbs.fuzzy.adaptive`); each round runs through the executor and,
         with a store, into ``STORE/adaptive-<round>-<fingerprint>/``. Its
@@ -144,11 +147,11 @@ class Study(StudyRuns):
         sample: ``method_error_bound = "lower"``). Default: a fifth of the method's
         runs, at least 12 per fuzzy parameter. 0 turns the check off (for a model
         known to be monotonic, or when every run counts).
-    method_tolerance : float
+    method_tolerance : float, optional
         Method ``"adaptive"``: the certified error (cut-width scale) at which its rounds
-        stop. The fixed methods: the largest method error (the validation runs' range
-        beyond a level's cut, on the cut-width scale of :mod:`fuzzymbs.fuzzy.band_scale`)
-        without a
+        stop (given, it replaces the method object's own). The fixed methods: the
+        largest method error (the validation runs' range beyond a level's cut, on the
+        cut-width scale of :mod:`fuzzymbs.fuzzy.band_scale`) without a
         :class:`~fuzzymbs.fuzzy.retransform.NonMonotonicWarning`. Default 1 %.
     widen_with_validation : bool
         Widen the cuts to the validation outputs (each point's level and the
@@ -158,7 +161,7 @@ class Study(StudyRuns):
         Refuse a plan needing more model runs than this before anything is
         built (:class:`~fuzzymbs.errors.PlanTooLargeError`, an InvalidPlanError,
         naming the runs of cheaper methods); for method ``"adaptive"`` its run
-        budget (this default and None mean 2,000; a :class:`~fuzzymbs.fuzzy.adaptive_plan.
+        budget (this default and None mean 2,000; a :class:`~fuzzymbs.fuzzy.methods.adaptive.
         AdaptiveWarning` says when the budget stopped it above the tolerance); default
         :data:`fuzzymbs.fuzzy.transform.DEFAULT_MAX_RUNS` (1,000,000), None: no limit.
     name, description : str, optional
@@ -177,7 +180,7 @@ class Study(StudyRuns):
         self,
         model: str | Callable[..., Any],
         parameters: Mapping[str, Any],
-        method: str = "reduced",
+        method: str | Method = "reduced",
         levels: int | Sequence[float] = 4,
         outputs: Sequence[str] | None = None,
         *,
@@ -191,7 +194,7 @@ class Study(StudyRuns):
         choose_integration: bool = True,
         shared_steps: bool = True,
         validation_runs: int | None = None,
-        method_tolerance: float = DEFAULT_METHOD_TOLERANCE,
+        method_tolerance: float | None = None,
         widen_with_validation: bool = False,
         max_runs: int | None = DEFAULT_MAX_RUNS,
         name: str | None = None,
@@ -199,7 +202,10 @@ class Study(StudyRuns):
     ) -> None:
         for label, value in (
             ("integration_tolerance", integration_tolerance),
-            ("method_tolerance", method_tolerance),
+            (
+                "method_tolerance",
+                DEFAULT_METHOD_TOLERANCE if method_tolerance is None else method_tolerance,
+            ),
         ):
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise InvalidParameterError(f"{label} must be a positive number, got {value!r}")
@@ -224,7 +230,6 @@ class Study(StudyRuns):
         self.shared_steps = bool(shared_steps)
         self.integration_choice: ToleranceChoice | None = None
         self.validation_runs = None if validation_runs is None else int(validation_runs)
-        self.method_tolerance = float(method_tolerance)
         self.widen_with_validation = bool(widen_with_validation)
         resolved = resolve_model(model, model_options or {})
         self.model = resolved.model
@@ -259,7 +264,14 @@ class Study(StudyRuns):
             sparse_level,
             search_points,
             max_runs=max_runs,
-            method_tolerance=self.method_tolerance if method == "adaptive" else None,
+            method_tolerance=method_tolerance,
+        )
+        # one tolerance: the method's own where it declares one (adaptive), else the check's
+        scheme = getattr(self._plan, "scheme", None)
+        if scheme is not None and scheme.declares("method_tolerance"):
+            method_tolerance = scheme.method_tolerance
+        self.method_tolerance = float(
+            DEFAULT_METHOD_TOLERANCE if method_tolerance is None else method_tolerance
         )
         known_outputs = self._declared_outputs()
         self.outputs = checked_outputs(outputs, known_outputs, self.model_name)
@@ -269,7 +281,7 @@ class Study(StudyRuns):
         self.description = description
 
     @property
-    def plan(self) -> Plan | AdaptivePlan:
+    def plan(self) -> Plan:
         """The sampling plan (for ``nonmonotonic="auto"``: known after :meth:`screen`).
 
         Raises
@@ -470,8 +482,8 @@ class Study(StudyRuns):
             if self._plan is None:
                 self._screen(work, requested_size, store, resume, progress, on_failure, code)
             self._choose_integration(progress)
-            if self.plan.method == "adaptive":
-                return self._run_adaptive(
+            if self.plan.scheme.runs_in_rounds:
+                return self._run_in_rounds(
                     work,
                     requested_size,
                     store,
@@ -560,7 +572,7 @@ class Study(StudyRuns):
             dataset.attrs.update(self.integration_choice.to_attrs())
         return StudyResult(dataset)
 
-    def _run_adaptive(
+    def _run_in_rounds(
         self,
         work: LazyExecutor,
         size: int,
@@ -572,8 +584,9 @@ class Study(StudyRuns):
         on_failure: str,
         started: float,
     ) -> StudyResult:
-        """The rounds of an adaptive plan (:mod:`fuzzymbs.study.adaptive_rounds`), then the
-        result; its certification replaces the validation runs of the fixed methods."""
+        """The rounds of a plan that runs in rounds (:mod:`fuzzymbs.study.adaptive_rounds`),
+        then the result; its certification replaces the validation runs of the fixed
+        methods."""
         outputs, evaluated, reused = run_rounds(self, (work, size, resume, progress, code), store)
         plan = self.plan
         count = len(plan)
@@ -599,19 +612,9 @@ class Study(StudyRuns):
                 integration=integration,
             )
         dataset.attrs.update(plan.attrs())
-        outcome = plan.outcome()
-        if outcome.status == NOISE:
-            message = f"study {self.name!r}: " + noise_message(
-                outcome.runs, outcome.noise, plan.method_tolerance
-            )
-            logger.warning("%s", message)
-            warnings.warn(message, AdaptiveWarning, stacklevel=3)
-        elif not outcome.converged:
-            message = (
-                f"study {self.name!r}: the adaptive method stopped at its run budget "
-                f"(max_runs = {plan.max_runs}) with a certified error of {outcome.error:.3g} "
-                f"of the cut width, above method_tolerance = {plan.method_tolerance:g}"
-            )
+        stopped = plan.scheme.stop_message(plan.outcome())
+        if stopped is not None:
+            message = f"study {self.name!r}: {stopped}"
             logger.warning("%s", message)
             warnings.warn(message, AdaptiveWarning, stacklevel=3)
         if self.integration_choice is not None:

@@ -3,7 +3,8 @@
 Layout (see docs/studies.md)::
 
     [study]      name, description, method, levels, outputs, nonmonotonic (list or "auto"),
-                 screening_rtol, sparse_level, search_points (method "sparse"),
+                 screening_rtol, the method's own options as it declares them
+                 (fuzzymbs.fuzzy.methods; e.g. sparse_level, search_points),
                  integration_tolerance (time-integrated models: of the cut width; default 0.01),
                  integration_runs (samples its check re-runs; default 8),
                  choose_integration (a pilot chooses the integrator tolerance; true),
@@ -30,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator
 
 from fuzzymbs.errors import (
     FuzzymbsError,
@@ -40,6 +41,8 @@ from fuzzymbs.errors import (
     StudyFileError,
     UntrustedCodeError,
 )
+from fuzzymbs.fuzzy.methods import METHODS, method_named
+from fuzzymbs.fuzzy.methods.base import option_type
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS
 from fuzzymbs.study.integration_check import DEFAULT_RUNS, DEFAULT_TOLERANCE
 from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE
@@ -50,18 +53,16 @@ class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)  # TOML is typed: no "4" or true for 4
 
 
-class StudySection(_Section):
-    """``[study]``: what to compute."""
+class _StudyFields(_Section):
+    """``[study]``'s own keys (the methods' options are added from their declarations)."""
 
     name: str | None = None
     description: str = ""
-    method: Literal["general", "reduced", "extended", "grid", "sparse", "adaptive"] = "reduced"
+    method: Literal[tuple(METHODS)] = "reduced"  # type: ignore[valid-type]
     levels: int | list[float] = 4
     outputs: list[str] | None = None
     nonmonotonic: list[str] | Literal["auto"] = Field(default_factory=list)
     screening_rtol: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
-    sparse_level: int | None = Field(default=None, ge=1)
-    search_points: int | None = Field(default=None, ge=1)
     integration_tolerance: float = Field(default=DEFAULT_TOLERANCE, gt=0.0, allow_inf_nan=False)
     integration_runs: int = Field(default=DEFAULT_RUNS, ge=1)
     choose_integration: bool = True
@@ -112,6 +113,31 @@ class StudySection(_Section):
         if value is not None and (not value or "/" in value or "\\" in value or value in ".."):
             raise ValueError("name must be a non-empty folder name without path separators")
         return value
+
+
+def _method_option_fields() -> dict[str, Any]:
+    """A ``[study]`` key for every method option the study does not hold itself, typed and
+    limited as the method declares it (None: not given, the method's default)."""
+    fields: dict[str, Any] = {}
+    for cls in METHODS.values():
+        for declared in cls.options():
+            if declared.name in _StudyFields.model_fields or declared.name in fields:
+                continue
+            kind, minimum = option_type(cls, declared.name)
+            limit = {} if minimum is None else {"ge": minimum}
+            fields[declared.name] = (kind | None, Field(default=None, **limit))
+    return fields
+
+
+#: the method options a study file passes to its method (every one a method declares)
+METHOD_OPTION_KEYS: tuple[str, ...] = tuple(_method_option_fields())
+
+StudySection = create_model(
+    "StudySection",
+    __base__=_StudyFields,
+    __doc__="``[study]``: what to compute, and the method's options.",
+    **_method_option_fields(),
+)
 
 
 class ModelSection(_Section):
@@ -415,18 +441,24 @@ def load_study_file(
         )
 
     name = parsed.study.name or path.stem
+    auto = parsed.study.nonmonotonic == "auto"
     try:
+        # the method and its options as one object (nonmonotonic = "auto" is the study's:
+        # its screening names them)
+        method = method_named(
+            parsed.study.method,
+            nonmonotonic=None if auto else parsed.study.nonmonotonic,
+            **{key: getattr(parsed.study, key) for key in METHOD_OPTION_KEYS},
+        )
         study = Study(
             model,
             definitions,
-            method=parsed.study.method,
+            method=method,
             levels=parsed.study.levels,
             outputs=parsed.study.outputs,
             model_options=options,
-            nonmonotonic=parsed.study.nonmonotonic or None,
+            nonmonotonic="auto" if auto else None,
             screening_rtol=parsed.study.screening_rtol,
-            sparse_level=parsed.study.sparse_level,
-            search_points=parsed.study.search_points,
             integration_tolerance=parsed.study.integration_tolerance,
             integration_runs=parsed.study.integration_runs,
             choose_integration=parsed.study.choose_integration,
