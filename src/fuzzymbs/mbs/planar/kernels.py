@@ -48,6 +48,9 @@ CONTACT = 4
 BUSHING = 5
 # run status
 RUNNING = 0
+#: Length of a marker's state (:func:`marker_state`).
+MARKER_STATE_SIZE = 12
+
 FINISHED = 1
 NOT_FINITE = 2
 STEP_TOO_SMALL = 3
@@ -212,11 +215,13 @@ def _foreshortening(k, markers, bodies, data, z, v):
 
 @nb.njit(cache=True)
 def marker_state(k, markers, bodies, data, z, v, out):
-    """Kinematics of marker ``k`` into ``out`` (10,).
+    """Kinematics of marker ``k`` into ``out`` (:data:`MARKER_STATE_SIZE`,).
 
     out = x, y, angle, vx, vy, angular velocity, the velocity-quadratic part of
-    the acceleration (2), and A R u (2): the point's position relative to its
-    frame origin turned by +90 degrees (its derivative by the frame angle).
+    the acceleration (2), A R u (2): the point's position relative to its
+    frame origin turned by +90 degrees (its derivative by the frame angle), and
+    the cosine and sine of the frame angle (for :func:`add_point_load`, which
+    would otherwise evaluate them again for every row it adds).
     On a stiffened flexible body the node's foreshortening is part of u.
     """
     body = markers[k, 0]
@@ -228,8 +233,9 @@ def marker_state(k, markers, bodies, data, z, v, out):
         out[0] = ux
         out[1] = uy
         out[2] = data[d + 2]
-        for i in range(3, 10):
+        for i in range(3, MARKER_STATE_SIZE):
             out[i] = 0.0
+        out[10] = 1.0
         return
     o = bodies[body, 0]
     angle = data[d + 2]
@@ -270,6 +276,8 @@ def marker_state(k, markers, bodies, data, z, v, out):
     out[7] = -w * w * auy + 2.0 * w * adx - s * curvature
     out[8] = -auy
     out[9] = aux
+    out[10] = c
+    out[11] = s
 
 
 @nb.njit(cache=True)
@@ -291,8 +299,8 @@ def add_point_load(k, markers, bodies, data, z, state, fx, fy, target):
     target[o] += fx
     target[o + 1] += fy
     target[o + 2] += state[8] * fx + state[9] * fy
-    c = math.cos(z[o + 2])
-    s = math.sin(z[o + 2])
+    c = state[10]  # the frame angle's cosine and sine (marker_state)
+    s = state[11]
     axial = c * fx + s * fy  # the force along the body's x axis
     stiffened = bodies[body, 3] != 0
     dk = d + 3 + 3 * m
@@ -537,8 +545,8 @@ def joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, accelerat
     """Rows of every joint: residual g, Jacobian G, quadratic part zeta, and the
     drive's f'(t) (``rate``) and f''(t) (``acceleration``)."""
     bodies, markers, joints = layout[0], layout[1], layout[2]
-    si = np.empty(10)
-    sj = np.empty(10)
+    si = np.empty(MARKER_STATE_SIZE)
+    sj = np.empty(MARKER_STATE_SIZE)
     for jn in range(joints.shape[0]):
         kind = joints[jn, 0]
         ki = joints[jn, 1]
@@ -677,8 +685,8 @@ def force_terms(t, layout, data, z, v, user_force, forces):
     bodies, markers, elements = layout[0], layout[1], layout[3]
     if elements.shape[0] == 0:
         return
-    si = np.empty(10)
-    sj = np.empty(10)
+    si = np.empty(MARKER_STATE_SIZE)
+    sj = np.empty(MARKER_STATE_SIZE)
     out = np.zeros(3)
     for e in range(elements.shape[0]):
         ki = elements[e, 1]

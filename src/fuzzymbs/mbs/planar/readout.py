@@ -11,6 +11,7 @@ import numpy as np
 from fuzzymbs.mbs.planar.kernels import (
     BUSHING,
     CONTACT,
+    MARKER_STATE_SIZE,
     ROTATIONAL_SPRING_DAMPER,
     SPRING_DAMPER,
     add_angle_load,
@@ -59,8 +60,8 @@ def potential_energy(layout, data, z, v):
         s = math.sin(z[o + 2])
         energy -= gx * (data[d] * z[o] + c * sx - s * sy)
         energy -= gy * (data[d] * z[o + 1] + s * sx + c * sy)
-    si = np.empty(10)
-    sj = np.empty(10)
+    si = np.empty(MARKER_STATE_SIZE)
+    sj = np.empty(MARKER_STATE_SIZE)
     for e in range(elements.shape[0]):
         kind = elements[e, 0]
         ki = elements[e, 1]
@@ -126,13 +127,13 @@ def markers_at(markers_wanted, states, layout, data, out):
     """State of the wanted markers at every stored state: out (B, T, K, 6)."""
     bodies, markers = layout[0], layout[1]
     n = layout[4][0]
-    s10 = np.empty(10)
+    marker = np.empty(MARKER_STATE_SIZE)
     for s in range(states.shape[0]):
         for i in range(states.shape[1]):
             x = states[s, i]
             for w in range(markers_wanted.size):
-                marker_state(markers_wanted[w], markers, bodies, data[s], x[:n], x[n:], s10)
-                out[s, i, w, :] = s10[:6]
+                marker_state(markers_wanted[w], markers, bodies, data[s], x[:n], x[n:], marker)
+                out[s, i, w, :] = marker[:6]
 
 
 @nb.njit(cache=True, nogil=True)
@@ -140,8 +141,8 @@ def element_forces_at(element, times, states, layout, data, user_force, out):
     """Force element ``element``'s load on its marker i at every stored state: out (B, T, 3)
     = (fx, fy, torque), global, NaN after a failure."""
     n = layout[4][0]
-    si = np.empty(10)
-    sj = np.empty(10)
+    si = np.empty(MARKER_STATE_SIZE)
+    sj = np.empty(MARKER_STATE_SIZE)
     load = np.zeros(3)
     for s in range(states.shape[0]):
         for i in range(states.shape[1]):
@@ -161,7 +162,7 @@ def marker_accelerations_at(marker, states, solved, layout, data, out):
     rows times z'' plus the velocity-quadratic part of its acceleration."""
     bodies, markers = layout[0], layout[1]
     n = layout[4][0]
-    state = np.empty(10)
+    state = np.empty(MARKER_STATE_SIZE)
     row = np.zeros(n)
     for s in range(states.shape[0]):
         for i in range(states.shape[1]):
