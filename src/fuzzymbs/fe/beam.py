@@ -268,13 +268,14 @@ class PlanarBeam:
         n = 3 * (ne + 1)
         k = np.zeros((n, n))
         m = np.zeros((n, n))
-        for e in range(ne):
-            axial = [3 * e, 3 * e + 3]
-            bend = [3 * e + 1, 3 * e + 2, 3 * e + 4, 3 * e + 5]
-            k[np.ix_(axial, axial)] += ka
-            m[np.ix_(axial, axial)] += ma
-            k[np.ix_(bend, bend)] += kb
-            m[np.ix_(bend, bend)] += mb
+        first = 3 * np.arange(ne)
+        axial = np.stack([first, first + 3], axis=1)  # (element, local dof): global dof
+        bend = np.stack([first + 1, first + 2, first + 4, first + 5], axis=1)
+        # np.add.at sums shared nodes' entries element by element, in element order
+        for dofs, stiffness, mass in ((axial, ka, ma), (bend, kb, mb)):
+            rows, columns = dofs[:, :, None], dofs[:, None, :]
+            np.add.at(k, (rows, columns), stiffness)
+            np.add.at(m, (rows, columns), mass)
         return m, k
 
     def held_dofs(self) -> list[int]:
