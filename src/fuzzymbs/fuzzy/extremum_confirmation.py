@@ -57,6 +57,8 @@ FLAT = 0.1
 #: a face point is a candidate when the surrogate predicts it at most this far (cut-width
 #: scale) from its extremum
 PROMISING = 0.25
+#: a local probe's step: where the surrogate's quadratic model changes by this (cut-width scale)
+LOCAL = 0.01
 #: a direction is flat when that change takes a step longer than this (unit cube [-1, 1]^n)
 MIN_STEP = 0.1
 #: central-difference step of the Hessian (unit cube)
@@ -185,12 +187,14 @@ def confirmation_probes(
     sentinel = 1e300
     diagonal = np.arange(dimension)
     hessian[:, diagonal, diagonal] = np.where(free, hessian[:, diagonal, diagonal], sentinel)
-    _, vectors = np.linalg.eigh(hessian)  # (K, n, n): columns
+    curvature, vectors = np.linalg.eigh(hessian)  # (K, n), (K, n, n): columns
     own = np.arange(count)
     value = _values(degrees, coefficients, correction, points, element)
     # 3. along each eigenvector, both ways, to the box's boundary; climb the surrogate
     # there on the face the line leaves by: the end of a ridge, a valley's floor
     starts, faces_low, faces_high, rows = [], [], [], []
+    # and the local probes x* +- h v, h where the quadratic model changes by LOCAL
+    local, reach = [], []
     for q in range(dimension):
         for way in (1.0, -1.0):
             step = way * vectors[:, :, q]
@@ -203,6 +207,14 @@ def confirmation_probes(
                 )
             exit_axis = np.argmin(room, axis=1)
             length = room[own, exit_axis]
+            bend = np.maximum(-curvature[:, q], 0.0)
+            with np.errstate(divide="ignore"):
+                h = np.minimum(np.sqrt(2.0 * LOCAL * width / bend), length)
+            short = (curvature[:, q] < 1e299) & (h < MIN_STEP) & (h > 0.0)
+            local.append(
+                np.clip(points[short] + h[short, None] * step[short], low[short], high[short])
+            )
+            reach.append(h[short])
             go = np.isfinite(length) & (length > MIN_STEP)
             if not go.any():
                 continue
@@ -214,7 +226,7 @@ def confirmation_probes(
             faces_high.append(face_high[go])
             rows.append(own[go])
     if not starts:
-        return np.empty((0, dimension))
+        starts, faces_low, faces_high, rows = [points[:0]], [low[:0]], [high[:0]], [own[:0]]
     row = np.concatenate(rows)
     found, predicted = climb(
         degrees,
@@ -229,14 +241,17 @@ def confirmation_probes(
     # a candidate where the surrogate predicts at most PROMISING of the cut width below its
     # extremum (far from the runs it can be off by that much)
     shortfall = sign[row] * (value[row] - predicted) / width[row]
-    candidates = found[shortfall <= PROMISING]
-    # 4. the candidates farthest from every run first (where the surrogate is least
-    # supported), each farther than ``near`` from every run and every probe chosen before
+    candidates = np.concatenate((found[shortfall <= PROMISING], *local))
+    scale_of = np.concatenate((np.full(int(np.sum(shortfall <= PROMISING)), MIN_STEP), *reach))
+    # 4. the candidates least supported by runs first: the distance to the nearest run over
+    # the candidate's own step (a face point's MIN_STEP, a local probe's h); a candidate
+    # nearer to a run or a chosen probe than min(near, step / 2) is known already
     chosen: list[NDArray[np.float64]] = []
     far = _distance(candidates[:, moving], runs[:, moving])
+    enough = np.minimum(near, scale_of / 2.0)
     while len(chosen) < limit and len(candidates):
-        best = int(np.argmax(far))
-        if far[best] <= near:
+        best = int(np.argmax(np.where(far > enough, far / scale_of, -1.0)))
+        if far[best] <= enough[best]:
             break
         chosen.append(candidates[best])
         far = np.minimum(far, _distance(candidates[:, moving], candidates[best : best + 1, moving]))
