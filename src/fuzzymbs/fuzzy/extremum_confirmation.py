@@ -16,26 +16,29 @@ every extremum ``x*`` of the surrogate ``s`` (level ``j``, element ``e``, side
    box, or on a face whose slope there could not hold it (``|ds/dx_i|`` times
    the box's width below ``FLAT`` times the cut-width scale);
 2. the surrogate's Hessian over them (central differences of its gradient),
-   and its eigenvectors ``v``: along a ridge's crest the curvature
-   ``c = -sigma v^T H v`` is small, across it large;
-3. along each eigenvector, both ways, the line from ``x*`` to the box's
-   boundary (length ``T``): the step ``t = min(T, sqrt(2 FLAT w / c))`` over
-   which the surrogate's quadratic model changes by at most ``FLAT`` times the
-   cut-width scale ``w``; a direction with ``t`` longer than ``MIN_STEP`` (the
-   crest of a ridge, a valley's floor, a plateau) is *flat*, and the point
-   ``x* + t v`` is a probe;
-4. probes closer than the method's ``near`` distance to a run are dropped
-   (already known); the others, at most ``limit``, the longest steps first, are
-   one batch for the model.
+   and its eigenvectors ``v``: along a ridge's crest the curvature is small,
+   across it large;
+3. *face probes*: along each eigenvector, both ways, the line from ``x*`` to the
+   box's boundary, then the surrogate climbed within the face that line leaves
+   by (:func:`fuzzymbs.fuzzy.box_search.climb`): the end of a ridge; a candidate
+   where the surrogate predicts it at most ``PROMISING`` of the cut width short
+   of its extremum;
+4. *local probes*: ``x* +- h v``, ``h`` where the surrogate's quadratic model
+   changes by ``LOCAL`` of the cut width (shorter than ``MIN_STEP``): the
+   crest's exact place and height;
+5. the candidates least supported by runs first (distance to the nearest run
+   over the candidate's own scale, ``MIN_STEP`` or ``h``), each farther than
+   ``min(near, scale / 2)`` from every run and every probe chosen, at most
+   ``limit``: one batch for the model.
 
 The probes join the surrogate like any run off its grid (its kernel
 correction), so the next round's surrogate, and its extremum, move towards a
 higher point the model showed; a probe above the reported bound widens it at
 once. The method's certified error then includes how far the bounds moved:
-either the extremum is confirmed (no probe left that is not near a run) or
-the error reports the miss and the rounds go on. It is a local search on the
-model, one step per round along the flat directions of the surrogate, started
-from the surrogate's extremum and re-started from the next one.
+within the tolerance the extrema are confirmed, above it the rounds go on and
+confirm again later. It is a local search on the model, started from the
+surrogate's extremum and restarted from the next one, one batch a round
+(docs/fuzzy.md, "Confirming the extrema on the model").
 
 Everything is a deterministic function of the surrogate and the runs, so a
 replay proposes the same probes bit for bit.
