@@ -23,7 +23,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, basis_matrix
 from fuzzymbs.fuzzy.grids import cartesian
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
-__all__ = ["box_extremes"]
+__all__ = ["box_extremes", "climb"]
 
 #: gradient steps of the polishing search
 _STEPS = 40
@@ -110,6 +110,36 @@ def box_extremes(
     arg_lower[improved_low] = found[:half].reshape(count_boxes, elements, count)[improved_low]
     arg_upper[improved_high] = found[half:].reshape(count_boxes, elements, count)[improved_high]
     return lower, upper, arg_lower, arg_upper
+
+
+def climb(
+    degrees: NDArray[np.int64],
+    coefficients: NDArray[np.float64],
+    starts: NDArray[np.float64],
+    element: NDArray[np.intp],
+    sign: NDArray[np.float64],
+    low: NDArray[np.float64],
+    high: NDArray[np.float64],
+    correction: KernelCorrection | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """From each start, the projected gradient search of :func:`box_extremes` in the
+    start's own box.
+
+    Parameters
+    ----------
+    degrees, coefficients : the series (D, n) and (D, E).
+    starts : (K, n) points (unit coordinates), each inside its box.
+    element : (K,) the element each start climbs.
+    sign : (K,) +1 to climb to a maximum, -1 to a minimum.
+    low, high : (K, n) each start's box (a face where ``low == high`` in a direction).
+    correction : added to the series where given.
+
+    Returns
+    -------
+    points : (K, n) where each search ended.
+    values : (K,) the series (plus correction) there.
+    """
+    return _polish(degrees, coefficients, starts, element, sign, low, high, correction)
 
 
 def _values_at(

@@ -1,0 +1,261 @@
+"""The adaptive method's extrema confirmed on the model: local searches along flat directions.
+
+The adaptive method (:mod:`fuzzymbs.fuzzy.adaptive`) reports, per alpha-cut,
+output element and side, the extremum of its surrogate, and certifies it by
+running the model at that point. That run checks the surrogate's *value* at
+its extremum, not its *location*: on a resonance ridge (a forced oscillator's
+amplitude, high along ``k = m Omega^2`` and narrow across it) the surrogate
+can put its maximum anywhere along the crest, the model agrees with it there,
+and the ridge's highest point, at one end of it, is never run.
+
+What this module adds, once the certified error is within the tolerance: for
+every extremum ``x*`` of the surrogate ``s`` (level ``j``, element ``e``, side
+``sigma = +1`` for the maximum, ``-1`` for the minimum),
+
+1. the *free* directions: the coordinates where ``x*`` lies inside the level's
+   box, or on a face whose slope there could not hold it (``|ds/dx_i|`` times
+   the box's width below ``FLAT`` times the cut-width scale);
+2. the surrogate's Hessian over them (central differences of its gradient),
+   and its eigenvectors ``v``: along a ridge's crest the curvature is small,
+   across it large;
+3. *face probes*: along each eigenvector, both ways, the line from ``x*`` to the
+   box's boundary, then the surrogate climbed within the face that line leaves
+   by (:func:`fuzzymbs.fuzzy.box_search.climb`): the end of a ridge; a candidate
+   where the surrogate predicts it at most ``PROMISING`` of the cut width short
+   of its extremum;
+4. *local probes*: ``x* +- h v``, ``h`` where the surrogate's quadratic model
+   changes by ``LOCAL`` of the cut width (shorter than ``MIN_STEP``): the
+   crest's exact place and height;
+5. the candidates least supported by runs first (distance to the nearest run
+   over the candidate's own scale, ``MIN_STEP`` or ``h``), each farther than
+   ``min(near, scale / 2)`` from every run and every probe chosen, at most
+   ``limit``: one batch for the model.
+
+The probes join the surrogate like any run off its grid (its kernel
+correction), so the next round's surrogate, and its extremum, move towards a
+higher point the model showed; a probe above the reported bound widens it at
+once. The method's certified error then includes how far the bounds moved:
+within the tolerance the extrema are confirmed, above it the rounds go on and
+confirm again later. It is a local search on the model, started from the
+surrogate's extremum and restarted from the next one, one batch a round
+(docs/fuzzy.md, "Confirming the extrema on the model").
+
+Everything is a deterministic function of the surrogate and the runs, so a
+replay proposes the same probes bit for bit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fuzzymbs.fuzzy.box_search import climb
+from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, basis_matrix
+from fuzzymbs.fuzzy.residual_correction import KernelCorrection
+
+__all__ = ["FLAT", "MIN_STEP", "confirmation_probes"]
+
+#: the change (cut-width scale) the surrogate's quadratic model may predict over a probe step
+FLAT = 0.1
+#: a face point is a candidate when the surrogate predicts it at most this far (cut-width
+#: scale) from its extremum
+PROMISING = 0.25
+#: a local probe's step: where the surrogate's quadratic model changes by this (cut-width scale)
+LOCAL = 0.01
+#: a direction is flat when that change takes a step longer than this (unit cube [-1, 1]^n)
+MIN_STEP = 0.1
+#: central-difference step of the Hessian (unit cube)
+_STEP = 1e-4
+#: a coordinate closer than this to its box bound lies on the face (unit cube)
+_ON_FACE = 1e-9
+
+
+def _gradient(
+    degrees: NDArray[np.int64],
+    coefficients: NDArray[np.float64],
+    correction: KernelCorrection | None,
+    points: NDArray[np.float64],
+    element: NDArray[np.intp],
+) -> NDArray[np.float64]:
+    """(K, n) the gradient of element ``element[k]`` of the surrogate at ``points[k]``."""
+    _, gradient = basis_gradient(degrees, points)  # (n, K, D)
+    slope = np.einsum("ikd,dk->ki", gradient, coefficients[:, element])
+    if correction is not None:
+        slope = slope + correction.gradient_at(points, element)
+    return slope
+
+
+def _distance(points: NDArray[np.float64], others: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(K,) each point's distance (max norm) to the nearest of ``others``; inf if none."""
+    if not len(others):
+        return np.full(len(points), np.inf)
+    return np.abs(points[:, None, :] - others[None, :, :]).max(axis=2).min(axis=1)
+
+
+def _values(
+    degrees: NDArray[np.int64],
+    coefficients: NDArray[np.float64],
+    correction: KernelCorrection | None,
+    points: NDArray[np.float64],
+    element: NDArray[np.intp],
+) -> NDArray[np.float64]:
+    """(K,) element ``element[k]`` of the surrogate at ``points[k]``."""
+    values = np.einsum("kd,dk->k", basis_matrix(degrees, points), coefficients[:, element])
+    return values if correction is None else values + correction.at(points, element)
+
+
+def confirmation_probes(
+    surrogate: tuple[NDArray[np.int64], NDArray[np.float64], KernelCorrection | None],
+    arg_lower: NDArray[np.float64],
+    arg_upper: NDArray[np.float64],
+    box_low: NDArray[np.float64],
+    box_high: NDArray[np.float64],
+    scale: NDArray[np.float64],
+    runs: NDArray[np.float64],
+    moving: NDArray[np.bool_],
+    *,
+    near: float,
+    limit: int,
+) -> NDArray[np.float64]:
+    """The probes (P, n) that confirm the surrogate's extrema on the model (module docstring).
+
+    Parameters
+    ----------
+    surrogate : (degrees, coefficients, correction)
+        The adaptive method's surrogate: a Chebyshev series (D, n), (D, E) and its
+        kernel correction (or None).
+    arg_lower, arg_upper : ndarray (L, E, n)
+        The surrogate's extremal points per level and element (unit cube).
+    box_low, box_high : ndarray (L, n)
+        The cut boxes (unit cube).
+    scale : ndarray (L, E)
+        The cut-width scale of each level and element (inf: nothing to confirm).
+    runs : ndarray (N, n)
+        Every run so far (unit cube).
+    moving : ndarray (n,) of bool
+        Parameters that vary.
+    near : float
+        A probe closer than this to a run or another probe (max norm over the moving
+        coordinates) is dropped.
+    limit : int
+        Probes at most.
+
+    Returns
+    -------
+    ndarray (P, n)
+        The probes in the unit cube, the longest flat steps first; none when every
+        extremum is confirmed (its flat directions end near runs).
+    """
+    degrees, coefficients, correction = surrogate
+    count_levels, elements, dimension = arg_lower.shape
+    if limit <= 0 or not moving.any():
+        return np.empty((0, dimension))
+    points = np.concatenate((arg_lower.reshape(-1, dimension), arg_upper.reshape(-1, dimension)))
+    level = np.tile(np.repeat(np.arange(count_levels), elements), 2)
+    element = np.tile(np.arange(elements), 2 * count_levels)
+    sign = np.repeat([-1.0, 1.0], count_levels * elements)
+    width = scale[level, element]
+    low, high = box_low[level], box_high[level]
+    keep = np.isfinite(width) & np.any(high > low, axis=1)
+    points, level, element, sign, width = (a[keep] for a in (points, level, element, sign, width))
+    low, high = low[keep], high[keep]
+    if not len(points):
+        return np.empty((0, dimension))
+    # 1. free coordinates: inside the box, or on a face the slope cannot hold it to
+    slope = sign[:, None] * _gradient(degrees, coefficients, correction, points, element)
+    inside = (points > low + _ON_FACE) & (points < high - _ON_FACE)
+    weak = np.abs(slope) * (high - low) <= FLAT * width[:, None]
+    free = (inside | weak) & (high > low) & moving[None, :]
+    some = free.any(axis=1)
+    points, level, element, sign, width, low, high, free = (
+        a[some] for a in (points, level, element, sign, width, low, high, free)
+    )
+    if not len(points):
+        return np.empty((0, dimension))
+    # 2. the Hessian of sigma s over the free coordinates (central differences of the gradient)
+    count = len(points)
+    hessian = np.zeros((count, dimension, dimension))
+    for i in range(dimension):
+        if not free[:, i].any():
+            continue
+        shift = np.zeros(dimension)
+        shift[i] = _STEP
+        forward = _gradient(degrees, coefficients, correction, points + shift, element)
+        backward = _gradient(degrees, coefficients, correction, points - shift, element)
+        hessian[:, i, :] = sign[:, None] * (forward - backward) / (2.0 * _STEP)
+    hessian = 0.5 * (hessian + hessian.transpose(0, 2, 1))
+    mask = free[:, :, None] & free[:, None, :]
+    hessian = np.where(mask, hessian, 0.0)
+    # a fixed coordinate gets a large positive sentinel: its eigenvector is its own axis
+    sentinel = 1e300
+    diagonal = np.arange(dimension)
+    hessian[:, diagonal, diagonal] = np.where(free, hessian[:, diagonal, diagonal], sentinel)
+    curvature, vectors = np.linalg.eigh(hessian)  # (K, n), (K, n, n): columns
+    own = np.arange(count)
+    value = _values(degrees, coefficients, correction, points, element)
+    # 3. along each eigenvector, both ways, to the box's boundary; climb the surrogate
+    # there on the face the line leaves by: the end of a ridge, a valley's floor
+    starts, faces_low, faces_high, rows = [], [], [], []
+    # and the local probes x* +- h v, h where the quadratic model changes by LOCAL
+    local, reach = [], []
+    for q in range(dimension):
+        for way in (1.0, -1.0):
+            step = way * vectors[:, :, q]
+            step = np.where(free, step, 0.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                room = np.where(
+                    step > 1e-12,
+                    (high - points) / step,
+                    np.where(step < -1e-12, (low - points) / step, np.inf),
+                )
+            exit_axis = np.argmin(room, axis=1)
+            length = room[own, exit_axis]
+            bend = np.maximum(-curvature[:, q], 0.0)
+            with np.errstate(divide="ignore"):
+                h = np.minimum(np.sqrt(2.0 * LOCAL * width / bend), length)
+            short = (curvature[:, q] < 1e299) & (h < MIN_STEP) & (h > 0.0)
+            local.append(
+                np.clip(points[short] + h[short, None] * step[short], low[short], high[short])
+            )
+            reach.append(h[short])
+            go = np.isfinite(length) & (length > MIN_STEP)
+            if not go.any():
+                continue
+            end = np.clip(points + np.where(go, length, 0.0)[:, None] * step, low, high)
+            face_low, face_high = low.copy(), high.copy()
+            face_low[own, exit_axis] = face_high[own, exit_axis] = end[own, exit_axis]
+            starts.append(end[go])
+            faces_low.append(face_low[go])
+            faces_high.append(face_high[go])
+            rows.append(own[go])
+    if not starts:
+        starts, faces_low, faces_high, rows = [points[:0]], [low[:0]], [high[:0]], [own[:0]]
+    row = np.concatenate(rows)
+    found, predicted = climb(
+        degrees,
+        coefficients,
+        np.concatenate(starts),
+        element[row],
+        sign[row],
+        np.concatenate(faces_low),
+        np.concatenate(faces_high),
+        correction,
+    )
+    # a candidate where the surrogate predicts at most PROMISING of the cut width below its
+    # extremum (far from the runs it can be off by that much)
+    shortfall = sign[row] * (value[row] - predicted) / width[row]
+    candidates = np.concatenate((found[shortfall <= PROMISING], *local))
+    scale_of = np.concatenate((np.full(int(np.sum(shortfall <= PROMISING)), MIN_STEP), *reach))
+    # 4. the candidates least supported by runs first: the distance to the nearest run over
+    # the candidate's own step (a face point's MIN_STEP, a local probe's h); a candidate
+    # nearer to a run or a chosen probe than min(near, step / 2) is known already
+    chosen: list[NDArray[np.float64]] = []
+    far = _distance(candidates[:, moving], runs[:, moving])
+    enough = np.minimum(near, scale_of / 2.0)
+    while len(chosen) < limit and len(candidates):
+        best = int(np.argmax(np.where(far > enough, far / scale_of, -1.0)))
+        if far[best] <= enough[best]:
+            break
+        chosen.append(candidates[best])
+        far = np.minimum(far, _distance(candidates[:, moving], candidates[best : best + 1, moving]))
+    return np.array(chosen).reshape(-1, dimension)
