@@ -56,8 +56,9 @@ ELEMENTS = 12
 #: Step-control tolerances. Looser than the engine's default (rtol 1e-6, atol 1e-8):
 #: the rod's stiffest mode, not the tolerance, sets DOP853's step here (one step per
 #: output time from rtol 1e-5 on), and on a 64-sample fuzzy study's bands every output
-#: stays within 1e-3 of its band width of a run at rtol 1e-10 up to rtol 1e-3, 3 to 30
-#: times below the mode count's error (docs/mechanisms.md, "Numerical defaults").
+#: stays within 1e-3 of its band width of a run at rtol 1e-10 (as it does up to rtol
+#: 1e-3), 3 to 2,000 times below the mode count's error (docs/mechanisms.md, "Numerical
+#: defaults").
 RTOL = 1e-5
 ATOL = 1e-7
 
