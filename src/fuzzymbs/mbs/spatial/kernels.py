@@ -50,6 +50,11 @@ import math
 import numba as nb
 import numpy as np
 
+from fuzzymbs.mbs.planar.elimination import (
+    project_rows,
+    remove_velocity_excess,
+    solve_constrained,
+)
 from fuzzymbs.mbs.planar.kernels import (  # the run status codes are the planar engine's
     FINISHED,
     NOT_FINITE,
@@ -57,9 +62,6 @@ from fuzzymbs.mbs.planar.kernels import (  # the run status codes are the planar
     STEP_TOO_SMALL,
     TOO_MANY_STEPS,
     profile,
-    project_rows,
-    remove_velocity_excess,
-    solve_constrained,
 )
 from fuzzymbs.mbs.spatial.elements import force_terms
 from fuzzymbs.mbs.spatial.kinematics import (
