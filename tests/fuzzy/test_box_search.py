@@ -59,7 +59,7 @@ def test_the_search_drops_only_starts_that_cannot_move():
     starts = RNG.uniform(low, high)
     starts[::3] = np.where(RNG.random((len(starts[::3]), 2)) < 0.5, low[::3], high[::3])
     for fix in (None, correction):
-        found, value = box_search._polish(
+        found, value = box_search.climb(
             DEGREES, coefficients, starts, element, sign, low, high, fix
         )
         plain_found, plain_value = _plain_polish(

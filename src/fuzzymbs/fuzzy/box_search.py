@@ -99,7 +99,7 @@ def box_extremes(
     sign = np.concatenate((-np.ones(count_boxes * elements), np.ones(count_boxes * elements)))
     element = np.tile(np.arange(elements), 2 * count_boxes)
     box = np.tile(np.repeat(np.arange(count_boxes), elements), 2)
-    found, value = _polish(
+    found, value = climb(
         degrees, coefficients, starts, element, sign, low[box], high[box], correction
     )
     half = count_boxes * elements
@@ -112,6 +112,18 @@ def box_extremes(
     return lower, upper, arg_lower, arg_upper
 
 
+def values_at(
+    degrees: NDArray[np.int64],
+    coefficients: NDArray[np.float64],
+    points: NDArray[np.float64],
+    element: NDArray[np.intp],
+    correction: KernelCorrection | None = None,
+) -> NDArray[np.float64]:
+    """(K,) element ``element[k]`` of the series (plus the correction) at ``points[k]``."""
+    values = np.einsum("kd,dk->k", basis_matrix(degrees, points), coefficients[:, element])
+    return values if correction is None else values + correction.at(points, element)
+
+
 def climb(
     degrees: NDArray[np.int64],
     coefficients: NDArray[np.float64],
@@ -122,8 +134,14 @@ def climb(
     high: NDArray[np.float64],
     correction: KernelCorrection | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """From each start, the projected gradient search of :func:`box_extremes` in the
-    start's own box.
+    """Projected gradient ascent of ``sign * series[element]`` (plus the correction) from
+    every start in its box (:func:`box_extremes`'s search, and the extremum confirmation's).
+
+    A start whose slope points out of its box wherever it is not zero (a corner or face
+    extremum, most starts of a monotonic output) cannot move: its clipped trial is
+    itself. It leaves the search, which changes no result (the brake's study 1: 80 to
+    98 % of the starts leave at the first step, and the search takes 3 to 15 times
+    less time).
 
     Parameters
     ----------
@@ -138,35 +156,7 @@ def climb(
     -------
     points : (K, n) where each search ended.
     values : (K,) the series (plus correction) there.
-    """
-    return _polish(degrees, coefficients, starts, element, sign, low, high, correction)
 
-
-def _values_at(
-    degrees: NDArray, coefficients: NDArray, points: NDArray, element: NDArray
-) -> NDArray[np.float64]:
-    """Each point's own element of the series: (K,)."""
-    return np.einsum("kd,dk->k", basis_matrix(degrees, points), coefficients[:, element])
-
-
-def _polish(
-    degrees: NDArray[np.int64],
-    coefficients: NDArray[np.float64],
-    starts: NDArray[np.float64],
-    element: NDArray[np.intp],
-    sign: NDArray[np.float64],
-    low: NDArray[np.float64],
-    high: NDArray[np.float64],
-    correction: KernelCorrection | None = None,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Projected gradient ascent of ``sign * series[element]`` (plus the correction) from
-    every start in its box.
-
-    A start whose slope points out of its box wherever it is not zero (a corner or face
-    extremum, most starts of a monotonic output) cannot move: its clipped trial is
-    itself. It leaves the search, which changes no result (the brake's study 1: 80 to
-    98 % of the starts leave at the first step, and the search takes 3 to 15 times
-    less time).
     """
     x = starts.copy()
     width = high - low

@@ -49,8 +49,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from fuzzymbs.fuzzy.box_search import climb
-from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, basis_matrix
+from fuzzymbs.fuzzy.box_search import climb, values_at
+from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
 __all__ = ["FLAT", "MIN_STEP", "confirmation_probes"]
@@ -90,18 +90,6 @@ def _distance(points: NDArray[np.float64], others: NDArray[np.float64]) -> NDArr
     if not len(others):
         return np.full(len(points), np.inf)
     return np.abs(points[:, None, :] - others[None, :, :]).max(axis=2).min(axis=1)
-
-
-def _values(
-    degrees: NDArray[np.int64],
-    coefficients: NDArray[np.float64],
-    correction: KernelCorrection | None,
-    points: NDArray[np.float64],
-    element: NDArray[np.intp],
-) -> NDArray[np.float64]:
-    """(K,) element ``element[k]`` of the surrogate at ``points[k]``."""
-    values = np.einsum("kd,dk->k", basis_matrix(degrees, points), coefficients[:, element])
-    return values if correction is None else values + correction.at(points, element)
 
 
 def confirmation_probes(
@@ -192,7 +180,7 @@ def confirmation_probes(
     hessian[:, diagonal, diagonal] = np.where(free, hessian[:, diagonal, diagonal], sentinel)
     curvature, vectors = np.linalg.eigh(hessian)  # (K, n), (K, n, n): columns
     own = np.arange(count)
-    value = _values(degrees, coefficients, correction, points, element)
+    value = values_at(degrees, coefficients, points, element, correction)
     # 3. along each eigenvector, both ways, to the box's boundary; climb the surrogate
     # there on the face the line leaves by: the end of a ridge, a valley's floor
     starts, faces_low, faces_high, rows = [], [], [], []
