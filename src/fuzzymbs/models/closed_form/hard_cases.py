@@ -120,7 +120,7 @@ def hard_cases() -> list[HardCase]:
     return [bump3(), ringing3(), valley4()]
 
 
-def _cut(triangle: Triangle, mu: float) -> tuple[float, float]:
+def triangle_cut(triangle: Triangle, mu: float) -> tuple[float, float]:
     """The cut at ``mu`` as :class:`fuzzymbs.fuzzy.numbers.Triangular` gives it, bit for bit
     (the truth's grid holds the very box corners a plan samples)."""
     lower, modal, upper = triangle
@@ -161,7 +161,7 @@ def dense_truth(
     truth: dict[str, tuple[list, list]] = {}
     for mu in mus:
         axes = [
-            np.linspace(*_cut(case.triangles[n], float(mu)), c)
+            np.linspace(*triangle_cut(case.triangles[n], float(mu)), c)
             for n, c in zip(names, counts, strict=True)
         ]
         low: dict[str, NDArray] = {}

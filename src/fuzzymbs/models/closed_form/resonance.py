@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.models.closed_form.hard_cases import HardCase, Triangle, _cut, dense_truth
+from fuzzymbs.models.closed_form.hard_cases import HardCase, Triangle, dense_truth, triangle_cut
 
 __all__ = [
     "FORCE",
@@ -58,6 +58,14 @@ SDOF_OMEGA_SQUARED = 1020.0
 #: the two-degree-of-freedom case's Omega^2 [rad^2/s^2]: its first natural frequency
 #: squared is 500 at the modal values and 443 to 559 over the support box
 TWO_DOF_OMEGA_SQUARED = 520.0
+
+
+def damping_triangle(damping_ratio: float) -> tuple[float, float, float]:
+    """The fuzzy damping ratio of both resonance cases: +-20 % about ``damping_ratio``,
+    which must lie in (0, 0.5]."""
+    if not 0.0 < damping_ratio <= 0.5:
+        raise InvalidParameterError(f"damping_ratio must lie in (0, 0.5], got {damping_ratio!r}")
+    return (0.8 * damping_ratio, damping_ratio, 1.2 * damping_ratio)
 
 
 def sdof_amplitude(
@@ -92,12 +100,10 @@ def sdof_resonance(damping_ratio: float) -> HardCase:
     InvalidParameterError
         A damping ratio outside (0, 0.5].
     """
-    if not 0.0 < damping_ratio <= 0.5:
-        raise InvalidParameterError(f"damping_ratio must lie in (0, 0.5], got {damping_ratio!r}")
     triangles = {
         "stiffness": (900.0, 1000.0, 1100.0),
         "mass": (0.95, 1.0, 1.05),
-        "damping_ratio": (0.8 * damping_ratio, damping_ratio, 1.2 * damping_ratio),
+        "damping_ratio": damping_triangle(damping_ratio),
     }
 
     def model(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
@@ -131,9 +137,9 @@ def sdof_truth(
     omega_squared = SDOF_OMEGA_SQUARED
     lower, upper = [], []
     for mu in np.atleast_1d(np.asarray(levels, dtype=float)):
-        k_low, k_high = _cut(case.triangles["stiffness"], float(mu))
-        m_low, m_high = _cut(case.triangles["mass"], float(mu))
-        z_low, z_high = _cut(case.triangles["damping_ratio"], float(mu))
+        k_low, k_high = triangle_cut(case.triangles["stiffness"], float(mu))
+        m_low, m_high = triangle_cut(case.triangles["mass"], float(mu))
+        z_low, z_high = triangle_cut(case.triangles["damping_ratio"], float(mu))
         m = np.linspace(m_low, m_high, masses if m_high > m_low else 1)
         peak = np.clip(m * omega_squared * (1.0 - 2.0 * z_low**2), k_low, k_high)
         high = sdof_amplitude(peak, m, np.full_like(m, z_low), omega_squared)
@@ -195,13 +201,11 @@ def two_dof_resonance(damping_ratio: float) -> HardCase:
     InvalidParameterError
         A damping ratio outside (0, 0.5].
     """
-    if not 0.0 < damping_ratio <= 0.5:
-        raise InvalidParameterError(f"damping_ratio must lie in (0, 0.5], got {damping_ratio!r}")
     triangles: dict[str, Triangle] = {
         "stiffness_1": (900.0, 1000.0, 1100.0),
         "stiffness_2": (450.0, 500.0, 550.0),
         "mass_1": (0.95, 1.0, 1.05),
-        "damping_ratio": (0.8 * damping_ratio, damping_ratio, 1.2 * damping_ratio),
+        "damping_ratio": damping_triangle(damping_ratio),
     }
 
     def model(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
@@ -234,7 +238,7 @@ def polished_truth(
     truth = dense_truth(case, levels)
     mus = np.atleast_1d(np.asarray(levels, dtype=float))
     for j, mu in enumerate(mus):
-        box = np.array([_cut(case.triangles[n], float(mu)) for n in names])
+        box = np.array([triangle_cut(case.triangles[n], float(mu)) for n in names])
         moving = box[:, 1] > box[:, 0]
         if not moving.any():
             continue
