@@ -3,10 +3,12 @@
     python benchmarks/dask_scaling.py [--quick] [--repeat N] [--chunk-sizes 64,256,1024,4096]
                                       [--no-diagnostics] [--only PREFIX,...]
                                       [--src CHECKOUT/src] [--json] [--out FILE]
-    python benchmarks/dask_scaling.py --cli [--quick] [--repeat N] [--out FILE]
+    python benchmarks/dask_scaling.py --cli [--quick] [--repeat N] [--no-figures]
+                                      [--src CHECKOUT/src] [--out FILE]
 
-``--cli``: end to end, the same study as a study file through ``fuzzymbs run`` in a
-child process (fresh store, no plots or report), inline with one Numba thread
+``--cli``: end to end, as a user measures it, the same study as a study file through
+``fuzzymbs run`` in a child process (fresh store, the default plots and report;
+``--no-figures``: neither), inline with one Numba thread
 against ``--executor dask://`` on a LocalCluster of two single-thread workers
 started and warmed up by the benchmark, alternating; ratios of the study's own wall
 time (``wall_time_s`` in the result: plan, runs, method check, retransformation,
@@ -729,16 +731,21 @@ tooth_stiffness = {{ type = "triangular", modal = {kt}, spread = 0.1 }}
 """
 
 
-def _cli_run(path: Path, out: Path, executor: str | None, chunk: int) -> dict[str, Any]:
-    """One ``fuzzymbs run`` of the study file in a child process (fresh store, no plots
-    or report); the child's wall time and the study's own (``wall_time_s``)."""
+def _cli_run(
+    path: Path, out: Path, executor: str | None, chunk: int, plots: bool = True
+) -> dict[str, Any]:
+    """One ``fuzzymbs run`` of the study file in a child process (fresh store; with the
+    default plots and report unless ``plots`` is False); the child's wall time and the
+    study's own (``wall_time_s``)."""
     import subprocess
 
     import xarray
 
     env = dict(os.environ)
     command = [sys.executable, "-m", "fuzzymbs.cli", "run", str(path), "--out", str(out)]
-    command += ["--fresh", "--no-plots", "--no-report", "--chunk-size", str(chunk)]
+    command += ["--fresh", "--chunk-size", str(chunk)]
+    if not plots:
+        command += ["--no-plots", "--no-report"]
     if executor is None:
         env["NUMBA_NUM_THREADS"] = "1"  # the baseline: one inline core
     else:
@@ -764,10 +771,11 @@ def _cli_run(path: Path, out: Path, executor: str | None, chunk: int) -> dict[st
     }
 
 
-def cli_main(quick: bool = False, repeat: int | None = None) -> dict[str, Any]:
+def cli_main(quick: bool = False, repeat: int | None = None, plots: bool = True) -> dict[str, Any]:
     """``fuzzymbs run`` of the gear study: inline with one Numba thread against two
     single-thread Dask workers (a LocalCluster started here, warmed up before timing),
-    default method check on; alternating, ``repeat`` rounds, medians."""
+    default method check on, with the default plots and report unless ``plots`` is
+    False; alternating, ``repeat`` rounds, medians."""
     import tempfile
 
     setting = QUICK if quick else FULL
@@ -783,7 +791,7 @@ def cli_main(quick: bool = False, repeat: int | None = None) -> dict[str, Any]:
         warm.write_text(GEAR_STUDY_FILE.format(levels=1, **values))
         _cli_run(warm, root / "warm", None, setting["chunk"])  # Numba cache, imports
         for round_ in range(repeat):
-            inline = _cli_run(path, root / f"inline{round_}", None, setting["chunk"])
+            inline = _cli_run(path, root / f"inline{round_}", None, setting["chunk"], plots)
             figures["inline"].append(inline)
             log(f"dask_scaling --cli: round {round_ + 1} inline {inline['study_wall_s']:.2f} s")
             cluster, client, _ = start_cluster(2, True, None)
@@ -791,7 +799,7 @@ def cli_main(quick: bool = False, repeat: int | None = None) -> dict[str, Any]:
                 study = gear_study(1, setting["positions"])
                 client.run(_worker_warm_up, _pickled(study.model), study.columns(0, 1))
                 address = cluster.scheduler_address.replace("tcp://", "dask://")
-                dask = _cli_run(path, root / f"dask{round_}", address, setting["chunk"])
+                dask = _cli_run(path, root / f"dask{round_}", address, setting["chunk"], plots)
             finally:
                 client.close()
                 cluster.close()
@@ -886,20 +894,25 @@ if __name__ == "__main__":
         action="store_true",
         help="end to end: `fuzzymbs run` inline (1 thread) against 2 Dask workers",
     )
+    parser.add_argument(
+        "--no-figures",
+        action="store_true",
+        help="with --cli: `fuzzymbs run --no-plots --no-report` (the study and result.nc only)",
+    )
     args = parser.parse_args()
-    if args.cli:
-        figures = cli_main(args.quick, args.repeat)
-        figures_line = json.dumps(figures, default=float)
-        print(figures_line)
-        if args.out:
-            Path(args.out).write_text(figures_line + "\n")
-        sys.exit(0)
     if args.src:
         source = str(Path(args.src).resolve())
         sys.path.insert(0, source)
         os.environ["PYTHONPATH"] = os.pathsep.join(
             p for p in (source, os.environ.get("PYTHONPATH", "")) if p
         )
+    if args.cli:
+        figures = cli_main(args.quick, args.repeat, not args.no_figures)
+        figures_line = json.dumps(figures, default=float)
+        print(figures_line)
+        if args.out:
+            Path(args.out).write_text(figures_line + "\n")
+        sys.exit(0)
     sizes_arg = tuple(int(s) for s in args.chunk_sizes.split(",")) if args.chunk_sizes else None
     only = tuple(n for n in args.only.split(",") if n)
     result = main(args.quick, args.repeat, sizes_arg, args.src, not args.no_diagnostics, only)

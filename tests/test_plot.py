@@ -269,7 +269,7 @@ def test_figure_cache_copies_the_figures_of_an_unchanged_result(oscillator, tmp_
         raise AssertionError("a figure was drawn although its result is in the cache")
 
     with monkeypatch.context() as patched:
-        patched.setattr(plot_module, "save_figure", no_drawing)
+        patched.setattr(plot_module, "render_figure", no_drawing)
         # the run's own record changes from run to run; the figures do not draw it
         again = oscillator.copy()
         again.attrs["provenance"] = '{"wall_time_s": 1.0}'
@@ -287,3 +287,28 @@ def test_figure_cache_copies_the_figures_of_an_unchanged_result(oscillator, tmp_
     ]  # the inputs' figure is drawn from unchanged data: the same image
     assert len(list(cache.iterdir())) == len(third)
     assert not set(kept) & set(cache.iterdir())  # the earlier result's entries are gone
+
+
+def test_figures_drawn_on_workers_are_the_files_drawn_here(oscillator, tmp_path):
+    # the reference is this process's own drawing: a pool only moves where it happens
+    from concurrent.futures import ProcessPoolExecutor
+
+    here = write_plots(oscillator, tmp_path / "here")
+    with ProcessPoolExecutor(2) as pool:
+        there = write_plots(oscillator, tmp_path / "there", executor=pool)
+    assert [p.name for p in there] == [p.name for p in here]
+    assert [p.read_bytes() for p in there] == [p.read_bytes() for p in here]
+
+
+def test_a_failing_executor_leaves_the_figures_to_this_process(oscillator, tmp_path):
+    from concurrent.futures import Executor, Future
+
+    class LostWorkers(Executor):
+        def submit(self, fn, /, *args, **kwargs):
+            future = Future()
+            future.set_exception(OSError("worker lost"))
+            return future
+
+    here = write_plots(oscillator, tmp_path / "here")
+    there = write_plots(oscillator, tmp_path / "there", executor=LostWorkers())
+    assert [p.read_bytes() for p in there] == [p.read_bytes() for p in here]

@@ -3,14 +3,17 @@
 Every function takes the result dataset (layout in :mod:`fuzzymbs.study.result`)
 and returns a :class:`matplotlib.figure.Figure` built without pyplot (no GUI
 backend, safe in worker threads). :func:`write_plots` writes the standard set
-(:func:`standard_figures`) as PNG, and as PDF or SVG on request.
+(:func:`standard_figures`) as PNG, and as PDF or SVG on request, drawn side by side
+on an executor's workers when it is given one (:func:`start_plots`).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Executor, Future
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -559,7 +562,6 @@ def result_digest(dataset: xarray.Dataset) -> str:
     coordinate (name, type, shape, values, attributes) and the dataset's attributes but
     the run's own record (provenance, command), with the versions of fuzzymbs and
     matplotlib. Two results with equal digests give the same figures."""
-    import hashlib
     from importlib.metadata import version
 
     from fuzzymbs import __version__
@@ -588,6 +590,27 @@ def _target(directory: Path, stem: str, extension: str) -> Path:
     return path
 
 
+def figure_files(figure: Figure, formats: Sequence[str]) -> dict[str, bytes]:
+    """The contents of ``figure``'s files by extension (PNG at :data:`PNG_DPI`), in the
+    order of ``formats``."""
+    import io
+
+    files = {}
+    for extension in formats:
+        buffer = io.BytesIO()
+        figure.savefig(buffer, format=extension, dpi=PNG_DPI)
+        # the first save placed the axes; keep that layout instead of solving it again
+        figure.set_layout_engine("none")
+        files[extension] = buffer.getvalue()
+    return files
+
+
+def render_figure(figure: StandardFigure, formats: Sequence[str]) -> dict[str, bytes]:
+    """Build a standard figure and return its files' contents by extension (a task that
+    runs where the study's samples ran: only bytes travel back)."""
+    return figure_files(figure.build(), formats)
+
+
 def save_figure(figure: Figure, directory: Path, stem: str, formats: Sequence[str]) -> list[Path]:
     """Write ``figure`` as ``directory/stem.EXTENSION``, one file per format.
 
@@ -612,14 +635,10 @@ def save_figure(figure: Figure, directory: Path, stem: str, formats: Sequence[st
     ValueError
         ``stem`` would place a file outside ``directory`` or hide it.
     """
-    written = []
-    for extension in formats:
-        path = _target(directory, stem, extension)
-        figure.savefig(path, dpi=PNG_DPI)
-        # the first save placed the axes; keep that layout instead of solving it again
-        figure.set_layout_engine("none")
-        written.append(path)
-    return written
+    targets = [_target(directory, stem, extension) for extension in formats]
+    for path, data in zip(targets, figure_files(figure, formats).values(), strict=True):
+        path.write_bytes(data)
+    return targets
 
 
 def write_plots(
@@ -628,6 +647,7 @@ def write_plots(
     membership: Sequence[Mapping[str, Any]] | None = None,
     formats: Sequence[str] = DEFAULT_FORMATS,
     cache: str | Path | None = None,
+    executor: Executor | None = None,
 ) -> list[Path]:
     """Write the standard plots of a result (:func:`standard_figures`) into ``directory``.
 
@@ -646,55 +666,99 @@ def write_plots(
         result, stem and format it holds is copied from it instead of drawn (a rerun
         that resumes every run draws nothing), and what is drawn is kept there.
         Entries this call did not use are removed, so the folder holds one result's.
+    executor : concurrent.futures.Executor, optional
+        Draws the figures side by side (:func:`render_figure` tasks, e.g. on the
+        workers that ran the study); None: one after another in this process.
 
     Returns
     -------
     list of Path
         The files written.
     """
+    return start_plots(dataset, directory, membership, formats, cache, executor).wait()
+
+
+def start_plots(
+    dataset: xarray.Dataset,
+    directory: str | Path,
+    membership: Sequence[Mapping[str, Any]] | None = None,
+    formats: Sequence[str] = DEFAULT_FORMATS,
+    cache: str | Path | None = None,
+    executor: Executor | None = None,
+) -> PendingPlots:
+    """:func:`write_plots` in two steps: the figures are submitted to ``executor`` here,
+    and :meth:`PendingPlots.wait` writes their files, so the caller can work meanwhile
+    (the study pipeline writes ``result.nc`` while the workers draw)."""
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise InvalidParameterError(f"plot formats {unknown}; allowed: {', '.join(FORMATS)}")
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    if cache is None:
-        written: list[Path] = []
-        for figure in standard_figures(dataset, membership):
-            written += save_figure(figure.build(), directory, figure.stem, formats)
+    digest = None if cache is None else result_digest(dataset)
+    if cache is not None:
+        Path(cache).mkdir(parents=True, exist_ok=True)
+    # no figure draws the raw runs: the tasks carry the bands, not every sample's outputs
+    drawn = dataset.drop_dims(["sample", "validation"], errors="ignore")
+    jobs = []
+    for figure in standard_figures(drawn, membership):
+        kept = {}
+        if cache is not None:
+            key = hashlib.sha256(f"{digest} {figure.stem}".encode()).hexdigest()[:32]
+            kept = {extension: Path(cache) / f"{key}.{extension}" for extension in formats}
+        missing = [e for e in formats if e not in kept or not kept[e].is_file()]
+        job: Future | None = None
+        if missing and executor is not None:
+            try:
+                job = executor.submit(render_figure, figure, missing)
+            except Exception as exc:  # e.g. a broken pool: drawn here instead
+                logger.warning("figure %s drawn here: %s", figure.stem, exc)
+        jobs.append(_FigureJob(figure, kept, missing, job))
+    return PendingPlots(directory, formats, None if cache is None else Path(cache), jobs)
+
+
+@dataclass
+class _FigureJob:
+    figure: StandardFigure
+    kept: dict[str, Path]  # the cache's file per format
+    missing: list[str]  # the formats to draw
+    job: Future | None  # drawing elsewhere, or None: drawn here when waited for
+
+    def files(self) -> dict[str, bytes]:
+        if self.missing and self.job is not None:
+            try:
+                return self.job.result()
+            except Exception as exc:  # a lost worker must not lose a finished study
+                logger.warning("figure %s drawn here: %s", self.figure.stem, exc)
+        return render_figure(self.figure, self.missing) if self.missing else {}
+
+
+class PendingPlots:
+    """Figures being drawn by :func:`start_plots`; :meth:`wait` writes their files."""
+
+    def __init__(
+        self, directory: Path, formats: Sequence[str], cache: Path | None, jobs: list[_FigureJob]
+    ) -> None:
+        self.directory, self.formats, self.cache, self.jobs = directory, formats, cache, jobs
+
+    def wait(self) -> list[Path]:
+        """Wait for the figures and write their files (and the cache's); the files."""
+        from fuzzymbs.files import write_bytes_atomically
+
+        written = []
+        for job in self.jobs:
+            files = job.files()
+            for extension in self.formats:
+                target = _target(self.directory, job.figure.stem, extension)
+                if extension in files:
+                    write_bytes_atomically(target, files[extension])
+                    if extension in job.kept:
+                        write_bytes_atomically(job.kept[extension], files[extension])
+                else:
+                    write_bytes_atomically(target, job.kept[extension].read_bytes())
+                written.append(target)
+        if self.cache is not None:
+            used = {path.name for job in self.jobs for path in job.kept.values()}
+            for entry in self.cache.iterdir():
+                if entry.is_file() and entry.name not in used and not entry.name.startswith("."):
+                    entry.unlink(missing_ok=True)
         return written
-    return _write_cached(dataset, directory, membership, formats, Path(cache))
-
-
-def _write_cached(
-    dataset: xarray.Dataset,
-    directory: Path,
-    membership: Sequence[Mapping[str, Any]] | None,
-    formats: Sequence[str],
-    cache: Path,
-) -> list[Path]:
-    """:func:`write_plots` through the figure cache ``cache``."""
-    import hashlib
-
-    from fuzzymbs.files import write_bytes_atomically
-
-    cache.mkdir(parents=True, exist_ok=True)
-    result = result_digest(dataset)
-    written, used = [], set()
-    for figure in standard_figures(dataset, membership):
-        key = hashlib.sha256(f"{result} {figure.stem}".encode()).hexdigest()[:32]
-        kept = {extension: cache / f"{key}.{extension}" for extension in formats}
-        used.update(path.name for path in kept.values())
-        missing = [extension for extension, path in kept.items() if not path.is_file()]
-        if missing:
-            drawn = save_figure(figure.build(), directory, figure.stem, missing)
-            for path in drawn:
-                write_bytes_atomically(kept[path.suffix[1:]], path.read_bytes())
-        for extension, path in kept.items():
-            target = _target(directory, figure.stem, extension)
-            if extension not in missing:
-                write_bytes_atomically(target, path.read_bytes())
-            written.append(target)
-    for entry in cache.iterdir():
-        if entry.is_file() and entry.name not in used and not entry.name.startswith("."):
-            entry.unlink(missing_ok=True)
-    return written

@@ -112,3 +112,38 @@ def test_process_pool_shares_the_cores():
         assert resolved.task_threads == max(1, (os.cpu_count() or 1) // 2)
     finally:
         resolved.close()
+
+
+STUDY_FILE = """[study]
+name = "osc"
+method = "reduced"
+levels = 3
+outputs = ["displacement"]
+[model]
+name = "damped-oscillator"
+[model.options]
+time_steps = 101
+duration = 0.5
+[parameters]
+mass = { type = "triangular", modal = 1.0, spread = 0.05 }
+stiffness = { type = "triangular", modal = 1000.0, spread = 0.1 }
+"""
+
+
+def test_a_study_file_on_dask_draws_its_figures_on_the_workers(tmp_path):
+    # the reference: the same study file run inline draws the same figure files here
+    distributed = pytest.importorskip("distributed")
+    from fuzzymbs.study.pipeline import run_study_file
+
+    path = tmp_path / "osc.toml"
+    path.write_text(STUDY_FILE)
+    inline = run_study_file(path, tmp_path / "inline", progress=False)
+    with local_dask_client() as (cluster, client):
+        address = cluster.scheduler_address.replace("tcp://", "dask://")
+        with distributed.get_task_stream(client) as stream:
+            on_dask = run_study_file(path, tmp_path / "dask", executor=address, progress=False)
+    drawn = [task["key"] for task in stream.data if "render_figure" in str(task["key"])]
+    assert len(drawn) == len(inline.plots) == 3
+    assert_identical(on_dask.result.dataset, inline.result.dataset)
+    assert [p.name for p in on_dask.plots] == [p.name for p in inline.plots]
+    assert [p.read_bytes() for p in on_dask.plots] == [p.read_bytes() for p in inline.plots]

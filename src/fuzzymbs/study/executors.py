@@ -4,6 +4,7 @@
 - ``"processes"`` / ``"processes:N"``: a local process pool (spawned workers).
 - ``"dask://host:port"`` (or ``"tcp://..."``) or a ``distributed.Client``: a Dask cluster.
 - any ``concurrent.futures.Executor`` instance is used as given.
+- a :class:`KeptExecutor`: one of the above, started once and shared by several calls.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from concurrent.futures import Executor, Future
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from fuzzymbs.errors import InvalidParameterError
@@ -146,13 +147,45 @@ def check_executor_spec(spec: Any) -> None:
         )
 
 
+class KeptExecutor:
+    """An executor specification resolved on first use and kept open until :meth:`close`.
+
+    A study file's run passes one to :meth:`fuzzymbs.study.study.Study.run` as its
+    executor, so that the figures drawn after the runs go to the same workers (a
+    Dask cluster's or a process pool's) instead of the client, and nothing is
+    started when every chunk comes from the store.
+
+    Parameters
+    ----------
+    spec : None, str, concurrent.futures.Executor or distributed.Client
+        See :func:`resolve_executor`.
+    """
+
+    def __init__(self, spec: Any = None) -> None:
+        self.spec = spec
+        self.started: ResolvedExecutor | None = None
+
+    def resolve(self) -> ResolvedExecutor:
+        """The resolved executor, started at the first call."""
+        if self.started is None:
+            self.started = resolve_executor(self.spec)
+        return self.started
+
+    def close(self) -> None:
+        """Shut the executor down if it was started (and this object started it)."""
+        if self.started is not None:
+            self.started.close()
+            self.started = None
+
+
 def resolve_executor(spec: Any = None) -> ResolvedExecutor:
     """Turn an executor specification into a :class:`ResolvedExecutor`.
 
     Parameters
     ----------
-    spec : None, str, concurrent.futures.Executor or distributed.Client
-        See the module docstring.
+    spec : None, str, concurrent.futures.Executor, distributed.Client or KeptExecutor
+        See the module docstring; a :class:`KeptExecutor` gives its executor, which
+        the caller's ``close`` then leaves open.
 
     Raises
     ------
@@ -162,6 +195,8 @@ def resolve_executor(spec: Any = None) -> ResolvedExecutor:
     """
     if spec is None or spec == "inline":
         return ResolvedExecutor(InlineExecutor(), "inline", 1, _nothing)
+    if isinstance(spec, KeptExecutor):  # its owner closes it, not the run that uses it
+        return replace(spec.resolve(), close=_nothing)
     if isinstance(spec, str):
         if spec == "processes" or spec.startswith("processes:"):
             import multiprocessing

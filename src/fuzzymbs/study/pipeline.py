@@ -24,6 +24,7 @@ import logging
 import os
 import shlex
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -32,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from fuzzymbs.errors import InvalidParameterError, OutputFolderError
+from fuzzymbs.study.executors import KeptExecutor, check_executor_spec
 
 logger = logging.getLogger(__name__)
 
@@ -199,7 +201,6 @@ def run_study_file(
         ``out`` cannot be created or written, or another run is writing into it
         (checked before any sample runs).
     """
-    from fuzzymbs.study.executors import check_executor_spec
     from fuzzymbs.study.studyfile import load_study_file
 
     check_executor_spec(executor)  # before the study is built or a folder touched
@@ -289,9 +290,14 @@ def _run_locked(
         f" (process {os.getpid()}); no result yet\n{earlier}",
     )
     result_path = out / RESULT_FILE
+    # the study's executor stays open for the figures: they are drawn on its workers
+    work = KeptExecutor(executor if executor is not None else definition.executor)
+    if work.spec not in (None, "inline"):
+        # this process only waits for the workers: meanwhile it imports what writing needs
+        threading.Thread(target=_prepare_writing, name="fuzzymbs-prepare", daemon=True).start()
     try:
         result = definition.study.run(
-            executor=executor if executor is not None else definition.executor,
+            executor=work,
             chunk_size=chunk_size if chunk_size is not None else definition.chunk_size,
             store=out / STORE_FOLDER,
             resume=resume,
@@ -304,13 +310,20 @@ def _run_locked(
         if command:
             model = str(result.dataset.attrs.get("model", ""))
             result.dataset.attrs["command"] = reproducible_command(command, model)
-        result.to_netcdf(result_path)
-        written = []
+        drawing = None
         if plots:
-            from fuzzymbs.plot import write_plots
+            from fuzzymbs.plot import start_plots
 
             # a rerun whose result is unchanged (every run resumed) copies its figures
-            written = write_plots(result.dataset, out, formats=formats, cache=out / FIGURE_CACHE)
+            drawing = start_plots(
+                result.dataset,
+                out,
+                formats=formats,
+                cache=out / FIGURE_CACHE,
+                executor=_figure_executor(work),
+            )
+        result.to_netcdf(result_path)  # while the workers draw
+        written = [] if drawing is None else drawing.wait()
         report_path = None
         if report:
             from fuzzymbs.report import REPORT_FILE, write_report
@@ -335,6 +348,8 @@ def _run_locked(
         except OSError:  # e.g. the disk is full: the error below says what happened
             pass
         raise
+    finally:
+        work.close()
     (out / PREVIOUS_RESULT_FILE).unlink(missing_ok=True)
     logger.info(
         "study %s: wrote %s, %s and %d plots",
@@ -344,6 +359,30 @@ def _run_locked(
         len(written),
     )
     return StudyOutput(out, result, result_path, summary_path, written, report_path)
+
+
+def _prepare_writing() -> None:
+    """Pay the one-time costs of writing a result: importing xarray, building its first
+    dataset (about a second together, serial after the last run otherwise) and the
+    NetCDF engine's and the report's modules."""
+    import importlib
+
+    import numpy as np
+    import xarray
+
+    from fuzzymbs import report  # noqa: F401
+    from fuzzymbs.study.result import netcdf_engine
+
+    xarray.Dataset({"x": ("i", np.zeros(2))}, coords={"i": [0, 1]}, attrs={"a": "b"})
+    modules = {"h5netcdf": "h5netcdf", "netcdf4": "netCDF4", "scipy": "scipy.io"}
+    importlib.import_module(modules[netcdf_engine()])
+
+
+def _figure_executor(work: KeptExecutor) -> Any:
+    """Where the figures are drawn: on the study's workers if it started any (a Dask
+    cluster, a process pool), else here."""
+    started = work.started
+    return None if started is None or started.label == "inline" else started.executor
 
 
 def demo_names() -> list[str]:
