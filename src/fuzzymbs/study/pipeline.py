@@ -24,7 +24,6 @@ import logging
 import os
 import shlex
 import tempfile
-import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -292,9 +291,6 @@ def _run_locked(
     result_path = out / RESULT_FILE
     # the study's executor stays open for the figures: they are drawn on its workers
     work = KeptExecutor(executor if executor is not None else definition.executor)
-    if work.spec not in (None, "inline"):
-        # this process only waits for the workers: meanwhile it imports what writing needs
-        threading.Thread(target=_prepare_writing, name="fuzzymbs-prepare", daemon=True).start()
     try:
         result = definition.study.run(
             executor=work,
@@ -359,23 +355,6 @@ def _run_locked(
         len(written),
     )
     return StudyOutput(out, result, result_path, summary_path, written, report_path)
-
-
-def _prepare_writing() -> None:
-    """Pay the one-time costs of writing a result: importing xarray, building its first
-    dataset (about a second together, serial after the last run otherwise) and the
-    NetCDF engine's and the report's modules."""
-    import importlib
-
-    import numpy as np
-    import xarray
-
-    from fuzzymbs import report  # noqa: F401
-    from fuzzymbs.study.result import netcdf_engine
-
-    xarray.Dataset({"x": ("i", np.zeros(2))}, coords={"i": [0, 1]}, attrs={"a": "b"})
-    modules = {"h5netcdf": "h5netcdf", "netcdf4": "netCDF4", "scipy": "scipy.io"}
-    importlib.import_module(modules[netcdf_engine()])
 
 
 def _figure_executor(work: KeptExecutor) -> Any:
