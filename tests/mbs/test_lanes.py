@@ -201,6 +201,7 @@ def test_ros34pw2_sample_is_independent_of_its_block(brake):
     assert len(set(alone.step_counts[:, 0].tolist())) > 3
 
 
+@pytest.mark.slow  # compiles ROS34PW2's lane kernel (about 50 s on CI)
 def test_ros34pw2_duplicates_in_one_block_are_identical(brake):
     # one parameter point four times, between other points: every copy equal
     samples = _brake_samples(6, seed=11)
@@ -211,6 +212,7 @@ def test_ros34pw2_duplicates_in_one_block_are_identical(brake):
         np.testing.assert_array_equal(copy, copies[0])
 
 
+@pytest.mark.slow  # compiles ROS34PW2's lane kernel (about 50 s on CI)
 def test_ros34pw2_failed_lane_leaves_the_others_bit_identical(brake):
     samples = _brake_samples(4, seed=5)
     samples["nodal_force"][1] = 1.6e9  # pushes the pad beyond the 1 mm bound at once
