@@ -10,6 +10,7 @@ markers checks and reports.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Self
 
@@ -79,9 +80,16 @@ class JointBase:
 
 
 class ForceBase:
-    """What every force element reports: its label (its ``name``, or its kind and markers)."""
+    """What every force element reports: its label (its ``name``, or its kind and markers).
+
+    Subclasses set ``kind`` (the kernels' code), ``engine``, ``marker_type`` and, with a
+    profile of time, ``profile_code``.
+    """
 
     role = "force"
+    engine = ""
+    marker_type = object
+    profile_code = -1
 
     def label(self) -> str:
         name = getattr(self, "name", "")
@@ -100,7 +108,89 @@ def _check_markers(owner: str, marker_type: type, *markers: Any, optional: bool 
 
 
 @dataclass(frozen=True, eq=False)
-class ContactBase(ForceBase):
+class PairLawBase(ForceBase):
+    """A force law between two markers with a stiffness and a damping: the fields that
+    springs and contacts share (their own follow)."""
+
+    marker_i: Any
+    marker_j: Any
+    stiffness: float
+    damping: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class SpringDamperBase(PairLawBase):
+    """A linear spring and damper along the line between two markers: its numbers (the
+    engine's ``SpringDamper`` checks and packs them).
+
+    Parameters
+    ----------
+    marker_i, marker_j : Marker
+    stiffness : float
+        [N/m], >= 0.
+    damping : float
+        [N s/m], >= 0.
+    free_length : float, optional
+        [m]; None takes the initial distance.
+    name : str
+        The element's name for its outputs.
+    """
+
+    free_length: float | None = None
+    name: str = ""
+
+
+_COUNTS = {3: "three", 6: "six"}
+
+
+@dataclass(frozen=True, eq=False)
+class BushingBase(ForceBase):
+    """A linear bushing between two markers: its springs' and dampers' numbers and their
+    checks (the law is the engine's: see its ``Bushing``).
+
+    Subclasses set ``marker_type``, ``size`` (the law's components, translations then
+    rotations) and ``order`` (their names in the messages).
+
+    Parameters
+    ----------
+    marker_i, marker_j : Marker
+    stiffness : ``size`` values
+        [N/m] and [N m/rad], each >= 0.
+    damping : ``size`` values, optional
+        [N s/m] and [N m s/rad], each >= 0; None: zeros.
+    name : str
+        The element's name for its outputs.
+    """
+
+    marker_i: Any
+    marker_j: Any
+    stiffness: Sequence[float]
+    damping: Sequence[float] | None = None
+    name: str = ""
+    size = 0
+    order = ""
+
+    def __post_init__(self) -> None:
+        _check_markers("Bushing", self.marker_type, self.marker_i, self.marker_j)
+        if self.damping is None:
+            object.__setattr__(self, "damping", (0.0,) * self.size)
+        for what in ("stiffness", "damping"):
+            values = np.asarray(getattr(self, what), dtype=float)
+            if values.shape != (self.size,) or not (
+                np.isfinite(values).all() and (values >= 0).all()
+            ):
+                raise InvalidParameterError(
+                    f"Bushing {what} must be {_COUNTS[self.size]} finite numbers >= 0 "
+                    f"({self.order}), got {getattr(self, what)!r}"
+                )
+
+    def law(self) -> list[float]:
+        """[stiffness..., damping...]."""
+        return [*np.asarray(self.stiffness, dtype=float), *np.asarray(self.damping, dtype=float)]
+
+
+@dataclass(frozen=True, eq=False)
+class ContactBase(PairLawBase):
     """Penalty contact of marker i's point with marker j's surface, with regularised
     Coulomb friction: the law's numbers and their checks (the surface's shape is the
     engine's: see its ``Contact``).
@@ -123,16 +213,10 @@ class ContactBase(ForceBase):
         The element's name for its outputs.
     """
 
-    marker_i: Any
-    marker_j: Any
-    stiffness: float
-    damping: float = 0.0
     friction: float = 0.0
     regularization: float = 1e-3
     radius: float | None = None
     name: str = ""
-    marker_type = object
-    profile_code = -1
 
     def __post_init__(self) -> None:
         _check_markers("Contact", self.marker_type, self.marker_i, self.marker_j)
@@ -157,6 +241,10 @@ class ContactBase(ForceBase):
         radius = 0.0 if self.radius is None else float(self.radius)
         return [self.stiffness, self.damping, self.friction, self.regularization, radius]
 
+    def pack(self, start_i: Any, start_j: Any) -> list[float]:
+        """The element's numbers: :meth:`law` (the surface moves with marker j)."""
+        return self.law()
+
 
 @dataclass(frozen=True, eq=False)
 class UserForceBase(ForceBase):
@@ -167,8 +255,6 @@ class UserForceBase(ForceBase):
     function: object
     parameters: Any = ()
     name: str = ""
-    marker_type = object
-    profile_code = -1
 
     def __post_init__(self) -> None:
         _check_markers("UserForce", self.marker_type, self.marker_i, self.marker_j, optional=True)
@@ -187,6 +273,10 @@ class UserForceBase(ForceBase):
         """[count, parameters...]."""
         values = [float(v) for v in np.asarray(self.parameters, dtype=float).ravel()]
         return [float(len(values)), *values]
+
+    def pack(self, start_i: Any, start_j: Any) -> list[float]:
+        """The element's numbers: :meth:`values` (the law reads the markers' states)."""
+        return self.values()
 
 
 class Assembly:

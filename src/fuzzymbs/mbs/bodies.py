@@ -70,6 +70,22 @@ class _Body:
     origin: NDArray[np.float64]
     damping_ratio: NDArray[np.float64] = field(repr=False)
 
+    def __init__(
+        self,
+        modal: ModalBody,
+        *,
+        origin: ArrayLike = (0.0, 0.0, 0.0),
+        damping_ratio: float | ArrayLike = 0.0,
+        name: str | None = None,
+    ) -> None:
+        """What every motion type holds: the reduced body, its name (default the modal
+        body's), the frame's origin and the modal damping ratios, checked."""
+        name = name or modal.name
+        object.__setattr__(self, "modal", modal)
+        object.__setattr__(self, "name", name)
+        object.__setattr__(self, "origin", _origin(origin, name))
+        object.__setattr__(self, "damping_ratio", _damping_ratios(modal, damping_ratio))
+
     @property
     def n_translations(self) -> int:
         return 0
@@ -94,17 +110,6 @@ class FixedBody(_Body):
     name : str, optional
         Defaults to ``modal.name``.
     """
-
-    def __init__(
-        self,
-        modal: ModalBody,
-        *,
-        origin: ArrayLike = (0.0, 0.0, 0.0),
-        damping_ratio: float | ArrayLike = 0.0,
-        name: str | None = None,
-    ) -> None:
-        nm = name or modal.name
-        super().__init__(modal, nm, _origin(origin, nm), _damping_ratios(modal, damping_ratio))
 
 
 class TranslatingBody(_Body):
@@ -132,8 +137,8 @@ class TranslatingBody(_Body):
         damping_ratio: float | ArrayLike = 0.0,
         name: str | None = None,
     ) -> None:
-        nm = name or modal.name
-        super().__init__(modal, nm, _origin(origin, nm), _damping_ratios(modal, damping_ratio))
+        super().__init__(modal, origin=origin, damping_ratio=damping_ratio, name=name)
+        nm = self.name
         if isinstance(axes, str):
             axes = [axes]
         p = np.array([unit_vector(a, f"body {nm!r} translation axis") for a in axes])
@@ -189,8 +194,8 @@ class RotatingBody(_Body):
         name: str | None = None,
         stiffening: StressStiffening | None = None,
     ) -> None:
-        nm = name or modal.name
-        super().__init__(modal, nm, _origin(origin, nm), _damping_ratios(modal, damping_ratio))
+        super().__init__(modal, origin=origin, damping_ratio=damping_ratio, name=name)
+        nm = self.name
         object.__setattr__(self, "axis", unit_vector(axis, f"body {nm!r} rotation axis"))
         object.__setattr__(self, "speed", speed)
         object.__setattr__(self, "profile", profile or TimeProfile.constant())

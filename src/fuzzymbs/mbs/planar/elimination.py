@@ -98,6 +98,32 @@ def remove_velocity_excess(jac, rate, v, excess):
 
 
 @nb.njit(cache=True)
+def joint_buffers(c, n):
+    """(residual, quadratic, rate, acceleration, jac): the arrays an engine's ``joint_terms``
+    fills for ``c`` joint equations on ``n`` velocities (``jac`` zeroed)."""
+    return np.empty(c), np.empty(c), np.empty(c), np.empty(c), np.zeros((c, n))
+
+
+@nb.njit(cache=True)
+def largest_magnitude(values):
+    """max |values| (0 for none): the largest joint residual."""
+    worst = 0.0
+    for r in range(values.size):
+        worst = max(worst, abs(values[r]))
+    return worst
+
+
+@nb.njit(cache=True)
+def finish_projection(jac, rate, v, excess, worst):
+    """The velocities' part of a projection onto the joints, after the positions'
+    (``worst``: the largest residual they left; ``jac`` and ``rate`` evaluated there):
+    :func:`remove_velocity_excess`, then ``worst``, or inf if G G^T is singular."""
+    if not remove_velocity_excess(jac, rate, v, excess):
+        return np.inf
+    return worst
+
+
+@nb.njit(cache=True)
 def solve_constrained(mass, jac, quadratic, acceleration, system, solution):
     """Solve [[M, G^T], [G, 0]] (a, lambda) = (f, f'' - zeta) into ``solution``.
 

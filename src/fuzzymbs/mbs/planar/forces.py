@@ -32,13 +32,15 @@ from numpy.typing import NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import (
     USER_FORCE_SIGNATURE,
+    BushingBase,
     ContactBase,
     ForceBase,
+    SpringDamperBase,
     UserForceBase,
 )
 from fuzzymbs.mbs.planar import kernels
 from fuzzymbs.mbs.planar.bodies import Marker
-from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
+from fuzzymbs.mbs.planar.profiles import Profile, ProfiledLoad
 
 
 def user_force(function: Callable) -> object:
@@ -67,23 +69,23 @@ def _non_negative(owner: str, **values: float) -> None:
             raise InvalidParameterError(f"{owner} {name} must be finite and >= 0, got {value!r}")
 
 
+class _PlanarForce(ForceBase):
+    """The planar engine's force elements: their engine and markers."""
+
+    engine = "planar"
+    marker_type = Marker
+
+
 @dataclass(frozen=True, eq=False)
-class SpringDamper(ForceBase):
+class SpringDamper(_PlanarForce, SpringDamperBase):
     """A linear spring and damper along the line between two markers.
 
     Tension = stiffness (l - free_length) + damping l' on marker i towards j.
-    ``free_length`` None takes the initial distance.
+    ``free_length`` None takes the initial distance (fields:
+    :class:`~fuzzymbs.mbs.assembly.SpringDamperBase`).
     """
 
-    marker_i: Marker
-    marker_j: Marker
-    stiffness: float
-    damping: float = 0.0
-    free_length: float | None = None
-    name: str = ""
     kind = kernels.SPRING_DAMPER
-    engine = "planar"
-    profile_code = -1
 
     def __post_init__(self) -> None:
         _check_marker("SpringDamper", self.marker_i)
@@ -104,7 +106,7 @@ class SpringDamper(ForceBase):
 
 
 @dataclass(frozen=True, eq=False)
-class RotationalSpringDamper(ForceBase):
+class RotationalSpringDamper(_PlanarForce):
     """A torsion spring and damper on the relative angle of two markers.
 
     Torque on marker i = stiffness (angle_j - angle_i - free_angle) + damping
@@ -119,8 +121,6 @@ class RotationalSpringDamper(ForceBase):
     free_angle: float | None = None
     name: str = ""
     kind = kernels.ROTATIONAL_SPRING_DAMPER
-    engine = "planar"
-    profile_code = -1
 
     def __post_init__(self) -> None:
         _check_marker("RotationalSpringDamper", self.marker_i)
@@ -134,7 +134,7 @@ class RotationalSpringDamper(ForceBase):
 
 
 @dataclass(frozen=True, eq=False)
-class MarkerLoad(ForceBase):
+class MarkerLoad(ProfiledLoad, _PlanarForce):
     """A force (fx, fy) [N] and a torque [N m] on one marker, times a profile of time.
 
     ``in_marker_frame`` turns the force with the marker (a follower load).
@@ -147,7 +147,6 @@ class MarkerLoad(ForceBase):
     in_marker_frame: bool = False
     name: str = ""
     kind = kernels.MARKER_LOAD
-    engine = "planar"
     marker_j = None
 
     def __post_init__(self) -> None:
@@ -159,17 +158,12 @@ class MarkerLoad(ForceBase):
                 f"{self.torque!r}"
             )
 
-    @property
-    def profile_code(self) -> int:
-        return -1 if self.profile is None else self.profile.code
-
     def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
-        profile = self.profile.pack() if self.profile is not None else [0.0] * PROFILE_SIZE
-        return [*self.force, self.torque, float(self.in_marker_frame), *profile]
+        return [*self.force, self.torque, float(self.in_marker_frame), *self.profile_values()]
 
 
 @dataclass(frozen=True, eq=False)
-class UserForce(UserForceBase):
+class UserForce(_PlanarForce, UserForceBase):
     """A force law written by the user, compiled into the kernels.
 
     Parameters
@@ -185,15 +179,10 @@ class UserForce(UserForceBase):
     """
 
     kind = kernels.USER_FORCE
-    engine = "planar"
-    marker_type = Marker
-
-    def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
-        return self.values()
 
 
 @dataclass(frozen=True, eq=False)
-class Contact(ContactBase):
+class Contact(_PlanarForce, ContactBase):
     """Penalty contact of a point (marker i) with a surface (marker j), with friction.
 
     The surface is marker j's x axis, its outward normal marker j's y axis (a
@@ -212,15 +201,10 @@ class Contact(ContactBase):
     """
 
     kind = kernels.CONTACT
-    engine = "planar"
-    marker_type = Marker
-
-    def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
-        return self.law()
 
 
 @dataclass(frozen=True, eq=False)
-class Bushing(ForceBase):
+class Bushing(_PlanarForce, BushingBase):
     """A linear bushing: springs and dampers on marker j's position and angle relative to
     marker i, in marker i's frame, about their relative place at the start.
 
@@ -237,38 +221,21 @@ class Bushing(ForceBase):
     marker_i, marker_j : Marker
     stiffness : (kx, ky, k_angle)
         [N/m, N/m, N m/rad], each >= 0.
-    damping : (cx, cy, c_angle)
-        [N s/m, N s/m, N m s/rad], each >= 0.
+    damping : (cx, cy, c_angle), optional
+        [N s/m, N s/m, N m s/rad], each >= 0 (default zeros).
     name : str
         The element's name for its outputs.
     """
 
-    marker_i: Marker
-    marker_j: Marker
-    stiffness: Sequence[float]
-    damping: Sequence[float] = (0.0, 0.0, 0.0)
-    name: str = ""
     kind = kernels.BUSHING
-    engine = "planar"
-    profile_code = -1
-
-    def __post_init__(self) -> None:
-        _check_marker("Bushing", self.marker_i)
-        _check_marker("Bushing", self.marker_j)
-        for what in ("stiffness", "damping"):
-            values = np.asarray(getattr(self, what), dtype=float)
-            if values.shape != (3,) or not (np.isfinite(values).all() and (values >= 0).all()):
-                raise InvalidParameterError(
-                    f"Bushing {what} must be three finite numbers >= 0 (x, y, angle), "
-                    f"got {getattr(self, what)!r}"
-                )
+    size = 3
+    order = "x, y, angle"
 
     def pack(self, start_i: NDArray[np.float64], start_j: NDArray[np.float64]) -> list[float]:
         c, s = np.cos(start_i[2]), np.sin(start_i[2])
         dx, dy = start_j[0] - start_i[0], start_j[1] - start_i[1]
         return [
-            *np.asarray(self.stiffness, dtype=float),
-            *np.asarray(self.damping, dtype=float),
+            *self.law(),
             c * dx + s * dy,
             -s * dx + c * dy,
             float(start_j[2] - start_i[2]),

@@ -186,6 +186,50 @@ def record(report, row, outcome):
 
 
 @nb.njit(cache=True)
+def start_run(control, x0):
+    """(pair, x, k, trial) of a run of the pair ``control[0]`` from ``x0``: its tableau
+    (:func:`tableau`), the state (a copy of x0), the stages' rates (the last row: the
+    evaluation at the solution) and the state a stage is evaluated at."""
+    pair = tableau(control[0])
+    k = np.empty((pair[2].size + 1, x0.size))
+    return pair, x0.copy(), k, np.empty(x0.size)
+
+
+@nb.njit(cache=True)
+def next_step(h, t, target):
+    """(last, step): the step of size h from t, cut short (``last``) to end at ``target``
+    if h would reach it."""
+    last = h >= target - t
+    return last, (target - t if last else h)
+
+
+@nb.njit(cache=True)
+def conclude_step(x, trial, k, t, step, last, h, target, control, pair):
+    """A step's outcome once its stages are evaluated (``trial`` its solution):
+    (finite, accepted, t, h). Not finite: its error estimate is not. Accepted: ``x``
+    takes the solution and t its time (``target`` after a last step). h: the next step
+    to try (:func:`step_outcome`)."""
+    _, _, _, e, e_low, exponent = pair
+    err = error_norm(x, trial, k, step, control[1], control[2], e, e_low)
+    if not math.isfinite(err):
+        return False, False, t, h
+    success, h = step_outcome(err, exponent, step, last, h)
+    if success:
+        t = target if last else t + step
+        x[:] = trial
+    return True, success, t, h
+
+
+@nb.njit(cache=True)
+def evaluation_arrays(layout):
+    """(n, c, system, solution, work): the coordinates and joint equations of ``layout``
+    and the arrays :func:`accelerations_in` takes, allocated once per run."""
+    n = layout[4][0]
+    c = layout[4][1]
+    return n, c, np.empty((n + c, n + c)), np.empty(n + c), workspace(layout)
+
+
+@nb.njit(cache=True)
 def _derivative(t, x, n, layout, data, user_force, work, system, solution, out):
     ok = accelerations_in(work, t, x[:n], x[n:], layout, data, user_force, system, solution)
     out[:n] = x[n:]
@@ -205,20 +249,10 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
     Returns (status, accepted steps, rejected steps, largest joint residual).
     Rows of ``states`` after a failure stay NaN.
     """
-    sizes = layout[4]
-    n = sizes[0]
-    c = sizes[1]
-    size = 2 * n
-    system = np.empty((n + c, n + c))
-    solution = np.empty(n + c)
-    work = workspace(layout)
-    method, rtol, atol, first_step, max_steps, tolerance = control
-    pair = tableau(method)
-    _, _, b, e, e_low, exponent = pair
-    stages = b.size
-    x = x0.copy()
-    k = np.empty((stages + 1, size))
-    trial = np.empty(size)
+    n, c, system, solution, work = evaluation_arrays(layout)
+    _, _, _, first_step, max_steps, tolerance = control
+    pair, x, k, trial = start_run(control, x0)
+    stages = k.shape[0] - 1
     t = times[0]
     worst = project(t, x[:n], x[n:], layout, data, tolerance)
     if not worst <= tolerance:
@@ -232,21 +266,19 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
     for out in range(1, times.size):
         target = times[out]
         while t < target:
-            last = h >= target - t
-            step = target - t if last else h
+            last, step = next_step(h, t, target)
             for stage in range(1, stages + 1):
                 time = stage_input(x, k, pair, stage, t, step, trial)
                 if not _derivative(
                     time, trial, n, layout, data, user_force, work, system, solution, k[stage]
                 ):
                     return NOT_FINITE, accepted, rejected, worst
-            err = error_norm(x, trial, k, step, rtol, atol, e, e_low)
-            if not math.isfinite(err):
+            finite, success, t, h = conclude_step(
+                x, trial, k, t, step, last, h, target, control, pair
+            )
+            if not finite:
                 return NOT_FINITE, accepted, rejected, worst
-            success, h = step_outcome(err, exponent, step, last, h)
             if success:
-                t = target if last else t + step
-                x[:] = trial
                 accepted += 1
                 if c:
                     residual = project(t, x[:n], x[n:], layout, data, tolerance)
@@ -299,12 +331,7 @@ def integrate_range(
 @nb.njit(cache=True, nogil=True)
 def solve_range(start, stop, times, states, layout, data, user_force, out):
     """z'' and lambda at every stored state of rows ``start:stop`` into ``out`` (B, T, n + c)."""
-    sizes = layout[4]
-    n = sizes[0]
-    c = sizes[1]
-    system = np.empty((n + c, n + c))
-    solution = np.empty(n + c)
-    work = workspace(layout)
+    n, _, system, solution, work = evaluation_arrays(layout)
     for s in range(start, stop):
         for i in range(states.shape[1]):
             if failed_before(states, s, i, out):

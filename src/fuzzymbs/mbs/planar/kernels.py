@@ -35,8 +35,10 @@ import numpy as np
 
 from fuzzymbs.mbs.assembly import USER_FORCE_SIGNATURE
 from fuzzymbs.mbs.planar.elimination import (
+    finish_projection,
+    joint_buffers,
+    largest_magnitude,
     project_rows,
-    remove_velocity_excess,
     solve_constrained,
 )
 
@@ -78,6 +80,66 @@ def failed_before(states, s, i, out):
         return False
     out[s, i] = np.nan
     return True
+
+
+@nb.njit(cache=True)
+def live_states(states, out):
+    """The (sample, stored time) pairs (K, 2) where ``states`` (B, T, m) holds numbers, in
+    order, with ``out[s, i]`` set to NaN at the others (:func:`failed_before`): the states a
+    run reached, or quantities solved from them (NaN where those are)."""
+    live = np.empty((states.shape[0] * states.shape[1], 2), dtype=np.int64)
+    count = 0
+    for s in range(states.shape[0]):
+        for i in range(states.shape[1]):
+            if not failed_before(states, s, i, out):
+                live[count, 0] = s
+                live[count, 1] = i
+                count += 1
+    return live[:count]
+
+
+@nb.njit(cache=True)
+def plus_dot(start, row, values):
+    """start + sum_k row[k] values[k] over ``row`` (in order): a Jacobian row times the
+    solved accelerations."""
+    total = start
+    for k in range(row.size):
+        total += row[k] * values[k]
+    return total
+
+
+@nb.njit(cache=True)
+def joint_row(joints, jn):
+    """Joint ``jn``'s row of the layout: (kind, marker i, marker j, first equation row, data
+    offset, drive profile)."""
+    return joints[jn, 0], joints[jn, 1], joints[jn, 2], joints[jn, 3], joints[jn, 4], joints[jn, 5]
+
+
+@nb.njit(cache=True)
+def element_row(elements, e):
+    """Force element ``e``'s row of the layout: (kind, marker i, marker j, data offset,
+    profile)."""
+    return elements[e, 0], elements[e, 1], elements[e, 2], elements[e, 3], elements[e, 4]
+
+
+@nb.njit(cache=True)
+def marker_row(k, markers, bodies):
+    """Marker ``k``'s (body, data offset, mode count, the body's coordinate offset); body
+    -1 and offset -1 on the ground."""
+    body = markers[k, 0]
+    return body, markers[k, 1], markers[k, 2], bodies[body, 0] if body >= 0 else -1
+
+
+@nb.njit(cache=True)
+def modal_products(data, start, z, v, o, m):
+    """(K_i q, K_i q'): the row of m numbers at ``data[start:]`` times the modal coordinates
+    and rates of the body at coordinate offset ``o`` (a geometric matrix's row)."""
+    kq = 0.0
+    kv = 0.0
+    for j in range(m):
+        kq += data[start + j] * z[o + 3 + j]
+        kv += data[start + j] * v[o + 3 + j]
+    return kq, kv
 
 
 @nb.njit(cache=True)
@@ -125,11 +187,7 @@ def _foreshortening(k, markers, bodies, data, z, v):
     rate = 0.0
     curvature = 0.0
     for i in range(m):
-        kq = 0.0
-        kv = 0.0
-        for j in range(m):
-            kq += data[d + m * i + j] * z[o + 3 + j]
-            kv += data[d + m * i + j] * v[o + 3 + j]
+        kq, kv = modal_products(data, d + m * i, z, v, o, m)
         shift -= 0.5 * z[o + 3 + i] * kq
         rate += kq * v[o + 3 + i]
         curvature += v[o + 3 + i] * kv
@@ -213,12 +271,9 @@ def add_point_load(k, markers, bodies, data, z, state, fx, fy, target):
     the beam, so that an axial force at the node stiffens (tension) or
     softens (compression) the modes.
     """
-    body = markers[k, 0]
+    body, d, m, o = marker_row(k, markers, bodies)
     if body < 0:
         return
-    d = markers[k, 1]
-    m = markers[k, 2]
-    o = bodies[body, 0]
     target[o] += fx
     target[o + 1] += fy
     target[o + 2] += state[8] * fx + state[9] * fy
@@ -307,12 +362,9 @@ def contact_force(markers, bodies, data, d, kj, z, v, si, sj, out):
 @nb.njit(cache=True)
 def add_angle_load(k, markers, bodies, data, torque, target):
     """target[body coordinates] += (d angle/dz)^T torque for marker ``k``."""
-    body = markers[k, 0]
+    body, d, m, o = marker_row(k, markers, bodies)
     if body < 0:
         return
-    d = markers[k, 1]
-    m = markers[k, 2]
-    o = bodies[body, 0]
     target[o + 2] += torque
     for j in range(m):
         target[o + 3 + j] += data[d + 3 + 2 * m + j] * torque
@@ -394,11 +446,7 @@ def body_terms(bodies, data, z, v, mass_matrix, forces):
             cvx += data[icx + i] * v[o + 3 + i]
             cvy += data[icy + i] * v[o + 3 + i]
             if stiffened:
-                kaq = 0.0
-                kav = 0.0
-                for j in range(m):
-                    kaq += data[ikga + m * i + j] * z[o + 3 + j]
-                    kav += data[ikga + m * i + j] * v[o + 3 + j]
+                kaq, kav = modal_products(data, ikga + m * i, z, v, o, m)
                 sx -= 0.5 * z[o + 3 + i] * kaq
                 cvx -= kaq * v[o + 3 + i]
                 axial_curvature += v[o + 3 + i] * kav
@@ -471,12 +519,7 @@ def joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, accelerat
     si = np.empty(MARKER_STATE_SIZE)
     sj = np.empty(MARKER_STATE_SIZE)
     for jn in range(joints.shape[0]):
-        kind = joints[jn, 0]
-        ki = joints[jn, 1]
-        kj = joints[jn, 2]
-        row = joints[jn, 3]
-        d = joints[jn, 4]
-        drive = joints[jn, 5]
+        kind, ki, kj, row, d, drive = joint_row(joints, jn)
         marker_state(ki, markers, bodies, data, z, v, si)
         marker_state(kj, markers, bodies, data, z, v, sj)
         dx = sj[0] - si[0]
@@ -534,11 +577,7 @@ def element_force(e, t, layout, data, z, v, user_force, si, sj, out):
     Returns the point (x, y) where marker j's body takes the reaction: marker j's point,
     or the contact point on the surface for a contact."""
     bodies, markers, elements = layout[0], layout[1], layout[3]
-    kind = elements[e, 0]
-    ki = elements[e, 1]
-    kj = elements[e, 2]
-    d = elements[e, 3]
-    code = elements[e, 4]
+    kind, ki, kj, d, code = element_row(elements, e)
     marker_state(ki, markers, bodies, data, z, v, si)
     if kj >= 0:
         marker_state(kj, markers, bodies, data, z, v, sj)
@@ -687,18 +726,12 @@ def project(t, z, v, layout, data, tolerance):
     c = sizes[1]
     if c == 0:
         return 0.0
-    residual = np.empty(c)
-    quadratic = np.empty(c)
-    rate = np.empty(c)
-    acceleration = np.empty(c)
-    jac = np.zeros((c, n))
+    residual, quadratic, rate, acceleration, jac = joint_buffers(c, n)
     worst = np.inf
     for _ in range(6):
         jac[:, :] = 0.0
         joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
-        worst = 0.0
-        for r in range(c):
-            worst = max(worst, abs(residual[r]))
+        worst = largest_magnitude(residual)
         if worst <= tolerance:
             break
         if not project_rows(jac, residual, z):
@@ -707,6 +740,4 @@ def project(t, z, v, layout, data, tolerance):
         return np.inf
     jac[:, :] = 0.0
     joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, acceleration)
-    if not remove_velocity_excess(jac, rate, v, residual):
-        return np.inf
-    return worst
+    return finish_projection(jac, rate, v, residual, worst)

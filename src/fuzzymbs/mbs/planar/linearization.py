@@ -15,15 +15,21 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.assembly import Assembly
 from fuzzymbs.mbs.planar import kernels
 from fuzzymbs.mbs.planar.simulation import PROJECTION_TOLERANCE
 from fuzzymbs.mbs.planar.system import Mechanism, joint_rows
+
+#: ``reduced_rate(position, velocity) -> (N^T v, N^T a)`` (:func:`central_linearization`)
+ReducedRate = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
 
 
 @dataclass(frozen=True)
@@ -57,58 +63,142 @@ def free_directions(jac: NDArray[np.float64], n: int) -> NDArray[np.float64]:
 
 
 def linearize(
-    mechanism: Mechanism,
+    mechanism: Assembly,
     t: float = 0.0,
     state: ArrayLike | None = None,
     step: float = 1e-6,
 ) -> Linearization:
-    """Linearise ``mechanism`` at time ``t`` about ``state`` (default: its initial state).
+    """Linearise ``mechanism``, planar or spatial, at time ``t`` about ``state`` (default:
+    its initial state).
 
     Parameters
     ----------
     mechanism : Mechanism
+        A :class:`fuzzymbs.mbs.planar.Mechanism` or a :class:`fuzzymbs.mbs.spatial.Mechanism`.
     t : float
         Time [s] (drives are evaluated there).
-    state : array_like, shape (2n,), optional
-        Coordinates and rates; projected onto the joints first.
+    state : array_like, optional
+        Projected onto the joints first. Planar: coordinates then rates, shape (2n,);
+        spatial: positions (r, Euler parameters, q per body) then velocities (r', w, q'
+        per body).
     step : float
-        Relative central-difference step.
+        Central-difference step: in the plane relative to the state's largest magnitude, in
+        space in velocity coordinates [m, rad, modal units].
+
+    Returns
+    -------
+    Linearization
+        Eigenvalues, the reduced Jacobian and the free directions (in velocity coordinates).
     """
+    if mechanism.engine == "spatial":
+        from fuzzymbs.mbs.spatial.linearization import reduced_system
+    else:
+        reduced_system = planar_reduced_system
+    return central_linearization(*reduced_system(mechanism, t, state, step))
+
+
+def planar_reduced_system(
+    mechanism: Mechanism, t: float, state: ArrayLike | None, step: float
+) -> tuple[ReducedRate, NDArray[np.float64], float]:
+    """What :func:`central_linearization` takes for a planar mechanism: the reduced rate, the
+    joints' free directions and the step (``step`` times the state's largest magnitude)."""
     layout, data, initial = mechanism.pack()
     arrays = layout.arrays()
     n, c = (int(s) for s in layout.sizes)
-    x0 = initial.copy() if state is None else np.array(state, dtype=float)
-    if x0.shape != (2 * n,) or not np.isfinite(x0).all():
-        raise InvalidParameterError(
-            f"state must be {2 * n} finite numbers (z then v), got shape {x0.shape}"
-        )
+    x0 = projected_state(kernels, t, state, initial, n, arrays, data, "z then v")
+    _, jac = joint_rows(t, layout, data, x0)
+    basis = free_directions(jac, n)
     user = mechanism.user_function()
-    if (
-        not kernels.project(t, x0[:n], x0[n:], arrays, data, PROJECTION_TOLERANCE)
+    rate = reduced_rate_function(kernels, t, x0, n, arrays, data, user, basis, c, _shift)
+    return rate, basis, step * max(1.0, float(np.abs(x0).max()))
+
+
+def _shift(positions: NDArray[np.float64], position: NDArray[np.float64]) -> None:
+    positions += position
+
+
+def projected_state(
+    engine: ModuleType,
+    t: float,
+    state: ArrayLike | None,
+    initial: NDArray[np.float64],
+    split: int,
+    layout: Any,
+    data: NDArray[np.float64],
+    order: str,
+) -> NDArray[np.float64]:
+    """``state`` (default ``initial``), checked and projected onto the joints.
+
+    Parameters
+    ----------
+    engine : module
+        The engine's kernels (``project``).
+    t : float
+        Time [s].
+    state : array_like or None
+        Positions (``split`` numbers) then velocities.
+    initial : ndarray
+        The mechanism's initial state (its size is the state's).
+    split : int
+        The number of positions.
+    layout, data
+        The packed mechanism.
+    order : str
+        What the state holds, in the messages.
+    """
+    x0 = initial.copy() if state is None else np.array(state, dtype=float)
+    if x0.shape != initial.shape or not np.isfinite(x0).all():
+        raise InvalidParameterError(
+            f"state must be {initial.size} finite numbers ({order}), got shape {x0.shape}"
+        )
+    if not (
+        engine.project(t, x0[:split], x0[split:], layout, data, PROJECTION_TOLERANCE)
         <= PROJECTION_TOLERANCE
     ):
         raise InvalidParameterError("the state cannot be projected onto the joints")
-    _, jac = joint_rows(t, layout, data, x0)
-    basis = free_directions(jac, n)
-    system = np.empty((n + c, n + c))
-    solution = np.empty(n + c)
+    return x0
+
+
+def reduced_rate_function(
+    engine: ModuleType,
+    t: float,
+    x0: NDArray[np.float64],
+    split: int,
+    layout: Any,
+    data: NDArray[np.float64],
+    user: object,
+    basis: NDArray[np.float64],
+    constraints: int,
+    move: Callable[[NDArray[np.float64], NDArray[np.float64]], None],
+) -> ReducedRate:
+    """``reduced_rate(position, velocity)`` for :func:`central_linearization`.
+
+    The state ``x0`` (``split`` positions, then the velocities) is moved by ``position``
+    (``move(positions, position)``, in velocity coordinates) and ``velocity``, projected
+    onto the joints and the constrained accelerations a solved with the engine's kernels
+    (``project``, ``accelerations``); it returns (N^T v, N^T a) with N = ``basis``.
+    """
+    n = basis.shape[0]
+    system = np.empty((n + constraints, n + constraints))
+    solution = np.empty(n + constraints)
 
     def reduced_rate(
         position: NDArray[np.float64], velocity: NDArray[np.float64]
     ) -> NDArray[np.float64]:
         x = x0.copy()
-        x[:n] += position
-        x[n:] += velocity
-        kernels.project(t, x[:n], x[n:], arrays, data, 1e-13)
-        if not kernels.accelerations(t, x[:n], x[n:], arrays, data, user, system, solution):
+        move(x[:split], position)
+        x[split:] += velocity
+        q, v = x[:split], x[split:]
+        engine.project(t, q, v, layout, data, 1e-13)
+        if not engine.accelerations(t, q, v, layout, data, user, system, solution):
             raise InvalidParameterError("the mass matrix with the joints is singular at this state")
-        return np.concatenate([basis.T @ x[n:], basis.T @ solution[:n]])
+        return np.concatenate([basis.T @ v, basis.T @ solution[:n]])
 
-    return central_linearization(reduced_rate, basis, step * max(1.0, float(np.abs(x0).max())))
+    return reduced_rate
 
 
 def central_linearization(
-    reduced_rate: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]],
+    reduced_rate: ReducedRate,
     basis: NDArray[np.float64],
     step: float,
 ) -> Linearization:

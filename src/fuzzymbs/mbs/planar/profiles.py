@@ -118,3 +118,17 @@ def evaluate(profile: Profile, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     params = np.asarray(profile.pack(), dtype=float)
     out = np.array([kernel_profile(profile.code, params, 0, float(s)) for s in np.atleast_1d(t)])
     return out[:, 0], out[:, 1], out[:, 2]
+
+
+class ProfiledLoad:
+    """A load times a profile of time: what a force element with a ``profile`` (a
+    :data:`Profile`, or None: constant) gives the kernels."""
+
+    @property
+    def profile_code(self) -> int:
+        """The profile's kernel code, -1 without one."""
+        return -1 if self.profile is None else self.profile.code
+
+    def profile_values(self) -> list[float]:
+        """The profile's :data:`PROFILE_SIZE` numbers, zeros without one."""
+        return self.profile.pack() if self.profile is not None else [0.0] * PROFILE_SIZE

@@ -18,8 +18,9 @@ from fuzzymbs.mbs.planar.kernels import (
     add_point_load,
     body_terms,
     element_force,
-    failed_before,
+    live_states,
     marker_state,
+    plus_dot,
 )
 
 
@@ -107,19 +108,16 @@ def energy_at(states, layout, data, out):
     n = layout[4][0]
     mass = np.zeros((n, n))
     forces = np.zeros(n)
-    for s in range(states.shape[0]):
-        for i in range(states.shape[1]):
-            if failed_before(states, s, i, out):
-                continue
-            x = states[s, i]
-            mass[:, :] = 0.0
-            body_terms(layout[0], data[s], x[:n], x[n:], mass, forces)
-            kinetic = 0.0
-            for a in range(n):
-                for b in range(n):
-                    kinetic += 0.5 * x[n + a] * mass[a, b] * x[n + b]
-            out[s, i, 0] = kinetic
-            out[s, i, 1] = potential_energy(layout, data[s], x[:n], x[n:])
+    for s, i in live_states(states, out):
+        x = states[s, i]
+        mass[:, :] = 0.0
+        body_terms(layout[0], data[s], x[:n], x[n:], mass, forces)
+        kinetic = 0.0
+        for a in range(n):
+            for b in range(n):
+                kinetic += 0.5 * x[n + a] * mass[a, b] * x[n + b]
+        out[s, i, 0] = kinetic
+        out[s, i, 1] = potential_energy(layout, data[s], x[:n], x[n:])
 
 
 @nb.njit(cache=True)
@@ -144,15 +142,10 @@ def element_forces_at(element, times, states, layout, data, user_force, out):
     si = np.empty(MARKER_STATE_SIZE)
     sj = np.empty(MARKER_STATE_SIZE)
     load = np.zeros(3)
-    for s in range(states.shape[0]):
-        for i in range(states.shape[1]):
-            if failed_before(states, s, i, out):
-                continue
-            x = states[s, i]
-            element_force(
-                element, times[i], layout, data[s], x[:n], x[n:], user_force, si, sj, load
-            )
-            out[s, i, :] = load
+    for s, i in live_states(states, out):
+        x = states[s, i]
+        element_force(element, times[i], layout, data[s], x[:n], x[n:], user_force, si, sj, load)
+        out[s, i, :] = load
 
 
 @nb.njit(cache=True)
@@ -164,22 +157,15 @@ def marker_accelerations_at(marker, states, solved, layout, data, out):
     n = layout[4][0]
     state = np.empty(MARKER_STATE_SIZE)
     row = np.zeros(n)
-    for s in range(states.shape[0]):
-        for i in range(states.shape[1]):
-            x = states[s, i]
-            if not math.isfinite(x[0]) or not math.isfinite(solved[s, i, 0]):
-                out[s, i, :] = np.nan
-                continue
-            marker_state(marker, markers, bodies, data[s], x[:n], x[n:], state)
-            for c in range(3):
-                row[:] = 0.0
-                if c < 2:
-                    add_point_load(
-                        marker, markers, bodies, data[s], x[:n], state, 1.0 - c, float(c), row
-                    )
-                else:
-                    add_angle_load(marker, markers, bodies, data[s], 1.0, row)
-                acc = state[6 + c] if c < 2 else 0.0
-                for k in range(n):
-                    acc += row[k] * solved[s, i, k]
-                out[s, i, c] = acc
+    for s, i in live_states(solved, out):  # NaN where the state is, or unsolved
+        x = states[s, i]
+        marker_state(marker, markers, bodies, data[s], x[:n], x[n:], state)
+        for c in range(3):
+            row[:] = 0.0
+            if c < 2:
+                add_point_load(
+                    marker, markers, bodies, data[s], x[:n], state, 1.0 - c, float(c), row
+                )
+            else:
+                add_angle_load(marker, markers, bodies, data[s], 1.0, row)
+            out[s, i, c] = plus_dot(state[6 + c] if c < 2 else 0.0, row, solved[s, i])

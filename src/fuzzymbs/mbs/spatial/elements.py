@@ -11,7 +11,7 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.kernels.charts import locate
-from fuzzymbs.mbs.planar.kernels import profile
+from fuzzymbs.mbs.planar.kernels import element_row, profile
 from fuzzymbs.mbs.spatial.kinematics import (
     add_point_row,
     add_torque_row,
@@ -366,11 +366,7 @@ def element_force(e, t, layout, data, q, v, user_force, si, sj, load, point):
     [N m], global; ``si``, ``sj`` receive the markers' states. For a contact, ``point``
     receives the contact point, where marker j's frame takes the reaction."""
     bodies, markers, elements = layout[0], layout[1], layout[3]
-    kind = elements[e, 0]
-    ki = elements[e, 1]
-    kj = elements[e, 2]
-    d = elements[e, 3]
-    code = elements[e, 4]
+    kind, ki, kj, d, code = element_row(elements, e)
     marker_state(ki, markers, bodies, data, q, v, si)
     if kj >= 0:
         marker_state(kj, markers, bodies, data, q, v, sj)

@@ -10,12 +10,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.assembly import ContactBase, ForceBase, UserForceBase
+from fuzzymbs.mbs.assembly import (
+    BushingBase,
+    ContactBase,
+    ForceBase,
+    SpringDamperBase,
+    UserForceBase,
+)
 from fuzzymbs.mbs.bodies import unit_vector
 from fuzzymbs.mbs.contact import Patch, build_patch, lookup_constants
 from fuzzymbs.mbs.forces import resolve_nodes
 from fuzzymbs.mbs.planar.forces import user_force
-from fuzzymbs.mbs.planar.profiles import PROFILE_SIZE, Profile
+from fuzzymbs.mbs.planar.profiles import Profile, ProfiledLoad
 from fuzzymbs.mbs.spatial import elements
 from fuzzymbs.mbs.spatial.bodies import Marker
 
@@ -23,23 +29,22 @@ from fuzzymbs.mbs.spatial.bodies import Marker
 MarkerStart = tuple[NDArray[np.float64], NDArray[np.float64]]
 
 
+class _SpatialForce(ForceBase):
+    """The spatial engine's force elements: their engine and markers."""
+
+    engine = "spatial"
+    marker_type = Marker
+
+
 @dataclass(frozen=True, eq=False)
-class SpringDamper(ForceBase):
+class SpringDamper(_SpatialForce, SpringDamperBase):
     """A linear spring and damper along the line between two markers' points.
 
     Tension = stiffness (l - free_length) + damping l'; ``free_length`` None takes
-    the initial distance.
+    the initial distance (fields: :class:`~fuzzymbs.mbs.assembly.SpringDamperBase`).
     """
 
-    marker_i: Marker
-    marker_j: Marker
-    stiffness: float
-    damping: float = 0.0
-    free_length: float | None = None
-    name: str = ""
     kind = elements.SPRING_DAMPER
-    engine = "spatial"
-    profile_code = -1
 
     def __post_init__(self) -> None:
         for name in ("stiffness", "damping"):
@@ -58,7 +63,7 @@ class SpringDamper(ForceBase):
 
 
 @dataclass(frozen=True, eq=False)
-class MarkerLoad(ForceBase):
+class MarkerLoad(ProfiledLoad, _SpatialForce):
     """A force [N] and a torque [N m] (global frame) on a marker, times a profile of time."""
 
     marker_i: Marker
@@ -67,7 +72,6 @@ class MarkerLoad(ForceBase):
     profile: Profile | None = None
     name: str = ""
     kind = elements.MARKER_LOAD
-    engine = "spatial"
     marker_j = None
 
     def __post_init__(self) -> None:
@@ -77,17 +81,12 @@ class MarkerLoad(ForceBase):
                 "MarkerLoad force and torque must be three finite numbers each"
             )
 
-    @property
-    def profile_code(self) -> int:
-        return -1 if self.profile is None else self.profile.code
-
     def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
-        profile = self.profile.pack() if self.profile is not None else [0.0] * PROFILE_SIZE
-        return [*self.force, *self.torque, *profile]
+        return [*self.force, *self.torque, *self.profile_values()]
 
 
 @dataclass(frozen=True, eq=False)
-class UserForce(UserForceBase):
+class UserForce(_SpatialForce, UserForceBase):
     """A force law written by the user, compiled into the kernels.
 
     Parameters
@@ -107,15 +106,10 @@ class UserForce(UserForceBase):
     """
 
     kind = elements.USER_FORCE
-    engine = "spatial"
-    marker_type = Marker
-
-    def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
-        return self.values()
 
 
 @dataclass(frozen=True, eq=False)
-class Contact(ContactBase):
+class Contact(_SpatialForce, ContactBase):
     """Penalty contact of a point (marker i) with a surface (marker j), with friction.
 
     The surface is the plane through marker j normal to its z axis (outward: +z), or,
@@ -132,15 +126,10 @@ class Contact(ContactBase):
     """
 
     kind = elements.CONTACT
-    engine = "spatial"
-    marker_type = Marker
-
-    def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
-        return self.law()
 
 
 @dataclass(frozen=True, eq=False)
-class Bushing(ForceBase):
+class Bushing(_SpatialForce, BushingBase):
     """A linear bushing: springs and dampers on marker j's position and small relative
     rotation with respect to marker i, in marker i's axes, about their relative place at
     the start.
@@ -161,45 +150,27 @@ class Bushing(ForceBase):
     marker_i, marker_j : Marker
     stiffness : (kx, ky, kz, kx_angle, ky_angle, kz_angle)
         [N/m] and [N m/rad], each >= 0.
-    damping : six values
-        [N s/m] and [N m s/rad], each >= 0.
+    damping : six values, optional
+        [N s/m] and [N m s/rad], each >= 0 (default zeros).
     name : str
         The element's name for its outputs.
     """
 
-    marker_i: Marker
-    marker_j: Marker
-    stiffness: Sequence[float]
-    damping: Sequence[float] = (0.0,) * 6
-    name: str = ""
     kind = elements.BUSHING
-    engine = "spatial"
-    profile_code = -1
-
-    def __post_init__(self) -> None:
-        for marker in (self.marker_i, self.marker_j):
-            if not isinstance(marker, Marker):
-                raise InvalidParameterError(f"Bushing needs two markers, got {marker!r}")
-        for what in ("stiffness", "damping"):
-            values = np.asarray(getattr(self, what), dtype=float)
-            if values.shape != (6,) or not (np.isfinite(values).all() and (values >= 0).all()):
-                raise InvalidParameterError(
-                    f"Bushing {what} must be six finite numbers >= 0 (x, y, z, then the "
-                    f"angles), got {getattr(self, what)!r}"
-                )
+    size = 6
+    order = "x, y, z, then the angles"
 
     def pack(self, start_i: MarkerStart, start_j: MarkerStart) -> list[float]:
         (p_i, axes_i), (p_j, axes_j) = start_i, start_j
         return [
-            *np.asarray(self.stiffness, dtype=float),
-            *np.asarray(self.damping, dtype=float),
+            *self.law(),
             *(axes_i.T @ (p_j - p_i)),
             *(axes_i.T @ axes_j).ravel(),
         ]
 
 
 @dataclass(frozen=True, eq=False)
-class SurfaceContact(ContactBase):
+class SurfaceContact(_SpatialForce, ContactBase):
     """Penalty contact of a point (marker i, usually a node of another body) with a meshed
     surface of a flexible body, which deforms with that body's modes: the brake's
     node-to-surface contact, on bodies in any frame motion.
@@ -224,8 +195,6 @@ class SurfaceContact(ContactBase):
     chart: object = None
     normal: object = None
     kind = elements.SURFACE_CONTACT
-    engine = "spatial"
-    marker_type = Marker
 
     def __post_init__(self) -> None:
         super().__post_init__()

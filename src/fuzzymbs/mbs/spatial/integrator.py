@@ -6,19 +6,18 @@ run with the GIL released.
 
 from __future__ import annotations
 
-import math
-
 import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.planar.integrator import (
     budget_status,
-    error_norm,
+    conclude_step,
+    next_step,
     record,
     stage_input,
-    step_outcome,
-    tableau,
+    start_run,
 )
+from fuzzymbs.mbs.planar.kernels import live_states
 from fuzzymbs.mbs.spatial.kernels import (
     FINISHED,
     NOT_FINITE,
@@ -70,16 +69,11 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
     nq = sizes[0]
     n = sizes[1]
     c = sizes[2]
-    size = nq + n
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
-    method, rtol, atol, first_step, max_steps, tolerance = control
-    pair = tableau(method)
-    _, _, b, e, e_low, exponent = pair
-    stages = b.size
-    x = x0.copy()
-    k = np.empty((stages + 1, size))
-    trial = np.empty(size)
+    _, _, _, first_step, max_steps, tolerance = control
+    pair, x, k, trial = start_run(control, x0)
+    stages = k.shape[0] - 1
     t = times[0]
     worst = project(t, x[:nq], x[nq:], layout, data, tolerance)
     if not worst <= tolerance:
@@ -93,21 +87,19 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
     for out in range(1, times.size):
         target = times[out]
         while t < target:
-            last = h >= target - t
-            step = target - t if last else h
+            last, step = next_step(h, t, target)
             for stage in range(1, stages + 1):
                 time = stage_input(x, k, pair, stage, t, step, trial)
                 if not _derivative(
                     time, trial, layout, data, user_force, system, solution, k[stage]
                 ):
                     return NOT_FINITE, accepted, rejected, worst
-            err = error_norm(x, trial, k, step, rtol, atol, e, e_low)
-            if not math.isfinite(err):
+            finite, success, t, h = conclude_step(
+                x, trial, k, t, step, last, h, target, control, pair
+            )
+            if not finite:
                 return NOT_FINITE, accepted, rejected, worst
-            success, h = step_outcome(err, exponent, step, last, h)
             if success:
-                t = target if last else t + step
-                x[:] = trial
                 accepted += 1
                 residual = project(t, x[:nq], x[nq:], layout, data, tolerance)
                 if not residual <= tolerance:
@@ -158,12 +150,11 @@ def solve_range(start, stop, times, states, layout, data, user_force, out):
     c = layout[4][2]
     system = np.empty((n + c, n + c))
     solution = np.empty(n + c)
-    for s in range(start, stop):
-        for i in range(states.shape[1]):
-            x = states[s, i]
-            if math.isfinite(x[0]) and accelerations(
-                times[i], x[:nq], x[nq:], layout, data[s], user_force, system, solution
-            ):
-                out[s, i, :] = solution
-            else:
-                out[s, i, :] = np.nan
+    for s, i in live_states(states[start:stop], out[start:stop]):
+        x = states[start + s, i]
+        if accelerations(
+            times[i], x[:nq], x[nq:], layout, data[start + s], user_force, system, solution
+        ):
+            out[start + s, i, :] = solution
+        else:
+            out[start + s, i, :] = np.nan

@@ -51,8 +51,10 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.planar.elimination import (
+    finish_projection,
+    joint_buffers,
+    largest_magnitude,
     project_rows,
-    remove_velocity_excess,
     solve_constrained,
 )
 from fuzzymbs.mbs.planar.kernels import (  # the run status codes are the planar engine's
@@ -61,6 +63,7 @@ from fuzzymbs.mbs.planar.kernels import (  # the run status codes are the planar
     PROJECTION_FAILED,
     STEP_TOO_SMALL,
     TOO_MANY_STEPS,
+    joint_row,
     profile,
 )
 from fuzzymbs.mbs.spatial.elements import force_terms
@@ -308,12 +311,7 @@ def joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, accelerat
     geo_j = (np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)))
     unit = np.eye(3)
     for jn in range(joints.shape[0]):
-        kind = joints[jn, 0]
-        ki = joints[jn, 1]
-        kj = joints[jn, 2]
-        row = joints[jn, 3]
-        d = joints[jn, 4]
-        drive = joints[jn, 5]
+        kind, ki, kj, row, d, drive = joint_row(joints, jn)
         marker_state(ki, markers, bodies, data, q, v, si)
         marker_state(kj, markers, bodies, data, q, v, sj)
         marker_axes(ki, markers, bodies, data, q, v, geo_i[0], geo_i[1], geo_i[2], geo_i[3])
@@ -430,19 +428,13 @@ def project(t, q, v, layout, data, tolerance):
         rotate(q, bodies[b, 0] + 3, 0.0, 0.0, 0.0)
     if c == 0:
         return 0.0
-    residual = np.empty(c)
-    quadratic = np.empty(c)
-    rate = np.empty(c)
-    acceleration = np.empty(c)
-    jac = np.zeros((c, n))
+    residual, quadratic, rate, acceleration, jac = joint_buffers(c, n)
     step = np.zeros(n)
     worst = np.inf
     for _ in range(8):
         jac[:, :] = 0.0
         joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, acceleration)
-        worst = 0.0
-        for r in range(c):
-            worst = max(worst, abs(residual[r]))
+        worst = largest_magnitude(residual)
         if worst <= tolerance:
             break
         step[:] = 0.0
@@ -453,6 +445,4 @@ def project(t, q, v, layout, data, tolerance):
         return np.inf
     jac[:, :] = 0.0
     joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, acceleration)
-    if not remove_velocity_excess(jac, rate, v, residual):
-        return np.inf
-    return worst
+    return finish_projection(jac, rate, v, residual, worst)

@@ -7,7 +7,8 @@ central differences. A position is moved along a direction in velocity
 coordinates (the frame origin, a small rotation in the body frame, the modal
 coordinates), then projected back onto the joints, so the Euler parameters
 stay unit quaternions. The reduced system is d/dt (y, y') = J (y, y') with
-y = N^T (the displacement in those coordinates).
+y = N^T (the displacement in those coordinates). :func:`linearize` is the planar
+engine's, which takes either engine's mechanism.
 """
 
 from __future__ import annotations
@@ -15,71 +16,42 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.planar.linearization import (
-    Linearization,
-    central_linearization,
+    ReducedRate,
     free_directions,
+    linearize,
+    projected_state,
+    reduced_rate_function,
 )
 from fuzzymbs.mbs.spatial import kernels, kinematics
-from fuzzymbs.mbs.spatial.system import PROJECTION_TOLERANCE, Mechanism
+from fuzzymbs.mbs.spatial.system import Mechanism
 
 
-def linearize(
-    mechanism: Mechanism,
-    t: float = 0.0,
-    state: ArrayLike | None = None,
-    step: float = 1e-6,
-) -> Linearization:
-    """Linearise ``mechanism`` at time ``t`` about ``state`` (default: its initial state).
-
-    Parameters
-    ----------
-    mechanism : Mechanism
-    t : float
-        Time [s] (drives are evaluated there).
-    state : array_like, optional
-        Positions (r, Euler parameters, q per body) then velocities (r', w, q' per body);
-        projected onto the joints first.
-    step : float
-        Central-difference step [m, rad, modal units].
-
-    Returns
-    -------
-    Linearization
-        Eigenvalues, the reduced Jacobian and the free directions (in velocity coordinates).
-    """
+def reduced_system(
+    mechanism: Mechanism, t: float, state: ArrayLike | None, step: float
+) -> tuple[ReducedRate, NDArray[np.float64], float]:
+    """What :func:`~fuzzymbs.mbs.planar.linearization.central_linearization` takes for a
+    spatial mechanism: the reduced rate (positions moved in velocity coordinates), the
+    joints' free directions and the step."""
     mechanism.check(t)
     layout, data, initial = mechanism.pack()
     nq, n, c = (int(s) for s in layout[4])
-    x0 = initial.copy() if state is None else np.array(state, dtype=float)
-    if x0.shape != (nq + n,) or not np.isfinite(x0).all():
-        raise InvalidParameterError(
-            f"state must be {nq + n} finite numbers (positions then velocities), "
-            f"got shape {x0.shape}"
-        )
-    if not kernels.project(t, x0[:nq], x0[nq:], layout, data, PROJECTION_TOLERANCE) <= (
-        PROJECTION_TOLERANCE
-    ):
-        raise InvalidParameterError("the state cannot be projected onto the joints")
+    x0 = projected_state(kernels, t, state, initial, nq, layout, data, "positions then velocities")
     jac = np.zeros((c, n))
     if c:
         spare = [np.empty(c) for _ in range(4)]
         kernels.joint_terms(t, layout, data, x0[:nq], x0[nq:], jac, *spare)
     basis = free_directions(jac, n)
     user = mechanism.user_function()
-    system = np.empty((n + c, n + c))
-    solution = np.empty(n + c)
 
-    def reduced_rate(
-        position: NDArray[np.float64], velocity: NDArray[np.float64]
-    ) -> NDArray[np.float64]:
-        x = x0.copy()
-        kinematics.displace(x[:nq], layout[0], position)
-        x[nq:] += velocity
-        kernels.project(t, x[:nq], x[nq:], layout, data, 1e-13)
-        if not kernels.accelerations(t, x[:nq], x[nq:], layout, data, user, system, solution):
-            raise InvalidParameterError("the mass matrix with the joints is singular at this state")
-        return np.concatenate([basis.T @ x[nq:], basis.T @ solution[:n]])
+    def move(positions: NDArray[np.float64], position: NDArray[np.float64]) -> None:
+        kinematics.displace(positions, layout[0], position)
 
-    return central_linearization(reduced_rate, basis, step)
+    return (
+        reduced_rate_function(kernels, t, x0, nq, layout, data, user, basis, c, move),
+        basis,
+        step,
+    )
+
+
+__all__ = ["linearize", "reduced_system"]

@@ -8,7 +8,7 @@ import math
 import numba as nb
 import numpy as np
 
-from fuzzymbs.mbs.planar.kernels import failed_before
+from fuzzymbs.mbs.planar.kernels import failed_before, live_states, plus_dot
 from fuzzymbs.mbs.spatial.elements import (
     BUSHING,
     CONTACT,
@@ -30,15 +30,12 @@ def markers_at(wanted, states, layout, data, out):
     bodies, markers = layout[0], layout[1]
     nq = layout[4][0]
     state = np.empty((6, 3))
-    for s in range(states.shape[0]):
-        for i in range(states.shape[1]):
-            if failed_before(states, s, i, out):
-                continue
-            x = states[s, i]
-            for w in range(wanted.size):
-                marker_state(wanted[w], markers, bodies, data[s], x[:nq], x[nq:], state)
-                out[s, i, w, :3] = state[0]
-                out[s, i, w, 3:] = state[1]
+    for s, i in live_states(states, out):
+        x = states[s, i]
+        for w in range(wanted.size):
+            marker_state(wanted[w], markers, bodies, data[s], x[:nq], x[nq:], state)
+            out[s, i, w, :3] = state[0]
+            out[s, i, w, 3:] = state[1]
 
 
 @nb.njit(cache=True)
@@ -171,15 +168,12 @@ def element_forces_at(element, times, states, layout, data, user_force, out):
     sj = np.empty((6, 3))
     load = np.empty(6)
     point = np.empty(CONTACT_POINT_SIZE)
-    for s in range(states.shape[0]):
-        for i in range(states.shape[1]):
-            if failed_before(states, s, i, out):
-                continue
-            x = states[s, i]
-            element_force(
-                element, times[i], layout, data[s], x[:nq], x[nq:], user_force, si, sj, load, point
-            )
-            out[s, i, :] = load
+    for s, i in live_states(states, out):
+        x = states[s, i]
+        element_force(
+            element, times[i], layout, data[s], x[:nq], x[nq:], user_force, si, sj, load, point
+        )
+        out[s, i, :] = load
 
 
 @nb.njit(cache=True)
@@ -195,25 +189,18 @@ def marker_accelerations_at(marker, states, solved, layout, data, out):
     unit = np.eye(3)
     rot = np.empty((3, 3))
     body = markers[marker, 0]
-    for s in range(states.shape[0]):
-        for i in range(states.shape[1]):
-            x = states[s, i]
-            if not math.isfinite(x[0]) or not math.isfinite(solved[s, i, 0]):
-                out[s, i, :] = np.nan
-                continue
-            q = x[:nq]
-            marker_state(marker, markers, bodies, data[s], q, x[nq:], state)
+    for s, i in live_states(solved, out):  # NaN where the state is, or unsolved
+        x = states[s, i]
+        q = x[:nq]
+        marker_state(marker, markers, bodies, data[s], q, x[nq:], state)
+        for c in range(3):
+            row[:] = 0.0
+            add_point_row(marker, markers, bodies, data[s], q, state[3].copy(), unit[c], row)
+            out[s, i, c] = plus_dot(state[2, c], row, solved[s, i])
+            out[s, i, 3 + c] = 0.0
+        if body >= 0:
+            rotation(q, bodies[body, 0] + 3, rot)
+            vo = bodies[body, 1]
             for c in range(3):
-                row[:] = 0.0
-                add_point_row(marker, markers, bodies, data[s], q, state[3].copy(), unit[c], row)
-                acc = state[2, c]
-                for k in range(n):
-                    acc += row[k] * solved[s, i, k]
-                out[s, i, c] = acc
-                out[s, i, 3 + c] = 0.0
-            if body >= 0:
-                rotation(q, bodies[body, 0] + 3, rot)
-                vo = bodies[body, 1]
-                for c in range(3):
-                    for k in range(3):
-                        out[s, i, 3 + c] += rot[c, k] * solved[s, i, vo + 3 + k]
+                for k in range(3):
+                    out[s, i, 3 + c] += rot[c, k] * solved[s, i, vo + 3 + k]

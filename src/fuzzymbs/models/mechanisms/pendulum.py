@@ -10,12 +10,13 @@ checked against closed forms in tests/models/test_mechanisms.py.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from fuzzymbs.fe.beam import PlanarBeam
 from fuzzymbs.mbs.mechanism_model import MechanismModel
 from fuzzymbs.mbs.planar import FlexibleBody, Mechanism, Revolute, ground
-from fuzzymbs.models.mechanisms.outputs import deflection_in_frame
+from fuzzymbs.models.mechanisms.outputs import beam_model, deflection_in_frame, reduced_beam
 
 #: Default parameters (SI): a 1 m steel strip of 30 mm x 3 mm released at 60 degrees.
 PARAMETERS = {
@@ -35,14 +36,8 @@ ELEMENTS = 16
 
 def build(p: dict[str, float], modes: int = MODES, elements: int = ELEMENTS) -> Mechanism:
     """The pendulum for one parameter set ``p`` (see :data:`PARAMETERS`)."""
-    beam = PlanarBeam(
-        length=p["length"],
-        youngs_modulus=p["youngs_modulus"],
-        density=p["density"],
-        area=p["width"] * p["height"],
-        second_moment=p["width"] * p["height"] ** 3 / 12.0,
-        elements=elements,
-    ).reduce(modes)
+    width, height = p["width"], p["height"]
+    beam = reduced_beam(p, width * height, width * height**3 / 12.0, modes, elements)
     body = FlexibleBody("beam", beam=beam, angle=-np.pi / 2 + p["initial_angle"])
     mechanism = Mechanism(gravity=(0.0, -GRAVITY))
     # the ground marker points down: the joint angle is the angle from the vertical
@@ -57,25 +52,17 @@ def joint_angle(result) -> np.ndarray:
     return root[..., 2] + np.pi / 2
 
 
-def flexible_pendulum(
-    duration: float = 4.0,
-    time_steps: int = 401,
-    modes: int = MODES,
-    elements: int = ELEMENTS,
-    rtol: float | None = None,
-    atol: float | None = None,
-    integrator: str = "auto",
-) -> MechanismModel:
-    """The registered ``flexible-pendulum`` model."""
-    tolerances = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
-    return MechanismModel(
-        lambda p: build(p, modes, elements),
-        parameters=PARAMETERS,
-        outputs={
+def flexible_pendulum(duration: float = 4.0, **options: Any) -> MechanismModel:
+    """The registered ``flexible-pendulum`` model: :func:`build` and its outputs over
+    ``duration`` [s]; ``options`` (time steps, modes, elements, tolerances, integrator) as
+    for :func:`~fuzzymbs.models.mechanisms.outputs.beam_model`."""
+    return beam_model(
+        build,
+        PARAMETERS,
+        {
             "angle": (joint_angle, "rad"),
             "tip_deflection": (lambda r: deflection_in_frame(r, "beam", "tip"), "m"),
         },
-        times=np.linspace(0.0, duration, int(time_steps)),
-        method=integrator,
-        **tolerances,
+        duration,
+        **options,
     )

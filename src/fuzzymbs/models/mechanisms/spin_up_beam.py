@@ -11,12 +11,11 @@ in tests/models/test_mechanisms.py.
 
 from __future__ import annotations
 
-import numpy as np
+from typing import Any
 
-from fuzzymbs.fe.beam import PlanarBeam
 from fuzzymbs.mbs.mechanism_model import MechanismModel
 from fuzzymbs.mbs.planar import FlexibleBody, Mechanism, Revolute, SpinUp, ground
-from fuzzymbs.models.mechanisms.outputs import deflection_in_frame
+from fuzzymbs.models.mechanisms.outputs import beam_model, deflection_in_frame, reduced_beam
 
 #: Kane, Ryan & Banerjee's data (SI) at the speed 4 rad/s of their figures.
 PARAMETERS = {
@@ -35,14 +34,7 @@ ELEMENTS = 16
 
 def build(p: dict[str, float], modes: int = MODES, elements: int = ELEMENTS) -> Mechanism:
     """The spin-up beam for one parameter set ``p`` (see :data:`PARAMETERS`)."""
-    beam = PlanarBeam(
-        length=p["length"],
-        youngs_modulus=p["youngs_modulus"],
-        density=p["density"],
-        area=p["area"],
-        second_moment=p["second_moment"],
-        elements=elements,
-    ).reduce(modes)
+    beam = reduced_beam(p, p["area"], p["second_moment"], modes, elements)
     body = FlexibleBody("beam", beam=beam)
     hub = Revolute(
         ground.point(), body.node(0), drive=SpinUp(p["spin_speed"], p["spin_up_time"]), name="hub"
@@ -52,22 +44,14 @@ def build(p: dict[str, float], modes: int = MODES, elements: int = ELEMENTS) -> 
     return mechanism
 
 
-def spin_up_beam(
-    duration: float = 20.0,
-    time_steps: int = 401,
-    modes: int = MODES,
-    elements: int = ELEMENTS,
-    rtol: float | None = None,
-    atol: float | None = None,
-    integrator: str = "auto",
-) -> MechanismModel:
-    """The registered ``spin-up-beam`` model."""
-    tolerances = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
-    return MechanismModel(
-        lambda p: build(p, modes, elements),
-        parameters=PARAMETERS,
-        outputs={"tip_deflection": (lambda r: deflection_in_frame(r, "beam", "tip"), "m")},
-        times=np.linspace(0.0, duration, int(time_steps)),
-        method=integrator,
-        **tolerances,
+def spin_up_beam(duration: float = 20.0, **options: Any) -> MechanismModel:
+    """The registered ``spin-up-beam`` model: :func:`build` and the tip's deflection over
+    ``duration`` [s]; ``options`` (time steps, modes, elements, tolerances, integrator) as
+    for :func:`~fuzzymbs.models.mechanisms.outputs.beam_model`."""
+    return beam_model(
+        build,
+        PARAMETERS,
+        {"tip_deflection": (lambda r: deflection_in_frame(r, "beam", "tip"), "m")},
+        duration,
+        **options,
     )
