@@ -4,7 +4,7 @@ Every function takes the result dataset (layout in :mod:`fuzzymbs.study.result`)
 and returns a :class:`matplotlib.figure.Figure` built without pyplot (no GUI
 backend, safe in worker threads). :func:`write_plots` writes the standard set
 (:func:`standard_figures`) as PNG, and as PDF or SVG on request, drawn side by side
-on an executor's workers when it is given one (:func:`start_plots`).
+on an executor's workers when it is given one.
 """
 
 from __future__ import annotations
@@ -648,6 +648,7 @@ def write_plots(
     formats: Sequence[str] = DEFAULT_FORMATS,
     cache: str | Path | None = None,
     executor: Executor | None = None,
+    meanwhile: Callable[[], Any] | None = None,
 ) -> list[Path]:
     """Write the standard plots of a result (:func:`standard_figures`) into ``directory``.
 
@@ -669,26 +670,15 @@ def write_plots(
     executor : concurrent.futures.Executor, optional
         Draws the figures side by side (:func:`render_figure` tasks, e.g. on the
         workers that ran the study); None: one after another in this process.
+    meanwhile : callable, optional
+        Called once the figures are handed to ``executor``, before waiting for
+        them (the study pipeline writes ``result.nc`` while the workers draw).
 
     Returns
     -------
     list of Path
         The files written.
     """
-    return start_plots(dataset, directory, membership, formats, cache, executor).wait()
-
-
-def start_plots(
-    dataset: xarray.Dataset,
-    directory: str | Path,
-    membership: Sequence[Mapping[str, Any]] | None = None,
-    formats: Sequence[str] = DEFAULT_FORMATS,
-    cache: str | Path | None = None,
-    executor: Executor | None = None,
-) -> PendingPlots:
-    """:func:`write_plots` in two steps: the figures are submitted to ``executor`` here,
-    and :meth:`PendingPlots.wait` writes their files, so the caller can work meanwhile
-    (the study pipeline writes ``result.nc`` while the workers draw)."""
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise InvalidParameterError(f"plot formats {unknown}; allowed: {', '.join(FORMATS)}")
@@ -713,7 +703,9 @@ def start_plots(
             except Exception as exc:  # e.g. a broken pool: drawn here instead
                 logger.warning("figure %s drawn here: %s", figure.stem, exc)
         jobs.append(_FigureJob(figure, kept, missing, job))
-    return PendingPlots(directory, formats, None if cache is None else Path(cache), jobs)
+    if meanwhile is not None:
+        meanwhile()
+    return _write_files(directory, formats, None if cache is None else Path(cache), jobs)
 
 
 @dataclass
@@ -732,33 +724,27 @@ class _FigureJob:
         return render_figure(self.figure, self.missing) if self.missing else {}
 
 
-class PendingPlots:
-    """Figures being drawn by :func:`start_plots`; :meth:`wait` writes their files."""
+def _write_files(
+    directory: Path, formats: Sequence[str], cache: Path | None, jobs: list[_FigureJob]
+) -> list[Path]:
+    """Wait for the figures of ``jobs`` and write their files (and the cache's)."""
+    from fuzzymbs.files import write_bytes_atomically
 
-    def __init__(
-        self, directory: Path, formats: Sequence[str], cache: Path | None, jobs: list[_FigureJob]
-    ) -> None:
-        self.directory, self.formats, self.cache, self.jobs = directory, formats, cache, jobs
-
-    def wait(self) -> list[Path]:
-        """Wait for the figures and write their files (and the cache's); the files."""
-        from fuzzymbs.files import write_bytes_atomically
-
-        written = []
-        for job in self.jobs:
-            files = job.files()
-            for extension in self.formats:
-                target = _target(self.directory, job.figure.stem, extension)
-                if extension in files:
-                    write_bytes_atomically(target, files[extension])
-                    if extension in job.kept:
-                        write_bytes_atomically(job.kept[extension], files[extension])
-                else:
-                    write_bytes_atomically(target, job.kept[extension].read_bytes())
-                written.append(target)
-        if self.cache is not None:
-            used = {path.name for job in self.jobs for path in job.kept.values()}
-            for entry in self.cache.iterdir():
-                if entry.is_file() and entry.name not in used and not entry.name.startswith("."):
-                    entry.unlink(missing_ok=True)
-        return written
+    written = []
+    for job in jobs:
+        files = job.files()
+        for extension in formats:
+            target = _target(directory, job.figure.stem, extension)
+            if extension in files:
+                write_bytes_atomically(target, files[extension])
+                if extension in job.kept:
+                    write_bytes_atomically(job.kept[extension], files[extension])
+            else:
+                write_bytes_atomically(target, job.kept[extension].read_bytes())
+            written.append(target)
+    if cache is not None:
+        used = {path.name for job in jobs for path in job.kept.values()}
+        for entry in cache.iterdir():
+            if entry.is_file() and entry.name not in used and not entry.name.startswith("."):
+                entry.unlink(missing_ok=True)
+    return written

@@ -28,6 +28,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -306,20 +307,23 @@ def _run_locked(
         if command:
             model = str(result.dataset.attrs.get("model", ""))
             result.dataset.attrs["command"] = reproducible_command(command, model)
-        drawing = None
+        write_result = partial(result.to_netcdf, result_path)
+        written = []
         if plots:
-            from fuzzymbs.plot import start_plots
+            from fuzzymbs.plot import write_plots
 
-            # a rerun whose result is unchanged (every run resumed) copies its figures
-            drawing = start_plots(
+            # a rerun whose result is unchanged (every run resumed) copies its figures;
+            # result.nc is written while the workers draw
+            written = write_plots(
                 result.dataset,
                 out,
                 formats=formats,
                 cache=out / FIGURE_CACHE,
                 executor=_figure_executor(work),
+                meanwhile=write_result,
             )
-        result.to_netcdf(result_path)  # while the workers draw
-        written = [] if drawing is None else drawing.wait()
+        else:
+            write_result()
         report_path = None
         if report:
             from fuzzymbs.report import REPORT_FILE, write_report
