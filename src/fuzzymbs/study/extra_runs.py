@@ -48,6 +48,7 @@ from fuzzymbs.study.integration_check import (
     run_cut_bounds,
 )
 from fuzzymbs.study.method_check import ValidationRuns
+from fuzzymbs.study.options import StudyOptions
 from fuzzymbs.study.planning import AUTO
 from fuzzymbs.study.store import open_chunks
 from fuzzymbs.study.streaming import (
@@ -95,6 +96,7 @@ class StudyRuns:
     # set by Study.__init__ / Study.run
     model: Any
     name: str
+    options: StudyOptions
 
     def _screening_identity(self) -> dict[str, Any]:
         """What a screening store must match: the screening points and the model.
@@ -115,7 +117,7 @@ class StudyRuns:
     def _choose_integration(self, progress: bool = False) -> None:
         """Once per study: the model's integrator tolerance chosen for the cut widths
         (``progress``: a progress line while the pilot and reference runs go on)."""
-        if not self.choose_integration or self.integration_choice is not None:
+        if not self.options.choose_integration or self.integration_choice is not None:
             return
         if not getattr(self.model, "scalable_tolerance", False):
             return  # choose_tolerance leaves such a model as it is, and records nothing
@@ -129,8 +131,8 @@ class StudyRuns:
                 plan.cut_upper,
                 plan.samples[plan.nominal_index],
                 self.output_names,
-                self.integration_tolerance,
-                self.shared_steps,
+                self.options.integration_tolerance,
+                self.options.shared_steps,
                 self._first_points(),
             )
 
@@ -168,8 +170,8 @@ class StudyRuns:
         that certifies itself (``supports_validation`` False: adaptive)."""
         if not self.plan.scheme.supports_validation:
             return 0
-        if self.validation_runs is not None:
-            return self.validation_runs
+        if self.options.validation_runs is not None:
+            return self.options.validation_runs
         return default_validation_count(len(self.plan), len(self.plan.names))
 
     def _validate(
@@ -256,8 +258,8 @@ class StudyRuns:
             outcome,
             failed,
             reasons,
-            self.method_tolerance,
-            self.widen_with_validation,
+            self.options.method_tolerance,
+            self.options.widen_with_validation,
             evaluated=int(evaluated),
             reused=int(reused),
         )
@@ -358,7 +360,7 @@ class StudyRuns:
         include_nominal = not getattr(self.model, "shares_steps", False)
         if outputs is None:
             samples, bounds = integration_inputs(
-                feed, self.output_names, failed, self.integration_runs, include_nominal
+                feed, self.output_names, failed, self.options.integration_runs, include_nominal
             )
         else:
             plan = self.plan
@@ -366,7 +368,7 @@ class StudyRuns:
                 plan.samples, outputs, plan.cut_lower, plan.cut_upper, failed
             )
             samples = choose_samples(
-                tallies, plan.nominal_index, failed, self.integration_runs, include_nominal
+                tallies, plan.nominal_index, failed, self.options.integration_runs, include_nominal
             )
             bounds = {name: run_bounds.get(name) for name in self.output_names}
         label = f"{self.name} (time-integration check: {len(samples)} samples, tolerance / 10)"
@@ -379,7 +381,7 @@ class StudyRuns:
                 feed.nominal(),
                 self.plan.nominal_index,
                 self.plan.levels,
-                self.integration_tolerance,
+                self.options.integration_tolerance,
             )
 
     def screen(
@@ -482,7 +484,7 @@ class StudyRuns:
             warnings.simplefilter("always")
             try:
                 report = nonmonotonic_parameters(
-                    screening, outputs, self.screening_rtol, failed=failed
+                    screening, outputs, self.options.screening_rtol, failed=failed
                 )
             except IncompleteResultError as exc:
                 raise IncompleteResultError(
@@ -502,7 +504,7 @@ class StudyRuns:
             method="extended",
             levels=self._levels,
             nonmonotonic=report["nonmonotonic"],
-            max_runs=self._max_runs,
+            max_runs=self.options.max_runs,
         )
         self.screening = report
         logger.info(
