@@ -221,7 +221,8 @@ def run(
             "--max-runs",
             min=1,
             help="Refuse a plan needing more model runs than this, before it is built "
-            "(default: the file's [study] max_runs, else 1000000).",
+            "(default: the file's [study] max_runs, else the study options' default; "
+            "fuzzymbs info lists it).",
         ),
     ] = None,
     quiet: QuietOption = False,
@@ -420,12 +421,14 @@ def info(
         str | None, typer.Argument(help="Show only this model, or an FMU file's variables.")
     ] = None,
 ) -> None:
-    """List the registered models (parameters with units, outputs, options), methods, demos.
+    """List the registered models (parameters with units, outputs, options), methods, the
+    study options, demos.
 
     With a .fmu file: its settable real parameters and its outputs, with units.
     """
     from fuzzymbs.errors import FuzzymbsError
     from fuzzymbs.fuzzy.methods import METHODS
+    from fuzzymbs.study.options import StudyOptions
     from fuzzymbs.study.pipeline import demo_names
     from fuzzymbs.study.registry import available_models, get_model
 
@@ -465,6 +468,11 @@ def info(
             f"    {declared.name} ({declared.default_text()}): {declared.help}"
             for declared in method.options()
         ]
+    lines.append("Study options ([study] keys of a study file, keywords of Study):")
+    lines += [
+        f"  {declared.name} ({declared.default_text()}): {declared.help}"
+        for declared in StudyOptions.options()
+    ]
     lines.append("Executors: inline, processes[:N], dask://HOST:PORT")
     lines.append(f"Demos: {', '.join(demo_names()) or '(none)'}")
     typer.echo("\n".join(lines))

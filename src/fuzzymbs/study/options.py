@@ -123,7 +123,7 @@ class StudyOptions(Declared):
         "where its rounds stop)",
         must="a positive number",
         minimum=0.0,
-        default_text=f"{DEFAULT_METHOD_TOLERANCE:g} (method adaptive: its own)",
+        default_text=f"{DEFAULT_METHOD_TOLERANCE:g}; method adaptive: its own",
     )
     widen_with_validation: bool = option(
         False,

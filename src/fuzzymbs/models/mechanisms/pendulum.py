@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzymbs.fe.beam import PlanarBeam
-from fuzzymbs.mbs.mechanism_model import MechanismModel
+from fuzzymbs.mbs.mechanism_model import ENGINE_TOLERANCE, MechanismModel
 from fuzzymbs.mbs.planar import FlexibleBody, Mechanism, Revolute, ground
 from fuzzymbs.models.mechanisms.outputs import deflection_in_frame
 
@@ -67,7 +67,6 @@ def flexible_pendulum(
     integrator: str = "auto",
 ) -> MechanismModel:
     """The registered ``flexible-pendulum`` model."""
-    tolerances = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
     return MechanismModel(
         lambda p: build(p, modes, elements),
         parameters=PARAMETERS,
@@ -77,5 +76,5 @@ def flexible_pendulum(
         },
         times=np.linspace(0.0, duration, int(time_steps)),
         method=integrator,
-        **tolerances,
+        tolerance=ENGINE_TOLERANCE.with_values(rtol, atol),
     )

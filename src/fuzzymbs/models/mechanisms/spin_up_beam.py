@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzymbs.fe.beam import PlanarBeam
-from fuzzymbs.mbs.mechanism_model import MechanismModel
+from fuzzymbs.mbs.mechanism_model import ENGINE_TOLERANCE, MechanismModel
 from fuzzymbs.mbs.planar import FlexibleBody, Mechanism, Revolute, SpinUp, ground
 from fuzzymbs.models.mechanisms.outputs import deflection_in_frame
 
@@ -62,12 +62,11 @@ def spin_up_beam(
     integrator: str = "auto",
 ) -> MechanismModel:
     """The registered ``spin-up-beam`` model."""
-    tolerances = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
     return MechanismModel(
         lambda p: build(p, modes, elements),
         parameters=PARAMETERS,
         outputs={"tip_deflection": (lambda r: deflection_in_frame(r, "beam", "tip"), "m")},
         times=np.linspace(0.0, duration, int(time_steps)),
         method=integrator,
-        **tolerances,
+        tolerance=ENGINE_TOLERANCE.with_values(rtol, atol),
     )
