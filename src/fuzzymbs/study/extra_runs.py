@@ -9,6 +9,7 @@ these runs is an idea of its own beside the plan's runs.
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import logging
 import math
@@ -97,6 +98,7 @@ class StudyRuns:
     model: Any
     name: str
     options: StudyOptions
+    run: Callable[..., Any]  # Study.run: its keywords are screen's too
 
     def _screening_identity(self) -> dict[str, Any]:
         """What a screening store must match: the screening points and the model.
@@ -326,17 +328,11 @@ class StudyRuns:
             drain()
 
         drain()
-        evaluated = evaluate_chunks(
-            self.model,
-            self.outputs,
-            lambda start, stop: self._columns(table, start, stop),
-            count,
-            missing,
-            size,
-            results,
-            chunk_store,
+        evaluated = self._evaluate_rows(
+            table,
+            (chunk_store, size, results, missing, reused),
             work,
-            progress=(progress, reused, f"{self.name} (validation)"),
+            (progress, "validation"),
             fail_fast=None,
             on_chunk=arrived,
             may_submit=lambda: len(waiting) < BACKLOG_CHUNKS,
@@ -384,16 +380,7 @@ class StudyRuns:
                 self.options.integration_tolerance,
             )
 
-    def screen(
-        self,
-        executor: Any = None,
-        chunk_size: int | None = None,
-        store: str | Path | None = None,
-        resume: bool = True,
-        progress: bool = False,
-        on_failure: str = "raise",
-        timeout: float | None = None,
-    ) -> dict[str, Any]:
+    def screen(self, **settings: Any) -> dict[str, Any]:
         """Screen a ``nonmonotonic="auto"`` study and build its extended plan.
 
         :meth:`run` does this itself; call it to see the detected parameters
@@ -403,7 +390,14 @@ class StudyRuns:
         ``store``, the chunks go to ``STORE/screening/`` and a rerun reuses
         them. Failed screening samples are left out of the decision (listed
         in the report), except with ``on_failure="fail-fast"``, which raises.
-        A second call returns the first report. ``timeout``: as in :meth:`run`.
+        A second call returns the first report.
+
+        Parameters
+        ----------
+        **settings
+            How to run, the keywords of :meth:`run` (``executor``, ``chunk_size``,
+            ``store``, ``resume``, ``progress``, ``on_failure``, ``timeout``; one
+            declaration for both), ``progress`` False unless given.
 
         Returns
         -------
@@ -429,12 +423,19 @@ class StudyRuns:
                 f"{self.plan.method!r}); only a study with nonmonotonic={AUTO!r} is screened"
             )
         if self.screening is None:
-            check_run_settings(on_failure, chunk_size, timeout)
-            size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
+            # run's keywords and defaults (a keyword run does not take: a TypeError naming it)
+            bound = inspect.signature(self.run).bind(**{"progress": False, **settings})
+            bound.apply_defaults()
+            given = bound.arguments
+            check_run_settings(given["on_failure"], given["chunk_size"], given["timeout"])
+            size = DEFAULT_CHUNK_SIZE if given["chunk_size"] is None else int(given["chunk_size"])
+            store = given["store"]
             code = self.code_version() if store is not None else None
-            work = LazyExecutor(executor, self._check_picklable, timeout)
+            work = LazyExecutor(given["executor"], self._check_picklable, given["timeout"])
             try:
-                self._screen(work, size, store, resume, progress, on_failure, code)
+                self._screen(
+                    work, size, store, given["resume"], given["progress"], given["on_failure"], code
+                )
             finally:
                 work.close()
         assert self.screening is not None
@@ -546,23 +547,50 @@ class StudyRuns:
 
             if results:
                 fail_fast()
-        evaluated = evaluate_chunks(
-            self.model,
-            self.outputs,
-            lambda start, stop: self._columns(table, start, stop),
-            count,
-            missing,
-            size,
-            results,
-            chunk_store,
+        evaluated = self._evaluate_rows(
+            table,
+            (chunk_store, size, results, missing, reused),
             work,
-            progress=(progress, reused, f"{self.name} ({labels[0]})"),
+            (progress, labels[0]),
             fail_fast=fail_fast,
         )
         ordered = [results[i] for i in range(chunk_count)]
         outputs, failed, reasons = assemble_chunks(ordered, count, self._output_check, labels[1])
         self._adopt_coords(ordered)
         return outputs, failed, reasons, int(evaluated), int(reused)
+
+    def _evaluate_rows(
+        self,
+        table: np.ndarray,
+        chunks: tuple[Any, int, dict[int, Any], list[int], int],
+        work: LazyExecutor,
+        shown: tuple[bool, str | None],
+        **hooks: Any,
+    ) -> int:
+        """Evaluate the missing chunks of a parameter table (the plan's samples, screening
+        or validation points) on ``work``: :func:`~fuzzymbs.study.execution.evaluate_chunks`
+        with the study's model, outputs and columns; returns how many were evaluated.
+
+        ``chunks``: the store, chunk size, chunks at hand, missing chunks and those reused
+        (from :func:`~fuzzymbs.study.store.open_chunks`); ``shown``: a progress bar and its
+        label; ``hooks``: ``fail_fast``, ``on_chunk``, ``may_submit``.
+        """
+        chunk_store, size, results, missing, reused = chunks
+        progress, label = shown
+        name = self.name if label is None else f"{self.name} ({label})"
+        return evaluate_chunks(
+            self.model,
+            self.outputs,
+            lambda start, stop: self._columns(table, start, stop),
+            len(table),
+            missing,
+            size,
+            results,
+            chunk_store,
+            work,
+            progress=(progress, reused, name),
+            **hooks,
+        )
 
     def _screening_failures(self, failed: np.ndarray, reasons: np.ndarray) -> str:
         """E.g. "failed screening samples: row 3 (x1=1.5): diverged; ..." (first five)."""

@@ -48,7 +48,6 @@ from fuzzymbs.study.execution import (
     ON_FAILURE,
     LazyExecutor,
     check_run_settings,
-    evaluate_chunks,
 )
 from fuzzymbs.study.extra_runs import StudyRuns
 from fuzzymbs.study.integration_check import ToleranceChoice
@@ -427,17 +426,11 @@ class Study(StudyRuns):
             )
             if on_failure == "fail-fast":
                 self._raise_if_failed(results, during=True)
-            evaluated = evaluate_chunks(
-                self.model,
-                self.outputs,
-                self.columns,
-                count,
-                missing,
-                size,
-                results,
-                chunk_store,
+            evaluated = self._evaluate_rows(
+                self.plan.samples,
+                (chunk_store, size, results, missing, reused),
                 work,
-                progress=(progress, reused, self.name),
+                (progress, None),
                 fail_fast=(
                     (lambda: self._raise_if_failed(results, during=True))
                     if on_failure == "fail-fast"
