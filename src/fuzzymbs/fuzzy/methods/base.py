@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidPlanError
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
-from fuzzymbs.options import Declared, OptionInfo, option, option_type
+from fuzzymbs.options import Declared, OptionInfo, option
 
 __all__ = [
     "CountRequest",
@@ -31,7 +31,6 @@ __all__ = [
     "OptionInfo",
     "Sampling",
     "option",
-    "option_type",
     "to_parameter_space",
 ]
 
