@@ -150,9 +150,33 @@ def _command(*arguments: str, **options: object) -> str:
         flag = "--" + name.replace("_", "-")
         if value is True:
             words.append(flag)
+        elif isinstance(value, list):  # a repeatable option
+            for item in value:
+                words += [flag, str(item)]
         elif value is not None and value is not False:
             words += [flag, str(value)]
     return shlex.join(words)
+
+
+def _study_options(items: list[str] | None) -> dict[str, object]:
+    """``--option NAME=VALUE`` as ``{NAME: VALUE}``, each VALUE read as a TOML value (as
+    under ``[study]``); the names and values are checked by the study options'
+    declaration when the file is loaded."""
+    import tomllib
+
+    given: dict[str, object] = {}
+    for item in items or []:
+        name, equals, text = item.partition("=")
+        if not equals or not name.strip():
+            raise _fail(
+                f"--option {item!r}: give NAME=VALUE, e.g. --option validation_runs=0 "
+                "(fuzzymbs info lists the study options)"
+            )
+        try:
+            given[name.strip()] = tomllib.loads(f"value = {text.strip()}")["value"]
+        except tomllib.TOMLDecodeError:
+            raise _fail(f"--option {item!r}: {text!r} is not a TOML value") from None
+    return given
 
 
 QuietOption = Annotated[
@@ -225,6 +249,14 @@ def run(
             "fuzzymbs info lists it).",
         ),
     ] = None,
+    option: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--option",
+            help="A study option NAME=VALUE overriding the file's [study] one, e.g. "
+            "validation_runs=0 (fuzzymbs info lists them); repeatable.",
+        ),
+    ] = None,
     quiet: QuietOption = False,
     verbose: VerboseOption = False,
 ) -> None:
@@ -240,9 +272,11 @@ def run(
     if on_failure is not None and on_failure not in ON_FAILURE:
         raise _fail(f"--on-failure {on_failure!r}; allowed: {', '.join(ON_FAILURE)}")
     formats = _formats(fmt)
+    study_options = _study_options(option)
     _run_one(
         study_file,
         out,
+        study_options=study_options,
         executor=executor,
         chunk_size=chunk_size,
         on_failure=on_failure,
@@ -264,6 +298,7 @@ def run(
             on_failure=on_failure,
             allow_code=allow_code,
             max_runs=max_runs,
+            option=option,
         ),
     )
 

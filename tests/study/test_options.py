@@ -134,3 +134,26 @@ def test_the_defaults_that_depend_on_the_method_are_filled_in():
     auto = Study(product, NUMBERS, method="extended", nonmonotonic="auto")
     assert auto.options.screening_rtol == pytest.approx(1e-6)
     assert np.isfinite(auto.options.screening_rtol)
+
+
+def test_the_command_line_sets_any_option_by_name(tmp_path):
+    path = tmp_path / "study.toml"
+    path.write_text(
+        '[study]\nvalidation_runs = 7\n[model]\nname = "product"\n'
+        '[parameters.x1]\ntype = "triangular"\nmodal = 2.0\nspread = 0.1\n'
+    )
+    out = tmp_path / "out"
+    arguments = ["run", str(path), "--out", str(out), "--no-plots", "--no-report", "-q"]
+    given = ["--option", "validation_runs=0", "--option", "method_tolerance = 0.05"]
+    result = CliRunner().invoke(app, [*arguments, *given])
+    assert result.exit_code == 0, result.output
+    import xarray as xr
+
+    with xr.open_dataset(out / "result.nc") as dataset:
+        assert "validation_runs" not in dataset.attrs  # the check is off
+        assert "--option validation_runs=0" in dataset.attrs["command"]
+    refused = CliRunner().invoke(app, [*arguments, "--option", "validation_runz=0"])
+    assert refused.exit_code == 1
+    assert "unknown study option(s) 'validation_runz'" in refused.output
+    malformed = CliRunner().invoke(app, [*arguments, "--option", "validation_runs"])
+    assert malformed.exit_code == 1 and "give NAME=VALUE" in malformed.output

@@ -23,6 +23,7 @@ from __future__ import annotations
 import itertools
 import math
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -389,6 +390,7 @@ def load_study_file(
     allow_code: bool = False,
     max_runs: int | None = None,
     file_executor: bool = True,
+    study_options: Mapping[str, Any] | None = None,
 ) -> StudyDefinition:
     """Read, validate and resolve a study file.
 
@@ -405,6 +407,9 @@ def load_study_file(
     file_executor : bool
         The file's ``[run] executor`` is used (False: the caller gives its own,
         so a Dask address in the file is neither checked nor used).
+    study_options : mapping, optional
+        Study options by name overriding the file's ``[study]`` ones
+        (``fuzzymbs run --option NAME=VALUE``; :class:`~fuzzymbs.study.options.StudyOptions`).
 
     Returns
     -------
@@ -461,6 +466,7 @@ def load_study_file(
             **{key: getattr(parsed.study, key) for key in METHOD_OPTION_KEYS},
         )
         given = {item.name: getattr(parsed.study, item.name) for item in StudyOptions.options()}
+        given.update(study_options or {})  # the command line's --option NAME=VALUE
         if max_runs is not None:  # the command line's --max-runs
             given["max_runs"] = max_runs
         study = Study(
@@ -471,7 +477,7 @@ def load_study_file(
             outputs=parsed.study.outputs,
             model_options=options,
             nonmonotonic="auto" if auto else None,
-            options=StudyOptions(**given),
+            options=StudyOptions.given(values=given),
             name=name,
             description=parsed.study.description,
         )
