@@ -433,9 +433,8 @@ class StudyRuns:
             code = self.code_version() if store is not None else None
             work = LazyExecutor(given["executor"], self._check_picklable, given["timeout"])
             try:
-                self._screen(
-                    work, size, store, given["resume"], given["progress"], given["on_failure"], code
-                )
+                settings = (work, size, given["resume"], given["progress"], code)
+                self._screen(settings, store, given["on_failure"])
             finally:
                 work.close()
         assert self.screening is not None
@@ -443,15 +442,12 @@ class StudyRuns:
 
     def _screen(
         self,
-        work: LazyExecutor,
-        size: int,
+        settings: tuple[LazyExecutor, int, bool, bool, dict[str, Any] | None],
         store: str | Path | None,
-        resume: bool,
-        progress: bool,
         on_failure: str,
-        code: dict[str, Any] | None,
     ) -> None:
-        """Evaluate the screening samples, decide, and build the extended plan."""
+        """Evaluate the screening samples, decide, and build the extended plan
+        (``settings``: executor, chunk size, resume, progress, code version)."""
         screening = self._screening_samples
         count = len(screening.samples)
 
@@ -467,7 +463,7 @@ class StudyRuns:
             self._screening_identity(),
             None if store is None else Path(store) / SCREENING_FOLDER,
             ("screening", "the screening"),
-            (work, size, resume, progress, code),
+            settings,
             stop_at_failure if on_failure == "fail-fast" else None,
         )
         logger.info(

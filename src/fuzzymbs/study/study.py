@@ -392,16 +392,12 @@ class Study(StudyRuns):
         work = LazyExecutor(executor, self._check_picklable, timeout)
         try:
             if self._plan is None:
-                self._screen(work, requested_size, store, resume, progress, on_failure, code)
+                self._screen((work, requested_size, resume, progress, code), store, on_failure)
             self._choose_integration(progress)
             if self.plan.scheme.runs_in_rounds:
                 return self._run_in_rounds(
-                    work,
-                    requested_size,
+                    (work, requested_size, resume, progress, code),
                     store,
-                    resume,
-                    progress,
-                    code,
                     keep_raw,
                     on_failure,
                     started,
@@ -480,20 +476,17 @@ class Study(StudyRuns):
 
     def _run_in_rounds(
         self,
-        work: LazyExecutor,
-        size: int,
+        settings: tuple[LazyExecutor, int, bool, bool, dict[str, Any]],
         store: str | Path | None,
-        resume: bool,
-        progress: bool,
-        code: dict[str, Any],
         keep_raw: bool | None,
         on_failure: str,
         started: float,
     ) -> StudyResult:
         """The rounds of a plan that runs in rounds (:mod:`fuzzymbs.study.adaptive_rounds`),
         then the result; its certification replaces the validation runs of the fixed
-        methods."""
-        outputs, evaluated, reused = run_rounds(self, (work, size, resume, progress, code), store)
+        methods (``settings``: executor, chunk size, resume, progress, code version)."""
+        work, size, _, progress, code = settings
+        outputs, evaluated, reused = run_rounds(self, settings, store)
         plan = self.plan
         count = len(plan)
         failed = np.zeros(count, dtype=bool)
