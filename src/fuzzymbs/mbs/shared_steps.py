@@ -83,7 +83,7 @@ from numpy.typing import NDArray
 
 from fuzzymbs.background import Background
 from fuzzymbs.errors import InvalidParameterError, SimulationDivergedError
-from fuzzymbs.tolerance import Tolerance
+from fuzzymbs.tolerance import Tolerance, tolerance_of
 
 
 class SimulationModel(Protocol):
@@ -301,7 +301,7 @@ def _extrapolated(
     ``y(r) + (y(r) - y(k r)) / (k^q - 1)`` and ``|y(r) - y(k r)| / ((k^q - 1) k^q)``,
     q = ``order``; raises if either run failed."""
     tight, loose = rows
-    ratio = model.settings["tolerance"].tightening
+    ratio = tolerance_of(model).tightening
     _failure(runs, tight, modal, f"at rtol {REFERENCE_RTOL:g} ")
     _failure(runs, loose, modal, f"at rtol {ratio * REFERENCE_RTOL:g} ")
     gain = ratio**order
