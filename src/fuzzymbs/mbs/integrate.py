@@ -420,6 +420,9 @@ MODEL_SETTINGS = (
     "integrator",
     "tolerance",
 )
+#: :func:`simulate`'s parameters, read once (a simulate patched later, in a test or a
+#: benchmark that times its calls, leaves the settings' defaults as they are)
+_SIMULATE_PARAMETERS = inspect.signature(simulate).parameters
 
 
 def model_settings(given: Mapping[str, Any]) -> dict[str, Any]:
@@ -435,7 +438,7 @@ def model_settings(given: Mapping[str, Any]) -> dict[str, Any]:
         raise InvalidParameterError(
             f"unknown setting(s) {unknown}; settings: {', '.join(MODEL_SETTINGS)}"
         )
-    defaults = inspect.signature(simulate).parameters
+    defaults = _SIMULATE_PARAMETERS
     missing = [
         name
         for name in MODEL_SETTINGS
