@@ -25,6 +25,7 @@ from fuzzymbs.mbs.spatial import simulate as simulate_absolute
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import brake_system, build_bodies
 from fuzzymbs.models.brake.geometry import BrakeDesign
+from fuzzymbs.tolerance import Tolerance
 
 
 def main() -> None:
@@ -48,8 +49,7 @@ def main() -> None:
             record_interval=args.t_end / 20,
             outputs=outputs,
             integrator="ros34pw2",
-            rtol=args.rtol,
-            atol=args.rtol * 1e-7,
+            tolerance=Tolerance(args.rtol, args.rtol * 1e-7),
         )
 
     def absolute(times):

@@ -44,6 +44,7 @@ from fuzzymbs.mbs.kernels.rhs import make_work, rhs_sample
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.study.integration_check import peak_relative_deviation
+from fuzzymbs.tolerance import Tolerance
 
 OUTPUTS = {
     "y_lpad": Coordinate("lower_pad", 0),
@@ -189,7 +190,13 @@ def main(quick: bool, figure: Path | None, budget: float) -> dict:
     for dt in RK4_STEPS[:2] if quick else RK4_STEPS:
         batch("RK4", f"dt {dt * 1e9:g} ns", dt=dt)
     for rtol in ROS_RTOLS[:2] if quick else ROS_RTOLS:
-        batch("ROS34PW2", f"rtol {rtol:g}", dt=1e-7, integrator="ros34pw2", rtol=rtol)
+        batch(
+            "ROS34PW2",
+            f"rtol {rtol:g}",
+            dt=1e-7,
+            integrator="ros34pw2",
+            tolerance=Tolerance(rtol),
+        )
 
     # SciPy on the modal sample and a corner of the mu = 0 box
     names = list(samples)

@@ -32,6 +32,7 @@ from bench_common import BENCH_DIR, load_average
 from fuzzymbs.fuzzy.band_scale import width_relative
 from fuzzymbs.mbs.shared_steps import REFERENCE_ORDER, REFERENCE_RTOL, _extrapolated
 from fuzzymbs.models.brake import DiscBrake
+from fuzzymbs.tolerance import Tolerance
 
 OUTPUTS = ("y_lpad", "y_upad", "y_cali")
 RTOLS = (1e-4, 1e-5, 1e-6, 1e-7)
@@ -40,16 +41,18 @@ RTOLS = (1e-4, 1e-5, 1e-6, 1e-7)
 def runs(t_end: float) -> tuple[dict, dict, dict]:
     """Outputs, steps and wall time of the modal sample at each of :data:`RTOLS`."""
     model = DiscBrake(t_end=t_end).simulation
-    model.simulate({}, rtol=1e-2)  # compiled
+    model.simulate({}, tolerance=Tolerance(1e-2))  # compiled
     outputs, steps, seconds = {}, {}, {}
     for rtol in RTOLS:
         start = time.perf_counter()
-        result = model.simulate({}, rtol=rtol)
+        result = model.simulate({}, tolerance=Tolerance(rtol))
         seconds[rtol] = time.perf_counter() - start
         outputs[rtol] = {name: result.outputs[name][0] for name in OUTPUTS}
         steps[rtol] = int(result.step_counts[0].sum())
     start = time.perf_counter()
-    pair = model.simulate({"nodal_force": np.full(2, 16e3)}, rtol=np.array([1e-4, 1e-5]))
+    pair = model.simulate(
+        {"nodal_force": np.full(2, 16e3)}, tolerance=Tolerance(np.array([1e-4, 1e-5]))
+    )
     seconds["pair_block"] = time.perf_counter() - start
     assert all(np.array_equal(pair.outputs[n][1], outputs[1e-5][n]) for n in OUTPUTS), (
         "a lane of the pair differs from its run alone"

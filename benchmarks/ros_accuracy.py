@@ -24,6 +24,7 @@ from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.study.integration_check import peak_relative_deviation
+from fuzzymbs.tolerance import Tolerance
 
 OUTPUTS = {
     "y_lpad": Coordinate("lower_pad", 0),
@@ -92,7 +93,9 @@ def table(t_end: float, rtols: tuple[float, ...] = RTOLS) -> dict:
             "error_y_cali": peak_relative_deviation(y[PADS], reference[PADS]),
         }
         for rtol in rtols:
-            y, seconds, result = run(sample, dt=1e-7, integrator="ros34pw2", rtol=rtol)
+            y, seconds, result = run(
+                sample, dt=1e-7, integrator="ros34pw2", tolerance=Tolerance(rtol)
+            )
             entry[f"ros34pw2_rtol_{rtol:g}"] = {
                 "seconds": round(seconds, 3),
                 "steps_accepted_rejected": result.step_counts[0].tolist(),

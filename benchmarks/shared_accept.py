@@ -38,6 +38,7 @@ KERNEL = Path("fuzzymbs/mbs/kernels/rosenbrock.py")
 CHILD = r"""
 import json, sys, time
 import numpy as np
+from fuzzymbs.tolerance import Tolerance
 from fuzzymbs.models.brake import DiscBrake
 
 model = DiscBrake(rtol=2e-3).simulation
@@ -52,8 +53,8 @@ log = model.simulate(modal, log_steps=True)
 start = time.perf_counter()
 run = model.simulate(corners, step_sequence=log.step_times, jacobian_renewals=log.step_renewals)
 seconds = time.perf_counter() - start
-tight = model.simulate(corners, rtol=1e-6, atol=None)
-tight_modal = model.simulate(modal, rtol=1e-6, atol=None)
+tight = model.simulate(corners, tolerance=Tolerance(1e-6))
+tight_modal = model.simulate(modal, tolerance=Tolerance(1e-6))
 row = {"seconds": seconds, "rejected": run.step_counts[:, 1].tolist()}
 for name in model.outputs:
     corrected = run.outputs[name] + tight_modal.outputs[name][0] - log.outputs[name][0]
@@ -91,6 +92,7 @@ def replay_and_pair() -> dict:
     import numpy as np
 
     from fuzzymbs.models.brake import DiscBrake
+    from fuzzymbs.tolerance import Tolerance
 
     model = DiscBrake(rtol=1e-2).simulation
     modal = {"pad_spring_stiffness": 200e3, "caliper_spring_stiffness": 1e3, "nodal_force": 16e3}
@@ -111,11 +113,11 @@ def replay_and_pair() -> dict:
         }
     two = {name: np.repeat(values, 2) for name, values in one.items()}
     start = time.perf_counter()
-    both = model.simulate(two, rtol=np.array([1e-6, 1e-5]))
+    both = model.simulate(two, tolerance=Tolerance(np.array([1e-6, 1e-5])))
     row["pair_s"] = time.perf_counter() - start
     for rtol, lane in ((1e-6, 0), (1e-5, 1)):
         start = time.perf_counter()
-        alone = model.simulate(one, rtol=rtol)
+        alone = model.simulate(one, tolerance=Tolerance(rtol))
         row[f"alone_{rtol:g}_s"] = time.perf_counter() - start
         row[f"alone_{rtol:g}_identical"] = all(
             np.array_equal(both.outputs[name][lane], alone.outputs[name][0])

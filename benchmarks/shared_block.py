@@ -29,6 +29,7 @@ import json, time
 import numpy as np
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.mbs.integrate import simulate
+from fuzzymbs.tolerance import Tolerance
 
 model = DiscBrake().simulation
 corners = {
@@ -38,7 +39,7 @@ corners = {
 
 
 def run(samples, logged, rtol):
-    settings = {**model.settings, "rtol": rtol}
+    settings = {**model.settings, "tolerance": Tolerance(rtol)}
     best = np.inf
     for _ in range(2):
         start = time.perf_counter()
@@ -50,7 +51,7 @@ def run(samples, logged, rtol):
 
 
 for rtol in (1e-2, 1e-3):
-    settings = {**model.settings, "rtol": rtol}
+    settings = {**model.settings, "tolerance": Tolerance(rtol)}
     logged = simulate(model.compiled, {}, outputs=model.outputs, log_steps=True, **settings)
     block, together = run(corners, logged, rtol)
     alone, equal = [], True

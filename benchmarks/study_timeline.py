@@ -41,7 +41,8 @@ def timeline(study: int, out: Path) -> dict:
     def timed(system, samples=None, **options):
         start = time.perf_counter()
         result = simulate(system, samples, **options)
-        rtol = options.get("rtol")
+        tolerance = options.get("tolerance")
+        rtol = None if tolerance is None else tolerance.rtol
         calls.append(
             {
                 "start_s": round(start - origin, 2),

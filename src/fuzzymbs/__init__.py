@@ -31,7 +31,9 @@ _LAZY: dict[str, str] = {
     "inverse": "fuzzymbs.fuzzy.inverse",
     "InverseResult": "fuzzymbs.fuzzy.inverse",
     "Study": "fuzzymbs.study.study",
+    "StudyOptions": "fuzzymbs.study.options",
     "StudyResult": "fuzzymbs.study.study",
+    "Tolerance": "fuzzymbs.tolerance",
 }
 
 __all__ = [
@@ -43,7 +45,9 @@ __all__ = [
     "PiecewiseLinear",
     "Plan",
     "Study",
+    "StudyOptions",
     "StudyResult",
+    "Tolerance",
     "Trapezoidal",
     "Triangular",
     "__version__",
@@ -63,7 +67,9 @@ if TYPE_CHECKING:  # pragma: no cover - for static analysers only
     )
     from fuzzymbs.fuzzy.retransform import FuzzyResult
     from fuzzymbs.fuzzy.transform import Plan, plan
+    from fuzzymbs.study.options import StudyOptions
     from fuzzymbs.study.study import Study, StudyResult
+    from fuzzymbs.tolerance import Tolerance
 
 
 __getattr__, __dir__ = lazy_exports("fuzzymbs", globals(), _LAZY)

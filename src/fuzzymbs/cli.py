@@ -150,9 +150,33 @@ def _command(*arguments: str, **options: object) -> str:
         flag = "--" + name.replace("_", "-")
         if value is True:
             words.append(flag)
+        elif isinstance(value, list):  # a repeatable option
+            for item in value:
+                words += [flag, str(item)]
         elif value is not None and value is not False:
             words += [flag, str(value)]
     return shlex.join(words)
+
+
+def _study_options(items: list[str] | None) -> dict[str, object]:
+    """``--option NAME=VALUE`` as ``{NAME: VALUE}``, each VALUE read as a TOML value (as
+    under ``[study]``); the names and values are checked by the study options'
+    declaration when the file is loaded."""
+    import tomllib
+
+    given: dict[str, object] = {}
+    for item in items or []:
+        name, equals, text = item.partition("=")
+        if not equals or not name.strip():
+            raise _fail(
+                f"--option {item!r}: give NAME=VALUE, e.g. --option validation_runs=0 "
+                "(fuzzymbs info lists the study options)"
+            )
+        try:
+            given[name.strip()] = tomllib.loads(f"value = {text.strip()}")["value"]
+        except tomllib.TOMLDecodeError:
+            raise _fail(f"--option {item!r}: {text!r} is not a TOML value") from None
+    return given
 
 
 QuietOption = Annotated[
@@ -221,7 +245,16 @@ def run(
             "--max-runs",
             min=1,
             help="Refuse a plan needing more model runs than this, before it is built "
-            "(default: the file's [study] max_runs, else 1000000).",
+            "(default: the file's [study] max_runs, else the study options' default; "
+            "fuzzymbs info lists it).",
+        ),
+    ] = None,
+    option: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--option",
+            help="A study option NAME=VALUE overriding the file's [study] one, e.g. "
+            "validation_runs=0 (fuzzymbs info lists them); repeatable.",
         ),
     ] = None,
     quiet: QuietOption = False,
@@ -239,9 +272,11 @@ def run(
     if on_failure is not None and on_failure not in ON_FAILURE:
         raise _fail(f"--on-failure {on_failure!r}; allowed: {', '.join(ON_FAILURE)}")
     formats = _formats(fmt)
+    study_options = _study_options(option)
     _run_one(
         study_file,
         out,
+        study_options=study_options,
         executor=executor,
         chunk_size=chunk_size,
         on_failure=on_failure,
@@ -263,6 +298,7 @@ def run(
             on_failure=on_failure,
             allow_code=allow_code,
             max_runs=max_runs,
+            option=option,
         ),
     )
 
@@ -420,12 +456,14 @@ def info(
         str | None, typer.Argument(help="Show only this model, or an FMU file's variables.")
     ] = None,
 ) -> None:
-    """List the registered models (parameters with units, outputs, options), methods, demos.
+    """List the registered models (parameters with units, outputs, options), methods, the
+    study options, demos.
 
     With a .fmu file: its settable real parameters and its outputs, with units.
     """
     from fuzzymbs.errors import FuzzymbsError
     from fuzzymbs.fuzzy.methods import METHODS
+    from fuzzymbs.study.options import StudyOptions
     from fuzzymbs.study.pipeline import demo_names
     from fuzzymbs.study.registry import available_models, get_model
 
@@ -465,6 +503,11 @@ def info(
             f"    {declared.name} ({declared.default_text()}): {declared.help}"
             for declared in method.options()
         ]
+    lines.append("Study options ([study] keys of a study file, keywords of Study):")
+    lines += [
+        f"  {declared.name} ({declared.default_text()}): {declared.help}"
+        for declared in StudyOptions.options()
+    ]
     lines.append("Executors: inline, processes[:N], dask://HOST:PORT")
     lines.append(f"Demos: {', '.join(demo_names()) or '(none)'}")
     typer.echo("\n".join(lines))

@@ -117,7 +117,7 @@ def test_ten_thousand_parameters_sparse_level_two_is_refused_before_building():
 def test_a_study_refuses_a_sparse_plan_whose_bounds_cannot_be_searched():
     sixteen = {f"x{i}": Triangular(float(i), i + 1.0, i + 2.0) for i in range(16)}
     with pytest.raises(InvalidPlanError, match=r"at most 15 fuzzy parameters"):
-        build_plan(sixteen, "sparse", 2, None, None, 1, None)
+        build_plan(sixteen, "sparse", 2, None, method_options={"sparse_level": 1})
     built = plan(sixteen, method="sparse", levels=2, sparse_level=1)  # the plan itself builds
     with pytest.raises(InvalidPlanError, match=r"3\^16"):
         built.retransform(built.samples.sum(axis=1))

@@ -19,6 +19,7 @@ from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.mbs.parameters import Parameter
 from fuzzymbs.mbs.spatial import FlexibleBody, Revolute, SpinUp, ground
 from fuzzymbs.mbs.system import NodeDisplacement, System
+from fuzzymbs.tolerance import Tolerance
 
 # slow: the FE reduction, the ROS34PW2 kernels' compilation and a 20 s run of four speeds
 pytestmark = pytest.mark.slow
@@ -59,7 +60,7 @@ def tip_deflection(modal):
         record_interval=0.1,
         outputs={"tip": tip},
         integrator="ros34pw2",
-        rtol=1e-6,
+        tolerance=Tolerance(1e-6),
         displacement_bound=50.0,
     )
     return result.outputs["tip"], result.failed

@@ -25,6 +25,7 @@ from fuzzymbs.mbs.kernels import simd
 from fuzzymbs.mbs.kernels.layout import CF_VSCALE
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
+from fuzzymbs.tolerance import Tolerance
 
 
 @pytest.fixture(scope="module")
@@ -159,7 +160,7 @@ def test_brake_model_option_kernel():
 
 # ROS34PW2: each lane keeps its own clock (step, error control, Jacobian age), so a
 # sample's outputs are bit for bit those of the sample alone, whatever shares its block
-ROS = {"integrator": "ros34pw2", "rtol": 1e-3}
+ROS = {"integrator": "ros34pw2", "tolerance": Tolerance(1e-3)}
 
 
 def _ros_run(brake, samples, order, kernel="lanes", chunk_size=64):

@@ -22,6 +22,7 @@ from fuzzymbs.mbs.kernels.rosenbrock import (
 from fuzzymbs.mbs.lumped import lumped_modal_body
 from fuzzymbs.mbs.system import Coordinate, System
 from fuzzymbs.models.brake import DiscBrake
+from fuzzymbs.tolerance import Tolerance
 
 
 def run(compiled, outputs, t_end, interval, rtol, x0=None, samples=None, bound=1.0):
@@ -195,7 +196,7 @@ def test_simulate_with_ros34pw2_matches_fine_rk4(brake):
         record_interval=1e-5,
         outputs=outputs,
         integrator="ros34pw2",
-        rtol=1e-4,
+        tolerance=Tolerance(1e-4),
     )
     assert not got.failed.any()
     assert got.step_counts.shape == (3, 2) and (got.step_counts[:, 0] > 0).all()
@@ -211,7 +212,7 @@ def test_integrator_options_are_checked_and_reach_the_brake():
 
     model = brake_model(integrator="ros34pw2", rtol=1e-3, t_end=1e-5, dt=1e-7)
     assert model.simulation.settings["integrator"] == "ros34pw2"
-    assert model.simulation.settings["rtol"] == 1e-3
+    assert model.simulation.tolerance.rtol == 1e-3
     with pytest.raises(InvalidParameterError, match="integrator must be one of"):
         brake_model(integrator="euler", t_end=1e-5)
     with pytest.raises(InvalidParameterError, match="rtol must be in"):

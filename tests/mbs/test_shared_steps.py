@@ -17,6 +17,7 @@ from fuzzymbs.fuzzy import Triangular, plan
 from fuzzymbs.fuzzy.band_scale import width_relative
 from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.models.brake import DiscBrake
+from fuzzymbs.tolerance import Tolerance
 
 T_END = 4e-4
 PARAMETERS = {
@@ -165,7 +166,8 @@ def test_the_check_sequence_logged_beside_the_reference_is_its_own_logging_run(
     import fuzzymbs.mbs.shared_steps as shared_steps
 
     plain = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-3).simulation
-    assert shared.simulation.shared.ahead == ((1e-3 / 10.0) / 10.0, None)
+    ahead = shared.simulation.shared.ahead
+    assert (ahead.rtol, ahead.atol) == ((1e-3 / 10.0) / 10.0, None)
     modal = {name: float(v[0]) for name, v in _columns(scheme, [scheme.nominal_index]).items()}
     own = shared_steps._logged_run(plain.tightened(10.0).tightened(10.0), modal)
 
@@ -374,11 +376,11 @@ def test_a_sequence_too_coarse_for_the_tolerance_is_left():
     # 1 % of the sequence's own error from the converged run (measured 0.4 %: 3.9e-4 of
     # the pads' peak, against 4e-5 on its own steps at rtol 1e-4)
     model = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-4).simulation
-    coarse = model.simulate({}, rtol=1e-1, log_steps=True)
+    coarse = model.simulate({}, tolerance=Tolerance(1e-1), log_steps=True)
     on_coarse = model.simulate(
         {}, step_sequence=coarse.step_times, jacobian_renewals=coarse.step_renewals
     )
-    converged = model.simulate({}, rtol=1e-7)
+    converged = model.simulate({}, tolerance=Tolerance(1e-7))
     assert on_coarse.step_counts[0, 1] > 0
     assert on_coarse.step_counts[0, 0] > 2 * len(coarse.step_times)
     for name in OUTPUTS:
@@ -414,15 +416,16 @@ def test_samples_of_one_batch_at_their_own_tolerances():
     # share a block this way)
     model = DiscBrake(t_end=T_END, record_interval=1e-5).simulation
     twice = {"nodal_force": np.array([16e3, 16e3]), "pad_spring_stiffness": np.array([2e5, 2.2e5])}
-    both = model.simulate(twice, rtol=np.array([1e-6, 1e-4]))
+    both = model.simulate(twice, tolerance=Tolerance(np.array([1e-6, 1e-4])))
     for row, rtol in enumerate((1e-6, 1e-4)):
         alone = model.simulate(
-            {name: values[row : row + 1] for name, values in twice.items()}, rtol=rtol
+            {name: values[row : row + 1] for name, values in twice.items()},
+            tolerance=Tolerance(rtol),
         )
         for name in OUTPUTS:
             np.testing.assert_array_equal(both.outputs[name][row], alone.outputs[name][0])
     assert both.step_counts[0, 0] > 3 * both.step_counts[1, 0]
     with pytest.raises(InvalidParameterError, match="one per sample"):
-        model.simulate(twice, rtol=np.array([1e-6, 1e-5, 1e-4]))
+        model.simulate(twice, tolerance=Tolerance(np.array([1e-6, 1e-5, 1e-4])))
     with pytest.raises(InvalidParameterError, match="rtol must be in"):
-        model.simulate(twice, rtol=np.array([1e-6, 0.0]))
+        model.simulate(twice, tolerance=Tolerance(np.array([1e-6, 0.0])))

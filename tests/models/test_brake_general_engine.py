@@ -15,6 +15,7 @@ from fuzzymbs.mbs.spatial import simulate as simulate_absolute
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import brake_system, build_bodies
 from fuzzymbs.models.brake.geometry import BrakeDesign
+from fuzzymbs.tolerance import Tolerance
 
 # slow: both engines compile (about a minute); the general engine runs for 11 s
 pytestmark = pytest.mark.slow
@@ -38,8 +39,7 @@ def test_the_brake_on_the_general_engine_agrees_with_its_kernels():
         record_interval=T_END / 20,
         outputs=outputs,
         integrator="ros34pw2",
-        rtol=1e-8,
-        atol=1e-15,
+        tolerance=Tolerance(1e-8, 1e-15),
     )
     absolute = simulate_absolute(system.as_mechanism(), minimal.time, rtol=1e-8, atol=1e-13)
     assert not minimal.failed.any() and not absolute.failed.any()

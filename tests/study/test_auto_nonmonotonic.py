@@ -10,6 +10,7 @@ import pytest
 from fuzzymbs import Triangular
 from fuzzymbs.errors import (
     IncompleteResultError,
+    InvalidParameterError,
     InvalidPlanError,
     StudyFileError,
     UnsupportedOperationError,
@@ -83,7 +84,7 @@ def test_auto_needs_extended_and_rtol_only_with_auto():
         Study(CountingModel(), NUMBERS, method="reduced", nonmonotonic="auto")
     with pytest.raises(InvalidPlanError, match=r"screening_rtol=0\.1 is only used with"):
         Study(CountingModel(), NUMBERS, method="extended", screening_rtol=0.1)
-    with pytest.raises(InvalidPlanError, match="screening_rtol must be a finite number >= 0"):
+    with pytest.raises(InvalidParameterError, match="screening_rtol must be a finite number >= 0"):
         auto_study(CountingModel(), screening_rtol=-1.0)
     with pytest.raises(UnsupportedOperationError, match="only a study with nonmonotonic='auto'"):
         Study(CountingModel(), NUMBERS, method="extended", nonmonotonic=["x1"]).screen()

@@ -67,7 +67,7 @@ def test_paper_brake_studies_are_the_demo_studies_with_rk4_at_1us(n):
     assert demo.plan.method == "adaptive" and paper.plan.method == "reduced"
     assert len(paper.plan) == 33
     assert demo.model.simulation.settings["integrator"] == "ros34pw2"
-    assert demo.model.simulation.settings["rtol"] == 1e-2
+    assert demo.model.simulation.tolerance.rtol == 1e-2
     assert paper.model.simulation.settings["integrator"] == "rk4"
     assert paper.model.simulation.settings["dt"] == 1e-6
     # 1 us lies outside RK4's stability region of the brake linearised at steady

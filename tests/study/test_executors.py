@@ -86,7 +86,7 @@ def test_workers_limit_the_kernel_threads_and_restore_them():
     # a worker's chunk runs with the Numba threads it was given (per thread), and the
     # thread's own setting comes back afterwards; without Numba the call is unchanged
     numba = pytest.importorskip("numba")
-    from fuzzymbs.study.evaluation import evaluate_chunk_on_worker
+    from fuzzymbs.study.evaluation import evaluate_chunk
 
     seen = []
 
@@ -95,10 +95,10 @@ def test_workers_limit_the_kernel_threads_and_restore_them():
         return {"z": 2.0 * p["x"]}
 
     before = numba.get_num_threads()
-    chunk = evaluate_chunk_on_worker(1, model, {"x": np.arange(3.0)}, 0)
+    chunk = evaluate_chunk(model, {"x": np.arange(3.0)}, 0, threads=1)
     np.testing.assert_array_equal(chunk.outputs["z"], [0.0, 2.0, 4.0])
     assert seen == [1] and numba.get_num_threads() == before
-    evaluate_chunk_on_worker(None, model, {"x": np.arange(3.0)}, 0)
+    evaluate_chunk(model, {"x": np.arange(3.0)}, 0, threads=None)
     assert seen[-1] == before
 
 

@@ -23,6 +23,7 @@ from fuzzymbs.study.integration_check import (
 from fuzzymbs.study.study import Study
 from fuzzymbs.study.studyfile import load_study_file
 from fuzzymbs.study.summary import summarize
+from fuzzymbs.tolerance import Tolerance
 
 TIME = np.linspace(0.0, 1.0, 51)
 
@@ -167,7 +168,7 @@ def oscillator_model(**settings) -> SimulationModel:
 
 
 @pytest.mark.parametrize(
-    "settings", [{"dt": 1e-3, "integrator": "ros34pw2", "rtol": 1e-4}, {"dt": 1e-3}]
+    "settings", [{"dt": 1e-3, "integrator": "ros34pw2", "tolerance": Tolerance(1e-4)}, {"dt": 1e-3}]
 )
 def test_the_check_estimates_the_true_error_of_the_engine(settings):
     # reference: the free decay's closed form q0 e^(-zeta w t) (cos w_d t + zeta /

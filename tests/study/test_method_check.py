@@ -229,7 +229,7 @@ def test_study_file_options(tmp_path):
     path = tmp_path / "study.toml"
     path.write_text(textwrap.dedent(text.format(runs=4)))
     study = load_study_file(path).study
-    assert study.validation_runs == 4 and study.method_tolerance == 0.2
+    assert study.options.validation_runs == 4 and study.options.method_tolerance == 0.2
     path.write_text(textwrap.dedent(text.format(runs=-1)))
     with pytest.raises(StudyFileError, match="validation_runs"):
         load_study_file(path)

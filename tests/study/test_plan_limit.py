@@ -7,7 +7,6 @@ gigabytes to far beyond any memory).
 
 from __future__ import annotations
 
-import inspect
 import tracemalloc
 
 import pytest
@@ -15,6 +14,7 @@ import pytest
 from fuzzymbs.errors import PlanTooLargeError, StudyFileError
 from fuzzymbs.fuzzy.numbers import Triangular
 from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS
+from fuzzymbs.study.options import StudyOptions
 from fuzzymbs.study.planning import build_plan
 from fuzzymbs.study.study import Study
 from fuzzymbs.study.studyfile import load_study_file
@@ -41,7 +41,8 @@ def _refusal(function):
 
 
 def test_study_default_limit_is_the_engines():
-    assert inspect.signature(Study).parameters["max_runs"].default == DEFAULT_MAX_RUNS
+    assert StudyOptions().max_runs == DEFAULT_MAX_RUNS
+    assert Study(total, {"x1": Triangular(1.0, 2.0, 3.0)}).options.max_runs == DEFAULT_MAX_RUNS
 
 
 def test_study_refuses_the_issues_plans_before_building_them():
@@ -68,10 +69,10 @@ def test_study_max_runs_raises_or_lowers_the_limit():
 
 def test_build_plan_passes_the_limit():
     five = dict(list(TWELVE.items())[:5])
-    plan, _, _ = build_plan(five, "reduced", 4, None, None, None, None, max_runs=129)
+    plan, _, _ = build_plan(five, "reduced", 4, None, StudyOptions(max_runs=129))
     assert plan is not None and len(plan) == 129
     with pytest.raises(PlanTooLargeError):
-        build_plan(five, "reduced", 4, None, None, None, None, max_runs=128)
+        build_plan(five, "reduced", 4, None, StudyOptions(max_runs=128))
 
 
 PRODUCT = """

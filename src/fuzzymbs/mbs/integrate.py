@@ -11,6 +11,7 @@ on the same right-hand side, for checks.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -33,6 +34,7 @@ from fuzzymbs.mbs.shared_steps import (
     share_steps,
 )
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
+from fuzzymbs.tolerance import DEFAULT_TOLERANCE, Tolerance
 
 #: Kernel choices of :func:`simulate`.
 KERNELS = ("auto", "lanes", "samples")
@@ -98,8 +100,7 @@ def simulate(
     chunk_size: int = 64,
     kernel: str = "auto",
     integrator: str = "rk4",
-    rtol: float | NDArray[np.float64] = 1e-2,
-    atol: float | NDArray[np.float64] | None = None,
+    tolerance: Tolerance = DEFAULT_TOLERANCE,
     step_sequence: NDArray[np.float64] | None = None,
     jacobian_renewals: NDArray[np.bool_] | None = None,
     log_steps: bool | int = False,
@@ -139,13 +140,13 @@ def simulate(
         the linearly implicit ROS34PW2 with error control, each sample on its own
         step sequence, so that its outputs do not depend on the samples beside it
         (docs/theory.md, "ROS34PW2").
-    rtol, atol : float or (B,) array
-        ROS34PW2's tolerances: a sample's step is accepted when the RMS over its state
-        of ``error / (atol + rtol |x|)`` is at most 1; atol defaults to ``1e-5 rtol``
-        (positions in m, velocities in m/s; 1e-4 rtol left the brake caliper's 0.7 nm
-        signal 14 % off, docs/brake.md). One value per sample runs samples of one
-        batch at different tolerances, a block costing about as much as its
-        tightest lane (a reference and its companion in one block).
+    tolerance : Tolerance
+        ROS34PW2's tolerances (:class:`~fuzzymbs.tolerance.Tolerance`; default
+        :data:`~fuzzymbs.tolerance.DEFAULT_TOLERANCE`): a sample's step is accepted when
+        the RMS over its state of ``error / (atol + rtol |x|)`` is at most 1. One rtol
+        (and atol) per sample runs samples of one batch at different tolerances, a
+        block costing about as much as its tightest lane (a reference and its companion
+        in one block).
     step_sequence : (K,) array, optional
         ROS34PW2 only: the ends of the steps every sample takes (increasing, the last
         at ``t_end``), typically the accepted steps of one sample logged with
@@ -164,7 +165,7 @@ def simulate(
         20 per dt, at least 10^6), more raise :class:`~fuzzymbs.errors.InvalidParameterError`.
     """
     _check_kernel(kernel)
-    rtols, atols, h_min = _check_integrator(integrator, rtol, atol)
+    rtols, atols, h_min = _check_integrator(integrator, tolerance)
     if log_steps is not False and integrator != "ros34pw2":
         raise InvalidParameterError("log_steps needs integrator='ros34pw2'")
     compiled = system.compile() if isinstance(system, System) else system
@@ -295,21 +296,17 @@ def _check_sequence(
 
 
 def _check_integrator(
-    integrator: str, rtol: float | NDArray[np.float64], atol: float | NDArray[np.float64] | None
+    integrator: str, tolerance: Tolerance
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """``(rtol, atol, smallest step)`` for ROS34PW2 after checking the settings; rtol and
-    atol as 1-D arrays (one value, or one per sample)."""
+    atol as 1-D arrays (one value, or one per sample; the tolerance checked its values)."""
     if integrator not in INTEGRATORS:
         raise InvalidParameterError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
-    given = rtol
-    rtol = np.atleast_1d(np.asarray(rtol, dtype=float))
-    if rtol.ndim != 1 or not (np.all(np.isfinite(rtol)) and np.all((rtol > 0) & (rtol < 1))):
-        raise InvalidParameterError(f"rtol must be in (0, 1), got {given!r}")
-    given = atol
-    atol = 1e-5 * rtol if atol is None else np.atleast_1d(np.asarray(atol, dtype=float))
-    if atol.ndim != 1 or not (np.all(np.isfinite(atol)) and np.all(atol > 0)):
-        raise InvalidParameterError(f"atol must be > 0, got {given!r}")
-    return rtol, atol, 1e-14
+    if not isinstance(tolerance, Tolerance):
+        raise InvalidParameterError(
+            f"tolerance must be a fuzzymbs.tolerance.Tolerance, got {tolerance!r}"
+        )
+    return (*tolerance.arrays(), 1e-14)
 
 
 def _per_sample(values: NDArray[np.float64], batch: int, name: str) -> NDArray[np.float64]:
@@ -411,46 +408,73 @@ def simulate_reference(
     return {name: y[i] for i, name in enumerate(outputs)}
 
 
+#: the keyword arguments of :func:`simulate` a :class:`SimulationModel` fixes for all its
+#: runs (the others belong to one call: samples, step sequence, logging)
+MODEL_SETTINGS = (
+    "t_end",
+    "dt",
+    "record_interval",
+    "displacement_bound",
+    "chunk_size",
+    "kernel",
+    "integrator",
+    "tolerance",
+)
+#: :func:`simulate`'s parameters, read once (a simulate patched later, in a test or a
+#: benchmark that times its calls, leaves the settings' defaults as they are)
+_SIMULATE_PARAMETERS = inspect.signature(simulate).parameters
+
+
+def model_settings(given: Mapping[str, Any]) -> dict[str, Any]:
+    """Every one of :data:`MODEL_SETTINGS`: ``given``, else :func:`simulate`'s default.
+
+    Raises
+    ------
+    InvalidParameterError
+        A setting that is not one of them, or ``t_end`` or ``dt`` missing.
+    """
+    unknown = sorted(set(given) - set(MODEL_SETTINGS))
+    if unknown:
+        raise InvalidParameterError(
+            f"unknown setting(s) {unknown}; settings: {', '.join(MODEL_SETTINGS)}"
+        )
+    defaults = _SIMULATE_PARAMETERS
+    missing = [
+        name
+        for name in MODEL_SETTINGS
+        if name not in given and defaults[name].default is inspect.Parameter.empty
+    ]
+    if missing:
+        raise InvalidParameterError(f"missing setting(s) {missing}")
+    return {name: given.get(name, defaults[name].default) for name in MODEL_SETTINGS}
+
+
 class SimulationModel:
     """A compiled system as a batched fuzzymbs model.
 
     ``model({name: (B,)}) -> {output: (B, T), "failed": (B,), "failure_reason": (B,)}``;
     ``model.coords = {"time": t}``; ``model.output_dims`` labels the outputs.
-    Keyword arguments as in :func:`simulate`. Picklable (plain arrays); the
-    kernels compile (or load from cache) on first call.
+    ``settings``: keyword arguments of :func:`simulate` (:data:`MODEL_SETTINGS`, its
+    defaults where not given; ``t_end`` and ``dt`` required). Picklable (plain arrays);
+    the kernels compile (or load from cache) on first call.
     """
 
     def __init__(
         self,
         system: System | CompiledSystem,
         *,
-        t_end: float,
-        dt: float,
         outputs: Mapping[str, Output],
-        record_interval: float | None = None,
         initial_state: NDArray[np.float64] | None = None,
-        displacement_bound: float = 1.0,
-        chunk_size: int = 64,
-        kernel: str = "auto",
-        integrator: str = "rk4",
-        rtol: float = 1e-2,
-        atol: float | None = None,
+        **settings: Any,
     ) -> None:
         self.compiled = system.compile() if isinstance(system, System) else system
-        n_steps, every = _check_timing(t_end, dt, record_interval)
-        _check_kernel(kernel)
-        _check_integrator(integrator, rtol, atol)
-        self.settings = {
-            "t_end": t_end,
-            "dt": dt,
-            "record_interval": record_interval,
-            "displacement_bound": displacement_bound,
-            "chunk_size": chunk_size,
-            "kernel": kernel,
-            "integrator": integrator,
-            "rtol": rtol,
-            "atol": atol,
-        }
+        self.settings = model_settings(settings)
+        n_steps, every = _check_timing(
+            self.settings["t_end"], self.settings["dt"], self.settings["record_interval"]
+        )
+        _check_kernel(self.settings["kernel"])
+        _check_integrator(self.settings["integrator"], self.settings["tolerance"])
+        dt = self.settings["dt"]
         self.outputs = dict(outputs)
         for spec in self.outputs.values():
             self.compiled.output_functional(spec)  # validate now, not at run time
@@ -591,14 +615,19 @@ class SimulationModel:
         settings = self.settings
         if settings["integrator"] == "rk4":
             return f"rk4, dt {settings['dt']:g} s"
-        words = f"{settings['integrator']}, rtol {settings['rtol']:g}"
+        words = f"{settings['integrator']}, rtol {self.tolerance.rtol:g}"
         if self.shared is not None:
             tight = self.shared.reference_rtol
             words += (
                 ", on the modal sample's steps, corrected by its runs at rtol "
-                f"{tight:g} and {10 * tight:g}, extrapolated"
+                f"{tight:g} and {self.tolerance.tightening * tight:g}, extrapolated"
             )
         return words
+
+    @property
+    def tolerance(self) -> Tolerance:
+        """The integrator's tolerance and its checks' tightening."""
+        return self.settings["tolerance"]
 
     @property
     def scalable_tolerance(self) -> bool:
@@ -606,10 +635,12 @@ class SimulationModel:
         may then choose it, :func:`fuzzymbs.study.integration_check.choose_tolerance`)."""
         return self.settings["integrator"] == "ros34pw2"
 
-    def tightened(self, factor: float = 10.0) -> SimulationModel:
-        """The same model with the tolerance divided by ``factor`` (ROS34PW2; atol too) or,
-        for RK4, half the step: the study runner's check of the time integration
+    def tightened(self, factor: float | None = None) -> SimulationModel:
+        """The same model with the tolerance divided by ``factor`` (ROS34PW2; atol too;
+        default the tolerance's ``tightening``) or, for RK4, the step divided by the
+        tolerance's ``step_division``: the study runner's check of the time integration
         (:mod:`fuzzymbs.study.integration_check`)."""
+        factor = self.tolerance.tightening if factor is None else factor
         if not (np.isfinite(factor) and factor > 0):
             raise InvalidParameterError(f"factor must be > 0, got {factor!r}")
         prepared = getattr(self, "_prepared", None)
@@ -620,11 +651,9 @@ class SimulationModel:
     def _tightened(self, factor: float) -> SimulationModel:
         settings = dict(self.settings)
         if settings["integrator"] == "rk4":
-            settings["dt"] = settings["dt"] / 2
+            settings["dt"] = settings["dt"] / self.tolerance.step_division
         else:
-            settings["rtol"] = settings["rtol"] / factor
-            if settings["atol"] is not None:
-                settings["atol"] = settings["atol"] / factor
+            settings["tolerance"] = self.tolerance.tightened(factor)
         tight = SimulationModel(
             self.compiled, outputs=self.outputs, initial_state=self.initial_state, **settings
         )
@@ -634,10 +663,11 @@ class SimulationModel:
         # the tighter model's own sequence, corrected by the same reference
         return share_steps(tight, shared.modal, shared.references, shared.ahead)
 
-    def prepare_tightened(self, factor: float = 10.0) -> None:
+    def prepare_tightened(self, factor: float | None = None) -> None:
         """Start building ``tightened(factor)`` in a background thread (on shared steps,
         its modal sample's logging run: the check of a study takes it later, and the
         run fills a core the study leaves idle); without shared steps, nothing to do."""
+        factor = self.tolerance.tightening if factor is None else factor
         if not (np.isfinite(factor) and factor > 0):
             raise InvalidParameterError(f"factor must be > 0, got {factor!r}")
         prepared = getattr(self, "_prepared", None)
@@ -664,7 +694,7 @@ class SimulationModel:
         if self.shared is None or tighter.shared is None:
             return None
         return predicted_reference_error(
-            self.shared, self.settings["rtol"], tighter.shared, tighter.settings["rtol"]
+            self.shared, self.tolerance.rtol, tighter.shared, tighter.tolerance.rtol
         )
 
     @property

@@ -44,6 +44,11 @@ from fuzzymbs.mbs.planar.simulation import (
     INTEGRATOR_NAMES,
     checked_method,
 )
+from fuzzymbs.tolerance import Tolerance
+
+#: the mechanism engines' own default tolerance (:func:`fuzzymbs.mbs.planar.simulate`
+#: and :func:`fuzzymbs.mbs.spatial.simulate`: rtol 1e-6, atol 1e-8)
+ENGINE_TOLERANCE = Tolerance(rtol=DEFAULT_RTOL, atol=DEFAULT_ATOL)
 
 OutputReader = Callable[[Any], NDArray[np.float64]]
 
@@ -64,8 +69,9 @@ class MechanismModel:
         ``PlanarResult`` or ``SpatialResult``).
     times : array_like, shape (T,)
         Output times [s].
-    rtol, atol : float
-        Step-control tolerances.
+    tolerance : Tolerance
+        The step control's rtol and atol (default :data:`ENGINE_TOLERANCE`, the engines'
+        own) and its checks' tightening.
     method : {"auto", "dop853", "dopri5"}
         The explicit Runge-Kutta pair (:func:`fuzzymbs.mbs.planar.simulate`).
     """
@@ -76,8 +82,7 @@ class MechanismModel:
         parameters: Mapping[str, float],
         outputs: Mapping[str, tuple[OutputReader, str]],
         times: ArrayLike,
-        rtol: float = DEFAULT_RTOL,
-        atol: float = DEFAULT_ATOL,
+        tolerance: Tolerance = ENGINE_TOLERANCE,
         method: str = DEFAULT_METHOD,
     ) -> None:
         self.build = build
@@ -86,10 +91,11 @@ class MechanismModel:
         self.times = np.asarray(times, dtype=float)
         if self.times.ndim != 1 or self.times.size < 2 or np.any(np.diff(self.times) <= 0):
             raise InvalidParameterError("times must be at least two strictly increasing values [s]")
-        if not (rtol > 0 and atol > 0):
-            raise InvalidParameterError(f"rtol and atol must be > 0, got {rtol!r}, {atol!r}")
-        self.rtol = float(rtol)
-        self.atol = float(atol)
+        if not isinstance(tolerance, Tolerance) or tolerance.atol is None:
+            raise InvalidParameterError(
+                f"tolerance must be a Tolerance with rtol and atol, got {tolerance!r}"
+            )
+        self.tolerance = tolerance
         self.method = checked_method(method)
         self.parameters = tuple(self.defaults)
         self.outputs = {name: unit for name, (_, unit) in self.readers.items()}
@@ -100,17 +106,17 @@ class MechanismModel:
     @property
     def time_integration(self) -> str:
         """The time integration in words (for study summaries)."""
+        tolerance = self.tolerance
         return (
-            f"{INTEGRATOR_NAMES[self.method]}, rtol {self.rtol:g}, atol {self.atol:g}, "
+            f"{INTEGRATOR_NAMES[self.method]}, rtol {tolerance.rtol:g}, atol {tolerance.atol:g}, "
             "joints projected after every step"
         )
 
-    def tightened(self, factor: float = 10.0) -> MechanismModel:
-        """The same model with both tolerances divided by ``factor`` (for the study's check
-        of the time integration)."""
+    def tightened(self, factor: float | None = None) -> MechanismModel:
+        """The same model with both tolerances divided by ``factor`` (default the
+        tolerance's tightening; for the study's check of the time integration)."""
         tight = copy.copy(self)
-        tight.rtol = self.rtol / factor
-        tight.atol = self.atol / factor
+        tight.tolerance = self.tolerance.tightened(factor)
         return tight
 
     def sample_parameters(self, samples: Mapping[str, Any]) -> list[dict[str, float]]:
@@ -149,7 +155,10 @@ class MechanismModel:
                 "build must return a planar or a spatial Mechanism, the same kind for every "
                 f"sample; got {sorted(map(str, engines))}"
             )
-        return simulate(mechanisms, self.times, rtol=self.rtol, atol=self.atol, method=self.method)
+        tolerance = self.tolerance
+        return simulate(
+            mechanisms, self.times, rtol=tolerance.rtol, atol=tolerance.atol, method=self.method
+        )
 
     def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
         """Outputs ``{name: (B, T)}``, with ``failed`` and ``failure_reason`` per sample."""

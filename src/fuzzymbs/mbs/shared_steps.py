@@ -42,7 +42,8 @@ outputs depend on the modal point and the settings alone, never on the samples
 that share its batch.
 
 The reference is the modal sample's runs at :data:`REFERENCE_RTOL` and ten
-times it, extrapolated with the error law ``e(r) = C r^q`` (q =
+times it (the model tolerance's ``tightening``, :class:`fuzzymbs.tolerance.Tolerance`),
+extrapolated with the error law ``e(r) = C r^q`` (q =
 :data:`REFERENCE_ORDER`, measured over rtol 1e-2 to 1e-5 on the brake):
 ``y_ref = y(r) + (y(r) - y(10 r)) / (10^q - 1)``. On the brake's studies it is
 as accurate as one run at a tenth of ``r`` that costs twice as much (against
@@ -61,8 +62,8 @@ modal sample's on the same steps, all a study's choice of tolerance compares)
 and further step sequences (:meth:`SimulationModel.tightened`). The correction,
 the reference and its error wait for them when first asked for.
 
-The block's first lane logs the modal sample at :data:`LOG_AHEAD` times tighter
-than the model (a lane costs nothing beside the reference's; at the brake's
+The block's first lane logs the modal sample at the model's tolerance tightened
+twice (:func:`ahead_tolerance`; a lane costs nothing beside the reference's; at the brake's
 rtol 1e-2 it is the run at ten times the reference tolerance): the logging run
 of the step sequence a study's check most likely takes. A sequence asked for at
 exactly that tolerance (the same settings, :meth:`SimulationModel.tightened`)
@@ -74,7 +75,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -82,6 +83,7 @@ from numpy.typing import NDArray
 
 from fuzzymbs.background import Background
 from fuzzymbs.errors import InvalidParameterError, SimulationDivergedError
+from fuzzymbs.tolerance import Tolerance, tolerance_of
 
 
 class SimulationModel(Protocol):
@@ -97,19 +99,19 @@ class SimulationModel(Protocol):
 
 
 __all__ = [
-    "LOG_AHEAD",
     "REFERENCE_EQUIVALENT_RTOL",
     "REFERENCE_ORDER",
     "REFERENCE_RTOL",
     "KeptRun",
     "SharedSteps",
+    "ahead_tolerance",
     "kept_run",
     "predicted_reference_error",
     "share_steps",
 ]
 
-#: tolerance of the tighter of the modal sample's two reference runs (the other at ten
-#: times it); their extrapolation is the reference
+#: tolerance of the tighter of the modal sample's two reference runs (the other at the
+#: model tolerance's tightening, ten, times it); their extrapolation is the reference
 REFERENCE_RTOL = 1e-5
 #: the one-run tolerance the extrapolated reference's error is estimated as (a decade
 #: tighter: on the brake's studies as accurate as that run, docs/brake.md)
@@ -117,12 +119,6 @@ REFERENCE_EQUIVALENT_RTOL = REFERENCE_RTOL / 10
 #: ROS34PW2's global error falls about as rtol^0.88 with a sequence of its own
 #: (brake studies, rtol 1e-2 to 1e-5, docs/brake.md)
 REFERENCE_ORDER = 0.88
-#: the tolerance factors of the step sequence logged beside the reference runs: a
-#: study's choice tightens the model's tolerance tenfold or more
-#: (:data:`fuzzymbs.study.integration_check.MIN_SHARED_FACTOR`; the brake's study 1
-#: takes 10) and its check tenfold more, so rtol / 10 / 10 (divided in this order, as
-#: :meth:`~fuzzymbs.mbs.integrate.SimulationModel.tightened` divides it)
-LOG_AHEAD = (10.0, 10.0)
 #: longest log of the run logged ahead (its modal sample's accepted steps)
 _AHEAD_CAPACITY = 10**6
 
@@ -141,11 +137,12 @@ class SharedSteps:
     references : the reference runs' ``(reference, reference_error, logged_ahead)``,
         perhaps still running (:class:`Background`); ``logged_ahead`` the logging run
         of the block's first lane (a ``SimulationResult``, its first sample) or None.
-    reference_rtol : the tighter reference run's tolerance (the other at ten times it).
+    reference_rtol : the tighter reference run's tolerance (the other at the tolerance's
+        tightening times it).
     kept : runs on these steps at the model's settings, kept for reuse: the parameter
         row's bytes -> :class:`KeptRun` (the logging run for the modal sample; the runs
         of :meth:`~fuzzymbs.mbs.integrate.SimulationModel.deviations`, a study's pilot).
-    ahead : ``(rtol, atol)`` of the run logged ahead in the references' block (None:
+    ahead : the tolerance of the run logged ahead in the references' block (None:
         none); a tightened model at exactly that tolerance takes it.
     """
 
@@ -156,7 +153,7 @@ class SharedSteps:
     references: Background[tuple[dict, dict, Any]]
     reference_rtol: float
     kept: dict[bytes, KeptRun] = field(default_factory=dict, repr=False)
-    ahead: tuple[float, float | None] | None = None
+    ahead: Tolerance | None = None
 
     @property
     def reference(self) -> dict[str, NDArray[np.float64]]:
@@ -241,54 +238,54 @@ def _run(model: SimulationModel, modal: Mapping[str, float], **extra):
     return result
 
 
-def _ahead_tolerances(model: SimulationModel) -> tuple[float, float | None]:
-    """``(rtol, atol)`` of ``model`` tightened by :data:`LOG_AHEAD`, divided as
-    :meth:`~fuzzymbs.mbs.integrate.SimulationModel.tightened` divides them."""
-    rtol, atol = model.settings["rtol"], model.settings["atol"]
-    for factor in LOG_AHEAD:
-        rtol = rtol / factor
-        atol = None if atol is None else atol / factor
-    return rtol, atol
+def ahead_tolerance(tolerance: Tolerance) -> Tolerance:
+    """The tolerance of the step sequence logged beside the reference runs: ``tolerance``
+    tightened twice by its ``tightening``. A study's choice tightens the model's tolerance
+    that much or more (:data:`fuzzymbs.study.integration_check.MIN_SHARED_FACTOR`; the
+    brake's study 1 takes 10) and its check as much again, divided in this order, as
+    :meth:`~fuzzymbs.mbs.integrate.SimulationModel.tightened` divides it."""
+    return tolerance.tightened().tightened()
 
 
 def _reference_runs(
     model: SimulationModel,
     modal: Mapping[str, float],
-    ahead: tuple[float, float | None] | None = None,
+    ahead: Tolerance | None = None,
 ) -> tuple[dict, dict, Any]:
-    """The reference (the modal sample's runs at :data:`REFERENCE_RTOL` and ten times it,
-    extrapolated), its estimated error, output -> (T,), and with ``ahead = (rtol, atol)``
-    the modal sample's logging run at that tolerance (None if it failed or its log
-    overflowed).
+    """The reference (the modal sample's runs at :data:`REFERENCE_RTOL` and the
+    tolerance's tightening times it, extrapolated), its estimated error, output -> (T,),
+    and with ``ahead`` the modal sample's logging run at that tolerance (None if it failed
+    or its log overflowed).
 
     The runs are lanes of one block, each with its own tolerance and steps (its outputs
     bit for bit those of the run alone): the block costs about as much as the tightest
     run alone. The run logged ahead is the looser reference run when their tolerances
     agree (the brake's rtol 1e-2: both at 1e-4).
     """
-    rtol, atol = model.settings["rtol"], model.settings["atol"]  # atol None: a fraction
-    tolerances = (REFERENCE_RTOL, 10 * REFERENCE_RTOL)
+    tolerance = model.settings["tolerance"]
+    rtol, atol = tolerance.rtol, tolerance.atol  # atol None: a fraction
+    tolerances = (REFERENCE_RTOL, tolerance.tightening * REFERENCE_RTOL)
     references = [(r, None if atol is None else atol * r / rtol) for r in tolerances]
     lanes = list(references)
-    if ahead is not None and (ahead[1] is None) != (atol is None):
-        ahead = None  # not a tolerance of this model's kind
-    if ahead is not None:  # first: the kernel logs the first sample's steps
-        lanes = [ahead] + [lane for lane in lanes if lane != ahead]
+    logged_ahead = None if ahead is None else (ahead.rtol, ahead.atol)
+    if logged_ahead is not None and (logged_ahead[1] is None) != (atol is None):
+        logged_ahead = None  # not a tolerance of this model's kind
+    if logged_ahead is not None:  # first: the kernel logs the first sample's steps
+        lanes = [logged_ahead] + [lane for lane in lanes if lane != logged_ahead]
     rows = tuple(lanes.index(lane) for lane in references)
     rtols = np.array([lane[0] for lane in lanes])
     atols = None if atol is None else np.array([lane[1] for lane in lanes])
     try:
         runs = model.simulate(
             _copies(modal, len(lanes)),
-            rtol=rtols,
-            atol=atols,
-            log_steps=_AHEAD_CAPACITY if ahead is not None else False,
+            tolerance=replace(tolerance, rtol=rtols, atol=atols),
+            log_steps=_AHEAD_CAPACITY if logged_ahead is not None else False,
         )
     except InvalidParameterError:  # the log overflowed: the references alone
-        if ahead is None:
+        if logged_ahead is None:
             raise
         return _reference_runs(model, modal)
-    logged = None if ahead is None or runs.failed[0] else runs
+    logged = None if logged_ahead is None or runs.failed[0] else runs
     return (*_extrapolated(model, modal, runs, rows), logged)
 
 
@@ -300,13 +297,14 @@ def _extrapolated(
     model: SimulationModel, modal: Mapping[str, float], runs, rows, order: float = REFERENCE_ORDER
 ):
     """``(reference, error)`` from the rows ``rows = (tight, loose)`` of ``runs`` (at
-    REFERENCE_RTOL and ten times it): ``y(r) + (y(r) - y(10 r)) / (10^q - 1)`` and
-    ``|y(r) - y(10 r)| / ((10^q - 1) 10^q)``, q = ``order``; raises if either run
-    failed."""
+    REFERENCE_RTOL and k = the model tolerance's tightening times it):
+    ``y(r) + (y(r) - y(k r)) / (k^q - 1)`` and ``|y(r) - y(k r)| / ((k^q - 1) k^q)``,
+    q = ``order``; raises if either run failed."""
     tight, loose = rows
+    ratio = tolerance_of(model).tightening
     _failure(runs, tight, modal, f"at rtol {REFERENCE_RTOL:g} ")
-    _failure(runs, loose, modal, f"at rtol {10 * REFERENCE_RTOL:g} ")
-    gain = 10.0**order
+    _failure(runs, loose, modal, f"at rtol {ratio * REFERENCE_RTOL:g} ")
+    gain = ratio**order
     reference, error = {}, {}
     for name in model.outputs:
         step = runs.outputs[name][tight] - runs.outputs[name][loose]
@@ -331,7 +329,7 @@ def share_steps(
     model: SimulationModel,
     modal: Mapping[str, float],
     references: Background[tuple[dict, dict, Any]] | None = None,
-    ahead: tuple[float, float | None] | None = None,
+    ahead: Tolerance | None = None,
 ) -> SimulationModel:
     """``model`` with every sample on the modal sample's step sequence, corrected.
 
@@ -341,9 +339,9 @@ def share_steps(
     modal : the modal sample, ``{parameter: value}`` (names of the model's system).
     references : the reference runs of an earlier call (a tightened model keeps its
         reference); default: started here in the background, at
-        :data:`REFERENCE_RTOL` and ten times it, with the modal sample logged at
-        :data:`LOG_AHEAD` times the model's tolerance in the same block.
-    ahead : with ``references``: the ``(rtol, atol)`` they log ahead; a model at exactly
+        :data:`REFERENCE_RTOL` and the tolerance's tightening times it, with the modal
+        sample logged at :func:`ahead_tolerance` in the same block.
+    ahead : with ``references``: the tolerance they log ahead at; a model at exactly
         that tolerance takes that run (waiting for the block) instead of its own.
 
     Returns
@@ -362,12 +360,12 @@ def share_steps(
     plain = copy.copy(model)
     plain.shared = None
     modal = {name: float(value) for name, value in modal.items()}
-    settings = (plain.settings["rtol"], plain.settings["atol"])
+    tolerance = plain.settings["tolerance"]
     logged = None
     if references is None:
-        ahead = _ahead_tolerances(plain)
+        ahead = ahead_tolerance(tolerance)
         references = Background(_reference_runs, plain, modal, ahead)
-    elif ahead is not None and settings == ahead:
+    elif ahead is not None and (tolerance.rtol, tolerance.atol) == (ahead.rtol, ahead.atol):
         logged = references.result()[2]  # None: the lane failed; run it here
     if logged is None:
         logged = _logged_run(plain, modal)

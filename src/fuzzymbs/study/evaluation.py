@@ -316,6 +316,7 @@ def evaluate_chunk(
     start: int,
     outputs: Sequence[str] | None = None,
     timeout: float | None = None,
+    threads: int | None = None,
 ) -> ChunkResult:
     """Evaluate samples ``start : start + B`` with one model call.
 
@@ -339,6 +340,9 @@ def evaluate_chunk(
         Seconds a sample may take (a batch of B samples: B times as long); a
         sample over it fails with reason "timed out". Enforced where the chunk
         runs in a process's main thread (inline and process executors, on POSIX).
+    threads : int, optional
+        The compiled kernels limited to this many threads for the chunk (a worker of a
+        pool, :func:`kernel_threads`); None: as they are.
 
     A model that calls ``sys.exit`` or ``os._exit`` (the latter where enforced
     like the timeout) fails the affected samples with that reason instead of
@@ -349,6 +353,9 @@ def evaluate_chunk(
     ModelOutputError
         The model's return value breaks the contract (names the samples).
     """
+    if threads is not None:
+        with kernel_threads(threads):
+            return evaluate_chunk(model, columns, start, outputs, timeout)
     size = len(next(iter(columns.values())))
     try:
         # a batch may take ``timeout`` per sample; a single sample, ``timeout``
@@ -399,15 +406,9 @@ def evaluate_chunk(
     return ChunkResult(start, start + size, data, failed, reasons, coords)
 
 
-def evaluate_chunk_on_worker(
-    threads: int | None,
-    model: Any,
-    columns: Mapping[str, np.ndarray],
-    start: int,
-    outputs: Sequence[str] | None = None,
-    timeout: float | None = None,
-) -> ChunkResult:
-    """:func:`evaluate_chunk` with the compiled kernels limited to ``threads`` threads.
+@contextmanager
+def kernel_threads(threads: int | None) -> Iterator[None]:
+    """The compiled kernels limited to ``threads`` threads inside the block.
 
     A worker of a process pool or a Dask cluster shares the machine's cores with
     the other workers: Numba's default (every core) in each of them oversubscribes
@@ -419,10 +420,11 @@ def evaluate_chunk_on_worker(
     """
     numba = sys.modules.get("numba")
     if threads is None or numba is None:
-        return evaluate_chunk(model, columns, start, outputs, timeout)
+        yield
+        return
     previous = numba.get_num_threads()
     numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     try:
-        return evaluate_chunk(model, columns, start, outputs, timeout)
+        yield
     finally:
         numba.set_num_threads(previous)

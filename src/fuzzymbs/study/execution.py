@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.errors import IncompleteResultError, InvalidParameterError
-from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, evaluate_chunk_on_worker
+from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, evaluate_chunk
 from fuzzymbs.study.executors import resolve_executor
 
 __all__ = [
@@ -167,13 +167,13 @@ def evaluate_chunks(
                 start, stop = index * size, min((index + 1) * size, count)
                 try:
                     future = resolved.executor.submit(
-                        evaluate_chunk_on_worker,
-                        resolved.task_threads,
+                        evaluate_chunk,
                         model,
                         columns(start, stop),
                         start,
                         outputs,
                         work.timeout,
+                        resolved.task_threads,
                     )
                 except BrokenExecutor as exc:  # a worker died on an earlier chunk
                     raise _lost_worker(exc, start, stop, resolved.label) from exc

@@ -9,6 +9,7 @@ these runs is an idea of its own beside the plan's runs.
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import logging
 import math
@@ -48,6 +49,7 @@ from fuzzymbs.study.integration_check import (
     run_cut_bounds,
 )
 from fuzzymbs.study.method_check import ValidationRuns
+from fuzzymbs.study.options import StudyOptions
 from fuzzymbs.study.planning import AUTO
 from fuzzymbs.study.store import open_chunks
 from fuzzymbs.study.streaming import (
@@ -95,6 +97,8 @@ class StudyRuns:
     # set by Study.__init__ / Study.run
     model: Any
     name: str
+    options: StudyOptions
+    run: Callable[..., Any]  # Study.run: its keywords are screen's too
 
     def _screening_identity(self) -> dict[str, Any]:
         """What a screening store must match: the screening points and the model.
@@ -115,7 +119,7 @@ class StudyRuns:
     def _choose_integration(self, progress: bool = False) -> None:
         """Once per study: the model's integrator tolerance chosen for the cut widths
         (``progress``: a progress line while the pilot and reference runs go on)."""
-        if not self.choose_integration or self.integration_choice is not None:
+        if not self.options.choose_integration or self.integration_choice is not None:
             return
         if not getattr(self.model, "scalable_tolerance", False):
             return  # choose_tolerance leaves such a model as it is, and records nothing
@@ -129,8 +133,8 @@ class StudyRuns:
                 plan.cut_upper,
                 plan.samples[plan.nominal_index],
                 self.output_names,
-                self.integration_tolerance,
-                self.shared_steps,
+                self.options.integration_tolerance,
+                self.options.shared_steps,
                 self._first_points(),
             )
 
@@ -168,8 +172,8 @@ class StudyRuns:
         that certifies itself (``supports_validation`` False: adaptive)."""
         if not self.plan.scheme.supports_validation:
             return 0
-        if self.validation_runs is not None:
-            return self.validation_runs
+        if self.options.validation_runs is not None:
+            return self.options.validation_runs
         return default_validation_count(len(self.plan), len(self.plan.names))
 
     def _validate(
@@ -256,8 +260,8 @@ class StudyRuns:
             outcome,
             failed,
             reasons,
-            self.method_tolerance,
-            self.widen_with_validation,
+            self.options.method_tolerance,
+            self.options.widen_with_validation,
             evaluated=int(evaluated),
             reused=int(reused),
         )
@@ -324,17 +328,11 @@ class StudyRuns:
             drain()
 
         drain()
-        evaluated = evaluate_chunks(
-            self.model,
-            self.outputs,
-            lambda start, stop: self._columns(table, start, stop),
-            count,
-            missing,
-            size,
-            results,
-            chunk_store,
+        evaluated = self._evaluate_rows(
+            table,
+            (chunk_store, size, results, missing, reused),
             work,
-            progress=(progress, reused, f"{self.name} (validation)"),
+            (progress, "validation"),
             fail_fast=None,
             on_chunk=arrived,
             may_submit=lambda: len(waiting) < BACKLOG_CHUNKS,
@@ -358,7 +356,7 @@ class StudyRuns:
         include_nominal = not getattr(self.model, "shares_steps", False)
         if outputs is None:
             samples, bounds = integration_inputs(
-                feed, self.output_names, failed, self.integration_runs, include_nominal
+                feed, self.output_names, failed, self.options.integration_runs, include_nominal
             )
         else:
             plan = self.plan
@@ -366,7 +364,7 @@ class StudyRuns:
                 plan.samples, outputs, plan.cut_lower, plan.cut_upper, failed
             )
             samples = choose_samples(
-                tallies, plan.nominal_index, failed, self.integration_runs, include_nominal
+                tallies, plan.nominal_index, failed, self.options.integration_runs, include_nominal
             )
             bounds = {name: run_bounds.get(name) for name in self.output_names}
         label = f"{self.name} (time-integration check: {len(samples)} samples, tolerance / 10)"
@@ -379,19 +377,10 @@ class StudyRuns:
                 feed.nominal(),
                 self.plan.nominal_index,
                 self.plan.levels,
-                self.integration_tolerance,
+                self.options.integration_tolerance,
             )
 
-    def screen(
-        self,
-        executor: Any = None,
-        chunk_size: int | None = None,
-        store: str | Path | None = None,
-        resume: bool = True,
-        progress: bool = False,
-        on_failure: str = "raise",
-        timeout: float | None = None,
-    ) -> dict[str, Any]:
+    def screen(self, **settings: Any) -> dict[str, Any]:
         """Screen a ``nonmonotonic="auto"`` study and build its extended plan.
 
         :meth:`run` does this itself; call it to see the detected parameters
@@ -401,7 +390,14 @@ class StudyRuns:
         ``store``, the chunks go to ``STORE/screening/`` and a rerun reuses
         them. Failed screening samples are left out of the decision (listed
         in the report), except with ``on_failure="fail-fast"``, which raises.
-        A second call returns the first report. ``timeout``: as in :meth:`run`.
+        A second call returns the first report.
+
+        Parameters
+        ----------
+        **settings
+            How to run, the keywords of :meth:`run` (``executor``, ``chunk_size``,
+            ``store``, ``resume``, ``progress``, ``on_failure``, ``timeout``; one
+            declaration for both), ``progress`` False unless given.
 
         Returns
         -------
@@ -427,12 +423,18 @@ class StudyRuns:
                 f"{self.plan.method!r}); only a study with nonmonotonic={AUTO!r} is screened"
             )
         if self.screening is None:
-            check_run_settings(on_failure, chunk_size, timeout)
-            size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
+            # run's keywords and defaults (a keyword run does not take: a TypeError naming it)
+            bound = inspect.signature(self.run).bind(**{"progress": False, **settings})
+            bound.apply_defaults()
+            given = bound.arguments
+            check_run_settings(given["on_failure"], given["chunk_size"], given["timeout"])
+            size = DEFAULT_CHUNK_SIZE if given["chunk_size"] is None else int(given["chunk_size"])
+            store = given["store"]
             code = self.code_version() if store is not None else None
-            work = LazyExecutor(executor, self._check_picklable, timeout)
+            work = LazyExecutor(given["executor"], self._check_picklable, given["timeout"])
             try:
-                self._screen(work, size, store, resume, progress, on_failure, code)
+                settings = (work, size, given["resume"], given["progress"], code)
+                self._screen(settings, store, given["on_failure"])
             finally:
                 work.close()
         assert self.screening is not None
@@ -440,15 +442,12 @@ class StudyRuns:
 
     def _screen(
         self,
-        work: LazyExecutor,
-        size: int,
+        settings: tuple[LazyExecutor, int, bool, bool, dict[str, Any] | None],
         store: str | Path | None,
-        resume: bool,
-        progress: bool,
         on_failure: str,
-        code: dict[str, Any] | None,
     ) -> None:
-        """Evaluate the screening samples, decide, and build the extended plan."""
+        """Evaluate the screening samples, decide, and build the extended plan
+        (``settings``: executor, chunk size, resume, progress, code version)."""
         screening = self._screening_samples
         count = len(screening.samples)
 
@@ -464,7 +463,7 @@ class StudyRuns:
             self._screening_identity(),
             None if store is None else Path(store) / SCREENING_FOLDER,
             ("screening", "the screening"),
-            (work, size, resume, progress, code),
+            settings,
             stop_at_failure if on_failure == "fail-fast" else None,
         )
         logger.info(
@@ -482,7 +481,7 @@ class StudyRuns:
             warnings.simplefilter("always")
             try:
                 report = nonmonotonic_parameters(
-                    screening, outputs, self.screening_rtol, failed=failed
+                    screening, outputs, self.options.screening_rtol, failed=failed
                 )
             except IncompleteResultError as exc:
                 raise IncompleteResultError(
@@ -502,7 +501,7 @@ class StudyRuns:
             method="extended",
             levels=self._levels,
             nonmonotonic=report["nonmonotonic"],
-            max_runs=self._max_runs,
+            max_runs=self.options.max_runs,
         )
         self.screening = report
         logger.info(
@@ -544,23 +543,50 @@ class StudyRuns:
 
             if results:
                 fail_fast()
-        evaluated = evaluate_chunks(
-            self.model,
-            self.outputs,
-            lambda start, stop: self._columns(table, start, stop),
-            count,
-            missing,
-            size,
-            results,
-            chunk_store,
+        evaluated = self._evaluate_rows(
+            table,
+            (chunk_store, size, results, missing, reused),
             work,
-            progress=(progress, reused, f"{self.name} ({labels[0]})"),
+            (progress, labels[0]),
             fail_fast=fail_fast,
         )
         ordered = [results[i] for i in range(chunk_count)]
         outputs, failed, reasons = assemble_chunks(ordered, count, self._output_check, labels[1])
         self._adopt_coords(ordered)
         return outputs, failed, reasons, int(evaluated), int(reused)
+
+    def _evaluate_rows(
+        self,
+        table: np.ndarray,
+        chunks: tuple[Any, int, dict[int, Any], list[int], int],
+        work: LazyExecutor,
+        shown: tuple[bool, str | None],
+        **hooks: Any,
+    ) -> int:
+        """Evaluate the missing chunks of a parameter table (the plan's samples, screening
+        or validation points) on ``work``: :func:`~fuzzymbs.study.execution.evaluate_chunks`
+        with the study's model, outputs and columns; returns how many were evaluated.
+
+        ``chunks``: the store, chunk size, chunks at hand, missing chunks and those reused
+        (from :func:`~fuzzymbs.study.store.open_chunks`); ``shown``: a progress bar and its
+        label; ``hooks``: ``fail_fast``, ``on_chunk``, ``may_submit``.
+        """
+        chunk_store, size, results, missing, reused = chunks
+        progress, label = shown
+        name = self.name if label is None else f"{self.name} ({label})"
+        return evaluate_chunks(
+            self.model,
+            self.outputs,
+            lambda start, stop: self._columns(table, start, stop),
+            len(table),
+            missing,
+            size,
+            results,
+            chunk_store,
+            work,
+            progress=(progress, reused, name),
+            **hooks,
+        )
 
     def _screening_failures(self, failed: np.ndarray, reasons: np.ndarray) -> str:
         """E.g. "failed screening samples: row 3 (x1=1.5): diverged; ..." (first five)."""

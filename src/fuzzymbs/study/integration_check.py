@@ -1,8 +1,9 @@
 """Every time-integrated study checks its own time integration, on the scale of its bands.
 
-A model that integrates in time offers ``tightened()``: the same model with a
-tenfold tighter tolerance (fixed-step RK4: half the step); a model with modes
-that do not integrate in time returns None there. After the study's runs the
+A model that integrates in time offers ``tightened()``: the same model with its
+tolerance tightened by its :class:`~fuzzymbs.tolerance.Tolerance`'s ``tightening``,
+tenfold (fixed-step RK4: the step divided by its ``step_division``, halved); a
+model with modes that do not integrate in time returns None there. After the study's runs the
 runner re-integrates the samples that give the cuts' bounds with it and
 compares, element by element, each bound with the tighter value of the sample
 that gives it:
@@ -18,7 +19,8 @@ peak wide). Levels whose cuts have no width anywhere (a triangular number's
 core) have no band to distort and are left out.
 
 Re-running every sample would double a study's cost; the check re-runs at most
-``runs`` samples (default :data:`DEFAULT_RUNS`): the modal sample, then, the
+``runs`` samples (the study option ``integration_runs``, default 8, two SIMD
+blocks: :class:`~fuzzymbs.study.options.StudyOptions`): the modal sample, then, the
 levels taking turns from the innermost (narrowest) cut outwards, the sample
 that gives the most bounds of that level. Elements bounded by a sample that was
 not re-run are left out of the maximum, so the figure is an estimate from the
@@ -30,8 +32,9 @@ the tenfold tighter run estimates the study's own error.
 The peak-relative deviation of the modal sample,
 ``max_t |y - y_tight| / max_t |y_tight|`` (largest over outputs), stays as a
 secondary figure (``time_integration_error_peak``). Above the study's
-tolerance (``integration_tolerance``, default 1 % of the cut width) the runner
-warns. Models without ``tightened`` (no time integration) are left out.
+tolerance (the study option ``integration_tolerance``, default 1 % of the cut
+width, floored at a tenth of the level's widest cut) the runner warns. Models
+without ``tightened`` (no time integration) are left out.
 """
 
 from __future__ import annotations
@@ -47,12 +50,8 @@ from numpy.typing import NDArray
 from fuzzymbs.background import Background
 from fuzzymbs.errors import SimulationDivergedError
 from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR, width_relative
-
-#: default largest time-integration error a study accepts without a warning (of the
-#: cut width, floored at a tenth of the level's widest cut)
-DEFAULT_TOLERANCE = 0.01
-#: default number of samples re-run at the tighter tolerance (two SIMD blocks)
-DEFAULT_RUNS = 8
+from fuzzymbs.study.options import StudyOptions
+from fuzzymbs.tolerance import DEFAULT_TOLERANCE, tolerance_of
 
 
 class TimeIntegrationWarning(UserWarning):
@@ -222,7 +221,7 @@ def check_time_integration(
     nominal: Mapping[str, np.ndarray],
     nominal_index: int,
     levels: NDArray[np.float64],
-    tolerance: float = DEFAULT_TOLERANCE,
+    tolerance: float = StudyOptions.integration_tolerance,
 ) -> IntegrationCheck | None:
     """Re-run ``samples`` with ``model.tightened()`` and measure the bounds' deviation.
 
@@ -348,11 +347,11 @@ PILOT_MAX_PARAMETERS = 6
 #: study 2 4.5 % at 1e-3, 0.55 % at 1e-4, docs/brake.md): the smaller slope
 SHARED_ORDER = 1.2
 #: with shared steps, a tolerance that must be tightened is tightened at least tenfold
-#: (to the pilot's own tighter one): between rtol 1e-2 and 1e-3 the brake's coarse
-#: sequences do not follow the error law (over its first millisecond, factor 1.78 left
-#: 1.30 % of the cut width where 2.57 left 0.37 %: the pilot's estimate moves with the
-#: last bits of the arithmetic, docs/brake.md)
-MIN_SHARED_FACTOR = 10.0
+#: (to the pilot's own tighter one: the default tolerance's tightening): between rtol
+#: 1e-2 and 1e-3 the brake's coarse sequences do not follow the error law (over its
+#: first millisecond, factor 1.78 left 1.30 % of the cut width where 2.57 left 0.37 %:
+#: the pilot's estimate moves with the last bits of the arithmetic, docs/brake.md)
+MIN_SHARED_FACTOR = DEFAULT_TOLERANCE.tightening
 #: a chosen factor up to this many decades above 10 takes the pilot's tenfold tighter
 #: model as it is (its sequence is logged already; the error at most 1.2^1.2 of the
 #: target); so does a model built ahead for a factor this much below the chosen one
@@ -418,7 +417,7 @@ def choose_tolerance(
     cut_upper: np.ndarray,
     modal: np.ndarray,
     names: Sequence[str],
-    tolerance: float = DEFAULT_TOLERANCE,
+    tolerance: float = StudyOptions.integration_tolerance,
     shared_steps: bool = True,
     first: np.ndarray | None = None,
 ) -> tuple[Any, ToleranceChoice | None]:
@@ -490,7 +489,7 @@ def choose_tolerance(
             shared_note = f"no shared steps ({error}): each sample keeps its own; "
     table = np.vstack([corners, modal[None, :]])
     coarse = model(dict(columns(table)))
-    fine = model.tightened(10.0)(dict(columns(modal[None, :])))
+    fine = model.tightened(tolerance_of(model).tightening)(dict(columns(modal[None, :])))
     runs = len(table) + 1
     failed = np.asarray(coarse.get("failed", np.zeros(len(table), bool)), dtype=bool)
     fine_failed = np.asarray(fine.get("failed", [False]), dtype=bool)
@@ -512,9 +511,9 @@ def choose_tolerance(
     return chosen, ToleranceChoice(factor, error, runs, chosen.time_integration, note)
 
 
-def _reuses_fine(factor: float) -> bool:
-    """A factor near enough to 10 to take the pilot's tenfold tighter model."""
-    return _near(factor, 10.0)
+def _reuses_fine(factor: float, fine: float) -> bool:
+    """A factor near enough to the pilot's tighter model's (``fine``, ten) to take it."""
+    return _near(factor, fine)
 
 
 def _near(factor: float, built: float) -> bool:
@@ -582,7 +581,8 @@ def _choose_shared(
     steps; the reference that corrects both alike drops out), so that the pilot runs
     while the reference runs do; their estimated error is waited for at the end.
     """
-    fine = shared.tightened(10.0)
+    fine_factor = tolerance_of(shared).tightening  # the pilot's tighter model's
+    fine = shared.tightened(fine_factor)
     coarse_out = shared.deviations(dict(columns(corners)))
     fine_out = fine.deviations(dict(columns(corners)))
     runs = 2 * len(corners) + 4  # a logging run each and two reference runs
@@ -622,7 +622,7 @@ def _choose_shared(
     likely = factor_for(max(target - PREDICTION_MARGIN * predicted, 0.5 * target))
     speculative = ahead_on = None  # the model built ahead; the one running ahead
     first_columns = None if first is None or not len(first) else dict(columns(first))
-    if _reuses_fine(likely):
+    if _reuses_fine(likely, fine_factor):
         ahead_on = fine  # the pilot's tighter model will do
     elif likely > 1.0:
         speculative = Background(_prepared_model, shared, likely, first_columns)
@@ -641,8 +641,8 @@ def _choose_shared(
         )
     factor = factor_for(budget)
     built = int(speculative is not None)  # logging runs made for the choice
-    if _reuses_fine(factor):
-        factor, chosen = 10.0, fine  # the pilot's tighter model: near enough
+    if _reuses_fine(factor, fine_factor):
+        factor, chosen = fine_factor, fine  # the pilot's tighter model: near enough
     elif speculative is not None and _near(factor, likely):
         factor, chosen = likely, speculative.result()  # near enough as well
         ahead_on = chosen

@@ -170,6 +170,7 @@ def run_study_file(
     plots: bool = True,
     allow_code: bool = False,
     max_runs: int | None = None,
+    study_options: dict[str, Any] | None = None,
     timeout: float | None = None,
     report: bool = True,
     command: str | None = None,
@@ -178,7 +179,8 @@ def run_study_file(
     """Load a study file, run it with ``out/chunks`` as store, and write the results.
 
     Settings given here override the file's ``[run]`` table (``timeout``: seconds
-    a sample may take), ``max_runs`` its ``[study] max_runs``. ``allow_code``
+    a sample may take), ``max_runs`` its ``[study] max_runs`` and ``study_options``
+    its other study options (:class:`~fuzzymbs.study.options.StudyOptions`). ``allow_code``
     lets the file run code its author named (a module reference, an FMU, a
     program; :mod:`fuzzymbs.study.trust`). ``report`` writes ``out/report.html``
     (:mod:`fuzzymbs.report`); ``command``, the command line that ran the study, is
@@ -206,7 +208,11 @@ def run_study_file(
     check_executor_spec(executor)  # before the study is built or a folder touched
 
     definition = load_study_file(
-        path, allow_code=allow_code, max_runs=max_runs, file_executor=executor is None
+        path,
+        allow_code=allow_code,
+        max_runs=max_runs,
+        file_executor=executor is None,
+        study_options=study_options,
     )
     if executor is None:
         check_executor_spec(definition.executor)  # the study file's own, likewise

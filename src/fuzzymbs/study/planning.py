@@ -27,6 +27,7 @@ from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_screening_run_limit
 from fuzzymbs.fuzzy.screening import DEFAULT_RTOL, Screening, check_tolerance
 from fuzzymbs.fuzzy.screening import screening_samples as make_screening_samples
 from fuzzymbs.fuzzy.transform import Plan
+from fuzzymbs.study.options import StudyOptions
 from fuzzymbs.study.parameters import fuzzy_number_from_definition
 from fuzzymbs.study.registry import ModelSpec, ParameterInfo, get_model, load_callable
 
@@ -36,6 +37,7 @@ __all__ = [
     "build_plan",
     "checked_outputs",
     "declared_parameters",
+    "is_method_option",
     "resolve_model",
     "split_parameters",
 ]
@@ -214,27 +216,32 @@ def checked_outputs(
     return tuple(names)
 
 
+def is_method_option(name: str) -> bool:
+    """Whether a transformation method declares option ``name`` and the study does not hold
+    it itself (``method_tolerance`` and ``max_runs`` are the study's, given on to a method
+    that declares them)."""
+    return bool(option_users(name)) and not StudyOptions.declares(name)
+
+
 def build_plan(
     fuzzy: Mapping[str, FuzzyNumber],
     method: str | Method,
     levels: int | Sequence[float],
     nonmonotonic: Sequence[str] | str | None,
-    screening_rtol: float | None,
-    sparse_level: int | None,
-    search_points: int | None,
-    max_runs: int | None = DEFAULT_MAX_RUNS,
-    method_tolerance: float | None = None,
+    options: StudyOptions | None = None,
+    method_options: Mapping[str, Any] | None = None,
 ) -> tuple[Plan | None, Screening | None, float | None]:
     """``(plan, screening samples, screening tolerance)`` of a study.
 
     With ``nonmonotonic="auto"`` the plan is None (built after the screening)
     and the screening samples and tolerance are set; otherwise the plan is
-    built now and the other two are None. ``max_runs`` limits the plan's runs
+    built now and the other two are None. ``options.max_runs`` limits the plan's runs
     (:class:`~fuzzymbs.fuzzy.transform.Plan`); for ``"auto"`` the screening
     runs plus the reduced corners the extended plan holds at least. For
     ``method="adaptive"`` the plan is a :class:`~fuzzymbs.fuzzy.transform.RoundsPlan`
-    with ``max_runs`` as its run budget and ``method_tolerance`` as its tolerance
-    (``method_tolerance`` is given to the methods that declare it).
+    with ``max_runs`` as its run budget and ``options.method_tolerance`` as its tolerance
+    (``method_tolerance`` is given to the methods that declare it). ``method_options``:
+    the options of a method given by name (:func:`~fuzzymbs.fuzzy.methods.method_named`).
 
     Raises
     ------
@@ -246,9 +253,13 @@ def build_plan(
         (an InvalidPlanError) More runs than ``max_runs``, refused before any
         sample is built.
     """
+    options = StudyOptions() if options is None else options
+    method_options = dict(method_options or {})
+    max_runs = options.max_runs
+    screening_rtol = options.screening_rtol
     if isinstance(nonmonotonic, str) and nonmonotonic == AUTO:
         # the method's other options checked as for its plan
-        scheme = method_named(method, sparse_level=sparse_level, search_points=search_points)
+        scheme = method_named(method, **method_options)
         if not scheme.declares("nonmonotonic"):
             raise InvalidPlanError(
                 f"nonmonotonic={AUTO!r} is only used by method="
@@ -263,14 +274,9 @@ def build_plan(
             f"screening_rtol={screening_rtol!r} is only used with "
             f"nonmonotonic={AUTO!r}, not {nonmonotonic!r}"
         )
-    scheme = method_named(
-        method,
-        nonmonotonic=nonmonotonic,
-        sparse_level=sparse_level,
-        search_points=search_points,
-    )
-    if method_tolerance is not None and scheme.declares("method_tolerance"):
-        scheme = replace(scheme, method_tolerance=method_tolerance)
+    scheme = method_named(method, nonmonotonic=nonmonotonic, **method_options)
+    if options.method_tolerance is not None and scheme.declares("method_tolerance"):
+        scheme = replace(scheme, method_tolerance=options.method_tolerance)
     if scheme.declares("max_runs"):  # the method's own run budget
         if max_runs is not None and max_runs != DEFAULT_MAX_RUNS:
             scheme = replace(scheme, max_runs=max_runs)

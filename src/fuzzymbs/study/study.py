@@ -25,6 +25,7 @@ import logging
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +39,7 @@ from fuzzymbs.errors import (
 )
 from fuzzymbs.fuzzy.methods import Method
 from fuzzymbs.fuzzy.methods.adaptive import AdaptiveWarning
-from fuzzymbs.fuzzy.transform import DEFAULT_MAX_RUNS, Plan, make_levels
+from fuzzymbs.fuzzy.transform import Plan, make_levels
 from fuzzymbs.study.adaptive_rounds import run_rounds
 from fuzzymbs.study.code_version import code_version
 from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, merged_coords
@@ -47,20 +48,17 @@ from fuzzymbs.study.execution import (
     ON_FAILURE,
     LazyExecutor,
     check_run_settings,
-    evaluate_chunks,
 )
 from fuzzymbs.study.extra_runs import StudyRuns
-from fuzzymbs.study.integration_check import (
-    DEFAULT_RUNS,
-    DEFAULT_TOLERANCE,
-    ToleranceChoice,
-)
+from fuzzymbs.study.integration_check import ToleranceChoice
 from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE
+from fuzzymbs.study.options import StudyOptions
 from fuzzymbs.study.planning import (
     AUTO,
     build_plan,
     checked_outputs,
     declared_parameters,
+    is_method_option,
     resolve_model,
     split_parameters,
 )
@@ -69,7 +67,7 @@ from fuzzymbs.study.result import StudyResult, build_dataset, check_output_names
 from fuzzymbs.study.store import open_chunks
 from fuzzymbs.study.streaming import ChunkFeed
 
-__all__ = ["DEFAULT_CHUNK_SIZE", "ON_FAILURE", "Study", "StudyResult"]
+__all__ = ["DEFAULT_CHUNK_SIZE", "ON_FAILURE", "Study", "StudyOptions", "StudyResult"]
 
 logger = logging.getLogger(__name__)
 
@@ -107,63 +105,15 @@ class Study(StudyRuns):
         find them by a screening run before the plan is built (see
         :meth:`screen`); the plan is then known only after :meth:`screen` or
         :meth:`run`. A parameter literally named "auto" is given as ``["auto"]``.
-    screening_rtol : float, optional
-        With ``nonmonotonic="auto"``: reversals along a parameter's axis up to
-        this fraction of an output element's range are ignored (default
-        :data:`fuzzymbs.fuzzy.screening.DEFAULT_RTOL`).
-    sparse_level, search_points : int, optional
-        Method "sparse" only: sparse-grid level and search points per cut box
-        (see :func:`fuzzymbs.fuzzy.transform.plan`).
-    integration_tolerance : float
-        Largest time-integration error the study accepts without a
-        :class:`~fuzzymbs.study.integration_check.TimeIntegrationWarning`, as a
-        fraction of the cut width: after its runs, a time-integrated model re-runs
-        the samples that give the cuts' bounds with a tenfold tighter tolerance
-        (RK4: half the step) and stores the bounds' largest deviation as
-        ``time_integration_error`` (:mod:`fuzzymbs.study.integration_check`).
-        Default 1 %.
-    integration_runs : int
-        How many samples that check re-runs (the modal one and those that give the
-        most bounds; default 8).
-    choose_integration : bool
-        With a model whose integrator tolerance scales (``scalable_tolerance``, e.g.
-        the brake with ROS34PW2), first run a pilot (the corners of the innermost cut
-        and the modal point) and tighten the model's tolerance so that the
-        time-integration error is expected below the integration tolerance
-        (:func:`~fuzzymbs.study.integration_check.choose_tolerance`; default True).
-    shared_steps : bool
-        With a model that offers ``share_steps`` (the brake, ROS34PW2) and
-        ``choose_integration``: every sample takes the modal sample's step sequence
-        and the modal sample's integration error, measured against a tight
-        reference run, is removed from every sample's outputs, so that the error
-        is smooth across the parameters and the bands settle at a far looser
-        tolerance (:mod:`fuzzymbs.mbs.shared_steps`; default True).
-    validation_runs : int, optional
-        Extra runs that check the method (:mod:`fuzzymbs.study.method_check`):
-        points inside the cut boxes that no run of the method covers, in four
-        rounds (edge probes and Halton points, then a local search from the
-        points that give the bounds), compared with the retransformed cuts
-        (``method_error``, a lower bound of the method's miss since the runs are a
-        sample: ``method_error_bound = "lower"``). Default: a fifth of the method's
-        runs, at least 12 per fuzzy parameter. 0 turns the check off (for a model
-        known to be monotonic, or when every run counts).
-    method_tolerance : float, optional
-        Method ``"adaptive"``: the certified error (cut-width scale) at which its rounds
-        stop (given, it replaces the method object's own). The fixed methods: the
-        largest method error (the validation runs' range beyond a level's cut, on the
-        cut-width scale of :mod:`fuzzymbs.fuzzy.band_scale`) without a
-        :class:`~fuzzymbs.fuzzy.retransform.NonMonotonicWarning`. Default 1 %.
-    widen_with_validation : bool
-        Widen the cuts to the validation outputs (each point's level and the
-        levels below). Default False: the validation outputs are reported
-        (``o_validation``) and never merged silently.
-    max_runs : int or None
-        Refuse a plan needing more model runs than this before anything is
-        built (:class:`~fuzzymbs.errors.PlanTooLargeError`, an InvalidPlanError,
-        naming the runs of cheaper methods); for method ``"adaptive"`` its run
-        budget (this default and None mean 2,000; a :class:`~fuzzymbs.fuzzy.methods.adaptive.
-        AdaptiveWarning` says when the budget stopped it above the tolerance); default
-        :data:`fuzzymbs.fuzzy.transform.DEFAULT_MAX_RUNS` (1,000,000), None: no limit.
+    options : StudyOptions, optional
+        The study's own options (:class:`~fuzzymbs.study.options.StudyOptions`: the
+        checks of its time integration and of its method, the screening tolerance, the
+        run limit), all defaults if not given.
+    **given
+        Options by name, replacing those of ``options``: any study option
+        (``validation_runs=0``, ``integration_tolerance=0.005``, ``max_runs=None``,
+        ...; ``fuzzymbs info`` lists them) or an option of the method given by name
+        (``sparse_level=2`` with ``method="sparse"``).
     name, description : str, optional
         Labels used in results, summaries and output folders.
 
@@ -171,7 +121,8 @@ class Study(StudyRuns):
     ------
     InvalidParameterError
         Unknown model, unknown parameter or output names (the message lists the
-        valid ones), missing values for parameters without a default, bad options.
+        valid ones), missing values for parameters without a default, an unknown or
+        invalid study option (naming it).
     InvalidFuzzyNumberError, InvalidPlanError
         From the fuzzy engine, for invalid fuzzy numbers or plan settings.
     """
@@ -186,51 +137,15 @@ class Study(StudyRuns):
         *,
         model_options: Mapping[str, Any] | None = None,
         nonmonotonic: Sequence[str] | str | None = None,
-        screening_rtol: float | None = None,
-        sparse_level: int | None = None,
-        search_points: int | None = None,
-        integration_tolerance: float = DEFAULT_TOLERANCE,
-        integration_runs: int = DEFAULT_RUNS,
-        choose_integration: bool = True,
-        shared_steps: bool = True,
-        validation_runs: int | None = None,
-        method_tolerance: float | None = None,
-        widen_with_validation: bool = False,
-        max_runs: int | None = DEFAULT_MAX_RUNS,
+        options: StudyOptions | None = None,
         name: str | None = None,
         description: str = "",
+        **given: Any,
     ) -> None:
-        for label, value in (
-            ("integration_tolerance", integration_tolerance),
-            (
-                "method_tolerance",
-                DEFAULT_METHOD_TOLERANCE if method_tolerance is None else method_tolerance,
-            ),
-        ):
-            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
-                raise InvalidParameterError(f"{label} must be a positive number, got {value!r}")
-        if isinstance(integration_runs, bool) or not (
-            isinstance(integration_runs, (int, np.integer)) and integration_runs >= 1
-        ):
-            raise InvalidParameterError(
-                f"integration_runs must be a whole number >= 1, got {integration_runs!r}"
-            )
-        if validation_runs is not None and (
-            isinstance(validation_runs, bool)
-            or not isinstance(validation_runs, (int, np.integer))
-            or validation_runs < 0
-        ):
-            raise InvalidParameterError(
-                f"validation_runs must be a whole number >= 0 (0: no method check), "
-                f"got {validation_runs!r}"
-            )
-        self.integration_tolerance = float(integration_tolerance)
-        self.integration_runs = int(integration_runs)
-        self.choose_integration = bool(choose_integration)
-        self.shared_steps = bool(shared_steps)
+        # a name is the study's option where StudyOptions declares it, else the method's
+        method_options = {key: given.pop(key) for key in list(given) if is_method_option(key)}
+        options = StudyOptions.given(options, given)
         self.integration_choice: ToleranceChoice | None = None
-        self.validation_runs = None if validation_runs is None else int(validation_runs)
-        self.widen_with_validation = bool(widen_with_validation)
         resolved = resolve_model(model, model_options or {})
         self.model = resolved.model
         self.model_name = resolved.name
@@ -251,27 +166,24 @@ class Study(StudyRuns):
         self.constants = crisp
         self._fuzzy = fuzzy
         self._levels = levels
-        self._max_runs = max_runs  # also for the extended plan built after a screening
         #: the screening report of a ``nonmonotonic="auto"`` study once screened, else None
         self.screening: dict[str, Any] | None = None
         self.auto_nonmonotonic = isinstance(nonmonotonic, str) and nonmonotonic == AUTO
-        self._plan, self._screening_samples, self.screening_rtol = build_plan(
-            fuzzy,
-            method,
-            levels,
-            nonmonotonic,
-            screening_rtol,
-            sparse_level,
-            search_points,
-            max_runs=max_runs,
-            method_tolerance=method_tolerance,
+        self._plan, self._screening_samples, screening_rtol = build_plan(
+            fuzzy, method, levels, nonmonotonic, options, method_options
         )
         # one tolerance: the method's own where it declares one (adaptive), else the check's
         scheme = getattr(self._plan, "scheme", None)
+        method_tolerance = options.method_tolerance
         if scheme is not None and scheme.declares("method_tolerance"):
             method_tolerance = scheme.method_tolerance
-        self.method_tolerance = float(
-            DEFAULT_METHOD_TOLERANCE if method_tolerance is None else method_tolerance
+        #: the study's options, with the defaults that depend on the method filled in
+        self.options = replace(
+            options,
+            screening_rtol=screening_rtol,
+            method_tolerance=(
+                DEFAULT_METHOD_TOLERANCE if method_tolerance is None else method_tolerance
+            ),
         )
         known_outputs = self._declared_outputs()
         self.outputs = checked_outputs(outputs, known_outputs, self.model_name)
@@ -480,16 +392,12 @@ class Study(StudyRuns):
         work = LazyExecutor(executor, self._check_picklable, timeout)
         try:
             if self._plan is None:
-                self._screen(work, requested_size, store, resume, progress, on_failure, code)
+                self._screen((work, requested_size, resume, progress, code), store, on_failure)
             self._choose_integration(progress)
             if self.plan.scheme.runs_in_rounds:
                 return self._run_in_rounds(
-                    work,
-                    requested_size,
+                    (work, requested_size, resume, progress, code),
                     store,
-                    resume,
-                    progress,
-                    code,
                     keep_raw,
                     on_failure,
                     started,
@@ -514,17 +422,11 @@ class Study(StudyRuns):
             )
             if on_failure == "fail-fast":
                 self._raise_if_failed(results, during=True)
-            evaluated = evaluate_chunks(
-                self.model,
-                self.outputs,
-                self.columns,
-                count,
-                missing,
-                size,
-                results,
-                chunk_store,
+            evaluated = self._evaluate_rows(
+                self.plan.samples,
+                (chunk_store, size, results, missing, reused),
                 work,
-                progress=(progress, reused, self.name),
+                (progress, None),
                 fail_fast=(
                     (lambda: self._raise_if_failed(results, during=True))
                     if on_failure == "fail-fast"
@@ -574,20 +476,17 @@ class Study(StudyRuns):
 
     def _run_in_rounds(
         self,
-        work: LazyExecutor,
-        size: int,
+        settings: tuple[LazyExecutor, int, bool, bool, dict[str, Any]],
         store: str | Path | None,
-        resume: bool,
-        progress: bool,
-        code: dict[str, Any],
         keep_raw: bool | None,
         on_failure: str,
         started: float,
     ) -> StudyResult:
         """The rounds of a plan that runs in rounds (:mod:`fuzzymbs.study.adaptive_rounds`),
         then the result; its certification replaces the validation runs of the fixed
-        methods."""
-        outputs, evaluated, reused = run_rounds(self, (work, size, resume, progress, code), store)
+        methods (``settings``: executor, chunk size, resume, progress, code version)."""
+        work, size, _, progress, code = settings
+        outputs, evaluated, reused = run_rounds(self, settings, store)
         plan = self.plan
         count = len(plan)
         failed = np.zeros(count, dtype=bool)

@@ -3,15 +3,11 @@
 Layout (see docs/studies.md)::
 
     [study]      name, description, method, levels, outputs, nonmonotonic (list or "auto"),
-                 screening_rtol, the method's own options as it declares them
-                 (fuzzymbs.fuzzy.methods; e.g. sparse_level, search_points),
-                 integration_tolerance (time-integrated models: of the cut width; default 0.01),
-                 integration_runs (samples its check re-runs; default 8),
-                 choose_integration (a pilot chooses the integrator tolerance; true),
-                 shared_steps (samples on the modal sample's steps, its error removed; true),
-                 validation_runs (default: a fifth of the runs, at least 12 n; 0: off),
-                 method_tolerance (default 0.01), widen_with_validation (default false),
-                 max_runs (default 1,000,000: a larger plan is refused before it is built)
+                 the study's own options as StudyOptions declares them
+                 (fuzzymbs.study.options: screening_rtol, integration_tolerance,
+                 integration_runs, choose_integration, shared_steps, validation_runs,
+                 method_tolerance, widen_with_validation, max_runs), the method's own
+                 options as it declares them (fuzzymbs.fuzzy.methods; e.g. sparse_level)
     [model]      name ("registry-name", "fmu", "command" or "package.module:callable"),
                  [model.options] (fmu, command and references need --allow-code)
     [parameters] one table (fuzzy) or number (crisp) per model parameter
@@ -27,6 +23,7 @@ from __future__ import annotations
 import itertools
 import math
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -42,10 +39,8 @@ from fuzzymbs.errors import (
     UntrustedCodeError,
 )
 from fuzzymbs.fuzzy.methods import METHODS, method_named
-from fuzzymbs.fuzzy.methods.base import option_type
-from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS
-from fuzzymbs.study.integration_check import DEFAULT_RUNS, DEFAULT_TOLERANCE
-from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE
+from fuzzymbs.options import Declared, option_type
+from fuzzymbs.study.options import StudyOptions
 from fuzzymbs.study.parameters import FUZZY_TYPES
 
 
@@ -54,7 +49,8 @@ class _Section(BaseModel):
 
 
 class _StudyFields(_Section):
-    """``[study]``'s own keys (the methods' options are added from their declarations)."""
+    """``[study]``'s keys of what to compute (the study's and the methods' options are
+    added from their declarations)."""
 
     name: str | None = None
     description: str = ""
@@ -62,15 +58,6 @@ class _StudyFields(_Section):
     levels: int | list[float] = 4
     outputs: list[str] | None = None
     nonmonotonic: list[str] | Literal["auto"] = Field(default_factory=list)
-    screening_rtol: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
-    integration_tolerance: float = Field(default=DEFAULT_TOLERANCE, gt=0.0, allow_inf_nan=False)
-    integration_runs: int = Field(default=DEFAULT_RUNS, ge=1)
-    choose_integration: bool = True
-    shared_steps: bool = True
-    validation_runs: int | None = Field(default=None, ge=0)
-    method_tolerance: float = Field(default=DEFAULT_METHOD_TOLERANCE, gt=0.0, allow_inf_nan=False)
-    widen_with_validation: bool = False
-    max_runs: int = Field(default=DEFAULT_MAX_RUNS, ge=1)
 
     @field_validator("nonmonotonic", mode="before")
     @classmethod
@@ -115,17 +102,40 @@ class _StudyFields(_Section):
         return value
 
 
+def _declared_field(cls: type[Declared], name: str, default: Any) -> tuple[Any, Any]:
+    """A pydantic field of option ``name`` as ``cls`` declares it: its type (None where the
+    declaration allows it), its limit and ``default``."""
+    kind, nullable, minimum, inclusive = option_type(cls, name)
+    limit: dict[str, Any] = {}
+    if minimum is not None:  # ints: inclusive, as the declaration checks them
+        limit = {"ge" if inclusive or kind is int else "gt": minimum}
+    if kind is float:
+        limit["allow_inf_nan"] = False
+    return (kind | None if nullable else kind), Field(default=default, **limit)
+
+
+def _study_option_fields() -> dict[str, Any]:
+    """A ``[study]`` key for every study option, typed, limited and defaulted as
+    :class:`~fuzzymbs.study.options.StudyOptions` declares it."""
+    return {
+        declared.name: _declared_field(StudyOptions, declared.name, declared.default)
+        for declared in StudyOptions.options()
+    }
+
+
 def _method_option_fields() -> dict[str, Any]:
     """A ``[study]`` key for every method option the study does not hold itself, typed and
     limited as the method declares it (None: not given, the method's default)."""
     fields: dict[str, Any] = {}
     for cls in METHODS.values():
         for declared in cls.options():
-            if declared.name in _StudyFields.model_fields or declared.name in fields:
+            taken = declared.name in _StudyFields.model_fields or StudyOptions.declares(
+                declared.name
+            )
+            if taken or declared.name in fields:
                 continue
-            kind, minimum = option_type(cls, declared.name)
-            limit = {} if minimum is None else {"ge": minimum}
-            fields[declared.name] = (kind | None, Field(default=None, **limit))
+            kind, field = _declared_field(cls, declared.name, None)
+            fields[declared.name] = (kind | None, field)
     return fields
 
 
@@ -135,7 +145,8 @@ METHOD_OPTION_KEYS: tuple[str, ...] = tuple(_method_option_fields())
 StudySection = create_model(
     "StudySection",
     __base__=_StudyFields,
-    __doc__="``[study]``: what to compute, and the method's options.",
+    __doc__="``[study]``: what to compute, the study's own options and the method's.",
+    **_study_option_fields(),
     **_method_option_fields(),
 )
 
@@ -379,6 +390,7 @@ def load_study_file(
     allow_code: bool = False,
     max_runs: int | None = None,
     file_executor: bool = True,
+    study_options: Mapping[str, Any] | None = None,
 ) -> StudyDefinition:
     """Read, validate and resolve a study file.
 
@@ -395,6 +407,9 @@ def load_study_file(
     file_executor : bool
         The file's ``[run] executor`` is used (False: the caller gives its own,
         so a Dask address in the file is neither checked nor used).
+    study_options : mapping, optional
+        Study options by name overriding the file's ``[study]`` ones
+        (``fuzzymbs run --option NAME=VALUE``; :class:`~fuzzymbs.study.options.StudyOptions`).
 
     Returns
     -------
@@ -450,6 +465,10 @@ def load_study_file(
             nonmonotonic=None if auto else parsed.study.nonmonotonic,
             **{key: getattr(parsed.study, key) for key in METHOD_OPTION_KEYS},
         )
+        given = {item.name: getattr(parsed.study, item.name) for item in StudyOptions.options()}
+        given.update(study_options or {})  # the command line's --option NAME=VALUE
+        if max_runs is not None:  # the command line's --max-runs
+            given["max_runs"] = max_runs
         study = Study(
             model,
             definitions,
@@ -458,15 +477,7 @@ def load_study_file(
             outputs=parsed.study.outputs,
             model_options=options,
             nonmonotonic="auto" if auto else None,
-            screening_rtol=parsed.study.screening_rtol,
-            integration_tolerance=parsed.study.integration_tolerance,
-            integration_runs=parsed.study.integration_runs,
-            choose_integration=parsed.study.choose_integration,
-            shared_steps=parsed.study.shared_steps,
-            validation_runs=parsed.study.validation_runs,
-            method_tolerance=parsed.study.method_tolerance,
-            widen_with_validation=parsed.study.widen_with_validation,
-            max_runs=parsed.study.max_runs if max_runs is None else max_runs,
+            options=StudyOptions.given(values=given),
             name=name,
             description=parsed.study.description,
         )

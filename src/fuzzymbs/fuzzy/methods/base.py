@@ -1,21 +1,19 @@
 """What every transformation method is: its options, its capabilities, its builder, its count.
 
 A method is a frozen dataclass whose fields are its options, declared once with
-:func:`option` (type from the annotation, default, what a valid value is, one
-line of help). Its capabilities are class attributes the rest of the package
-asks (``plan.scheme.supports_influence``) instead of comparing method names. A
-fixed method builds a plan's samples (:meth:`Method.build`, returning a
-:class:`Sampling`) and counts them from the same sample sets
-(:meth:`Method.count`); a method that runs in rounds starts an engine instead
-(:meth:`Method.start`). docs/architecture.md, "Adding a transformation method",
+:func:`fuzzymbs.options.option` (type from the annotation, default, what a valid
+value is, one line of help), as a study's own options are
+(:class:`fuzzymbs.study.options.StudyOptions`). Its capabilities are class
+attributes the rest of the package asks (``plan.scheme.supports_influence``)
+instead of comparing method names. A fixed method builds a plan's samples
+(:meth:`Method.build`, returning a :class:`Sampling`) and counts them from the
+same sample sets (:meth:`Method.count`); a method that runs in rounds starts an
+engine instead (:meth:`Method.start`). docs/architecture.md, "Adding a transformation method",
 shows a new method's module.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import types
-import typing
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, NamedTuple
 
@@ -24,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidPlanError
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
+from fuzzymbs.options import Declared, OptionInfo, option
 
 __all__ = [
     "CountRequest",
@@ -32,102 +31,8 @@ __all__ = [
     "OptionInfo",
     "Sampling",
     "option",
-    "option_type",
     "to_parameter_space",
 ]
-
-
-def option(default: Any, help: str, *, must: str, minimum: float | None = None) -> Any:
-    """Declare one option of a method (a dataclass field with its description).
-
-    Parameters
-    ----------
-    default : Any
-        The value when the option is not given (None: chosen from the parameters, e.g.
-        a minimum that depends on their number).
-    help : str
-        One line for ``fuzzymbs info`` and the docs.
-    must : str
-        What a valid value is, for the error message (``"an int >= 1"``).
-    minimum : float, optional
-        The smallest valid value of a number (inclusive for ints, exclusive for floats).
-    """
-    return field(default=default, metadata={"help": help, "must": must, "minimum": minimum})
-
-
-class OptionInfo(NamedTuple):
-    """One declared option of a method: what the study file, Study and the CLI show."""
-
-    name: str
-    type: Any
-    default: Any
-    help: str
-
-    def default_text(self) -> str:
-        """``"default 2,000"``, ``"default 0.01"``, ``"default none"`` or ``"default chosen
-        from the parameters"`` (for None)."""
-        value = self.default
-        if value is None:
-            return "default chosen from the parameters"
-        if isinstance(value, tuple):
-            return f"default {', '.join(value) or 'none'}"
-        if isinstance(value, int):
-            return f"default {value:,}"
-        return f"default {value:g}"
-
-
-def _base_type(hint: Any) -> tuple[Any, bool]:
-    """``(type, None allowed)`` of an option's annotation (``int | None`` -> ``(int, True)``)."""
-    if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
-        args = [a for a in typing.get_args(hint) if a is not type(None)]
-        return args[0], len(args) < len(typing.get_args(hint))
-    return hint, False
-
-
-def _checked_value(method: str, name: str, value: Any, hint: Any, meta: dict) -> Any:
-    """One option's value checked against its declaration (InvalidPlanError naming it)."""
-    kind, nullable = _base_type(hint)
-    if value is None and nullable:
-        return None
-    minimum = meta["minimum"]
-
-    def bad() -> InvalidPlanError:
-        return InvalidPlanError(f"{name} must be {meta['must']}, got {value!r}")
-
-    if kind is int:
-        if isinstance(value, bool) or not isinstance(value, int | np.integer):
-            raise bad()
-        if minimum is not None and value < minimum:
-            raise bad()
-        return int(value)
-    if kind is float:
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float | np.integer | np.floating)
-            or not np.isfinite(value)
-            or (minimum is not None and value <= minimum)
-        ):
-            raise bad()
-        return float(value)
-    if typing.get_origin(kind) is tuple:  # names
-        if value is None:
-            return ()
-        names = (value,) if isinstance(value, str) else value
-        try:
-            names = tuple(names)
-        except TypeError:
-            raise bad() from None
-        if not all(isinstance(n, str) for n in names):
-            raise bad()
-        return names
-    raise TypeError(f"option {name!r} of method {method!r}: undeclared type {hint!r}")
-
-
-def option_type(cls: type, name: str) -> tuple[Any, float | None]:
-    """``(type, minimum)`` of option ``name`` of method class ``cls`` (``int | None`` gives
-    ``int``): what a study file's schema checks of it."""
-    item = next(f for f in dataclasses.fields(cls) if f.name == name)
-    return _base_type(typing.get_type_hints(cls)[name])[0], item.metadata["minimum"]
 
 
 class NumberShape(NamedTuple):
@@ -239,7 +144,7 @@ def to_parameter_space(
 
 
 @dataclass(frozen=True)
-class Method:
+class Method(Declared):
     """A transformation method: options (the dataclass fields), capabilities, builder, count.
 
     Subclasses set :attr:`name`, :attr:`summary` and the capabilities they have, declare
@@ -268,6 +173,7 @@ class Method:
         Its bounds are those of an interpolant, found by a search of every cut box.
     """
 
+    invalid: ClassVar[type[Exception]] = InvalidPlanError  # a bad option: a bad plan
     name: ClassVar[str] = ""
     summary: ClassVar[str] = ""
     supports_influence: ClassVar[bool] = False
@@ -277,33 +183,6 @@ class Method:
     has_corners: ClassVar[bool] = False
     guards_monotonicity: ClassVar[bool] = False
     interpolates: ClassVar[bool] = False
-
-    def __post_init__(self) -> None:
-        hints = typing.get_type_hints(type(self))
-        for item in dataclasses.fields(self):
-            value = _checked_value(
-                self.name, item.name, getattr(self, item.name), hints[item.name], item.metadata
-            )
-            object.__setattr__(self, item.name, value)
-
-    # ------------------------------------------------------------- declaration
-    @classmethod
-    def options(cls) -> tuple[OptionInfo, ...]:
-        """The declared options, in declaration order."""
-        hints = typing.get_type_hints(cls)
-        return tuple(
-            OptionInfo(f.name, hints[f.name], f.default, f.metadata["help"])
-            for f in dataclasses.fields(cls)
-        )
-
-    @classmethod
-    def declares(cls, name: str) -> bool:
-        """Whether ``name`` is one of this method's options."""
-        return any(item.name == name for item in dataclasses.fields(cls))
-
-    def option_values(self) -> dict[str, Any]:
-        """The options as given or checked, ``{name: value}``."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
     def checked(self, names: tuple[str, ...]) -> Method:
         """This method with the options that depend on the parameters checked and their

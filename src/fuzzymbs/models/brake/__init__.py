@@ -25,6 +25,7 @@ from fuzzymbs.models.brake.stability import (
     stability_analysis,
 )
 from fuzzymbs.study.registry import register_model
+from fuzzymbs.tolerance import ATOL_PER_RTOL, DEFAULT_TOLERANCE
 
 __all__ = [
     "CONTACT_TREATMENTS",
@@ -57,8 +58,8 @@ OPTIONS = {
     " (a block per sample)",
     "integrator": '"ros34pw2" (default: error control at rtol; dt: first step) or "rk4" '
     "(the paper's fixed step dt, not converged at 1 us)",
-    "rtol": "ROS34PW2 relative tolerance (default 1e-2)",
-    "atol": "ROS34PW2 absolute tolerance [m, m/s] (default 1e-5 rtol)",
+    "rtol": f"ROS34PW2 relative tolerance (default {DEFAULT_TOLERANCE.rtol:g})",
+    "atol": f"ROS34PW2 absolute tolerance [m, m/s] (default {ATOL_PER_RTOL:g} rtol)",
     "design": "table of BrakeDesign fields (sizes, mode counts, max_frequency)",
 }
 

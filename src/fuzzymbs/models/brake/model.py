@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -45,6 +46,7 @@ from fuzzymbs.mbs.step_stability import StepStability, rk4_step_stability
 from fuzzymbs.mbs.system import CompiledSystem, Coordinate, System
 from fuzzymbs.models.brake.geometry import BrakeBodies, BrakeDesign, build_bodies
 from fuzzymbs.study.registry import ParameterInfo
+from fuzzymbs.tolerance import DEFAULT_TOLERANCE, Tolerance
 
 __all__ = ["CONTACT_TREATMENTS", "DEFAULTS", "OUTPUTS", "PARAMETERS", "DiscBrake", "brake_system"]
 
@@ -258,10 +260,11 @@ class DiscBrake:
         give a sample bit-identical outputs whatever shares its block.
     integrator, rtol, atol
         ``"ros34pw2"`` (default): the linearly implicit ROS34PW2 with error control
-        at rtol (default 1e-2), atol (default 1e-5 rtol); ``"rk4"``: the paper's
-        fixed-step RK4 at dt, for reproducing the publication (see
-        :func:`fuzzymbs.mbs.integrate.simulate`). Over 10 ms, ROS34PW2 at rtol 1e-2
-        is 0.27 % of the peak off a converged reference, RK4 at 1 us 13.1 %
+        at rtol and atol (default: those of :data:`fuzzymbs.tolerance.DEFAULT_TOLERANCE`;
+        atol None: a fraction of rtol); ``"rk4"``: the paper's fixed-step RK4 at dt,
+        for reproducing the publication (see :func:`fuzzymbs.mbs.integrate.simulate`).
+        Over 10 ms, ROS34PW2 at the default rtol is 0.27 % of the peak off a converged
+        reference, RK4 at 1 us 13.1 %
         (docs/brake.md, "Accuracy of the time integration"). A fuzzy study reads the
         cut width, not the peak: a study tightens rtol for its cut widths itself
         (``scalable_tolerance``; docs/brake.md, "Bands above the numerical noise").
@@ -284,8 +287,8 @@ class DiscBrake:
         chunk_size: int = 64,
         kernel: str = "auto",
         integrator: str = "ros34pw2",
-        rtol: float = 1e-2,
-        atol: float | None = None,
+        rtol: float = DEFAULT_TOLERANCE.rtol,
+        atol: float | None = DEFAULT_TOLERANCE.atol,
     ) -> None:
         self.design = design or BrakeDesign()
         self.contact = contact
@@ -314,8 +317,7 @@ class DiscBrake:
             chunk_size=chunk_size,
             kernel=kernel,
             integrator=integrator,
-            rtol=rtol,
-            atol=atol,
+            tolerance=replace(DEFAULT_TOLERANCE, rtol=rtol, atol=atol),
         )
         self.coords = self.simulation.coords
         self.coord_units = {"time": "s"}
@@ -341,14 +343,20 @@ class DiscBrake:
         """True with ROS34PW2: a study may choose the tolerance for its cut widths."""
         return self.simulation.scalable_tolerance
 
-    def tightened(self, factor: float = 10.0) -> DiscBrake:
-        """The same brake with the tolerance divided by ``factor`` (RK4: half the step), for
-        the study runner's choice and check of the time integration."""
+    @property
+    def tolerance(self) -> Tolerance:
+        """The integrator's tolerance and its checks' tightening."""
+        return self.simulation.tolerance
+
+    def tightened(self, factor: float | None = None) -> DiscBrake:
+        """The same brake with the tolerance divided by ``factor`` (default the tolerance's
+        tightening; RK4: the step divided), for the study runner's choice and check of the
+        time integration."""
         tight = copy.copy(self)
         tight.simulation = self.simulation.tightened(factor)
         return tight
 
-    def prepare_tightened(self, factor: float = 10.0) -> None:
+    def prepare_tightened(self, factor: float | None = None) -> None:
         """Start building ``tightened(factor)`` in the background (on shared steps; see
         :meth:`fuzzymbs.mbs.integrate.SimulationModel.prepare_tightened`)."""
         self.simulation.prepare_tightened(factor)

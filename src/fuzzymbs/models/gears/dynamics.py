@@ -84,7 +84,8 @@ class DynamicSettings:
     step_scale : float
         RK4's step is chosen so that ``omega_max dt <= step_scale`` (default 1; at
         most 2, inside RK4's stability interval). The study runner's check of the
-        time integration re-runs with half of it (:meth:`MubocoPR.tightened`).
+        time integration re-runs at a divided step (:meth:`MubocoPR.tightened`: the
+        step division of :data:`fuzzymbs.tolerance.DEFAULT_TOLERANCE`, half).
     """
 
     speed_rpm: float = 1000.0

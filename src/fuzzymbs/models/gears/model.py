@@ -33,6 +33,7 @@ from fuzzymbs.models.gears.muboco import (
     solve_static_batch_tolerances,
 )
 from fuzzymbs.models.gears.potential_energy import reference_ste
+from fuzzymbs.tolerance import DEFAULT_TOLERANCE
 
 __all__ = ["SAMPLE_PARAMETERS", "MubocoPR"]
 
@@ -272,14 +273,17 @@ class MubocoPR:
         return f"rk4, dt {self.dynamic_plan.dt:.3g} s (omega_max dt <= {self.dynamic.step_scale:g})"
 
     def tightened(self) -> MubocoPR | None:
-        """The dynamic mode at half the step, for the study runner's check of the time
-        integration (:mod:`fuzzymbs.study.integration_check`); None in the static mode,
-        which does not integrate in time. A torque history is interpolated linearly
-        onto the finer grid."""
+        """The dynamic mode at a divided step (the integrators' check tightening,
+        :data:`fuzzymbs.tolerance.DEFAULT_TOLERANCE`'s ``step_division``: half), for the
+        study runner's check of the time integration
+        (:mod:`fuzzymbs.study.integration_check`); None in the static mode, which does
+        not integrate in time. A torque history is interpolated linearly onto the finer
+        grid."""
         if self.mode != "dynamic":
             return None
         tight = copy.copy(self)
-        tight.dynamic = dataclasses.replace(self.dynamic, step_scale=self.dynamic.step_scale / 2)
+        step_scale = self.dynamic.step_scale / DEFAULT_TOLERANCE.step_division
+        tight.dynamic = dataclasses.replace(self.dynamic, step_scale=step_scale)
         plan = make_plan(tight)
         factor = self.dynamic_plan.torque_factor
         if factor is not None:

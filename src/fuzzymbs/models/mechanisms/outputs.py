@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.fe.beam import PlanarBeam, ReducedBeam
-from fuzzymbs.mbs.mechanism_model import MechanismModel, OutputReader
+from fuzzymbs.mbs.mechanism_model import ENGINE_TOLERANCE, MechanismModel, OutputReader
 from fuzzymbs.mbs.planar.simulation import PlanarResult
 from fuzzymbs.mbs.planar.system import Mechanism
 
@@ -77,12 +77,11 @@ def beam_model(
         The Runge-Kutta pair (:func:`fuzzymbs.mbs.planar.simulate`'s ``method``).
     """
     sizes = {k: v for k, v in (("modes", modes), ("elements", elements)) if v is not None}
-    tolerances = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
     return MechanismModel(
         lambda p: build(p, **sizes),
         parameters=parameters,
         outputs=outputs,
         times=np.linspace(0.0, duration, int(time_steps)),
         method=integrator,
-        **tolerances,
+        tolerance=ENGINE_TOLERANCE.with_values(rtol, atol),
     )

@@ -36,6 +36,7 @@ from fuzzymbs.mbs.planar import (
     ground,
 )
 from fuzzymbs.models.mechanisms.outputs import deflection_in_frame
+from fuzzymbs.tolerance import Tolerance
 
 CRANK_LENGTH = 0.15
 ROD_LENGTH = 0.3
@@ -53,14 +54,13 @@ PARAMETERS = {
 #: Pinned-pinned modes kept (docs/mechanisms.md has the convergence measurement).
 MODES = 6
 ELEMENTS = 12
-#: Step-control tolerances. Looser than the engine's default (rtol 1e-6, atol 1e-8):
+#: Step-control tolerance. Looser than the engine's default (rtol 1e-6, atol 1e-8):
 #: the rod's stiffest mode, not the tolerance, sets DOP853's step here (one step per
 #: output time from rtol 1e-5 on), and on a 64-sample fuzzy study's bands every output
 #: stays within 1e-3 of its band width of a run at rtol 1e-10 (as it does up to rtol
 #: 1e-3), 3 to 2,000 times below the mode count's error (docs/mechanisms.md, "Numerical
 #: defaults").
-RTOL = 1e-5
-ATOL = 1e-7
+TOLERANCE = Tolerance(rtol=1e-5, atol=1e-7)
 
 
 def build(p: dict[str, float], modes: int = MODES, elements: int = ELEMENTS) -> Mechanism:
@@ -112,8 +112,8 @@ def slider_crank(
     time_steps: int = 501,
     modes: int = MODES,
     elements: int = ELEMENTS,
-    rtol: float = RTOL,
-    atol: float = ATOL,
+    rtol: float = TOLERANCE.rtol,
+    atol: float = TOLERANCE.atol,
     integrator: str = "auto",
 ) -> MechanismModel:
     """The registered ``slider-crank`` model (``integrator``: the Runge-Kutta pair,
@@ -134,6 +134,5 @@ def slider_crank(
         },
         times=np.linspace(0.0, duration, int(time_steps)),
         method=integrator,
-        rtol=rtol,
-        atol=atol,
+        tolerance=TOLERANCE.with_values(rtol, atol),
     )
