@@ -27,7 +27,6 @@ from fuzzymbs.mbs.planar.kernels import (
     force_terms,
     joint_terms,
     project,
-    workspace,
 )
 
 L = V.LANES
@@ -112,38 +111,68 @@ def solve_lanes(a, b, size, ok):
 
 
 @nb.njit(cache=True)
-def derivative_lanes(t, x, n, c, layout, data, samples, user_force, scratch, active, ok, out):
+def lane_scratch(layout):
+    """Scratch arrays of :func:`derivative_lanes`: the four lanes' mass matrices, Jacobians,
+    four joint rows and forces, the saddle-point system and its right-hand side, and one
+    sample's coordinates, rates and forces (force elements, lane by lane)."""
+    n = layout[4][0]
+    c = layout[4][1]
+    big = n + c
+    return (
+        np.empty((n, n, L)),
+        np.empty((c, n, L)),
+        np.empty((4, c, L)),
+        np.empty((n, L)),
+        np.empty(big * big * L),
+        np.empty(big * L),
+        np.empty((3, n)),
+    )
+
+
+@nb.njit(cache=True)
+def derivative_lanes(
+    t, x, n, c, layout, data, lanes, samples, user_force, scratch, active, ok, out
+):
     """out = (v, z'') of every lane at (t[lane], x); ``ok[lane]`` False where the
-    equations are singular or their solution not finite."""
-    work, z, v, solution, system, rhs = scratch
-    mass, jac, residual, quadratic, rate, acceleration = work
+    equations are singular or their solution not finite. ``lanes`` holds the lanes'
+    data rows (D, 4)."""
+    mass, jac, rows, forces, system, rhs, lone = scratch
     size = n + c
+    state = x.reshape((2 * n, L))
+    z = state[:n]
+    v = state[n:]
+    mass[:] = 0.0
+    jac[:] = 0.0
+    forces[:] = 0.0
+    body_terms(layout[0], lanes, z, v, mass, forces)
+    if layout[3].shape[0]:  # force elements branch on their values: lane by lane
+        for lane in range(L):
+            if not active[lane]:
+                continue
+            for i in range(n):
+                lone[0, i] = z[i, lane]
+                lone[1, i] = v[i, lane]
+                lone[2, i] = forces[i, lane]
+            force_terms(t[lane], layout, data[samples[lane]], lone[0], lone[1], user_force, lone[2])
+            for i in range(n):
+                forces[i, lane] = lone[2, i]
+    if c:
+        joint_terms(t, layout, lanes, z, v, jac, rows[0], rows[1], rows[2], rows[3])
+    for i in range(n):
+        for j in range(n):
+            V.store(system, L * (size * i + j), V.load(mass, L * (n * i + j)))
+        V.store(rhs, L * i, V.load(forces, L * i))
+    zero = V.splat(0.0)
+    for r in range(c):
+        for j in range(n):
+            value = V.load(jac, L * (n * r + j))
+            V.store(system, L * (size * (n + r) + j), value)
+            V.store(system, L * (size * j + n + r), value)
+        for j in range(c):
+            V.store(system, L * (size * (n + r) + n + j), zero)
+        V.store(rhs, L * (n + r), -V.load(rows[1], L * r) + V.load(rows[3], L * r))
     for lane in range(L):
         ok[lane] = True
-        if not active[lane]:
-            continue
-        for i in range(n):
-            z[i] = x[L * i + lane]
-            v[i] = x[L * (n + i) + lane]
-        mass[:, :] = 0.0
-        jac[:, :] = 0.0
-        solution[:] = 0.0
-        row = data[samples[lane]]
-        body_terms(layout[0], row, z, v, mass, solution[:n])
-        force_terms(t[lane], layout, row, z, v, user_force, solution[:n])
-        if c:
-            joint_terms(t[lane], layout, row, z, v, jac, residual, quadratic, rate, acceleration)
-        for i in range(n):
-            for j in range(n):
-                system[L * (size * i + j) + lane] = mass[i, j]
-            rhs[L * i + lane] = solution[i]
-        for r in range(c):
-            for j in range(n):
-                system[L * (size * (n + r) + j) + lane] = jac[r, j]
-                system[L * (size * j + n + r) + lane] = jac[r, j]
-            for j in range(c):
-                system[L * (size * (n + r) + n + j) + lane] = 0.0
-            rhs[L * (n + r) + lane] = -quadratic[r] + acceleration[r]
     solve_lanes(system, rhs, size, ok)
     for i in range(n):
         V.store(out, L * i, V.load(x, L * (n + i)))
@@ -163,28 +192,24 @@ def _lane_store(src, lane, size, dst):
 
 
 @nb.njit(cache=True)
-def integrate_block(times, initial, layout, data, user_force, control, states, report, first, count):
+def integrate_block(
+    times, initial, layout, data, user_force, control, states, report, first, count
+):
     """Integrate samples ``first .. first + count - 1`` (count <= 4), one per lane."""
     sizes = layout[4]
     n = sizes[0]
     c = sizes[1]
     size = 2 * n
-    big = n + c
-    scratch = (
-        workspace(layout),
-        np.empty(n),
-        np.empty(n),
-        np.empty(big),
-        np.zeros(big * big * L),
-        np.zeros(big * L),
-    )
+    scratch = lane_scratch(layout)
     method, rtol, atol, first_step, max_steps, tolerance = control
     pair = tableau(method)
     nodes, a, b, e, e_low, exponent = pair
     stages = b.size
     samples = np.empty(L, dtype=np.int64)
+    lanes = np.empty((data.shape[1], L))
     for lane in range(L):
         samples[lane] = first + min(lane, count - 1)
+        lanes[:, lane] = data[samples[lane]]
     x = np.empty(size * L)
     k = np.empty((stages + 1, size * L))
     trial = np.empty(size * L)
@@ -211,8 +236,10 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
         _lane_store(lone, lane, size, x)
         if lane < count and status[lane] == RUNNING:
             states[s, 0, :] = lone
-        active[lane] = status[lane] == RUNNING
-    derivative_lanes(t, x, n, c, layout, data, samples, user_force, scratch, active, ok, k[0])
+        active[lane] = status[lane] == RUNNING and lane < count  # a padded lane idles
+    derivative_lanes(
+        t, x, n, c, layout, data, lanes, samples, user_force, scratch, active, ok, k[0]
+    )
     for lane in range(L):
         if active[lane] and not ok[lane]:
             status[lane] = NOT_FINITE
@@ -241,7 +268,19 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
             else:
                 V.store(stage_t, 0, clock + steps)
             derivative_lanes(
-                stage_t, trial, n, c, layout, data, samples, user_force, scratch, active, ok, k[stage]
+                stage_t,
+                trial,
+                n,
+                c,
+                layout,
+                data,
+                lanes,
+                samples,
+                user_force,
+                scratch,
+                active,
+                ok,
+                k[stage],
             )
             for lane in range(L):
                 if active[lane] and not ok[lane]:
@@ -302,7 +341,9 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
 
 
 @nb.njit(cache=True, nogil=True)
-def integrate_blocks(start, stop, times, initial, layout, data, user_force, control, states, report):
+def integrate_blocks(
+    start, stop, times, initial, layout, data, user_force, control, states, report
+):
     """:func:`integrate_block` for blocks ``start:stop`` of four samples (GIL released)."""
     samples = initial.shape[0]
     for block in range(start, stop):
