@@ -1,6 +1,20 @@
 """Time integration of planar mechanisms four samples at a time, one per SIMD lane.
 
-(prototype) per-lane scalar assembly, vector solve and stage arithmetic.
+The samples of a fuzzy study share a mechanism's structure, so four of them run
+through the same arithmetic: each lane of a block holds a sample, the physics
+compiles for lane arrays (:mod:`fuzzymbs.mbs.planar.lanewise`) and the
+constrained system is solved four at a time
+(:func:`fuzzymbs.mbs.planar.elimination.solve_lanes`); the Runge-Kutta stages
+combine vectors of four.
+
+Every lane keeps its own clock, as :func:`fuzzymbs.mbs.planar.integrator.integrate_sample`
+does for a sample alone: its own step size, error norm, acceptance, output
+times, projection and failure status. A lane that has finished, failed or pads
+a short block is masked: its vector arithmetic goes on and is discarded, and no
+lane's value enters another's. Each lane does the one-sample kernel's arithmetic
+in the same order, so a sample's trajectory is bit for bit the one-sample
+kernel's, whatever block and lane it runs in and whatever its lane mates do
+(tests/mbs/planar/test_lanes.py).
 """
 
 from __future__ import annotations
@@ -11,6 +25,7 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
+from fuzzymbs.mbs.planar.elimination import remove_velocity_excess, solve_lanes
 from fuzzymbs.mbs.planar.integrator import (
     budget_status,
     error_norm,
@@ -33,88 +48,11 @@ L = V.LANES
 
 
 @nb.njit(cache=True)
-def solve_lanes(a, b, size, ok):
-    """Solve a x = b in each lane by :func:`fuzzymbs.mbs.planar.elimination.solve_in_place`'s
-    arithmetic; ``a`` (size size L,) and ``b`` (size L,) lane-minor, x into ``b``.
-
-    ``ok[lane]`` is set False where that lane's pivot is zero or not finite.
-    """
-    columns = np.empty(size, dtype=np.int64)
-    zero = V.splat(0.0)
-    for k in range(size):
-        # the pivot search of every lane at once: the first strictly largest magnitude
-        # (a NaN never wins, as in the scalar search)
-        largest = V.vabs(V.load(a, L * (size * k + k)))
-        best = V.splat(k)
-        for i in range(k + 1, size):
-            value = V.vabs(V.load(a, L * (size * i + k)))
-            best = V.where_lt(largest, value, V.splat(i), best)
-            largest = V.where_lt(largest, value, value, largest)
-        uniform = True
-        for lane in range(L):
-            top = V.get(largest, lane)
-            if not (top > 0.0 and math.isfinite(top)):
-                ok[lane] = False
-            uniform = uniform and V.get(best, lane) == V.get(best, 0)
-        if uniform:  # the usual case: every lane swaps the same rows, a vector at a time
-            other = int(V.get(best, 0))
-            if other != k:
-                for j in range(size):
-                    top = V.load(a, L * (size * k + j))
-                    V.store(a, L * (size * k + j), V.load(a, L * (size * other + j)))
-                    V.store(a, L * (size * other + j), top)
-                top = V.load(b, L * k)
-                V.store(b, L * k, V.load(b, L * other))
-                V.store(b, L * other, top)
-        else:
-            for lane in range(L):
-                other = int(V.get(best, lane))
-                if other != k:
-                    for j in range(size):
-                        top = L * (size * k + j) + lane
-                        below = L * (size * other + j) + lane
-                        a[top], a[below] = a[below], a[top]
-                    top = L * k + lane
-                    below = L * other + lane
-                    b[top], b[below] = b[below], b[top]
-        count = 0
-        for j in range(k + 1, size):
-            at = L * (size * k + j)
-            if a[at] != 0.0 or a[at + 1] != 0.0 or a[at + 2] != 0.0 or a[at + 3] != 0.0:
-                columns[count] = j
-                count += 1
-        inverse = 1.0 / V.load(a, L * (size * k + k))
-        bk = V.load(b, L * k)
-        for i in range(k + 1, size):
-            factor = V.load(a, L * (size * i + k)) * inverse
-            f = L * (size * i + k)
-            if a[f] == 0.0 and a[f + 1] == 0.0 and a[f + 2] == 0.0 and a[f + 3] == 0.0:
-                continue
-            for index in range(count):
-                j = columns[index]
-                pivot_row = V.load(a, L * (size * k + j))
-                at = L * (size * i + j)
-                old = V.load(a, at)
-                new = V.where_eq(pivot_row, zero, old, old - factor * pivot_row)
-                V.store(a, at, V.where_eq(factor, zero, old, new))
-            old = V.load(b, L * i)
-            V.store(b, L * i, V.where_eq(factor, zero, old, old - factor * bk))
-    for i in range(size - 1, -1, -1):
-        acc = V.load(b, L * i)
-        for j in range(i + 1, size):
-            acc = acc - V.load(a, L * (size * i + j)) * V.load(b, L * j)
-        V.store(b, L * i, acc / V.load(a, L * (size * i + i)))
-    for lane in range(L):
-        for i in range(size):
-            if not math.isfinite(b[L * i + lane]):
-                ok[lane] = False
-
-
-@nb.njit(cache=True)
 def lane_scratch(layout):
-    """Scratch arrays of :func:`derivative_lanes`: the four lanes' mass matrices, Jacobians,
-    four joint rows and forces, the saddle-point system and its right-hand side, and one
-    sample's coordinates, rates and forces (force elements, lane by lane)."""
+    """Scratch arrays of :func:`derivative_lanes` and :func:`project_lanes`: the four
+    lanes' mass matrices, Jacobians, four joint rows and forces, the saddle-point system
+    and its right-hand side, and one lane's rows (3, max(n, c)) and Jacobian (c, n)
+    where a lane is handled alone."""
     n = layout[4][0]
     c = layout[4][1]
     big = n + c
@@ -125,7 +63,8 @@ def lane_scratch(layout):
         np.empty((n, L)),
         np.empty(big * big * L),
         np.empty(big * L),
-        np.empty((3, n)),
+        np.empty((3, max(n, c))),
+        np.empty((c, n)),
     )
 
 
@@ -136,7 +75,7 @@ def derivative_lanes(
     """out = (v, z'') of every lane at (t[lane], x); ``ok[lane]`` False where the
     equations are singular or their solution not finite. ``lanes`` holds the lanes'
     data rows (D, 4)."""
-    mass, jac, rows, forces, system, rhs, lone = scratch
+    mass, jac, rows, forces, system, rhs, lone, _ = scratch
     size = n + c
     state = x.reshape((2 * n, L))
     z = state[:n]
@@ -153,7 +92,8 @@ def derivative_lanes(
                 lone[0, i] = z[i, lane]
                 lone[1, i] = v[i, lane]
                 lone[2, i] = forces[i, lane]
-            force_terms(t[lane], layout, data[samples[lane]], lone[0], lone[1], user_force, lone[2])
+            row = data[samples[lane]]
+            force_terms(t[lane], layout, row, lone[0, :n], lone[1, :n], user_force, lone[2, :n])
             for i in range(n):
                 forces[i, lane] = lone[2, i]
     if c:
@@ -180,63 +120,127 @@ def derivative_lanes(
 
 
 @nb.njit(cache=True)
-def _lane_copy(src, lane, size, dst):
-    for i in range(size):
-        dst[i] = src[L * i + lane]
+def project_lanes(t, x, n, c, layout, data, lanes, samples, scratch, moved, tolerance, worst):
+    """:func:`fuzzymbs.mbs.planar.kernels.project` of the lanes marked ``moved``, in place
+    on ``x``; ``worst[lane]`` receives the largest joint residual left (inf if the
+    projection failed).
+
+    The joints' rows are evaluated once for all lanes. A lane whose position residual
+    is within ``tolerance`` (after a step it is: the position Newton iteration does not
+    run) takes its velocity projection from these rows, which are those the scalar
+    projection evaluates again at the same state; any other lane is projected alone.
+    """
+    jac, rows, lone, lone_jac = scratch[1], scratch[2], scratch[6], scratch[7]
+    state = x.reshape((2 * n, L))
+    z = state[:n]
+    v = state[n:]
+    jac[:] = 0.0
+    joint_terms(t, layout, lanes, z, v, jac, rows[0], rows[1], rows[2], rows[3])
+    for lane in range(L):
+        if not moved[lane]:
+            continue
+        largest = 0.0
+        for r in range(c):
+            largest = max(largest, abs(rows[0, r, lane]))
+        if largest <= tolerance:
+            for r in range(c):
+                for j in range(n):
+                    lone_jac[r, j] = jac[r, j, lane]
+                lone[0, r] = rows[2, r, lane]
+            for i in range(n):
+                lone[1, i] = v[i, lane]
+            if remove_velocity_excess(lone_jac, lone[0, :c], lone[1], lone[2, :c]):
+                for i in range(n):
+                    v[i, lane] = lone[1, i]
+                worst[lane] = largest
+            else:
+                worst[lane] = np.inf
+            continue
+        for i in range(n):
+            lone[0, i] = z[i, lane]
+            lone[1, i] = v[i, lane]
+        row = data[samples[lane]]
+        worst[lane] = project(t[lane], lone[0, :n], lone[1, :n], layout, row, tolerance)
+        for i in range(n):
+            z[i, lane] = lone[0, i]
+            v[i, lane] = lone[1, i]
 
 
 @nb.njit(cache=True)
-def _lane_store(src, lane, size, dst):
-    for i in range(size):
-        dst[L * i + lane] = src[i]
+def stage_lanes(x, k, weights, stage, step, trial):
+    """trial = x + step sum_j weights[j] k[j] over j < stage, each lane with its own
+    ``step`` (:func:`fuzzymbs.mbs.planar.integrator.stage_state`'s arithmetic)."""
+    steps = V.load(step, 0)
+    for i in range(x.size // L):
+        acc = V.splat(0.0)
+        for j in range(stage):
+            acc = acc + weights[j] * V.load(k[j], L * i)
+        V.store(trial, L * i, V.load(x, L * i) + steps * acc)
 
 
 @nb.njit(cache=True)
-def integrate_block(
-    times, initial, layout, data, user_force, control, states, report, first, count
-):
-    """Integrate samples ``first .. first + count - 1`` (count <= 4), one per lane."""
-    sizes = layout[4]
-    n = sizes[0]
-    c = sizes[1]
+def lane_error(x, trial, k, lane, step, rtol, atol, e, e_low, lone):
+    """:func:`fuzzymbs.mbs.planar.integrator.error_norm` of lane ``lane`` (its values
+    gathered into the scratch ``lone`` (stages + 3, 2n))."""
+    size = lone.shape[1]
+    for i in range(size):
+        lone[0, i] = x[L * i + lane]
+        lone[1, i] = trial[L * i + lane]
+        for j in range(k.shape[0]):
+            lone[2 + j, i] = k[j, L * i + lane]
+    return error_norm(lone[0], lone[1], lone[2:], step, rtol, atol, e, e_low)
+
+
+@nb.njit(cache=True)
+def integrate_block(times, initial, layout, data, user_force, control, states, report, block):
+    """Integrate the samples ``block = (first, count)`` (count <= 4), one per lane, as
+    :func:`fuzzymbs.mbs.planar.integrator.integrate_sample` integrates one (``control``
+    as there); each sample's report goes to its row of ``report`` (B, 4).
+
+    A block of fewer than four samples repeats its last sample in the lanes left
+    (masked from the start: their arithmetic is never read).
+    """
+    first, count = block
+    n = layout[4][0]
+    c = layout[4][1]
     size = 2 * n
     scratch = lane_scratch(layout)
     method, rtol, atol, first_step, max_steps, tolerance = control
-    pair = tableau(method)
-    nodes, a, b, e, e_low, exponent = pair
+    nodes, a, b, e, e_low, exponent = tableau(method)
     stages = b.size
     samples = np.empty(L, dtype=np.int64)
     lanes = np.empty((data.shape[1], L))
+    x = np.empty(size * L)
     for lane in range(L):
         samples[lane] = first + min(lane, count - 1)
         lanes[:, lane] = data[samples[lane]]
-    x = np.empty(size * L)
+        for i in range(size):
+            x[L * i + lane] = initial[samples[lane], i]
     k = np.empty((stages + 1, size * L))
     trial = np.empty(size * L)
-    lone = np.empty(size)
-    lone_k = np.empty((stages + 1, size))
+    lone = np.empty((stages + 3, size))
     status = np.full(L, RUNNING, dtype=np.int64)
     accepted = np.zeros(L, dtype=np.int64)
     rejected = np.zeros(L, dtype=np.int64)
     worst = np.zeros(L)
+    residual = np.zeros(L)
     t = np.full(L, times[0])
     h = np.full(L, first_step)
     step = np.zeros(L)
-    last = np.zeros(L, dtype=np.bool_)
-    target = np.ones(L, dtype=np.int64)  # each lane's next output
-    active = np.ones(L, dtype=np.bool_)
-    ok = np.ones(L, dtype=np.bool_)
     stage_t = np.empty(L)
-    for lane in range(L):
-        s = samples[lane]
-        lone[:] = initial[s]
-        worst[lane] = project(t[lane], lone[:n], lone[n:], layout, data[s], tolerance)
-        if not worst[lane] <= tolerance:
+    last = np.zeros(L, dtype=np.bool_)
+    moved = np.ones(L, dtype=np.bool_)  # the lanes whose state a step (or the start) moved
+    active = np.zeros(L, dtype=np.bool_)
+    ok = np.ones(L, dtype=np.bool_)
+    target = np.ones(L, dtype=np.int64)  # each lane's next output time
+    project_lanes(t, x, n, c, layout, data, lanes, samples, scratch, moved, tolerance, worst)
+    for lane in range(count):
+        if worst[lane] <= tolerance:
+            active[lane] = True
+            for i in range(size):
+                states[samples[lane], 0, i] = x[L * i + lane]
+        else:
             status[lane] = PROJECTION_FAILED
-        _lane_store(lone, lane, size, x)
-        if lane < count and status[lane] == RUNNING:
-            states[s, 0, :] = lone
-        active[lane] = status[lane] == RUNNING and lane < count  # a padded lane idles
     derivative_lanes(
         t, x, n, c, layout, data, lanes, samples, user_force, scratch, active, ok, k[0]
     )
@@ -247,6 +251,7 @@ def integrate_block(
     while True:
         going = False
         for lane in range(L):
+            moved[lane] = False
             if active[lane]:
                 going = True
                 end = times[target[lane]] - t[lane]
@@ -254,19 +259,13 @@ def integrate_block(
                 step[lane] = end if last[lane] else h[lane]
         if not going:
             break
-        steps = V.load(step, 0)
-        clock = V.load(t, 0)
         for stage in range(1, stages + 1):
-            weights = a[stage] if stage < stages else b
-            for i in range(size):
-                acc = V.splat(0.0)
-                for j in range(stage):
-                    acc = acc + weights[j] * V.load(k[j], L * i)
-                V.store(trial, L * i, V.load(x, L * i) + steps * acc)
-            if stage < stages:
-                V.store(stage_t, 0, clock + nodes[stage] * steps)
-            else:
-                V.store(stage_t, 0, clock + steps)
+            # the stages' states and times, the last one the step's solution (FSAL)
+            stage_lanes(x, k, a[stage] if stage < stages else b, stage, step, trial)
+            for lane in range(L):
+                stage_t[lane] = t[lane] + (
+                    nodes[stage] * step[lane] if stage < stages else step[lane]
+                )
             derivative_lanes(
                 stage_t,
                 trial,
@@ -289,13 +288,7 @@ def integrate_block(
         for lane in range(L):
             if not active[lane]:
                 continue
-            s = samples[lane]
-            _lane_copy(x, lane, size, lone)
-            for j in range(stages + 1):
-                _lane_copy(k[j], lane, size, lone_k[j])
-            trial_lane = np.empty(size)
-            _lane_copy(trial, lane, size, trial_lane)
-            err = error_norm(lone, trial_lane, lone_k, step[lane], rtol, atol, e, e_low)
+            err = lane_error(x, trial, k, lane, step[lane], rtol, atol, e, e_low, lone)
             if not math.isfinite(err):
                 status[lane] = NOT_FINITE
                 active[lane] = False
@@ -304,34 +297,43 @@ def integrate_block(
             if success:
                 t[lane] = times[target[lane]] if last[lane] else t[lane] + step[lane]
                 accepted[lane] += 1
+                moved[lane] = True
+                for i in range(size):
+                    x[L * i + lane] = trial[L * i + lane]
+            else:
+                rejected[lane] += 1
+        if c:
+            project_lanes(
+                t, x, n, c, layout, data, lanes, samples, scratch, moved, tolerance, residual
+            )
+        for lane in range(L):
+            if not active[lane]:
+                continue
+            if moved[lane]:
                 if c:
-                    residual = project(
-                        t[lane], trial_lane[:n], trial_lane[n:], layout, data[s], tolerance
-                    )
-                    if not residual <= tolerance:
+                    if not residual[lane] <= tolerance:
                         status[lane] = PROJECTION_FAILED
-                        worst[lane] = residual
+                        worst[lane] = residual[lane]
                         active[lane] = False
                         continue
-                    worst[lane] = max(worst[lane], residual)
+                    worst[lane] = max(worst[lane], residual[lane])
+                    # the next step's first stage: the projected rates and the accelerations
+                    # of the solution's evaluation (integrate_sample)
                     for i in range(n):
-                        k[0, L * i + lane] = trial_lane[n + i]
+                        k[0, L * i + lane] = x[L * (n + i) + lane]
                         k[0, L * (n + i) + lane] = k[stages, L * (n + i) + lane]
                 else:
                     for i in range(size):
                         k[0, L * i + lane] = k[stages, L * i + lane]
-                _lane_store(trial_lane, lane, size, x)
-            else:
-                rejected[lane] += 1
             code = budget_status(h[lane], t[lane], accepted[lane], rejected[lane], max_steps)
             if code != FINISHED:
                 status[lane] = code
                 active[lane] = False
                 continue
+            # the output times the lane has reached (one, unless a step rounds past two)
             while target[lane] < times.size and not t[lane] < times[target[lane]]:
-                if lane < count:
-                    _lane_copy(x, lane, size, lone)
-                    states[s, target[lane], :] = lone
+                for i in range(size):
+                    states[samples[lane], target[lane], i] = x[L * i + lane]
                 target[lane] += 1
             if target[lane] == times.size:
                 status[lane] = FINISHED
@@ -344,7 +346,10 @@ def integrate_block(
 def integrate_blocks(
     start, stop, times, initial, layout, data, user_force, control, states, report
 ):
-    """:func:`integrate_block` for blocks ``start:stop`` of four samples (GIL released)."""
+    """:func:`integrate_block` for the blocks ``start:stop`` of four consecutive samples
+    (the GIL released, so :func:`fuzzymbs.mbs.kernels.threads.for_each_range` runs
+    ranges side by side). ``report`` (B, 4) as for
+    :func:`fuzzymbs.mbs.planar.integrator.integrate_range`."""
     samples = initial.shape[0]
     for block in range(start, stop):
         first = L * block
@@ -357,6 +362,5 @@ def integrate_blocks(
             control,
             states,
             report,
-            first,
-            min(L, samples - first),
+            (first, min(L, samples - first)),
         )
