@@ -115,7 +115,7 @@ def test_a_failing_lane_leaves_its_lane_mates_alone():
     locked = run([RIGID[2]])
     assert locked.failed[0] and not alone.failed.any()
     for lane in range(4):
-        block = healthy[:lane] + [RIGID[2]] + healthy[lane:]
+        block = [*healthy[:lane], RIGID[2], *healthy[lane:]]
         result = run(block)
         assert list(result.failed) == [i == lane for i in range(4)]
         np.testing.assert_array_equal(result.states[lane], locked.states[0])
