@@ -351,16 +351,6 @@ def integrate_blocks(
     ranges side by side). ``report`` (B, 4) as for
     :func:`fuzzymbs.mbs.planar.integrator.integrate_range`."""
     samples = initial.shape[0]
-    for block in range(start, stop):
-        first = L * block
-        integrate_block(
-            times,
-            initial,
-            layout,
-            data,
-            user_force,
-            control,
-            states,
-            report,
-            (first, min(L, samples - first)),
-        )
+    for index in range(start, stop):
+        block = (L * index, min(L, samples - L * index))  # first sample, sample count
+        integrate_block(times, initial, layout, data, user_force, control, states, report, block)
