@@ -19,6 +19,7 @@ from fuzzymbs.mbs.planar import (
     RigidBody,
     SpringDamper,
     ground,
+    integrator,
     simulate,
 )
 from fuzzymbs.mbs.planar.kernels import FINISHED
@@ -82,6 +83,25 @@ def assert_same_runs(a, b):
     np.testing.assert_array_equal(a.joint_residual, b.joint_residual)
 
 
+def assert_solved_as_one_sample_kernel(result):
+    """The accelerations and multipliers solved four lanes at a time (``solved()``) are
+    those of the one-sample solve, bit for bit (NaN after a failure)."""
+    n, c = (int(size) for size in result.batch.layout.sizes)
+    reference = np.empty((*result.states.shape[:2], n + c))
+    batch = result.batch
+    integrator.solve_range(
+        0,
+        len(reference),
+        result.times,
+        result.states,
+        batch.layout.arrays(),
+        batch.data,
+        batch.user_force,
+        reference,
+    )
+    np.testing.assert_array_equal(result.solved(), reference)
+
+
 def run(samples, **options):
     mechanisms = [rigid_slider_crank(*p) for p in samples]
     return simulate(mechanisms, TIMES, rtol=1e-9, atol=1e-12, **options)
@@ -93,6 +113,7 @@ def test_rigid_lanes_equal_the_one_sample_kernel_in_any_batch_and_lane():
     assert len(set(lanes.accepted)) > 3 and lanes.rejected.max() > 0
     assert list(lanes.status != FINISHED) == [False, False, True, False, False, False, False]
     assert_same_runs(lanes, run(RIGID, kernel="samples"))
+    assert_solved_as_one_sample_kernel(lanes)
     # reversed: every sample in another block and lane, with other lane mates
     reverse = run(RIGID[::-1])
     for i in range(len(RIGID)):
@@ -146,5 +167,6 @@ def test_flexible_lanes_equal_the_one_sample_kernel():
     lanes = simulate(mechanisms, times, rtol=1e-5, atol=1e-7)
     assert not lanes.failed.any()
     assert_same_runs(lanes, simulate(mechanisms, times, rtol=1e-5, atol=1e-7, kernel="samples"))
+    assert_solved_as_one_sample_kernel(lanes)
     shifted = simulate(mechanisms[1:] + mechanisms[:1], times, rtol=1e-5, atol=1e-7)
     np.testing.assert_array_equal(shifted.states, np.roll(lanes.states, -1, axis=0))

@@ -39,6 +39,7 @@ from fuzzymbs.mbs.planar.kernels import (
     PROJECTION_FAILED,
     RUNNING,
     body_terms,
+    failed_before,
     force_terms,
     joint_terms,
     project,
@@ -354,3 +355,52 @@ def integrate_blocks(
     for index in range(start, stop):
         block = (L * index, min(L, samples - L * index))  # first sample, sample count
         integrate_block(times, initial, layout, data, user_force, control, states, report, block)
+
+
+@nb.njit(cache=True, nogil=True)
+def solve_blocks(start, stop, times, states, layout, data, user_force, out):
+    """:func:`fuzzymbs.mbs.planar.integrator.solve_range` for the blocks ``start:stop`` of
+    four samples: z'' and lambda at every stored state into ``out`` (B, T, n + c), bit for
+    bit the one-sample solve (NaN where a sample had failed)."""
+    n = layout[4][0]
+    c = layout[4][1]
+    scratch = lane_scratch(layout)
+    rhs = scratch[5]
+    samples = np.empty(L, dtype=np.int64)
+    lanes = np.empty((data.shape[1], L))
+    x = np.empty(2 * n * L)
+    derivative = np.empty(2 * n * L)
+    t = np.empty(L)
+    active = np.ones(L, dtype=np.bool_)
+    ok = np.ones(L, dtype=np.bool_)
+    for index in range(start, stop):
+        count = min(L, states.shape[0] - L * index)
+        for lane in range(L):
+            samples[lane] = L * index + min(lane, count - 1)
+            lanes[:, lane] = data[samples[lane]]
+        for i in range(states.shape[1]):
+            for lane in range(L):
+                t[lane] = times[i]
+                for j in range(2 * n):
+                    x[L * j + lane] = states[samples[lane], i, j]
+            derivative_lanes(
+                t,
+                x,
+                n,
+                c,
+                layout,
+                data,
+                lanes,
+                samples,
+                user_force,
+                scratch,
+                active,
+                ok,
+                derivative,
+            )
+            for lane in range(count):
+                s = samples[lane]
+                if failed_before(states, s, i, out):
+                    continue
+                for j in range(n + c):
+                    out[s, i, j] = rhs[L * j + lane] if ok[lane] else np.nan
