@@ -355,7 +355,8 @@ def integrate_blocks(
     :func:`fuzzymbs.mbs.planar.integrator.integrate_range`.
 
     A block of one sample runs the one-sample kernel: the same numbers, bit for bit,
-    for a quarter of the work (four lanes cost about what one sample alone costs twice).
+    in three quarters of the time (a block of four lanes costs 1.3 times one sample
+    alone: 52 against 39 ms CPU on the slider-crank).
     """
     samples = initial.shape[0]
     for index in range(start, stop):
