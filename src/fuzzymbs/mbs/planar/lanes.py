@@ -360,21 +360,14 @@ def integrate_blocks(
     """
     samples = initial.shape[0]
     for index in range(start, stop):
-        block = (L * index, min(L, samples - L * index))  # first sample, sample count
-        if block[1] == 1:
+        first = L * index
+        count = min(L, samples - first)
+        if count == 1:
             integrate_range(
-                L * index,
-                L * index + 1,
-                times,
-                initial,
-                layout,
-                data,
-                user_force,
-                control,
-                states,
-                report,
+                first, first + 1, times, initial, layout, data, user_force, control, states, report
             )
         else:
+            block = (first, count)
             integrate_block(
                 times, initial, layout, data, user_force, control, states, report, block
             )
@@ -393,7 +386,7 @@ def solve_blocks(start, stop, times, states, layout, data, user_force, out):
     samples = np.empty(L, dtype=np.int64)
     lanes = np.empty((data.shape[1], L))
     x = np.empty(2 * n * L)
-    derivative = np.empty(2 * n * L)
+    rates = np.empty(2 * n * L)  # (v, z''), unused: the solution is in rhs
     t = np.empty(L)
     active = np.ones(L, dtype=np.bool_)
     ok = np.ones(L, dtype=np.bool_)
@@ -411,19 +404,7 @@ def solve_blocks(start, stop, times, states, layout, data, user_force, out):
                 for j in range(2 * n):
                     x[L * j + lane] = states[samples[lane], i, j]
             derivative_lanes(
-                t,
-                x,
-                n,
-                c,
-                layout,
-                data,
-                lanes,
-                samples,
-                user_force,
-                scratch,
-                active,
-                ok,
-                derivative,
+                t, x, n, c, layout, data, lanes, samples, user_force, scratch, active, ok, rates
             )
             for lane in range(count):
                 s = samples[lane]
