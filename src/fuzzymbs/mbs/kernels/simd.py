@@ -7,7 +7,9 @@ declares the vector type directly, so that every operation on it *is* one
 AVX2 instruction, whatever the aliasing:
 
 * :func:`load` / :func:`store`: four consecutive float64 of a C-contiguous
-  1-d array (lane-minor layout: element ``i`` of lane ``l`` at ``4 i + l``);
+  1-d array (lane-minor layout: element ``i`` of lane ``l`` at ``4 i + l``), or
+  of a C-ordered array of any dimension at a flat index (an (N, 4) array's row
+  ``i`` at ``4 i``);
 * :func:`splat`, :func:`broadcast`, :func:`make`, :func:`get`: build and read
   vectors;
 * ``+ - * /`` and unary ``-`` between vectors and with scalars, :func:`fma`,
@@ -59,7 +61,9 @@ def _element_pointer(context, builder, arytype, ary, index):
 
 
 def _is_float_array(arr) -> bool:
-    return isinstance(arr, types.Array) and arr.dtype == types.float64 and arr.ndim == 1
+    if not (isinstance(arr, types.Array) and arr.dtype == types.float64):
+        return False
+    return arr.ndim == 1 or arr.layout == "C"  # a flat index into an n-d array needs C order
 
 
 @intrinsic
@@ -249,6 +253,11 @@ for _opfunc, _vector_op in (
     (operator.sub, _sub),
     (operator.mul, _mul),
     (operator.truediv, _div),
+    # x += y on a vector binds x to a new value, as on a float
+    (operator.iadd, _add),
+    (operator.isub, _sub),
+    (operator.imul, _mul),
+    (operator.itruediv, _div),
 ):
     _overload_arithmetic(_opfunc, _vector_op)
 

@@ -14,6 +14,10 @@ import math
 import numba as nb
 import numpy as np
 
+from fuzzymbs.mbs.kernels import simd as V
+
+L = V.LANES
+
 
 @nb.njit(cache=True)
 def solve_in_place(a, b):
@@ -146,3 +150,87 @@ def solve_constrained(mass, jac, quadratic, acceleration, system, solution):
         if not math.isfinite(solution[i]):
             return False
     return True
+
+
+@nb.njit(cache=True)
+def solve_lanes(a, b, size, ok):
+    """:func:`solve_in_place` of four systems at once, one per SIMD lane: a x = b into ``b``.
+
+    ``a`` (size size L,) and ``b`` (size L,) are lane-minor (element (i, j) of lane l
+    at ``L (size i + j) + l``); ``ok[lane]`` is set False where a pivot of that lane is
+    zero or not finite (its lane then holds inf or NaN, the others are untouched).
+    Every lane does exactly :func:`solve_in_place`'s arithmetic, in its order: a lane
+    pivots on its own (the rows swap a vector at a time while all lanes pick the same
+    pivot, as they do but for exceptions), and where a lane's scalar elimination skips
+    a zero factor or a zero entry of the pivot row, a select keeps its old value, so the
+    result is bit for bit :func:`solve_in_place`'s whatever the other lanes hold.
+    """
+    columns = np.empty(size, dtype=np.int64)
+    zero = V.splat(0.0)
+    for k in range(size):
+        # the pivot search of every lane at once: the first strictly largest magnitude
+        # (a NaN never wins, as in the scalar search)
+        largest = V.vabs(V.load(a, L * (size * k + k)))
+        best = V.splat(k)
+        for i in range(k + 1, size):
+            value = V.vabs(V.load(a, L * (size * i + k)))
+            best = V.where_lt(largest, value, V.splat(i), best)
+            largest = V.where_lt(largest, value, value, largest)
+        uniform = True
+        for lane in range(L):
+            top = V.get(largest, lane)
+            if not (top > 0.0 and math.isfinite(top)):
+                ok[lane] = False
+            uniform = uniform and V.get(best, lane) == V.get(best, 0)
+        if uniform:  # the usual case: every lane swaps the same rows, a vector at a time
+            other = int(V.get(best, 0))
+            if other != k:
+                for j in range(size):
+                    top = V.load(a, L * (size * k + j))
+                    V.store(a, L * (size * k + j), V.load(a, L * (size * other + j)))
+                    V.store(a, L * (size * other + j), top)
+                top = V.load(b, L * k)
+                V.store(b, L * k, V.load(b, L * other))
+                V.store(b, L * other, top)
+        else:
+            for lane in range(L):
+                other = int(V.get(best, lane))
+                if other != k:
+                    for j in range(size):
+                        top = L * (size * k + j) + lane
+                        below = L * (size * other + j) + lane
+                        a[top], a[below] = a[below], a[top]
+                    top = L * k + lane
+                    below = L * other + lane
+                    b[top], b[below] = b[below], b[top]
+        count = 0
+        for j in range(k + 1, size):
+            at = L * (size * k + j)
+            if a[at] != 0.0 or a[at + 1] != 0.0 or a[at + 2] != 0.0 or a[at + 3] != 0.0:
+                columns[count] = j
+                count += 1
+        inverse = 1.0 / V.load(a, L * (size * k + k))
+        bk = V.load(b, L * k)
+        for i in range(k + 1, size):
+            factor = V.load(a, L * (size * i + k)) * inverse
+            f = L * (size * i + k)
+            if a[f] == 0.0 and a[f + 1] == 0.0 and a[f + 2] == 0.0 and a[f + 3] == 0.0:
+                continue
+            for index in range(count):
+                j = columns[index]
+                pivot_row = V.load(a, L * (size * k + j))
+                at = L * (size * i + j)
+                old = V.load(a, at)
+                new = V.where_eq(pivot_row, zero, old, old - factor * pivot_row)
+                V.store(a, at, V.where_eq(factor, zero, old, new))
+            old = V.load(b, L * i)
+            V.store(b, L * i, V.where_eq(factor, zero, old, old - factor * bk))
+    for i in range(size - 1, -1, -1):
+        acc = V.load(b, L * i)
+        for j in range(i + 1, size):
+            acc = acc - V.load(a, L * (size * i + j)) * V.load(b, L * j)
+        V.store(b, L * i, acc / V.load(a, L * (size * i + i)))
+    for lane in range(L):
+        for i in range(size):
+            if not math.isfinite(b[L * i + lane]):
+                ok[lane] = False

@@ -32,8 +32,11 @@ import math
 
 import numba as nb
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from fuzzymbs.mbs.assembly import USER_FORCE_SIGNATURE
+from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.planar.elimination import (
     finish_projection,
     joint_buffers,
@@ -41,6 +44,7 @@ from fuzzymbs.mbs.planar.elimination import (
     project_rows,
     solve_constrained,
 )
+from fuzzymbs.mbs.planar.lanewise import LANES, add, add2, at, cos, put, rows, sin, zero
 
 # joint kinds
 REVOLUTE = 0
@@ -134,11 +138,11 @@ def marker_row(k, markers, bodies):
 def modal_products(data, start, z, v, o, m):
     """(K_i q, K_i q'): the row of m numbers at ``data[start:]`` times the modal coordinates
     and rates of the body at coordinate offset ``o`` (a geometric matrix's row)."""
-    kq = 0.0
-    kv = 0.0
+    kq = zero(data)
+    kv = zero(data)
     for j in range(m):
-        kq += data[start + j] * z[o + 3 + j]
-        kv += data[start + j] * v[o + 3 + j]
+        kq += at(data, start + j) * at(z, o + 3 + j)
+        kv += at(data, start + j) * at(v, o + 3 + j)
     return kq, kv
 
 
@@ -179,18 +183,18 @@ def _foreshortening(k, markers, bodies, data, z, v):
     """
     body = markers[k, 0]
     m = markers[k, 2]
+    shift = zero(data)
+    rate = zero(data)
+    curvature = zero(data)
     if body < 0 or m == 0 or bodies[body, 3] == 0:
-        return 0.0, 0.0, 0.0
+        return shift, rate, curvature
     d = markers[k, 1] + 3 + 3 * m
     o = bodies[body, 0]
-    shift = 0.0
-    rate = 0.0
-    curvature = 0.0
     for i in range(m):
         kq, kv = modal_products(data, d + m * i, z, v, o, m)
-        shift -= 0.5 * z[o + 3 + i] * kq
-        rate += kq * v[o + 3 + i]
-        curvature += v[o + 3 + i] * kv
+        shift -= 0.5 * at(z, o + 3 + i) * kq
+        rate += kq * at(v, o + 3 + i)
+        curvature += at(v, o + 3 + i) * kv
     return shift, rate, curvature
 
 
@@ -208,27 +212,27 @@ def marker_state(k, markers, bodies, data, z, v, out):
     body = markers[k, 0]
     d = markers[k, 1]
     m = markers[k, 2]
-    ux = data[d]
-    uy = data[d + 1]
+    ux = at(data, d)
+    uy = at(data, d + 1)
     if body < 0:
-        out[0] = ux
-        out[1] = uy
-        out[2] = data[d + 2]
+        put(out, 0, ux)
+        put(out, 1, uy)
+        put(out, 2, at(data, d + 2))
         for i in range(3, MARKER_STATE_SIZE):
-            out[i] = 0.0
-        out[10] = 1.0
+            put(out, i, 0.0)
+        put(out, 10, 1.0)
         return
     o = bodies[body, 0]
-    angle = data[d + 2]
-    rate = 0.0
-    dux = 0.0
-    duy = 0.0
+    angle = at(data, d + 2)
+    rate = zero(data)
+    dux = zero(data)
+    duy = zero(data)
     for j in range(m):
-        qj = z[o + 3 + j]
-        vj = v[o + 3 + j]
-        px = data[d + 3 + j]
-        py = data[d + 3 + m + j]
-        ps = data[d + 3 + 2 * m + j]
+        qj = at(z, o + 3 + j)
+        vj = at(v, o + 3 + j)
+        px = at(data, d + 3 + j)
+        py = at(data, d + 3 + m + j)
+        ps = at(data, d + 3 + 2 * m + j)
         ux += px * qj
         uy += py * qj
         dux += px * vj
@@ -238,27 +242,27 @@ def marker_state(k, markers, bodies, data, z, v, out):
     shift, shift_rate, curvature = _foreshortening(k, markers, bodies, data, z, v)
     ux += shift
     dux -= shift_rate
-    th = z[o + 2]
-    w = v[o + 2]
-    c = math.cos(th)
-    s = math.sin(th)
+    th = at(z, o + 2)
+    w = at(v, o + 2)
+    c = cos(th)
+    s = sin(th)
     aux = c * ux - s * uy  # A u
     auy = s * ux + c * uy
     adx = c * dux - s * duy  # A u'
     ady = s * dux + c * duy
-    out[0] = z[o] + aux
-    out[1] = z[o + 1] + auy
-    out[2] = th + angle
-    out[3] = v[o] - w * auy + adx
-    out[4] = v[o + 1] + w * aux + ady
-    out[5] = w + rate
+    put(out, 0, at(z, o) + aux)
+    put(out, 1, at(z, o + 1) + auy)
+    put(out, 2, th + angle)
+    put(out, 3, at(v, o) - w * auy + adx)
+    put(out, 4, at(v, o + 1) + w * aux + ady)
+    put(out, 5, w + rate)
     # -w^2 A u + 2 w A R u' + A (-q'^T K_n q', 0)
-    out[6] = -w * w * aux - 2.0 * w * ady - c * curvature
-    out[7] = -w * w * auy + 2.0 * w * adx - s * curvature
-    out[8] = -auy
-    out[9] = aux
-    out[10] = c
-    out[11] = s
+    put(out, 6, -w * w * aux - 2.0 * w * ady - c * curvature)
+    put(out, 7, -w * w * auy + 2.0 * w * adx - s * curvature)
+    put(out, 8, -auy)
+    put(out, 9, aux)
+    put(out, 10, c)
+    put(out, 11, s)
 
 
 @nb.njit(cache=True)
@@ -274,24 +278,24 @@ def add_point_load(k, markers, bodies, data, z, state, fx, fy, target):
     body, d, m, o = marker_row(k, markers, bodies)
     if body < 0:
         return
-    target[o] += fx
-    target[o + 1] += fy
-    target[o + 2] += state[8] * fx + state[9] * fy
-    c = state[10]  # the frame angle's cosine and sine (marker_state)
-    s = state[11]
+    add(target, o, fx)
+    add(target, o + 1, fy)
+    add(target, o + 2, at(state, 8) * fx + at(state, 9) * fy)
+    c = at(state, 10)  # the frame angle's cosine and sine (marker_state)
+    s = at(state, 11)
     axial = c * fx + s * fy  # the force along the body's x axis
     stiffened = bodies[body, 3] != 0
     dk = d + 3 + 3 * m
     for j in range(m):
-        px = data[d + 3 + j]
-        py = data[d + 3 + m + j]
+        px = at(data, d + 3 + j)
+        py = at(data, d + 3 + m + j)
         value = (c * px - s * py) * fx + (s * px + c * py) * fy
         if stiffened:
-            kq = 0.0
+            kq = zero(data)
             for i in range(m):
-                kq += data[dk + m * j + i] * z[o + 3 + i]
+                kq += at(data, dk + m * j + i) * at(z, o + 3 + i)
             value -= axial * kq
-        target[o + 3 + j] += value
+        add(target, o + 3 + j, value)
 
 
 @nb.njit(cache=True)
@@ -365,9 +369,9 @@ def add_angle_load(k, markers, bodies, data, torque, target):
     body, d, m, o = marker_row(k, markers, bodies)
     if body < 0:
         return
-    target[o + 2] += torque
+    add(target, o + 2, torque)
     for j in range(m):
-        target[o + 3 + j] += data[d + 3 + 2 * m + j] * torque
+        add(target, o + 3 + j, at(data, d + 3 + 2 * m + j) * torque)
 
 
 @nb.njit(cache=True)
@@ -378,13 +382,13 @@ def slide_row(ex, ey, ki, kj, markers, bodies, data, z, si, sj, row):
     g'' = e . (a_j - a_i) + 2 w e_perp . d' - w^2 e . d + (w' e_perp . d)."""
     px = -ey
     py = ex
-    dx = sj[0] - si[0]
-    dy = sj[1] - si[1]
-    dvx = sj[3] - si[3]
-    dvy = sj[4] - si[4]
-    w = si[5]
+    dx = at(sj, 0) - at(si, 0)
+    dy = at(sj, 1) - at(si, 1)
+    dvx = at(sj, 3) - at(si, 3)
+    dvy = at(sj, 4) - at(si, 4)
+    w = at(si, 5)
     value = ex * dx + ey * dy
-    relative = ex * (sj[6] - si[6]) + ey * (sj[7] - si[7])
+    relative = ex * (at(sj, 6) - at(si, 6)) + ey * (at(sj, 7) - at(si, 7))
     quadratic = relative + 2.0 * w * (px * dvx + py * dvy) - w * w * value
     add_point_load(kj, markers, bodies, data, z, sj, ex, ey, row)
     add_point_load(ki, markers, bodies, data, z, si, -ex, -ey, row)
@@ -412,14 +416,14 @@ def body_terms(bodies, data, z, v, mass_matrix, forces):
     frame acceleration and spin, each with its reciprocal term, so the energy
     is conserved (module docstring of :mod:`fuzzymbs.fe.beam` for K_a, K_s).
     """
-    gx = data[0]
-    gy = data[1]
+    gx = at(data, 0)
+    gy = at(data, 1)
     for b in range(bodies.shape[0]):
         o = bodies[b, 0]
         m = bodies[b, 1]
         d = bodies[b, 2]
         stiffened = bodies[b, 3] != 0
-        mass = data[d]
+        mass = at(data, d)
         ia = d + 4
         ib = ia + m
         icx = ib + m
@@ -430,85 +434,89 @@ def body_terms(bodies, data, z, v, mass_matrix, forces):
         idp = ik + m * m
         ikgs = idp + m * m
         ikga = ikgs + m * m
-        th = z[o + 2]
-        w = v[o + 2]
-        c = math.cos(th)
-        s = math.sin(th)
+        th = at(z, o + 2)
+        w = at(v, o + 2)
+        c = cos(th)
+        s = sin(th)
         # S = s0 + C1 q (- 1/2 q^T K_a q e_x), and S_q q'
-        sx = data[d + 1]
-        sy = data[d + 2]
-        cvx = 0.0
-        cvy = 0.0
-        axial_curvature = 0.0  # q'^T K_a q'
+        sx = at(data, d + 1)
+        sy = at(data, d + 2)
+        cvx = zero(data)
+        cvy = zero(data)
+        axial_curvature = zero(data)  # q'^T K_a q'
         for i in range(m):
-            sx += data[icx + i] * z[o + 3 + i]
-            sy += data[icy + i] * z[o + 3 + i]
-            cvx += data[icx + i] * v[o + 3 + i]
-            cvy += data[icy + i] * v[o + 3 + i]
+            sx += at(data, icx + i) * at(z, o + 3 + i)
+            sy += at(data, icy + i) * at(z, o + 3 + i)
+            cvx += at(data, icx + i) * at(v, o + 3 + i)
+            cvy += at(data, icy + i) * at(v, o + 3 + i)
             if stiffened:
                 kaq, kav = modal_products(data, ikga + m * i, z, v, o, m)
-                sx -= 0.5 * z[o + 3 + i] * kaq
-                cvx -= kaq * v[o + 3 + i]
-                axial_curvature += v[o + 3 + i] * kav
+                sx -= 0.5 * at(z, o + 3 + i) * kaq
+                cvx -= kaq * at(v, o + 3 + i)
+                axial_curvature += at(v, o + 3 + i) * kav
         arsx = -(s * sx + c * sy)  # A R S
         arsy = c * sx - s * sy
-        mass_matrix[o, o] += mass
-        mass_matrix[o + 1, o + 1] += mass
-        mass_matrix[o, o + 2] += arsx
-        mass_matrix[o + 2, o] += arsx
-        mass_matrix[o + 1, o + 2] += arsy
-        mass_matrix[o + 2, o + 1] += arsy
-        inertia = data[d + 3]
-        spin = 0.0
+        add2(mass_matrix, o, o, mass)
+        add2(mass_matrix, o + 1, o + 1, mass)
+        add2(mass_matrix, o, o + 2, arsx)
+        add2(mass_matrix, o + 2, o, arsx)
+        add2(mass_matrix, o + 1, o + 2, arsy)
+        add2(mass_matrix, o + 2, o + 1, arsy)
+        inertia = at(data, d + 3)
+        spin = zero(data)
         for i in range(m):
-            qi = z[o + 3 + i]
+            qi = at(z, o + 3 + i)
             # a + (M_qq - K_s) q, G q, G q', the elastic and damping forces, K_a q
-            aq = data[ia + i]
-            gq = 0.0
-            gv = 0.0
-            kq = 0.0
-            kaq = 0.0
+            aq = at(data, ia + i)
+            gq = zero(data)
+            gv = zero(data)
+            kq = zero(data)
+            kaq = zero(data)
             for j in range(m):
-                qj = z[o + 3 + j]
-                shape = data[imq + m * i + j]
+                qj = at(z, o + 3 + j)
+                shape = at(data, imq + m * i + j)
                 if stiffened:
-                    shape -= data[ikgs + m * i + j]
-                    kaq += data[ikga + m * i + j] * qj
+                    shape -= at(data, ikgs + m * i + j)
+                    kaq += at(data, ikga + m * i + j) * qj
                 aq += shape * qj
-                gq += data[igy + m * i + j] * qj
-                gv += data[igy + m * i + j] * v[o + 3 + j]
-                mass_matrix[o + 3 + i, o + 3 + j] += data[imq + m * i + j]
-                kq += data[ik + m * i + j] * qj + data[idp + m * i + j] * v[o + 3 + j]
-            inertia += data[ia + i] * qi + aq * qi
+                gq += at(data, igy + m * i + j) * qj
+                gv += at(data, igy + m * i + j) * at(v, o + 3 + j)
+                add2(mass_matrix, o + 3 + i, o + 3 + j, at(data, imq + m * i + j))
+                kq += at(data, ik + m * i + j) * qj + at(data, idp + m * i + j) * at(v, o + 3 + j)
+            inertia += at(data, ia + i) * qi + aq * qi
             # A S_q[:, i], S_q = C1 - e_x (K_a q)^T
-            sqx = data[icx + i] - kaq
-            sqy = data[icy + i]
+            sqx = at(data, icx + i) - kaq
+            sqy = at(data, icy + i)
             acx = c * sqx - s * sqy
             acy = s * sqx + c * sqy
-            mass_matrix[o, o + 3 + i] += acx
-            mass_matrix[o + 3 + i, o] += acx
-            mass_matrix[o + 1, o + 3 + i] += acy
-            mass_matrix[o + 3 + i, o + 1] += acy
-            coupling = data[ib + i] + gq
-            mass_matrix[o + 2, o + 3 + i] += coupling
-            mass_matrix[o + 3 + i, o + 2] += coupling
-            spin += aq * v[o + 3 + i]
-            forces[o + 3 + i] += w * w * aq - 2.0 * w * gv + acx * gx + acy * gy - kq
-        mass_matrix[o + 2, o + 2] += inertia
+            add2(mass_matrix, o, o + 3 + i, acx)
+            add2(mass_matrix, o + 3 + i, o, acx)
+            add2(mass_matrix, o + 1, o + 3 + i, acy)
+            add2(mass_matrix, o + 3 + i, o + 1, acy)
+            coupling = at(data, ib + i) + gq
+            add2(mass_matrix, o + 2, o + 3 + i, coupling)
+            add2(mass_matrix, o + 3 + i, o + 2, coupling)
+            spin += aq * at(v, o + 3 + i)
+            add(forces, o + 3 + i, w * w * aq - 2.0 * w * gv + acx * gx + acy * gy - kq)
+        add2(mass_matrix, o + 2, o + 2, inertia)
         # w^2 A S - 2 w A R S_q q' + A e_x q'^T K_a q'
-        forces[o] += (
+        add(
+            forces,
+            o,
             w * w * (c * sx - s * sy)
             + 2.0 * w * (s * cvx + c * cvy)
             + c * axial_curvature
-            + mass * gx
+            + mass * gx,
         )
-        forces[o + 1] += (
+        add(
+            forces,
+            o + 1,
             w * w * (s * sx + c * sy)
             - 2.0 * w * (c * cvx - s * cvy)
             + s * axial_curvature
-            + mass * gy
+            + mass * gy,
         )
-        forces[o + 2] += -2.0 * w * spin + arsx * gx + arsy * gy
+        add(forces, o + 2, -2.0 * w * spin + arsx * gx + arsy * gy)
 
 
 @nb.njit(cache=True)
@@ -516,58 +524,79 @@ def joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, accelerat
     """Rows of every joint: residual g, Jacobian G, quadratic part zeta, and the
     drive's f'(t) (``rate``) and f''(t) (``acceleration``)."""
     bodies, markers, joints = layout[0], layout[1], layout[2]
-    si = np.empty(MARKER_STATE_SIZE)
-    sj = np.empty(MARKER_STATE_SIZE)
+    si = rows(data, MARKER_STATE_SIZE)
+    sj = rows(data, MARKER_STATE_SIZE)
     for jn in range(joints.shape[0]):
         kind, ki, kj, row, d, drive = joint_row(joints, jn)
         marker_state(ki, markers, bodies, data, z, v, si)
         marker_state(kj, markers, bodies, data, z, v, sj)
-        dx = sj[0] - si[0]
-        dy = sj[1] - si[1]
+        dx = at(sj, 0) - at(si, 0)
+        dy = at(sj, 1) - at(si, 1)
         if kind == REVOLUTE or kind == FIXED:
             for r in range(2):
-                residual[row + r] = -dx if r == 0 else -dy
-                quadratic[row + r] = si[6 + r] - sj[6 + r]
-                rate[row + r] = 0.0
-                acceleration[row + r] = 0.0
+                put(residual, row + r, -dx if r == 0 else -dy)
+                put(quadratic, row + r, at(si, 6 + r) - at(sj, 6 + r))
+                put(rate, row + r, 0.0)
+                put(acceleration, row + r, 0.0)
             add_point_load(ki, markers, bodies, data, z, si, 1.0, 0.0, jac[row])
             add_point_load(kj, markers, bodies, data, z, sj, -1.0, 0.0, jac[row])
             add_point_load(ki, markers, bodies, data, z, si, 0.0, 1.0, jac[row + 1])
             add_point_load(kj, markers, bodies, data, z, sj, 0.0, -1.0, jac[row + 1])
             r = row + 2
         else:  # prismatic: marker j slides along marker i's x axis, not across it
-            ex = -math.sin(si[2])
-            ey = math.cos(si[2])
-            residual[row], quadratic[row] = slide_row(
-                ex, ey, ki, kj, markers, bodies, data, z, si, sj, jac[row]
-            )
-            rate[row] = 0.0
-            acceleration[row] = 0.0
+            ex = -sin(at(si, 2))
+            ey = cos(at(si, 2))
+            value, zeta = slide_row(ex, ey, ki, kj, markers, bodies, data, z, si, sj, jac[row])
+            put(residual, row, value)
+            put(quadratic, row, zeta)
+            put(rate, row, 0.0)
+            put(acceleration, row, 0.0)
             r = row + 1
         if kind != REVOLUTE:  # the relative angle held at its initial value
-            residual[r] = sj[2] - si[2] - data[d]
-            quadratic[r] = 0.0
-            rate[r] = 0.0
-            acceleration[r] = 0.0
+            put(residual, r, at(sj, 2) - at(si, 2) - at(data, d))
+            put(quadratic, r, 0.0)
+            put(rate, r, 0.0)
+            put(acceleration, r, 0.0)
             add_angle_load(kj, markers, bodies, data, 1.0, jac[r])
             add_angle_load(ki, markers, bodies, data, -1.0, jac[r])
             r += 1
         if drive >= 0:
-            f, fd, fdd = profile(drive, data, d + 1, t)
-            rate[r] = fd
-            acceleration[r] = fdd
+            f, fd, fdd = drive_profile(drive, data, d + 1, t)
+            put(rate, r, fd)
+            put(acceleration, r, fdd)
             if kind == PRISMATIC:  # the slide along the axis
-                ex = math.cos(si[2])
-                ey = math.sin(si[2])
-                along, quadratic[r] = slide_row(
-                    ex, ey, ki, kj, markers, bodies, data, z, si, sj, jac[r]
-                )
-                residual[r] = along - f
+                ex = cos(at(si, 2))
+                ey = sin(at(si, 2))
+                along, zeta = slide_row(ex, ey, ki, kj, markers, bodies, data, z, si, sj, jac[r])
+                put(quadratic, r, zeta)
+                put(residual, r, along - f)
             else:  # the relative angle
-                residual[r] = sj[2] - si[2] - f
-                quadratic[r] = 0.0
+                put(residual, r, at(sj, 2) - at(si, 2) - f)
+                put(quadratic, r, 0.0)
                 add_angle_load(kj, markers, bodies, data, 1.0, jac[r])
                 add_angle_load(ki, markers, bodies, data, -1.0, jac[r])
+
+
+def drive_profile(code, data, off, t):
+    """:func:`profile` of a sample at time t, or of four lanes (``data`` (D, 4), ``t``
+    (4,)) one lane at a time: (f, f', f'') as floats or vectors."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(drive_profile)
+def _drive_profile(code, data, off, t):
+    if isinstance(t, types.Array):
+
+        def lanes(code, data, off, t):
+            f = np.empty(LANES)
+            fd = np.empty(LANES)
+            fdd = np.empty(LANES)
+            for lane in range(LANES):
+                f[lane], fd[lane], fdd[lane] = profile(code, data[:, lane], off, t[lane])
+            return V.load(f, 0), V.load(fd, 0), V.load(fdd, 0)
+
+        return lanes
+    return lambda code, data, off, t: profile(code, data, off, t)
 
 
 @nb.njit(cache=True)

@@ -5,7 +5,9 @@ with its own step size per sample (so a
 sample's trajectory is the same whatever batch it runs in), every output time
 hit exactly, and the joints projected after every accepted step
 (:mod:`fuzzymbs.mbs.planar.kernels`). The error control covers every
-coordinate, the constrained ones included.
+coordinate, the constrained ones included. Samples run four at a time, one per
+SIMD lane (:mod:`fuzzymbs.mbs.planar.lanes`), bit for bit as the one-sample
+kernel runs them (:mod:`fuzzymbs.mbs.planar.integrator`, ``kernel="samples"``).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.kernels.threads import for_each_range
-from fuzzymbs.mbs.planar import integrator, kernels, readout
+from fuzzymbs.mbs.planar import integrator, kernels, lanes, readout
 from fuzzymbs.mbs.planar.system import Mechanism, PackedBatch, pack_batch
 
 #: Default relative and absolute tolerances of the step control (docs/embs.md
@@ -38,6 +40,9 @@ INTEGRATOR_NAMES = {
 }
 #: Largest joint residual left by the projection after a step [m or rad].
 PROJECTION_TOLERANCE = 1e-10
+#: The integration kernels: four samples per call in SIMD lanes, or one (the same
+#: numbers, bit for bit; the lanes take about a third of the time).
+KERNELS = ("lanes", "samples")
 
 STATUS_TEXT = {
     kernels.FINISHED: "finished",
@@ -180,7 +185,7 @@ class PlanarResult:
         arrays = self.batch.layout.arrays()
 
         def run(start: int, stop: int) -> None:
-            integrator.solve_range(
+            lanes.solve_blocks(
                 start,
                 stop,
                 self.times,
@@ -191,7 +196,8 @@ class PlanarResult:
                 out,
             )
 
-        for_each_range(self.states.shape[0], run)
+        # four samples per call, one per SIMD lane (bit for bit integrator.solve_range)
+        for_each_range(-(-self.states.shape[0] // lanes.L), run)
         out.flags.writeable = False
         return out
 
@@ -241,6 +247,7 @@ def simulate(
     first_step: float | None = None,
     max_steps: int = 10_000_000,
     method: str = DEFAULT_METHOD,
+    kernel: str = "lanes",
 ) -> PlanarResult:
     """Integrate one mechanism or a batch of one structure over ``times``.
 
@@ -259,6 +266,9 @@ def simulate(
     method : {"auto", "dop853", "dopri5"}
         The explicit Runge-Kutta pair: "auto" takes DOP853 if a body has modes, else
         Dormand-Prince 5(4) (docs/mechanisms.md, "Integrator").
+    kernel : {"lanes", "samples"}
+        Four samples per kernel call, one per SIMD lane, or one sample per call: the
+        same trajectories bit for bit (:data:`KERNELS`).
     """
     batch = pack_batch(mechanisms if isinstance(mechanisms, list) else [mechanisms])
     code = integrator_method(method, bool(np.any(batch.layout.bodies[:, 1] > 0)))
@@ -267,6 +277,8 @@ def simulate(
         raise InvalidParameterError(
             "times must be at least two finite, strictly increasing values [s]"
         )
+    if kernel not in KERNELS:
+        raise InvalidParameterError(f"unknown kernel {kernel!r}; choose one of {list(KERNELS)}")
     if not (rtol > 0 and atol > 0):
         raise InvalidParameterError(f"rtol and atol must be > 0, got {rtol!r} and {atol!r}")
     step = (t[-1] - t[0]) * 1e-3 if first_step is None else float(first_step)
@@ -276,21 +288,16 @@ def simulate(
     initial = batch.initial.copy()
     arrays = batch.layout.arrays()
 
+    integrate = lanes.integrate_blocks if kernel == "lanes" else integrator.integrate_range
+    control = (code, float(rtol), float(atol), step, int(max_steps), PROJECTION_TOLERANCE)
+
     def run(start: int, stop: int) -> None:
-        integrator.integrate_range(
-            start,
-            stop,
-            t,
-            initial,
-            arrays,
-            batch.data,
-            batch.user_force,
-            (code, float(rtol), float(atol), step, int(max_steps), PROJECTION_TOLERANCE),
-            states,
-            report,
+        integrate(
+            start, stop, t, initial, arrays, batch.data, batch.user_force, control, states, report
         )
 
-    for_each_range(samples, run)
+    # the lanes kernel takes blocks of four samples (the last one possibly short)
+    for_each_range(-(-samples // lanes.L) if kernel == "lanes" else samples, run)
     return PlanarResult(
         t,
         states,
