@@ -323,6 +323,9 @@ QUIET_DASK = {
     "distributed.worker.memory.monitor-interval": "1s",
     "distributed.deploy.cluster-repr-interval": "10s",
 }
+#: The worker setting docs/studies.md recommends for a fuzzymbs cluster: no statistical
+#: profiler (it samples every thread's stack every 10 ms, for the dashboard only).
+QUIET_WORKERS = {"distributed.worker.profile.enabled": False}
 #: name -> (workers, NUMBA_NUM_THREADS=1 in the workers, Dask configuration)
 CLUSTERS: dict[str, tuple[int, bool, dict[str, Any]]] = {
     "w1": (1, True, {}),
@@ -769,7 +772,9 @@ def _cli_run(
     }
 
 
-def cli_main(quick: bool = False, repeat: int | None = None, plots: bool = True) -> dict[str, Any]:
+def cli_main(
+    quick: bool = False, repeat: int | None = None, plots: bool = True, quiet_workers: bool = False
+) -> dict[str, Any]:
     """``fuzzymbs run`` of the gear study: inline with one Numba thread against two
     single-thread Dask workers (a LocalCluster started here, warmed up before timing),
     default method check on, with the default plots and report unless ``plots`` is
@@ -780,7 +785,11 @@ def cli_main(quick: bool = False, repeat: int | None = None, plots: bool = True)
     repeat = repeat or (1 if quick else 3)
     kt, kc = MODAL_TOOTH_STIFFNESS, MODAL_CONTACT_STIFFNESS
     values = {"positions": setting["positions"], "kt": kt, "kc": kc}
-    figures: dict[str, Any] = {"load_average_at_start": load_average(), "inline": [], "dask": []}
+    workers = {"dask": {}}
+    if quiet_workers:
+        workers["dask_quiet_workers"] = QUIET_WORKERS
+    figures: dict[str, Any] = {"load_average_at_start": load_average(), "inline": []}
+    figures.update({key: [] for key in workers})
     with tempfile.TemporaryDirectory() as folder:
         root = Path(folder)
         path = root / "gear.toml"
@@ -792,34 +801,53 @@ def cli_main(quick: bool = False, repeat: int | None = None, plots: bool = True)
             inline = _cli_run(path, root / f"inline{round_}", None, setting["chunk"], plots)
             figures["inline"].append(inline)
             log(f"dask_scaling --cli: round {round_ + 1} inline {inline['study_wall_s']:.2f} s")
-            cluster, client, _ = start_cluster(2, True, None)
-            try:
-                study = gear_study(1, setting["positions"])
-                client.run(_worker_warm_up, _pickled(study.model), study.columns(0, 1))
-                address = cluster.scheduler_address.replace("tcp://", "dask://")
-                dask = _cli_run(path, root / f"dask{round_}", address, setting["chunk"], plots)
-            finally:
-                client.close()
-                cluster.close()
-            figures["dask"].append(dask)
-            log(f"dask_scaling --cli: round {round_ + 1} dask {dask['study_wall_s']:.2f} s")
+            for key, config in workers.items():
+                dask = _cli_dask_run(path, root / f"{key}{round_}", setting, config, plots)
+                figures[key].append(dask)
+                log(
+                    f"dask_scaling --cli: round {round_ + 1} {key} {dask['study_wall_s']:.2f} s"
+                    f" (process {dask['process_wall_s']:.2f} s)"
+                )
     reference = figures["inline"][0]["arrays"]
+    runs = [run for key in ("inline", *workers) for run in figures[key]]
     identical = all(
         np.array_equal(run["arrays"][k], reference[k], equal_nan=True)
-        for run in figures["inline"] + figures["dask"]
+        for run in runs
         for k in reference
     )
-    for run in figures["inline"] + figures["dask"]:
+    for run in runs:
         run.pop("arrays")
     for key in ("study_wall_s", "process_wall_s"):
         inline_median = median([r[key] for r in figures["inline"]])
-        dask_median = median([r[key] for r in figures["dask"]])
-        figures[f"ratio_{key}"] = inline_median / dask_median
         figures[f"inline_median_{key}"] = inline_median
-        figures[f"dask_median_{key}"] = dask_median
+        for name in workers:
+            dask_median = median([r[key] for r in figures[name]])
+            suffix = "" if name == "dask" else name.removeprefix("dask")
+            figures[f"ratio_{key}{suffix}"] = inline_median / dask_median
+            figures[f"{name}_median_{key}"] = dask_median
     figures["identical"] = identical
     figures["load_average_at_end"] = load_average()
     return figures
+
+
+def _cli_dask_run(
+    path: Path, out: Path, setting: dict[str, Any], config: dict[str, Any], plots: bool
+) -> dict[str, Any]:
+    """:func:`_cli_run` on a fresh, warmed-up LocalCluster of two single-thread workers
+    started under the Dask configuration ``config`` (the nannies hand it to the workers)."""
+    import dask
+    import distributed  # noqa: F401  (its defaults loaded: leaving the set() below keeps them)
+
+    with dask.config.set(config):
+        cluster, client, _ = start_cluster(2, True, None)
+    try:
+        study = gear_study(1, setting["positions"])
+        client.run(_worker_warm_up, _pickled(study.model), study.columns(0, 1))
+        address = cluster.scheduler_address.replace("tcp://", "dask://")
+        return _cli_run(path, out, address, setting["chunk"], plots)
+    finally:
+        client.close()
+        cluster.close()
 
 
 def _pickled(model: Any) -> bytes:
@@ -897,6 +925,11 @@ if __name__ == "__main__":
         action="store_true",
         help="with --cli: `fuzzymbs run --no-plots --no-report` (the study and result.nc only)",
     )
+    parser.add_argument(
+        "--quiet-workers",
+        action="store_true",
+        help="with --cli: also a cluster whose workers run without Dask's profiler",
+    )
     args = parser.parse_args()
     if args.src:
         source = str(Path(args.src).resolve())
@@ -905,7 +938,7 @@ if __name__ == "__main__":
             p for p in (source, os.environ.get("PYTHONPATH", "")) if p
         )
     if args.cli:
-        figures = cli_main(args.quick, args.repeat, not args.no_figures)
+        figures = cli_main(args.quick, args.repeat, not args.no_figures, args.quiet_workers)
         figures_line = json.dumps(figures, default=float)
         print(figures_line)
         if args.out:
