@@ -21,6 +21,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 
+#: Largest joint residual the projection onto the joints leaves (both engines) [m, rad].
+PROJECTION_TOLERANCE = 1e-10
+
 #: Signature of a user force element, in both engines (``user_force`` compiles to it):
 #: (element index, t, marker i's numbers, marker j's numbers, parameters, out) -> None.
 USER_FORCE_SIGNATURE = types.void(
@@ -301,6 +304,12 @@ class Assembly:
         self.joints: list[Any] = []
         self.forces: list[Any] = []
         self.named_markers: dict[str, Any] = {}
+
+    def reduced_system(self, t: float, state: ArrayLike | None, step: float) -> tuple:
+        """(reduced rate, free directions, step): what
+        :func:`~fuzzymbs.mbs.planar.linearization.linearize` differentiates; each
+        engine's ``Mechanism`` gives its own."""
+        raise NotImplementedError(f"{type(self).__name__} cannot be linearised")
 
     def add(self, *elements: Any) -> Self:
         """Add bodies, joints and force elements (in any order); returns self."""

@@ -1,4 +1,4 @@
-"""Linearisation of a planar mechanism, joints included: eigenvalues at a state.
+"""Linearisation of a mechanism of either engine, joints included: eigenvalues at a state.
 
 The joints leave n - c independent directions: the null space N of the
 constraint Jacobian G at the state (orthonormal, from the SVD). The
@@ -9,6 +9,12 @@ d/dt (y, y') = J (y, y') with y = N^T z. Its eigenvalues are those of the
 mechanism about a static equilibrium, or about a steady motion whose
 equations do not depend on time in the moving frame (a rotor at constant
 speed).
+
+Each engine's ``Mechanism.reduced_system`` supplies the reduced rate: in the
+plane a position moves by adding the direction; in space it moves in velocity
+coordinates (the frame origin, a small rotation in the body frame, the modal
+coordinates) and is projected back onto the joints, so the Euler parameters
+stay unit quaternions.
 """
 
 from __future__ import annotations
@@ -23,10 +29,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.assembly import Assembly
-from fuzzymbs.mbs.planar import kernels
-from fuzzymbs.mbs.planar.simulation import PROJECTION_TOLERANCE
-from fuzzymbs.mbs.planar.system import Mechanism, joint_rows
+from fuzzymbs.mbs.assembly import PROJECTION_TOLERANCE, Assembly
 
 #: ``reduced_rate(position, velocity) -> (N^T v, N^T a)`` (:func:`central_linearization`)
 ReducedRate = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
@@ -90,31 +93,8 @@ def linearize(
     Linearization
         Eigenvalues, the reduced Jacobian and the free directions (in velocity coordinates).
     """
-    if mechanism.engine == "spatial":
-        from fuzzymbs.mbs.spatial.linearization import reduced_system
-    else:
-        reduced_system = planar_reduced_system
-    return central_linearization(*reduced_system(mechanism, t, state, step))
-
-
-def planar_reduced_system(
-    mechanism: Mechanism, t: float, state: ArrayLike | None, step: float
-) -> tuple[ReducedRate, NDArray[np.float64], float]:
-    """What :func:`central_linearization` takes for a planar mechanism: the reduced rate, the
-    joints' free directions and the step (``step`` times the state's largest magnitude)."""
-    layout, data, initial = mechanism.pack()
-    arrays = layout.arrays()
-    n, c = (int(s) for s in layout.sizes)
-    x0 = projected_state(kernels, t, state, initial, n, arrays, data, "z then v")
-    _, jac = joint_rows(t, layout, data, x0)
-    basis = free_directions(jac, n)
-    user = mechanism.user_function()
-    rate = reduced_rate_function(kernels, t, x0, n, arrays, data, user, basis, c, _shift)
-    return rate, basis, step * max(1.0, float(np.abs(x0).max()))
-
-
-def _shift(positions: NDArray[np.float64], position: NDArray[np.float64]) -> None:
-    positions += position
+    # each engine's Mechanism gives its own reduced system (reduced_system)
+    return central_linearization(*mechanism.reduced_system(t, state, step))
 
 
 def projected_state(

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.assembly import PROJECTION_TOLERANCE
 from fuzzymbs.mbs.kernels.threads import for_each_range
 from fuzzymbs.mbs.planar import integrator, kernels, lanes, readout
 from fuzzymbs.mbs.planar.system import Mechanism, PackedBatch, pack_batch
@@ -38,8 +39,6 @@ INTEGRATOR_NAMES = {
     "dop853": "DOP853 (Dormand-Prince 8(5,3))",
     "dopri5": "Dormand-Prince 5(4)",
 }
-#: Largest joint residual left by the projection after a step [m or rad].
-PROJECTION_TOLERANCE = 1e-10
 #: The integration kernels: four samples per call in SIMD lanes, or one (the same
 #: numbers, bit for bit; the lanes take about a third of the time).
 KERNELS = ("lanes", "samples")

@@ -28,6 +28,12 @@ from fuzzymbs.mbs.planar.forces import (
     ForceElement,
 )
 from fuzzymbs.mbs.planar.joints import Joint
+from fuzzymbs.mbs.planar.linearization import (
+    ReducedRate,
+    free_directions,
+    projected_state,
+    reduced_rate_function,
+)
 
 #: Largest joint residual [m or rad] a mechanism may start with (its markers must meet).
 START_TOLERANCE = 1e-9
@@ -100,6 +106,22 @@ class Mechanism(Assembly):
                 f"(got {len(functions)} functions)"
             )
         return next(iter(functions.values()), kernels.no_user_force)
+
+    def reduced_system(
+        self, t: float, state: ArrayLike | None, step: float
+    ) -> tuple[ReducedRate, NDArray[np.float64], float]:
+        """What :func:`~fuzzymbs.mbs.planar.linearization.central_linearization` takes:
+        the reduced rate, the joints' free directions and the step (``step`` times the
+        state's largest magnitude)."""
+        layout, data, initial = self.pack()
+        arrays = layout.arrays()
+        n, c = (int(s) for s in layout.sizes)
+        x0 = projected_state(kernels, t, state, initial, n, arrays, data, "z then v")
+        _, jac = joint_rows(t, layout, data, x0)
+        basis = free_directions(jac, n)
+        user = self.user_function()
+        rate = reduced_rate_function(kernels, t, x0, n, arrays, data, user, basis, c, _shift)
+        return rate, basis, step * max(1.0, float(np.abs(x0).max()))
 
     def _marker_index(self, markers: list[Marker], marker: Marker | None) -> int:
         if marker is None:
@@ -248,6 +270,10 @@ class Mechanism(Assembly):
                         "equations"
                     )
                 row += j.equations
+
+
+def _shift(positions: NDArray[np.float64], position: NDArray[np.float64]) -> None:
+    positions += position
 
 
 def joint_rows(

@@ -44,7 +44,7 @@ _LAZY: dict[str, str] = {
     "CartesianChart": "fuzzymbs.mbs.contact",
     "PolarChart": "fuzzymbs.mbs.contact",
     "MechanismModel": "fuzzymbs.mbs.mechanism_model",
-    "linearize": "fuzzymbs.mbs.spatial.linearization",
+    "linearize": "fuzzymbs.mbs.planar.linearization",
     "ConstantRate": "fuzzymbs.mbs.planar.profiles",
     "SpinUp": "fuzzymbs.mbs.planar.profiles",
     "Harmonic": "fuzzymbs.mbs.planar.profiles",

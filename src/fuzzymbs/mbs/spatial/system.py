@@ -19,12 +19,17 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.assembly import Assembly
+from fuzzymbs.mbs.assembly import PROJECTION_TOLERANCE, Assembly
 from fuzzymbs.mbs.kernels.threads import for_each_range
 from fuzzymbs.mbs.planar.kernels import no_user_force
-from fuzzymbs.mbs.planar.linearization import free_directions
+from fuzzymbs.mbs.planar.linearization import (
+    ReducedRate,
+    free_directions,
+    projected_state,
+    reduced_rate_function,
+)
 from fuzzymbs.mbs.planar.simulation import DEFAULT_METHOD, describe_failure, integrator_method
-from fuzzymbs.mbs.spatial import elements, integrator, kernels, readout
+from fuzzymbs.mbs.spatial import elements, integrator, kernels, kinematics, readout
 from fuzzymbs.mbs.spatial.bodies import Body, Marker
 from fuzzymbs.mbs.spatial.forces import ForceElement
 from fuzzymbs.mbs.spatial.joints import Joint
@@ -32,7 +37,6 @@ from fuzzymbs.mbs.spatial.joints import Joint
 START_TOLERANCE = 1e-9
 DEFAULT_RTOL = 1e-6
 DEFAULT_ATOL = 1e-8
-PROJECTION_TOLERANCE = 1e-10
 #: Smallest eigenvalue of the mass matrix on the joints' free directions, relative to the
 #: largest, below which a mechanism is refused as singular (a small inertia, such as a
 #: point-like bob's spin, 1e-6 of the pendulum's, integrates well; zero does not).
@@ -122,6 +126,30 @@ class Mechanism(Assembly):
             np.array([nq, n, row], dtype=np.int64),
         )
         return layout, np.array(data, dtype=float), state
+
+    def reduced_system(
+        self, t: float, state: ArrayLike | None, step: float
+    ) -> tuple[ReducedRate, NDArray[np.float64], float]:
+        """What :func:`~fuzzymbs.mbs.planar.linearization.central_linearization` takes:
+        the reduced rate (positions moved in velocity coordinates), the joints' free
+        directions in the velocities (r', w, q') and the step."""
+        self.check(t)
+        layout, data, initial = self.pack()
+        nq, n, c = (int(s) for s in layout[4])
+        order = "positions then velocities"
+        x0 = projected_state(kernels, t, state, initial, nq, layout, data, order)
+        jac = np.zeros((c, n))
+        if c:
+            spare = [np.empty(c) for _ in range(4)]
+            kernels.joint_terms(t, layout, data, x0[:nq], x0[nq:], jac, *spare)
+        basis = free_directions(jac, n)
+        user = self.user_function()
+
+        def move(positions: NDArray[np.float64], position: NDArray[np.float64]) -> None:
+            kinematics.displace(positions, layout[0], position)
+
+        rate = reduced_rate_function(kernels, t, x0, nq, layout, data, user, basis, c, move)
+        return rate, basis, step
 
     @staticmethod
     def _marker_positions(bodies, markers, data, state, nq) -> NDArray[np.float64]:
