@@ -39,7 +39,7 @@ def run_rounds(
     Parameters
     ----------
     study : the :class:`~fuzzymbs.study.study.Study` (its plan, model identity and
-        ``evaluate_table``).
+        ``run_table``).
     settings : executor, chunk size, resume, progress, code version (as the study's
         other extra runs take them).
     store : the study's store folder, or None.
@@ -83,7 +83,7 @@ def run_rounds(
             if store is None
             else Path(store) / f"{ROUND_FOLDER}-{round_number:03d}-{digest[:12]}"
         )
-        outputs, failed, reasons, done, from_store = study.evaluate_table(
+        outputs, failed, reasons, done, from_store = study.run_table(
             points,
             identity,
             folder,

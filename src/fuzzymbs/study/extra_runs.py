@@ -458,7 +458,7 @@ class StudyRuns:
                     + self._screening_failures(failed, reasons)
                 )
 
-        outputs, failed, reasons, evaluated, reused = self.evaluate_table(
+        outputs, failed, reasons, evaluated, reused = self.run_table(
             screening.samples,
             self._screening_identity(),
             None if store is None else Path(store) / SCREENING_FOLDER,
@@ -513,7 +513,7 @@ class StudyRuns:
             len(self._plan),
         )
 
-    def evaluate_table(
+    def run_table(
         self,
         table: np.ndarray,
         identity: dict[str, Any],
