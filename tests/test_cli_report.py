@@ -48,6 +48,19 @@ def test_run_writes_the_report_and_records_its_command(tmp_path):
         assert dataset.attrs["fuzzymbs_version"] == fuzzymbs.__version__
 
 
+def test_the_recorded_command_keeps_the_timeout(tmp_path):
+    # a sample slower than --timeout fails, so the timeout is part of what gave the result
+    import xarray as xr
+
+    study_file = _product_file(tmp_path)
+    out = tmp_path / "out"
+    arguments = ["run", str(study_file), "--out", str(out), "--timeout", "30", "-q"]
+    result = runner.invoke(app, [*arguments, "--no-plots", "--no-report"])
+    assert result.exit_code == 0, result.output
+    with xr.open_dataset(out / "result.nc") as dataset:
+        assert shlex.split(dataset.attrs["command"])[-2:] == ["--timeout", "30.0"]
+
+
 def test_the_recorded_command_of_a_user_module_study_runs_as_written(tmp_path, monkeypatch):
     # examples/cantilever.toml's model is a module of the user's, found through
     # PYTHONPATH and with paths relative to the folder the command is typed in: the

@@ -297,6 +297,7 @@ def run(
             chunk_size=chunk_size,
             on_failure=on_failure,
             allow_code=allow_code,
+            timeout=timeout,
             max_runs=max_runs,
             option=option,
         ),

@@ -443,9 +443,7 @@ class AdaptiveTransformation:
         return float(np.max(np.where(np.isfinite(relative), relative, 0.0), initial=0.0))
 
     def _drop_index(self, index: tuple[int, ...]) -> None:
-        self.grid.indices.remove(index)
-        self.grid._index_set.discard(index)
-        self.grid._series = None
+        self.grid.remove_index(index)
 
     def _build_surrogate(self) -> Surrogate:
         """The sparse grid's series and, once there are runs off the grid, the kernel
@@ -611,8 +609,7 @@ class AdaptiveTransformation:
                 self.grid.expanded.add(index)
                 for forward in self.grid.forward(index):
                     if forward not in chosen and all(
-                        back in self.grid._index_set or back in chosen
-                        for back in _backward(forward)
+                        back in self.grid or back in chosen for back in _backward(forward)
                     ):
                         chosen.append(forward)
         return chosen

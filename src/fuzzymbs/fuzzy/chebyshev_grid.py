@@ -173,6 +173,16 @@ class ChebyshevSparseGrid:
         self._series = None
         return [q for q in self.new_nodes(index) if q not in self._row]
 
+    def remove_index(self, index: tuple[int, ...]) -> None:
+        """Take ``index`` out of the set again (its node values stay)."""
+        self.indices.remove(index)
+        self._index_set.discard(index)
+        self._series = None
+
+    def __contains__(self, index: object) -> bool:
+        """``index`` is in the set."""
+        return index in self._index_set
+
     def set_values(self, positions: list[tuple[int, ...]], values: NDArray[np.float64]) -> None:
         """The model's outputs (P, E) at node positions."""
         values = np.asarray(values, dtype=float).reshape(len(positions), -1)

@@ -39,7 +39,7 @@ def run_rounds(
     Parameters
     ----------
     study : the :class:`~fuzzymbs.study.study.Study` (its plan, model identity and
-        ``_evaluate_table``).
+        ``run_table``).
     settings : executor, chunk size, resume, progress, code version (as the study's
         other extra runs take them).
     store : the study's store folder, or None.
@@ -76,14 +76,14 @@ def run_rounds(
             "adaptive_round": round_number,
             "round_fingerprint": digest,
             "plan_fingerprint": plan.fingerprint(),
-            **study._model_identity(),
+            **study.model_identity(),
         }
         folder = (
             None
             if store is None
             else Path(store) / f"{ROUND_FOLDER}-{round_number:03d}-{digest[:12]}"
         )
-        outputs, failed, reasons, done, from_store = study._evaluate_table(
+        outputs, failed, reasons, done, from_store = study.run_table(
             points,
             identity,
             folder,

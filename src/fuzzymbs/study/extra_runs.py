@@ -114,7 +114,7 @@ class StudyRuns:
         }
         digest.update(json.dumps(description, sort_keys=True).encode())
         digest.update(np.ascontiguousarray(screening.samples, dtype="<f8").tobytes())
-        return {"screening_fingerprint": digest.hexdigest(), **self._model_identity()}
+        return {"screening_fingerprint": digest.hexdigest(), **self.model_identity()}
 
     def _choose_integration(self, progress: bool = False) -> None:
         """Once per study: the model's integrator tolerance chosen for the cut widths
@@ -224,7 +224,7 @@ class StudyRuns:
             identity = {
                 "validation_fingerprint": digest.hexdigest(),
                 "plan_fingerprint": self.plan.fingerprint(),
-                **self._model_identity(),
+                **self.model_identity(),
             }
             # a folder per round and set of points: other points start afresh
             folder = (
@@ -458,7 +458,7 @@ class StudyRuns:
                     + self._screening_failures(failed, reasons)
                 )
 
-        outputs, failed, reasons, evaluated, reused = self._evaluate_table(
+        outputs, failed, reasons, evaluated, reused = self.run_table(
             screening.samples,
             self._screening_identity(),
             None if store is None else Path(store) / SCREENING_FOLDER,
@@ -513,7 +513,7 @@ class StudyRuns:
             len(self._plan),
         )
 
-    def _evaluate_table(
+    def run_table(
         self,
         table: np.ndarray,
         identity: dict[str, Any],

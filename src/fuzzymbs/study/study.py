@@ -265,9 +265,9 @@ class Study(StudyRuns):
         returning plain data (e.g. a digest of its configuration); without it,
         a model passed as an object is identified by its name only.
         """
-        return {"plan_fingerprint": self.plan.fingerprint(), **self._model_identity()}
+        return {"plan_fingerprint": self.plan.fingerprint(), **self.model_identity()}
 
-    def _model_identity(self) -> dict[str, Any]:
+    def model_identity(self) -> dict[str, Any]:
         """The part of :meth:`identity` that does not depend on the plan."""
         identity = {
             "model": self.model_name,
@@ -275,9 +275,9 @@ class Study(StudyRuns):
             "constants": self.constants,
             "outputs": list(self.outputs) if self.outputs else None,
         }
-        model_identity = getattr(self.model, "identity", None)
-        if callable(model_identity):
-            identity["model_identity"] = model_identity()
+        own = getattr(self.model, "identity", None)  # the model object's own settings
+        if callable(own):
+            identity["model_identity"] = own()
         if self.integration_choice is not None:
             identity["integration_tolerance_factor"] = self.integration_choice.factor
             if self.integration_choice.shared_steps:
