@@ -14,8 +14,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from fuzzymbs._lazy import lazy_exports
-
-__version__ = "0.2.0"
+from fuzzymbs.version import __version__
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {

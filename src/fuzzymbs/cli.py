@@ -87,7 +87,7 @@ def _one_line_errors(command: Callable[..., Any]) -> Callable[..., Any]:
 
 def _print_version(value: bool) -> None:
     if value:
-        from fuzzymbs import __version__
+        from fuzzymbs.version import __version__
 
         typer.echo(f"fuzzymbs {__version__}")
         raise typer.Exit()

@@ -564,7 +564,7 @@ def result_digest(dataset: xarray.Dataset) -> str:
     matplotlib. Two results with equal digests give the same figures."""
     from importlib.metadata import version
 
-    from fuzzymbs import __version__
+    from fuzzymbs.version import __version__
 
     digest = hashlib.sha256(f"{__version__} {version('matplotlib')} {PNG_DPI}".encode())
     for name in sorted(map(str, dataset.variables)):

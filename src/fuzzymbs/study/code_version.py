@@ -47,7 +47,7 @@ _IMPORTS: dict[Path, tuple[tuple[int, int], frozenset[str]]] = {}
 
 def fuzzymbs_version() -> str:
     """The version string of the running fuzzymbs (``fuzzymbs.__version__``)."""
-    from fuzzymbs import __version__
+    from fuzzymbs.version import __version__
 
     return __version__
 
