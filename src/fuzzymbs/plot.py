@@ -605,19 +605,6 @@ def figure_files(figure: Figure, formats: Sequence[str]) -> dict[str, bytes]:
     return files
 
 
-def prepare_figures() -> None:
-    """Load what drawing a figure needs (Matplotlib, its Agg canvas and fonts) by drawing
-    a small one: a worker that runs this while it would idle draws its first
-    :func:`render_figure` about 0.9 s sooner (docs/benchmarks.md, Dask)."""
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=(1.0, 1.0))
-    axes = figure.add_subplot()
-    axes.plot([0.0, 1.0], [0.0, 1.0])
-    axes.set_xlabel("x [m]")
-    figure_files(figure, ("png",))
-
-
 def render_figure(figure: StandardFigure, formats: Sequence[str]) -> dict[str, bytes]:
     """Build a standard figure and return its files' contents by extension (a task that
     runs where the study's samples ran: only bytes travel back)."""

@@ -144,28 +144,6 @@ def test_a_study_file_on_dask_draws_its_figures_on_the_workers(tmp_path):
             on_dask = run_study_file(path, tmp_path / "dask", executor=address, progress=False)
     drawn = [task["key"] for task in stream.data if "render_figure" in str(task["key"])]
     assert len(drawn) == len(inline.plots) == 3
-    # the workers loaded Matplotlib once the study was done with them, one task a slot
-    prepared = [task for task in stream.data if "prepare_figures" in str(task["key"])]
-    assert len(prepared) == 2  # the cluster's one worker has two threads
     assert_identical(on_dask.result.dataset, inline.result.dataset)
     assert [p.name for p in on_dask.plots] == [p.name for p in inline.plots]
     assert [p.read_bytes() for p in on_dask.plots] == [p.read_bytes() for p in inline.plots]
-
-
-def test_a_kept_executor_prepares_every_slot_once_a_run_releases_it():
-    from concurrent.futures import ThreadPoolExecutor
-
-    from fuzzymbs.study.executors import KeptExecutor, resolve_executor
-
-    calls = []
-    with ThreadPoolExecutor(3) as pool:
-        kept = KeptExecutor(pool, prepare=lambda: calls.append(1))
-        resolve_executor(kept).close()  # a run is done with it
-        resolve_executor(kept).close()  # a second run: prepared already
-        for future in kept.preparing:
-            future.result()
-        assert len(calls) == 3  # one call a slot (3 threads), once
-        kept.close()
-    inline = KeptExecutor(None, prepare=lambda: calls.append(1))
-    resolve_executor(inline).close()
-    assert len(calls) == 3 and inline.preparing == []  # nothing to prepare in this process

@@ -159,18 +159,11 @@ class KeptExecutor:
     ----------
     spec : None, str, concurrent.futures.Executor or distributed.Client
         See :func:`resolve_executor`.
-    prepare : callable, optional
-        Sent to every task slot of a started pool or cluster (not inline) once a run
-        that used it is done (:meth:`release`), without waiting for it: what the next
-        use needs (the figures' imports) then loads while the client still reduces
-        the runs and the workers would idle.
     """
 
-    def __init__(self, spec: Any = None, prepare: Callable[[], Any] | None = None) -> None:
+    def __init__(self, spec: Any = None) -> None:
         self.spec = spec
-        self.prepare = prepare
         self.started: ResolvedExecutor | None = None
-        self.preparing: list[Future] = []  # held: a dropped Dask future cancels its task
 
     def resolve(self) -> ResolvedExecutor:
         """The resolved executor, started at the first call."""
@@ -178,24 +171,11 @@ class KeptExecutor:
             self.started = resolve_executor(self.spec)
         return self.started
 
-    def release(self) -> None:
-        """A run is done with the executor: send :attr:`prepare` to its slots, once."""
-        started = self.started
-        if started is None or started.label == "inline" or self.prepare is None:
-            return
-        if not self.preparing:
-            slots = max(1, started.in_flight // 2)  # in_flight is two chunks a slot
-            try:
-                self.preparing = [started.executor.submit(self.prepare) for _ in range(slots)]
-            except Exception:  # a broken pool: the next use finds out and says so
-                self.preparing = []
-
     def close(self) -> None:
         """Shut the executor down if it was started (and this object started it)."""
         if self.started is not None:
             self.started.close()
             self.started = None
-        self.preparing = []
 
 
 def resolve_executor(spec: Any = None) -> ResolvedExecutor:
@@ -216,7 +196,7 @@ def resolve_executor(spec: Any = None) -> ResolvedExecutor:
     if spec is None or spec == "inline":
         return ResolvedExecutor(InlineExecutor(), "inline", 1, _nothing)
     if isinstance(spec, KeptExecutor):  # its owner closes it, not the run that uses it
-        return replace(spec.resolve(), close=spec.release)
+        return replace(spec.resolve(), close=_nothing)
     if isinstance(spec, str):
         if spec == "processes" or spec.startswith("processes:"):
             import multiprocessing

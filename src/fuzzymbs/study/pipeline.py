@@ -296,14 +296,8 @@ def _run_locked(
         f" (process {os.getpid()}); no result yet\n{earlier}",
     )
     result_path = out / RESULT_FILE
-    from fuzzymbs.plot import prepare_figures
-
-    # the study's executor stays open for the figures: they are drawn on its workers, which
-    # load Matplotlib while this process retransforms the runs
-    work = KeptExecutor(
-        executor if executor is not None else definition.executor,
-        prepare=prepare_figures if plots else None,
-    )
+    # the study's executor stays open for the figures: they are drawn on its workers
+    work = KeptExecutor(executor if executor is not None else definition.executor)
     try:
         result = definition.study.run(
             executor=work,
