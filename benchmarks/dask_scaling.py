@@ -4,15 +4,18 @@
                                       [--no-diagnostics] [--only PREFIX,...]
                                       [--src CHECKOUT/src] [--json] [--out FILE]
     python benchmarks/dask_scaling.py --cli [--quick] [--repeat N] [--no-figures]
-                                      [--src CHECKOUT/src] [--out FILE]
+                                      [--quiet-workers] [--src CHECKOUT/src] [--out FILE]
 
 ``--cli``: end to end, as a user measures it, the same study as a study file through
 ``fuzzymbs run`` in a child process (fresh store, the default plots and report;
 ``--no-figures``: neither), inline with one Numba thread
 against ``--executor dask://`` on a LocalCluster of two single-thread workers
 started and warmed up by the benchmark, alternating; ratios of the study's own wall
-time (``wall_time_s`` in the result: plan, runs, method check, retransformation,
-dataset) and of the child's (with interpreter start and writing result.nc).
+time (``wall_time_s`` in the result: plan, runs and method check; the dataset is
+assembled after it) and of the child's (with interpreter start and writing result.nc).
+``--quiet-workers`` adds, in each round, a third run on a cluster whose workers
+run without Dask's statistical profiler (:data:`QUIET_WORKERS`, the setting
+docs/studies.md recommends).
 
 Full run about 7 min on 2 cores (``--no-diagnostics``: 3.5 min); ``--src`` measures
 another checkout's ``src`` (a ``git archive`` of a commit), workers included.
