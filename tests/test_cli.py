@@ -184,6 +184,7 @@ def test_errors_are_reported_without_traceback(tmp_path):
     assert "Traceback" not in result.output
     result = runner.invoke(app, ["demo", "no-such-demo", "--out", str(tmp_path)])
     assert result.exit_code == 1 and "shipped demos: " in result.output
+
     assert "quickstart" in result.output
     occupied = tmp_path / "a-file"
     occupied.write_text("")
@@ -348,3 +349,15 @@ def test_cli_needs_no_click():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "ok"
+
+
+def test_thousands_of_unknown_parameters_are_named_in_one_readable_line(tmp_path):
+    bad = tmp_path / "many.toml"
+    lines = [f'p{i} = {{ type = "triangular", modal = 1.0, spread = 0.1 }}' for i in range(5000)]
+    bad.write_text('[model]\nname = "product"\n[parameters]\n' + "\n".join(lines) + "\n")
+    result = runner.invoke(app, ["run", str(bad), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 1
+    assert "['p0', 'p1', 'p2', 'p3', 'p4', 'p5', 'p6', 'p7', 'p8', 'p9', ... and 4,990 more]" in (
+        result.output.replace("\n", "")
+    )
+    assert "p4999" not in result.output

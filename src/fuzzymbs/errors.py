@@ -88,3 +88,11 @@ class InverseMismatchError(InverseProblemError):
     def __init__(self, message: str, result: object) -> None:
         super().__init__(message)
         self.result = result
+
+
+def named(names: list[str], limit: int = 10) -> str:
+    """``names`` for an error message: the first ``limit`` and how many more (a study
+    file with thousands of wrong names gets a readable line, not all of them)."""
+    shown = ", ".join(repr(name) for name in names[:limit])
+    more = len(names) - limit
+    return f"[{shown}, ... and {more:,} more]" if more > 0 else f"[{shown}]"

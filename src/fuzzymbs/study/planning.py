@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from fuzzymbs.errors import InvalidParameterError, InvalidPlanError
+from fuzzymbs.errors import InvalidParameterError, InvalidPlanError, named
 from fuzzymbs.fuzzy.methods import Method, method_named, option_users
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.plan_size import DEFAULT_MAX_RUNS, check_screening_run_limit
@@ -175,7 +175,7 @@ def split_parameters(
         if unknown:
             valid = ", ".join(f"{n} [{info.unit}]" for n, info in parameter_info.items())
             raise InvalidParameterError(
-                f"unknown parameter(s) {unknown} for model {model_name!r}; "
+                f"unknown parameter(s) {named(unknown)} for model {model_name!r}; "
                 f"valid parameters: {valid}"
             )
         for key, info in parameter_info.items():
