@@ -6,7 +6,8 @@ rate, the constrained ones included; after every accepted step the joints are
 projected (:func:`fuzzymbs.mbs.planar.kernels.project`), and the next step's
 first stage reuses the accelerations evaluated at the unprojected solution
 (first same as last). Ranges of samples run
-over the shared thread pool with the GIL released.
+over the shared thread pool with the GIL released. The loop (:func:`run_sample`) is the
+spatial engine's too: each engine passes it its rates, projection and next first stage.
 """
 
 from __future__ import annotations
@@ -229,36 +230,56 @@ def evaluation_arrays(layout):
     return n, c, np.empty((n + c, n + c)), np.empty(n + c), workspace(layout)
 
 
-@nb.njit(cache=True)
-def _derivative(t, x, n, layout, data, user_force, work, system, solution, out):
-    ok = accelerations_in(work, t, x[:n], x[n:], layout, data, user_force, system, solution)
-    out[:n] = x[n:]
-    out[n:] = solution[:n]
-    return ok
+@nb.njit(inline="always")
+def run_sample(
+    rates, project, first_stage, times, x0, layout, data, user_force, scratch, control, states
+):
+    """Integrate one sample from ``times[0]``, storing its state at every time: the explicit
+    Runge-Kutta loop of both engines, their own parts supplied as jitted functions.
 
+    Parameters
+    ----------
+    rates : ``rates(t, x, layout, data, user_force, scratch, out) -> ok``
+        The state's rate into ``out``; False where the accelerations are not finite.
+    project : ``project(t, x, layout, data, scratch, tolerance) -> residual``
+        Moves ``x`` onto the joints (in place) and returns the largest residual left.
+    first_stage : ``first_stage(x, k, stages, layout, scratch)``
+        The next step's first stage ``k[0]`` after an accepted, projected step: the
+        positions' rates at the projected state, the accelerations of the solution's
+        evaluation ``k[stages]`` (the projection moves the state by its tolerance, which
+        changes them at round-off: docs/mechanisms.md).
+    times, x0, layout, data, user_force
+        Output times, initial state, the mechanism's layout and parameter row, and its user
+        force function.
+    scratch
+        The engine's work arrays, as ``rates``, ``project`` and ``first_stage`` take them.
+    control
+        (method, rtol, atol, first step, step budget, projection tolerance): the pair's code
+        (:data:`METHODS`), the step control's tolerances, the first step [s], the steps
+        (accepted and rejected) allowed, and the largest joint residual the projection
+        after each step may leave.
+    states
+        (T, size) output rows; those after a failure stay as they are (NaN).
 
-@nb.njit(cache=True)
-def integrate_sample(times, x0, layout, data, user_force, control, states):
-    """Integrate one sample from ``times[0]``, storing (z, v) at every time.
+    Returns
+    -------
+    (status, accepted steps, rejected steps, largest joint residual)
 
-    ``control`` = (method, rtol, atol, first step, step budget, projection tolerance):
-    the pair's code (:data:`METHODS`), the step control's tolerances, the first step [s],
-    the steps (accepted and rejected) allowed, and the largest joint residual the
-    projection after each step may leave.
-
-    Returns (status, accepted steps, rejected steps, largest joint residual).
-    Rows of ``states`` after a failure stay NaN.
+    Notes
+    -----
+    Inlined (``inline="always"``) into each engine's cached kernel, so that the engine's
+    functions are called, never passed on as values: Numba stores a dispatcher passed on
+    as a value by its address, which makes the calling kernel impossible to cache.
     """
-    n, c, system, solution, work = evaluation_arrays(layout)
     _, _, _, first_step, max_steps, tolerance = control
     pair, x, k, trial = start_run(control, x0)
     stages = k.shape[0] - 1
     t = times[0]
-    worst = project(t, x[:n], x[n:], layout, data, tolerance)
+    worst = project(t, x, layout, data, scratch, tolerance)
     if not worst <= tolerance:
         return PROJECTION_FAILED, 0, 0, worst
     states[0, :] = x
-    if not _derivative(t, x, n, layout, data, user_force, work, system, solution, k[0]):
+    if not rates(t, x, layout, data, user_force, scratch, k[0]):
         return NOT_FINITE, 0, 0, worst
     h = first_step
     accepted = 0
@@ -269,9 +290,7 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
             last, step = next_step(h, t, target)
             for stage in range(1, stages + 1):
                 time = stage_input(x, k, pair, stage, t, step, trial)
-                if not _derivative(
-                    time, trial, n, layout, data, user_force, work, system, solution, k[stage]
-                ):
+                if not rates(time, trial, layout, data, user_force, scratch, k[stage]):
                     return NOT_FINITE, accepted, rejected, worst
             finite, success, t, h = conclude_step(
                 x, trial, k, t, step, last, h, target, control, pair
@@ -280,18 +299,11 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
                 return NOT_FINITE, accepted, rejected, worst
             if success:
                 accepted += 1
-                if c:
-                    residual = project(t, x[:n], x[n:], layout, data, tolerance)
-                    if not residual <= tolerance:
-                        return PROJECTION_FAILED, accepted, rejected, residual
-                    worst = max(worst, residual)
-                    # the next step's first stage: the projected rates, and the accelerations
-                    # of the solution's evaluation (the projection moves the state by its
-                    # tolerance, which changes them at round-off: docs/mechanisms.md)
-                    k[0, :n] = x[n:]
-                    k[0, n:] = k[stages, n:]
-                else:
-                    k[0, :] = k[stages]
+                residual = project(t, x, layout, data, scratch, tolerance)
+                if not residual <= tolerance:
+                    return PROJECTION_FAILED, accepted, rejected, residual
+                worst = max(worst, residual)
+                first_stage(x, k, stages, layout, scratch)
             else:
                 rejected += 1
             status = budget_status(h, t, accepted, rejected, max_steps)
@@ -301,31 +313,69 @@ def integrate_sample(times, x0, layout, data, user_force, control, states):
     return FINISHED, accepted, rejected, worst
 
 
-@nb.njit(cache=True, nogil=True)
-def integrate_range(
-    start,
-    stop,
-    times,
-    initial,
-    layout,
-    data,
-    user_force,
-    control,
-    states,
-    report,
-):
-    """:func:`integrate_sample` for sample rows ``start:stop`` (the GIL released, so
-    :func:`fuzzymbs.mbs.kernels.threads.for_each_range` runs ranges side by side).
-
-    ``report`` (B, 4) receives status, accepted and rejected steps and the
-    largest joint residual of each sample.
-    """
+@nb.njit(inline="always")
+def run_range(arrays, rates, project, first_stage, start, stop, run):
+    """:func:`run_sample` for sample rows ``start:stop``, an engine's ``arrays(layout)``
+    allocating each sample's ``scratch``; ``run`` = (times, initial, layout, data,
+    user_force, control, states, report), ``report`` (B, 4) receiving each sample's
+    outcome (:func:`record`). Inlined for the reason :func:`run_sample` is."""
+    times, initial, layout, data, user_force, control, states, report = run
     for s in range(start, stop):
-        record(
-            report,
-            s,
-            integrate_sample(times, initial[s], layout, data[s], user_force, control, states[s]),
+        scratch = arrays(layout)
+        outcome = run_sample(
+            rates,
+            project,
+            first_stage,
+            times,
+            initial[s],
+            layout,
+            data[s],
+            user_force,
+            scratch,
+            control,
+            states[s],
         )
+        record(report, s, outcome)
+
+
+@nb.njit(cache=True)
+def _rates(t, x, layout, data, user_force, scratch, out):
+    """(z', v') = (v, z'') at (t, x) into ``out``; False if not finite."""
+    n, _, system, solution, work = scratch
+    ok = accelerations_in(work, t, x[:n], x[n:], layout, data, user_force, system, solution)
+    out[:n] = x[n:]
+    out[n:] = solution[:n]
+    return ok
+
+
+@nb.njit(cache=True)
+def _project(t, x, layout, data, scratch, tolerance):
+    """The joints' projection of x = (z, v) (0.0 without joints: nothing to move)."""
+    n = scratch[0]
+    return project(t, x[:n], x[n:], layout, data, tolerance)
+
+
+@nb.njit(cache=True)
+def _first_stage(x, k, stages, layout, scratch):
+    """k[0] = (v, z'') after an accepted step: the projected rates, the solution's
+    accelerations (without joints x is the solution, and this is k[stages])."""
+    n = scratch[0]
+    k[0, :n] = x[n:]
+    k[0, n:] = k[stages, n:]
+
+
+@nb.njit(cache=True, nogil=True)
+def integrate_range(start, stop, *run):
+    """The explicit Runge-Kutta pair for sample rows ``start:stop`` (:func:`run_range` with
+    the planar engine's rates, projection and first stage), the GIL released, so
+    :func:`fuzzymbs.mbs.kernels.threads.for_each_range` runs ranges side by side.
+
+    ``run`` = (times, initial, layout, data, user_force, control, states, report):
+    ``control`` as :func:`run_sample` takes it; ``states`` (B, T, 2n) NaN, filled up to
+    a sample's failure; ``report`` (B, 4) receives status, accepted and rejected steps
+    and the largest joint residual of each sample.
+    """
+    run_range(evaluation_arrays, _rates, _project, _first_stage, start, stop, run)
 
 
 @nb.njit(cache=True, nogil=True)

@@ -7,7 +7,7 @@ constrained system is solved four at a time
 (:func:`fuzzymbs.mbs.planar.elimination.solve_lanes`); the Runge-Kutta stages
 combine vectors of four.
 
-Every lane keeps its own clock, as :func:`fuzzymbs.mbs.planar.integrator.integrate_sample`
+Every lane keeps its own clock, as :func:`fuzzymbs.mbs.planar.integrator.run_sample`
 does for a sample alone: its own step size, error norm, acceptance, output
 times, projection and failure status. A lane that has finished, failed or pads
 a short block is masked: its vector arithmetic goes on and is discarded, and no
@@ -197,7 +197,7 @@ def lane_error(x, trial, k, lane, step, rtol, atol, e, e_low, lone):
 @nb.njit(cache=True)
 def integrate_block(times, initial, layout, data, user_force, control, states, report, block):
     """Integrate the samples ``block = (first, count)`` (count <= 4), one per lane, as
-    :func:`fuzzymbs.mbs.planar.integrator.integrate_sample` integrates one (``control``
+    :func:`fuzzymbs.mbs.planar.integrator.run_sample` integrates one (``control``
     as there); each sample's report goes to its row of ``report`` (B, 4).
 
     A block of fewer than four samples repeats its last sample in the lanes left
@@ -321,7 +321,7 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
                         continue
                     worst[lane] = max(worst[lane], residual[lane])
                     # the next step's first stage: the projected rates and the accelerations
-                    # of the solution's evaluation (integrate_sample)
+                    # of the solution's evaluation (integrator.run_sample)
                     for i in range(n):
                         k[0, L * i + lane] = x[L * (n + i) + lane]
                         k[0, L * (n + i) + lane] = k[stages, L * (n + i) + lane]

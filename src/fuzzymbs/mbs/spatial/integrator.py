@@ -1,7 +1,7 @@
 """Time integration of spatial mechanisms: an explicit Runge-Kutta pair per sample (the
-planar engine's tableaus, stages, error norm and step control) on the positions with the Euler
-parameters' kinematics, joints projected after every accepted step; ranges of samples
-run with the GIL released.
+planar engine's loop, :func:`fuzzymbs.mbs.planar.integrator.run_sample`, with its tableaus,
+error norm and step control) on the positions with the Euler parameters' kinematics, joints
+projected after every accepted step; ranges of samples run with the GIL released.
 """
 
 from __future__ import annotations
@@ -9,22 +9,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from fuzzymbs.mbs.planar.integrator import (
-    budget_status,
-    conclude_step,
-    next_step,
-    record,
-    stage_input,
-    start_run,
-)
+from fuzzymbs.mbs.planar.integrator import run_range
 from fuzzymbs.mbs.planar.kernels import live_states
-from fuzzymbs.mbs.spatial.kernels import (
-    FINISHED,
-    NOT_FINITE,
-    PROJECTION_FAILED,
-    accelerations,
-    project,
-)
+from fuzzymbs.mbs.spatial.kernels import accelerations, project
 
 
 @nb.njit(cache=True)
@@ -47,10 +34,19 @@ def _position_rates(layout, q, v, out):
 
 
 @nb.njit(cache=True)
-def _derivative(t, x, layout, data, user_force, system, solution, out):
+def _arrays(layout):
+    """(nq, system, solution): the positions' count and the constrained solve's arrays."""
     sizes = layout[4]
-    nq = sizes[0]
     n = sizes[1]
+    c = sizes[2]
+    return sizes[0], np.empty((n + c, n + c)), np.empty(n + c)
+
+
+@nb.njit(cache=True)
+def _rates(t, x, layout, data, user_force, scratch, out):
+    """(q', v') at (t, x) into ``out``; False if the accelerations are not finite."""
+    nq, system, solution = scratch
+    n = layout[4][1]
     q = x[:nq]
     v = x[nq:]
     ok = accelerations(t, q, v, layout, data, user_force, system, solution)
@@ -61,84 +57,29 @@ def _derivative(t, x, layout, data, user_force, system, solution, out):
 
 
 @nb.njit(cache=True)
-def integrate_sample(times, x0, layout, data, user_force, control, states):
-    """The Runge-Kutta pair ``control[0]`` for one sample, as the planar engine's
-    (:func:`fuzzymbs.mbs.planar.integrator.integrate_sample`), on (q, v) with the
-    Euler parameters' kinematics; (status, accepted, rejected, largest residual)."""
-    sizes = layout[4]
-    nq = sizes[0]
-    n = sizes[1]
-    c = sizes[2]
-    system = np.empty((n + c, n + c))
-    solution = np.empty(n + c)
-    _, _, _, first_step, max_steps, tolerance = control
-    pair, x, k, trial = start_run(control, x0)
-    stages = k.shape[0] - 1
-    t = times[0]
-    worst = project(t, x[:nq], x[nq:], layout, data, tolerance)
-    if not worst <= tolerance:
-        return PROJECTION_FAILED, 0, 0, worst
-    states[0, :] = x
-    if not _derivative(t, x, layout, data, user_force, system, solution, k[0]):
-        return NOT_FINITE, 0, 0, worst
-    h = first_step
-    accepted = 0
-    rejected = 0
-    for out in range(1, times.size):
-        target = times[out]
-        while t < target:
-            last, step = next_step(h, t, target)
-            for stage in range(1, stages + 1):
-                time = stage_input(x, k, pair, stage, t, step, trial)
-                if not _derivative(
-                    time, trial, layout, data, user_force, system, solution, k[stage]
-                ):
-                    return NOT_FINITE, accepted, rejected, worst
-            finite, success, t, h = conclude_step(
-                x, trial, k, t, step, last, h, target, control, pair
-            )
-            if not finite:
-                return NOT_FINITE, accepted, rejected, worst
-            if success:
-                accepted += 1
-                residual = project(t, x[:nq], x[nq:], layout, data, tolerance)
-                if not residual <= tolerance:
-                    return PROJECTION_FAILED, accepted, rejected, residual
-                worst = max(worst, residual)
-                # the next step's first stage: the position rates at the projected state, the
-                # accelerations of the solution's evaluation (the projection moves the state
-                # by its tolerance, which changes them at round-off: docs/mechanisms.md)
-                _position_rates(layout, x[:nq], x[nq:], k[0])
-                k[0, nq:] = k[stages, nq:]
-            else:
-                rejected += 1
-            status = budget_status(h, t, accepted, rejected, max_steps)
-            if status != FINISHED:
-                return status, accepted, rejected, worst
-        states[out, :] = x
-    return FINISHED, accepted, rejected, worst
+def _project(t, x, layout, data, scratch, tolerance):
+    """The joints' projection of x = (q, v), Euler parameters normalised."""
+    nq = scratch[0]
+    return project(t, x[:nq], x[nq:], layout, data, tolerance)
+
+
+@nb.njit(cache=True)
+def _first_stage(x, k, stages, layout, scratch):
+    """k[0] = (q', v') after an accepted step: the position rates at the projected state,
+    the solution's accelerations."""
+    nq = scratch[0]
+    _position_rates(layout, x[:nq], x[nq:], k[0])
+    k[0, nq:] = k[stages, nq:]
 
 
 @nb.njit(cache=True, nogil=True)
-def integrate_range(
-    start,
-    stop,
-    times,
-    initial,
-    layout,
-    data,
-    user_force,
-    control,
-    states,
-    report,
-):
-    """:func:`integrate_sample` for sample rows ``start:stop`` (GIL released)."""
-    for s in range(start, stop):
-        record(
-            report,
-            s,
-            integrate_sample(times, initial[s], layout, data[s], user_force, control, states[s]),
-        )
+def integrate_range(start, stop, *run):
+    """The planar engine's Runge-Kutta loop
+    (:func:`fuzzymbs.mbs.planar.integrator.run_range`) on (q, v) with the Euler parameters'
+    kinematics, for sample rows ``start:stop`` (GIL released); ``run`` = (times, initial,
+    layout, data, user_force, control, states, report), as the planar engine's
+    :func:`fuzzymbs.mbs.planar.integrator.integrate_range` takes it."""
+    run_range(_arrays, _rates, _project, _first_stage, start, stop, run)
 
 
 @nb.njit(cache=True, nogil=True)
