@@ -35,6 +35,10 @@ least one certification round) or when the next round would exceed ``max_runs``
 the surrogate of every run, widened to every run inside the box: true values where
 a run went beyond, surrogate bounds confirmed within the error estimate elsewhere.
 
+With the model's gradients (``add(points, outputs, gradients)``) the correction also
+interpolates the residual gradients at every run, grid nodes included
+(:mod:`fuzzymbs.fuzzy.hermite_correction`); without them nothing changes.
+
 Everything is a deterministic function of the outputs added so far (no random
 numbers), so replaying stored outputs rebuilds the same rounds bit for bit.
 """
@@ -59,6 +63,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
 from fuzzymbs.fuzzy.extremum_confirmation import confirmation_probes
 from fuzzymbs.fuzzy.grids import unique_rows
 from fuzzymbs.fuzzy.halton import halton
+from fuzzymbs.fuzzy.hermite_correction import flatten_gradients, hermite_correction
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
@@ -194,6 +199,9 @@ class AdaptiveTransformation:
         self._units = np.empty((0, dimension))
         self._values: NDArray[np.float64] | None = None
         self._off_grid = np.empty(0, dtype=np.intp)  # runs that are no grid node
+        # the model's gradients (N, E, n) in unit coordinates and which runs have one
+        self._slopes: NDArray[np.float64] | None = None
+        self._sloped = np.empty(0, dtype=bool)
         self._layout: dict[str, tuple[int, tuple[int, ...]]] = {}
         # round state
         self.rounds = 0
@@ -244,14 +252,22 @@ class AdaptiveTransformation:
                 return np.empty((0, len(self.names)))
         return self._pending[0].copy()
 
-    def add(self, points: ArrayLike, outputs: Mapping[str, ArrayLike]) -> None:
-        """The model's outputs at the batch of :meth:`next_batch` (same points, same order).
+    def add(
+        self,
+        points: ArrayLike,
+        outputs: Mapping[str, ArrayLike],
+        gradients: Mapping[str, ArrayLike] | None = None,
+    ) -> None:
+        """The model's outputs at the batch of :meth:`next_batch` (same points, same order),
+        and optionally their gradients ``{name: (B, *shape, n)}`` with respect to the
+        parameters (in the parameters' units, last axis in :attr:`names` order): the
+        surrogate then interpolates them too (:mod:`fuzzymbs.fuzzy.hermite_correction`).
 
         Raises
         ------
         ModelOutputError
-            Points other than the batch's, outputs of the wrong shape, or non-finite
-            outputs (the surrogate needs every run).
+            Points other than the batch's, outputs or gradients of the wrong shape, or
+            non-finite values (the surrogate needs every run).
         """
         if self._pending is None:
             raise ModelOutputError("add() needs the batch of next_batch() first")
@@ -260,6 +276,21 @@ class AdaptiveTransformation:
         if given.shape != batch.shape or not np.array_equal(given, batch):
             raise ModelOutputError("add() takes the outputs at exactly the points of next_batch()")
         flat = self._flatten(outputs, len(batch))
+        if gradients is not None or self._slopes is not None:
+            half = (self._high - self._low) / 2.0
+            slopes = (
+                np.zeros((len(batch), flat.shape[1], len(half)))
+                if gradients is None
+                else flatten_gradients(gradients, self._layout, len(batch), half)
+            )
+            known = (
+                self._slopes
+                if self._slopes is not None
+                else np.zeros((self.runs, *slopes.shape[1:]))
+            )
+            before = self._sloped if self._slopes is not None else np.zeros(self.runs, dtype=bool)
+            self._slopes = np.concatenate((known, slopes))
+            self._sloped = np.concatenate((before, np.full(len(batch), gradients is not None)))
         self._last_batch = self.runs + np.arange(len(batch))
         self._last_predicted = (
             np.zeros_like(flat)
@@ -449,9 +480,18 @@ class AdaptiveTransformation:
         """The sparse grid's series and, once there are runs off the grid, the kernel
         correction through their residuals (:mod:`fuzzymbs.fuzzy.residual_correction`)."""
         degrees, coefficients = self.grid.series()
-        if not len(self._off_grid):
+        sloped = self._slopes is not None and bool(self._sloped.any())
+        if not len(self._off_grid) and not sloped:
             return degrees, coefficients, None
         assert self._values is not None
+        if sloped:  # values and gradients at every run but the twins
+            keep = np.setdiff1d(np.arange(self.runs), self._twins)
+            nodes = ~np.isin(np.arange(self.runs), self._off_grid)
+            assert self._slopes is not None
+            return degrees, coefficients, hermite_correction(
+                degrees, coefficients, self._units[keep], self._values[keep], nodes[keep],
+                self._slopes[keep], self._sloped[keep], self._high > self._low,
+            )  # fmt: skip
         residuals = self._values - evaluate_series(degrees, coefficients, self._units)
         residuals[np.setdiff1d(np.arange(self.runs), self._off_grid)] = 0.0  # nodes: round-off
         # twins stay out: two runs 1e-4 of the support apart with a noisy difference would

@@ -14,6 +14,9 @@ models do:
 - :func:`valley4`: a scalar valley that the box corners straddle in two
   pairs of parameters (four parameters).
 
+Each carries its analytic gradient (``case.gradient``: outputs and their derivatives
+with respect to the parameters), for the adaptive method's gradient-enhanced surrogate.
+
 :func:`dense_truth` gives their true alpha-cuts from a dense grid of every
 level's box (the grid holds each box's corners and centre; its spacing error
 is stated there), :func:`fuzzymbs.fuzzy.band_scale.band_miss` the miss of a
@@ -34,9 +37,23 @@ from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
 
-__all__ = ["HardCase", "Triangle", "bump3", "dense_truth", "hard_cases", "ringing3", "valley4"]
+__all__ = [
+    "GradientModel",
+    "HardCase",
+    "Triangle",
+    "bump3",
+    "dense_truth",
+    "hard_cases",
+    "ringing3",
+    "valley4",
+]
 
 Model = Callable[[Mapping[str, NDArray[np.float64]]], dict[str, NDArray[np.float64]]]
+#: A model with its gradients: samples -> (outputs, {output: (B, *shape, n) gradient}).
+GradientModel = Callable[
+    [Mapping[str, NDArray[np.float64]]],
+    tuple[dict[str, NDArray[np.float64]], dict[str, NDArray[np.float64]]],
+]
 #: A triangular fuzzy number as ``(lower, modal, upper)``, in the parameter's unit.
 Triangle = tuple[float, float, float]
 
@@ -54,12 +71,16 @@ class HardCase:
     grid : points per axis of :func:`dense_truth` (one count per parameter) that
         resolve the truth to about 0.1 % of the cut width (measured by halving the
         spacing, tests/fuzzy/test_hard_cases.py).
+    gradient : the model with its analytic gradients, samples -> ``(outputs, gradients)``,
+        ``gradients[output]`` of shape ``(B, *shape, n)``, the last axis in the order of
+        ``triangles`` and in the parameters' units (None: the model has none).
     """
 
     name: str
     model: Model
     triangles: dict[str, Triangle]
     grid: tuple[int, ...]
+    gradient: GradientModel | None = None
 
 
 def _bump(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
@@ -68,12 +89,27 @@ def _bump(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.fl
     return {"z": bump * (1.0 + 0.4 * x3) + 0.3 * x1 - 0.2 * x2}
 
 
+def _bump_gradient(samples: Mapping[str, NDArray[np.float64]]) -> tuple[dict, dict]:
+    x1, x2, x3 = (np.asarray(samples[k], dtype=float) for k in ("x1", "x2", "x3"))
+    bump = np.exp(-((x1 - 0.35) ** 2 + (x2 + 0.25) ** 2) / 0.18)
+    height = 1.0 + 0.4 * x3
+    slope = np.stack(
+        (
+            bump * height * (-2.0 * (x1 - 0.35) / 0.18) + 0.3,
+            bump * height * (-2.0 * (x2 + 0.25) / 0.18) - 0.2,
+            0.4 * bump,
+        ),
+        axis=-1,
+    )
+    return {"z": bump * height + 0.3 * x1 - 0.2 * x2}, {"z": slope}
+
+
 def bump3() -> HardCase:
     """``z = exp(-((x1-0.35)^2 + (x2+0.25)^2)/0.18) (1 + 0.4 x3) + 0.3 x1 - 0.2 x2``,
     ``x1, x2 ~ TFN(-1, 0, 1)``, ``x3 ~ TFN(0, 0.5, 1)``: the maximum lies inside every
     cut box of levels up to about 0.65, away from the corners and the centre."""
     triangles = {"x1": (-1.0, 0.0, 1.0), "x2": (-1.0, 0.0, 1.0), "x3": (0.0, 0.5, 1.0)}
-    return HardCase("bump3", _bump, triangles, (81, 81, 81))
+    return HardCase("bump3", _bump, triangles, (81, 81, 81), _bump_gradient)
 
 
 #: ringing3's time grid: ten periods of the modal frequency (1 Hz), 201 points
@@ -89,6 +125,23 @@ def _ringing(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np
     return {"y": a * np.exp(-zeta * omega * t) * np.cos(omega * t)}
 
 
+def _ringing_gradient(samples: Mapping[str, NDArray[np.float64]]) -> tuple[dict, dict]:
+    f = np.asarray(samples["frequency"], dtype=float)[:, None]
+    zeta = np.asarray(samples["damping_ratio"], dtype=float)[:, None]
+    a = np.asarray(samples["amplitude"], dtype=float)[:, None]
+    omega = 2.0 * np.pi * f
+    t = RINGING_TIME[None, :]
+    decay = np.exp(-zeta * omega * t)
+    cosine, sine = np.cos(omega * t), np.sin(omega * t)
+    y = a * decay * cosine
+    # dy/df = 2 pi t A e (-zeta cos - sin), dy/dzeta = -omega t y, dy/dA = e cos
+    slope = np.stack(
+        (2.0 * np.pi * t * a * decay * (-zeta * cosine - sine), -omega * t * y, decay * cosine),
+        axis=-1,
+    )
+    return {"y": y}, {"y": slope}
+
+
 def ringing3() -> HardCase:
     """``y(t) = A exp(-zeta 2 pi f t) cos(2 pi f t)`` on 0..10 s (201 points) with
     ``f ~ TFN(0.83, 1, 1.17) Hz``, ``zeta ~ TFN(0.015, 0.02, 0.025)``,
@@ -100,7 +153,7 @@ def ringing3() -> HardCase:
     }
     # y is linear in A and monotonic in zeta at fixed f and t: their ends and
     # centre suffice; the phase needs a fine frequency axis
-    return HardCase("ringing3", _ringing, triangles, (641, 5, 5))
+    return HardCase("ringing3", _ringing, triangles, (641, 5, 5), _ringing_gradient)
 
 
 def _valley(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
@@ -108,11 +161,20 @@ def _valley(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.
     return {"z": (x1 - 0.5 * x2) ** 2 + (x3 - 0.5 * x4) ** 2 + 0.2 * x1 * x3 + 0.1 * x4}
 
 
+def _valley_gradient(samples: Mapping[str, NDArray[np.float64]]) -> tuple[dict, dict]:
+    x1, x2, x3, x4 = (np.asarray(samples[k], dtype=float) for k in ("x1", "x2", "x3", "x4"))
+    first, second = x1 - 0.5 * x2, x3 - 0.5 * x4
+    slope = np.stack(
+        (2.0 * first + 0.2 * x3, -first, 2.0 * second + 0.2 * x1, -second + 0.1), axis=-1
+    )
+    return _valley(samples), {"z": slope}
+
+
 def valley4() -> HardCase:
     """``z = (x1 - x2/2)^2 + (x3 - x4/2)^2 + 0.2 x1 x3 + 0.1 x4``, all ``TFN(-1, 0, 1)``:
     the minimum lies on the valley floors x1 = x2/2, x3 = x4/2 that no corner touches."""
     triangles = {k: (-1.0, 0.0, 1.0) for k in ("x1", "x2", "x3", "x4")}
-    return HardCase("valley4", _valley, triangles, (21, 21, 21, 21))
+    return HardCase("valley4", _valley, triangles, (21, 21, 21, 21), _valley_gradient)
 
 
 def hard_cases() -> list[HardCase]:

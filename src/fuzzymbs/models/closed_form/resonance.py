@@ -24,7 +24,9 @@ is tested against.
   :func:`fuzzymbs.models.closed_form.hard_cases.dense_truth` polished by a local
   optimiser (:func:`polished_truth`).
 
-Like every model here, these import no part of the fuzzy engine.
+Both carry analytic gradients (:func:`sdof_amplitude_gradient`,
+:func:`two_dof_amplitudes_gradient`; ``case.gradient``). Like every model here, these
+import no part of the fuzzy engine.
 """
 
 from __future__ import annotations
@@ -43,9 +45,11 @@ __all__ = [
     "polished_truth",
     "resonance_cases",
     "sdof_amplitude",
+    "sdof_amplitude_gradient",
     "sdof_resonance",
     "sdof_truth",
     "two_dof_amplitudes",
+    "two_dof_amplitudes_gradient",
     "two_dof_resonance",
 ]
 
@@ -89,6 +93,33 @@ def sdof_amplitude(
     return FORCE / np.sqrt((k - m * omega_squared) ** 2 + damping**2 * omega_squared)
 
 
+def sdof_amplitude_gradient(
+    stiffness: NDArray[np.float64],
+    mass: NDArray[np.float64],
+    damping_ratio: NDArray[np.float64],
+    omega_squared: float = SDOF_OMEGA_SQUARED,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`sdof_amplitude` (B,) and its gradient (B, 3) with respect to ``(k, m, zeta)``.
+
+    ``X = F Q^(-1/2)``, ``Q = (k - m Omega^2)^2 + 4 zeta^2 k m Omega^2``, so
+    ``dX/dp = -X / (2 Q) dQ/dp`` with ``dQ/dk = 2 (k - m Omega^2) + 4 zeta^2 m Omega^2``,
+    ``dQ/dm = -2 Omega^2 (k - m Omega^2) + 4 zeta^2 k Omega^2``, ``dQ/dzeta = 8 zeta k m Omega^2``.
+    """
+    k, m, zeta = (np.asarray(v, dtype=float) for v in (stiffness, mass, damping_ratio))
+    detuning = k - m * omega_squared
+    quadratic = detuning**2 + 4.0 * zeta**2 * k * m * omega_squared
+    amplitude = sdof_amplitude(k, m, zeta, omega_squared)  # the model's values, bit for bit
+    slope = np.stack(
+        (
+            2.0 * detuning + 4.0 * zeta**2 * m * omega_squared,
+            -2.0 * omega_squared * detuning + 4.0 * zeta**2 * k * omega_squared,
+            8.0 * zeta * k * m * omega_squared,
+        ),
+        axis=-1,
+    )
+    return amplitude, -(amplitude / (2.0 * quadratic))[:, None] * slope
+
+
 def sdof_resonance(damping_ratio: float) -> HardCase:
     """The single-degree-of-freedom amplitude with ``k ~ TFN(900, 1000, 1100) N/m``,
     ``m ~ TFN(0.95, 1, 1.05) kg`` and ``zeta ~ TFN(0.8, 1, 1.2) x damping_ratio``,
@@ -113,8 +144,14 @@ def sdof_resonance(damping_ratio: float) -> HardCase:
             )
         }
 
+    def gradient(samples: Mapping[str, NDArray[np.float64]]) -> tuple[dict, dict]:
+        value, slope = sdof_amplitude_gradient(
+            samples["stiffness"], samples["mass"], samples["damping_ratio"]
+        )
+        return {"amplitude": value}, {"amplitude": slope}
+
     # dense_truth's grid (the ridge is about 2 zeta k wide: 1 % of k at zeta = 0.5 %)
-    return HardCase(f"sdof-{100 * damping_ratio:g}%", model, triangles, (2001, 201, 3))
+    return HardCase(f"sdof-{100 * damping_ratio:g}%", model, triangles, (2001, 201, 3), gradient)
 
 
 def sdof_truth(
@@ -188,6 +225,68 @@ def two_dof_amplitudes(
     return np.abs(np.stack((x1, x2), axis=1))
 
 
+def two_dof_amplitudes_gradient(
+    stiffness_1: NDArray[np.float64],
+    stiffness_2: NDArray[np.float64],
+    mass_1: NDArray[np.float64],
+    damping_ratio: NDArray[np.float64],
+    *,
+    mass_2: float = 0.5,
+    omega_squared: float = TWO_DOF_OMEGA_SQUARED,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`two_dof_amplitudes` (B, 2) and its gradient (B, 2, 4) with respect to
+    ``(k1, k2, m1, zeta)``: the same closed form differentiated step by step (forward
+    mode: every intermediate carries its derivative, the last axis), and
+    ``d|x| = Re(conj(x) dx) / |x|`` for the complex amplitudes."""
+    k1, k2, m1, zeta = (
+        np.asarray(v, dtype=float)[:, None]
+        for v in (stiffness_1, stiffness_2, mass_1, damping_ratio)
+    )
+    m2, omega_forcing = float(mass_2), np.sqrt(omega_squared)
+    unit = np.eye(4)[None, None, :, :]  # d(k1, k2, m1, zeta) / d(k1, k2, m1, zeta)
+    dk1, dk2, dm1, dzeta = (unit[:, :, i, :] for i in range(4))  # each (1, 1, 4)
+    b = m1 * k2 + m2 * (k1 + k2)
+    db = dm1 * k2[..., None] + m1[..., None] * dk2 + m2 * (dk1 + dk2)
+    product = m1 * k1 * k2
+    dproduct = (dm1 * k1[..., None] + m1[..., None] * dk1) * k2[..., None] + (m1 * k1)[
+        ..., None
+    ] * dk2
+    root = np.sqrt(b * b - 4.0 * m2 * product)
+    droot = (2.0 * b[..., None] * db - 4.0 * m2 * dproduct) / (2.0 * root[..., None])
+    sign = np.array([-1.0, 1.0])[None, :]
+    eigen = (b + sign * root) / (2.0 * m1 * m2)  # (B, 2)
+    deigen = (db + sign[..., None] * droot) / (2.0 * m1 * m2)[..., None] - (eigen / m1)[
+        ..., None
+    ] * dm1
+    numerator = k1 + k2 - eigen * m1
+    dnumerator = dk1 + dk2 - deigen * m1[..., None] - eigen[..., None] * dm1
+    ratio = numerator / k2
+    dratio = dnumerator / k2[..., None] - (numerator / k2**2)[..., None] * dk2
+    norm = np.sqrt(m1 + m2 * ratio**2)
+    dnorm = (dm1 + 2.0 * m2 * (ratio[..., None] * dratio)) / (2.0 * norm[..., None])
+    first, second = 1.0 / norm, ratio / norm
+    dfirst = -dnorm / (norm**2)[..., None]
+    dsecond = dratio / norm[..., None] - (ratio / norm**2)[..., None] * dnorm
+    omega = np.sqrt(eigen)
+    domega = deigen / (2.0 * omega[..., None])
+    denominator = eigen - omega_squared + 2j * zeta * omega * omega_forcing
+    ddenominator = deigen + 2j * omega_forcing * (
+        dzeta * omega[..., None] + zeta[..., None] * domega
+    )
+    weight = first * FORCE / denominator
+    dweight = FORCE * (
+        dfirst / denominator[..., None] - (first / denominator**2)[..., None] * ddenominator
+    )
+    amplitudes, slopes = [], []
+    for shape, dshape in ((first, dfirst), (second, dsecond)):
+        x = (shape * weight).sum(axis=1)
+        dx = (dshape * weight[..., None] + shape[..., None] * dweight).sum(axis=1)
+        size = np.abs(x)
+        amplitudes.append(size)
+        slopes.append(np.real(np.conj(x)[:, None] * dx) / size[:, None])
+    return np.stack(amplitudes, axis=1), np.stack(slopes, axis=1)
+
+
 def two_dof_resonance(damping_ratio: float) -> HardCase:
     """The two-mass chain with ``k1 ~ TFN(900, 1000, 1100)``, ``k2 ~ TFN(450, 500, 550) N/m``,
     ``m1 ~ TFN(0.95, 1, 1.05) kg``, ``m2 = 0.5 kg``, ``zeta ~ TFN(0.8, 1, 1.2) x
@@ -218,7 +317,16 @@ def two_dof_resonance(damping_ratio: float) -> HardCase:
             )
         }
 
-    return HardCase(f"2dof-{100 * damping_ratio:g}%", model, triangles, (121, 61, 41, 3))
+    def gradient(samples: Mapping[str, NDArray[np.float64]]) -> tuple[dict, dict]:
+        value, slope = two_dof_amplitudes_gradient(
+            samples["stiffness_1"],
+            samples["stiffness_2"],
+            samples["mass_1"],
+            samples["damping_ratio"],
+        )
+        return {"amplitude": value}, {"amplitude": slope}
+
+    return HardCase(f"2dof-{100 * damping_ratio:g}%", model, triangles, (121, 61, 41, 3), gradient)
 
 
 def polished_truth(

@@ -1,0 +1,77 @@
+"""The adaptive method with the model's gradients (fuzzymbs.fuzzy.hermite_correction)."""
+
+import numpy as np
+import pytest
+
+from fuzzymbs.errors import ModelOutputError
+from fuzzymbs.fuzzy.adaptive import AdaptiveTransformation
+from fuzzymbs.fuzzy.band_scale import band_miss
+from fuzzymbs.fuzzy.numbers import triangular_numbers
+from fuzzymbs.models.closed_form.hard_cases import bump3, dense_truth
+
+LEVELS = np.linspace(0.0, 1.0, 6)
+
+
+def _engine(case):
+    return AdaptiveTransformation(triangular_numbers(case.triangles), LEVELS, 0.01, 2000, 20_000)
+
+
+def _rounds(case, gradients, explicit_none=False):
+    engine = _engine(case)
+    while not engine.done:
+        points = engine.next_batch()
+        if len(points) == 0:
+            break
+        samples = dict(zip(engine.names, points.T, strict=True))
+        if gradients:
+            engine.add(points, *case.gradient(samples))
+        elif explicit_none:
+            engine.add(points, case.model(samples), gradients=None)
+        else:
+            engine.add(points, case.model(samples))
+    return engine
+
+
+def test_with_gradients_bump3_reaches_the_tolerance_in_half_the_runs():
+    # measured (benchmarks/gradient_adaptive.py): 233 runs without gradients, 107 with
+    case = bump3()
+    outcome = _rounds(case, gradients=True).outcome()
+    truth = dense_truth(case, LEVELS)
+    miss = band_miss(outcome.lower["z"], outcome.upper["z"], *truth["z"])
+    assert outcome.converged and outcome.error <= 0.01
+    assert miss <= 0.011  # dense_truth resolves the cuts to 0.1 % of the width
+    assert outcome.runs <= 233 // 2
+
+
+def test_without_gradients_the_rounds_are_todays_bit_for_bit():
+    # gradients=None is the value-only path: the same points, bounds and error as the
+    # plain call, and the runs and rounds of docs/fuzzy.md (233 runs, 9 rounds)
+    case = bump3()
+    plain, explicit = _rounds(case, False), _rounds(case, False, explicit_none=True)
+    np.testing.assert_array_equal(plain.samples, explicit.samples)
+    a, b = plain.outcome(), explicit.outcome()
+    np.testing.assert_array_equal(a.lower["z"], b.lower["z"])
+    np.testing.assert_array_equal(a.upper["z"], b.upper["z"])
+    assert a.error == b.error
+    assert (a.runs, a.rounds) == (233, 9)
+
+
+def test_gradients_are_checked_and_may_start_late():
+    case = bump3()
+    engine = _engine(case)
+    points = engine.next_batch()
+    samples = dict(zip(engine.names, points.T, strict=True))
+    outputs, gradients = case.gradient(samples)
+    with pytest.raises(ModelOutputError, match="shape"):
+        engine.add(points, outputs, {"z": gradients["z"][:, :2]})
+    with pytest.raises(ModelOutputError, match="names"):
+        engine.add(points, outputs, {"w": gradients["z"]})
+    with pytest.raises(ModelOutputError, match="NaN"):
+        engine.add(points, outputs, {"z": np.full_like(gradients["z"], np.nan)})
+    engine.add(points, outputs)  # the first round without gradients, the rest with
+    while not engine.done:
+        points = engine.next_batch()
+        if len(points) == 0:
+            break
+        engine.add(points, *case.gradient(dict(zip(engine.names, points.T, strict=True))))
+    assert engine.outcome().converged
