@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import ModelOutputError
 from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, evaluate_series
-from fuzzymbs.fuzzy.residual_correction import KernelCorrection
+from fuzzymbs.fuzzy.residual_correction import KernelCorrection, cubic_kernel, distances
 
 __all__ = ["HermiteCorrection", "flatten_gradients", "hermite_correction"]
 
@@ -78,7 +78,7 @@ class HermiteCorrection(KernelCorrection):
     ) -> None:
         self.moving = np.asarray(moving, dtype=bool)
         centres = np.asarray(centres, dtype=float)[:, self.moving]
-        close = np.triu(_distance(centres, centres) < _SAME, k=1).any(axis=0)
+        close = np.triu(distances(centres, centres) < _SAME, k=1).any(axis=0)
         self.centres = centres[~close]
         residuals = np.asarray(residuals, dtype=float)[~close]
         keep = np.asarray(sloped, dtype=bool)[~close]
@@ -89,7 +89,7 @@ class HermiteCorrection(KernelCorrection):
         elements = residuals.shape[1]
         size = count + sloped_count * dimension
         system = np.zeros((size + dimension + 1, size + dimension + 1))
-        system[:count, :count] = _cubic(self.centres, self.centres)
+        system[:count, :count] = cubic_kernel(self.centres, self.centres)
         # d/dx_k at x_g of |x - x_j|^3: 3 |x_g - x_j| (x_g - x_j)_k; rows (g, k) g-major
         d = self.slope_centres[:, None, :] - self.centres[None, :, :]  # (G, P, m)
         r = np.linalg.norm(d, axis=2)
@@ -136,10 +136,11 @@ class HermiteCorrection(KernelCorrection):
         block = self._block()
         for start in range(0, len(points), block):
             part = points[start : start + block]
-            value = _cubic(part, self.centres) @ self.weights + self.tail[0] + part @ self.tail[1:]
+            kernel = cubic_kernel(part, self.centres)
+            value = kernel @ self.weights + self.tail[0] + part @ self.tail[1:]
             if len(self.slope_centres):
                 # -3 sum_g |x - x_g| (x - x_g) . v_g
-                r = _distance(part, self.slope_centres)  # (q, G)
+                r = distances(part, self.slope_centres)  # (q, G)
                 along = sum(
                     part[:, l : l + 1] * (r @ self.slope_weights[:, l, :])
                     for l in range(part.shape[1])
@@ -157,7 +158,7 @@ class HermiteCorrection(KernelCorrection):
             part, own = points[start : start + block], element[start : start + block]
             tail = self.tail[:, own]
             value = (
-                (_cubic(part, self.centres) * self.weights[:, own].T).sum(axis=1)
+                (cubic_kernel(part, self.centres) * self.weights[:, own].T).sum(axis=1)
                 + tail[0]
                 + (part * tail[1:].T).sum(axis=1)
             )
@@ -180,7 +181,7 @@ class HermiteCorrection(KernelCorrection):
         block = self._block()
         for start in range(0, len(points), block):
             part, own = points[start : start + block], element[start : start + block]
-            distance = _distance(part, self.centres)  # (k, P)
+            distance = distances(part, self.centres)  # (k, P)
             factor = 3.0 * distance * self.weights[:, own].T  # (k, P)
             here = factor.sum(axis=1)[:, None] * part - factor @ self.centres + self.tail[1:, own].T
             if len(self.slope_centres):
@@ -269,19 +270,3 @@ def flatten_gradients(
             raise ModelOutputError(f"gradient of {name!r} has NaN or inf")
         parts.append(value.reshape(count, -1, dimension))
     return np.concatenate(parts, axis=1) * half_width
-
-
-def _distance(points: NDArray[np.float64], centres: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(Q, P) ``|x_q - c_p|``."""
-    squared = (
-        np.einsum("qi,qi->q", points, points)[:, None]
-        + np.einsum("pi,pi->p", centres, centres)[None, :]
-        - 2.0 * points @ centres.T
-    )
-    return np.sqrt(np.maximum(squared, 0.0, out=squared), out=squared)
-
-
-def _cubic(points: NDArray[np.float64], centres: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(Q, P) ``|x_q - c_p|^3``."""
-    distance = _distance(points, centres)
-    return distance * distance * distance

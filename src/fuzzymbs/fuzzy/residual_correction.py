@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["KernelCorrection"]
+__all__ = ["KernelCorrection", "cubic_kernel", "distances"]
 
 #: float64 entries of one block of kernel values
 _BLOCK_ENTRIES = 4_000_000
@@ -51,11 +51,11 @@ class KernelCorrection:
     ) -> None:
         self.moving = np.asarray(moving, dtype=bool)
         centres = np.asarray(centres, dtype=float)[:, self.moving]
-        close = np.triu(_distance(centres, centres) < _SAME, k=1).any(axis=0)
+        close = np.triu(distances(centres, centres) < _SAME, k=1).any(axis=0)
         self.centres = centres[~close]
         residuals = np.asarray(residuals, dtype=float)[~close]
         count, dimension = self.centres.shape
-        kernel = _cubic(self.centres, self.centres)
+        kernel = cubic_kernel(self.centres, self.centres)
         tail = np.concatenate((np.ones((count, 1)), self.centres), axis=1)
         system = np.zeros((count + dimension + 1, count + dimension + 1))
         system[:count, :count] = kernel
@@ -77,9 +77,8 @@ class KernelCorrection:
         block = max(1, _BLOCK_ENTRIES // max(1, len(self.centres)))
         for start in range(0, len(points), block):
             part = points[start : start + block]
-            out[start : start + block] = (
-                _cubic(part, self.centres) @ self.weights + self.tail[0] + part @ self.tail[1:]
-            )
+            kernel = cubic_kernel(part, self.centres)
+            out[start : start + block] = kernel @ self.weights + self.tail[0] + part @ self.tail[1:]
         return out
 
     def at(self, points: NDArray[np.float64], element: NDArray[np.intp]) -> NDArray[np.float64]:
@@ -89,7 +88,7 @@ class KernelCorrection:
         block = max(1, _BLOCK_ENTRIES // max(1, len(self.centres)))
         for start in range(0, len(points), block):
             part, own = points[start : start + block], element[start : start + block]
-            kernel = _cubic(part, self.centres)  # (k, P)
+            kernel = cubic_kernel(part, self.centres)  # (k, P)
             tail = self.tail[:, own]  # (1 + n, k)
             out[start : start + block] = (
                 (kernel * self.weights[:, own].T).sum(axis=1)
@@ -109,7 +108,7 @@ class KernelCorrection:
         block = max(1, _BLOCK_ENTRIES // max(1, len(self.centres)))
         for start in range(0, len(points), block):
             part, own = points[start : start + block], element[start : start + block]
-            distance = _distance(part, self.centres)  # (k, P)
+            distance = distances(part, self.centres)  # (k, P)
             # grad_x |x - c|^3 = 3 |x - c| (x - c): sum_p 3 d_kp w_pk (x_k - c_p)
             factor = 3.0 * distance * self.weights[:, own].T  # (k, P)
             slope[start : start + block] = (
@@ -120,7 +119,7 @@ class KernelCorrection:
         return gradient
 
 
-def _distance(points: NDArray[np.float64], centres: NDArray[np.float64]) -> NDArray[np.float64]:
+def distances(points: NDArray[np.float64], centres: NDArray[np.float64]) -> NDArray[np.float64]:
     """(Q, P) ``|x_q - c_p|``."""
     squared = (
         np.einsum("qi,qi->q", points, points)[:, None]
@@ -130,7 +129,7 @@ def _distance(points: NDArray[np.float64], centres: NDArray[np.float64]) -> NDAr
     return np.sqrt(np.maximum(squared, 0.0, out=squared), out=squared)
 
 
-def _cubic(points: NDArray[np.float64], centres: NDArray[np.float64]) -> NDArray[np.float64]:
+def cubic_kernel(points: NDArray[np.float64], centres: NDArray[np.float64]) -> NDArray[np.float64]:
     """(Q, P) ``|x_q - c_p|^3``."""
-    distance = _distance(points, centres)
+    distance = distances(points, centres)
     return distance * distance * distance

@@ -31,7 +31,7 @@ import no part of the fuzzy engine.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -136,22 +136,29 @@ def sdof_resonance(damping_ratio: float) -> HardCase:
         "mass": (0.95, 1.0, 1.05),
         "damping_ratio": damping_triangle(damping_ratio),
     }
+    # dense_truth's grid (the ridge is about 2 zeta k wide: 1 % of k at zeta = 0.5 %)
+    name, grid = f"sdof-{100 * damping_ratio:g}%", (2001, 201, 3)
+    return _amplitude_case(name, triangles, grid, sdof_amplitude, sdof_amplitude_gradient)
+
+
+def _amplitude_case(
+    name: str,
+    triangles: dict[str, Triangle],
+    grid: tuple[int, ...],
+    amplitude: Callable[..., NDArray[np.float64]],
+    amplitude_gradient: Callable[..., tuple[NDArray[np.float64], NDArray[np.float64]]],
+) -> HardCase:
+    """A case whose output ``amplitude`` is ``amplitude(*parameters)`` in the order of
+    ``triangles``, its gradient ``amplitude_gradient(*parameters)``."""
 
     def model(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
-        return {
-            "amplitude": sdof_amplitude(
-                samples["stiffness"], samples["mass"], samples["damping_ratio"]
-            )
-        }
+        return {"amplitude": amplitude(*(samples[key] for key in triangles))}
 
     def gradient(samples: Mapping[str, NDArray[np.float64]]) -> tuple[dict, dict]:
-        value, slope = sdof_amplitude_gradient(
-            samples["stiffness"], samples["mass"], samples["damping_ratio"]
-        )
+        value, slope = amplitude_gradient(*(samples[key] for key in triangles))
         return {"amplitude": value}, {"amplitude": slope}
 
-    # dense_truth's grid (the ridge is about 2 zeta k wide: 1 % of k at zeta = 0.5 %)
-    return HardCase(f"sdof-{100 * damping_ratio:g}%", model, triangles, (2001, 201, 3), gradient)
+    return HardCase(name, model, triangles, grid, gradient)
 
 
 def sdof_truth(
@@ -306,27 +313,8 @@ def two_dof_resonance(damping_ratio: float) -> HardCase:
         "mass_1": (0.95, 1.0, 1.05),
         "damping_ratio": damping_triangle(damping_ratio),
     }
-
-    def model(samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
-        return {
-            "amplitude": two_dof_amplitudes(
-                samples["stiffness_1"],
-                samples["stiffness_2"],
-                samples["mass_1"],
-                samples["damping_ratio"],
-            )
-        }
-
-    def gradient(samples: Mapping[str, NDArray[np.float64]]) -> tuple[dict, dict]:
-        value, slope = two_dof_amplitudes_gradient(
-            samples["stiffness_1"],
-            samples["stiffness_2"],
-            samples["mass_1"],
-            samples["damping_ratio"],
-        )
-        return {"amplitude": value}, {"amplitude": slope}
-
-    return HardCase(f"2dof-{100 * damping_ratio:g}%", model, triangles, (121, 61, 41, 3), gradient)
+    name, grid = f"2dof-{100 * damping_ratio:g}%", (121, 61, 41, 3)
+    return _amplitude_case(name, triangles, grid, two_dof_amplitudes, two_dof_amplitudes_gradient)
 
 
 def polished_truth(
