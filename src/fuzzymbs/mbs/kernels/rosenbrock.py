@@ -213,9 +213,9 @@ MAX_GROWTH = 5.0
 (_H, _ERR_PREV, _LU_STEP, _JAC_AGE, _NEED_JAC, _F_KNOWN) = range(6)
 (_AFTER_REJECT, _ACCEPTED, _REJECTED, _NEXT_REC, _T, _STEP) = range(6, 12)
 _GRID = 12  # the lane's next point of a shared step sequence
-#: the work a lane took part in: right-hand sides (the f_t difference and the records'
-#: included, the Jacobian's own f not), Jacobians, LU factorisations (block calls in
-#: which the lane was stepping; a lane's count is the block's for a block of one sample)
+#: the work a lane needed: right-hand sides (the f_t difference and the records'
+#: included, the Jacobian's own f not), Jacobians, LU factorisations (for a block of one
+#: sample, the block's calls; lanes of a mixed block share the calls they need together)
 (_N_RHS, _N_JAC, _N_LU) = (13, 14, 15)
 _CONTROL_ROWS = 16
 #: step proposal after reaching a point of a shared step sequence: the whole next interval
@@ -434,7 +434,7 @@ def advance_block_ros(
         if any_renew:
             jacobian(t_lane, x, p, sysdata, work, f_fresh, jq_fresh, jv_fresh)
             for lane in range(L):
-                if stepping[lane]:
+                if renew[lane]:
                     control[_N_JAC, lane] += 1.0
                     control[_N_RHS, lane] += 1.0
             # explicit time dependence (prescribed rotations, force profiles)
@@ -461,7 +461,7 @@ def advance_block_ros(
         if any_renew:
             rhs(t_lane, x, f_fresh, p, sysdata, work)
             for lane in range(L):
-                if stepping[lane]:
+                if renew[lane]:
                     control[_N_RHS, lane] += 1.0
             _copy_lanes(f_fresh, f0, renew)
             for lane in range(L):
@@ -483,9 +483,9 @@ def advance_block_ros(
                 V.store(mat, at_ii, V.load(mat, at_ii) + inv_gh)
             lu_factor_lanes(mat, n, piv)
             for lane in range(L):
-                lu_step[lane] = steps[lane]
-                if stepping[lane]:
+                if stepping[lane] and steps[lane] != lu_step[lane]:
                     control[_N_LU, lane] += 1.0
+                lu_step[lane] = steps[lane]
         for s in range(stages):
             if s == 0:
                 stage_f = f0
