@@ -1,4 +1,6 @@
-"""A linearly implicit integrator with error control for a block of four samples: ROS34PW2.
+"""A linearly implicit integrator with error control for a block of four samples: ROS34PW2,
+or RODAS4 (:func:`rodas4_coefficients`; the method is an argument of the kernel, whose
+stage loop runs over the tableau's stages).
 
 ROS34PW2 (Rang & Angermann, BIT 45 (2005) 761) is a Rosenbrock-W method: 4 stages,
 order 3 with an embedded order-2 solution, stiffly accurate and L-stable, and it
