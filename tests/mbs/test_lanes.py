@@ -226,3 +226,24 @@ def test_ros34pw2_failed_lane_leaves_the_others_bit_identical(brake):
     np.testing.assert_array_equal(
         lanes.outputs["y_lpad"][healthy], alone.outputs["y_lpad"][healthy]
     )
+
+
+@pytest.mark.slow  # the same compiled kernel as ROS34PW2 (the tableau is an argument)
+def test_rodas4_sample_is_independent_of_its_block(brake):
+    # RODAS4 in the same lane kernel: each of 5 samples (every parameter varied, the
+    # per-lane contact path) bit for bit the same alone and in blocks with others
+    samples = _brake_samples(5, seed=3)
+    rodas = {"integrator": "rodas4", "tolerance": Tolerance(1e-3)}
+
+    def go(order, kernel):
+        picked = {name: values[order] for name, values in samples.items()}
+        return simulate(brake, picked, t_end=1e-4, dt=1e-6, outputs=OUTPUTS, kernel=kernel, **rodas)
+
+    alone = go(np.arange(5), "samples")
+    assert not alone.failed.any()
+    order = np.array([4, 2, 0, 3, 1])
+    packed = go(order, "lanes")
+    for name in OUTPUTS:
+        np.testing.assert_array_equal(packed.outputs[name], alone.outputs[name][order])
+    np.testing.assert_array_equal(packed.step_counts, alone.step_counts[order])
+    assert len(set(alone.step_counts[:, 0].tolist())) > 2

@@ -13,11 +13,13 @@ from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
 from fuzzymbs.mbs.kernels.rosenbrock import (
     COEFFICIENTS,
     GAMMA,
+    METHODS,
     TABLEAU_A,
     TABLEAU_B,
     TABLEAU_BHAT,
     TABLEAU_GAMMA,
     ros34pw2,
+    tableau,
 )
 from fuzzymbs.mbs.lumped import lumped_modal_body
 from fuzzymbs.mbs.system import Coordinate, System
@@ -70,6 +72,75 @@ def test_tableau_meets_the_order_conditions():
     np.testing.assert_allclose(b @ (beta @ beta1), 1.0 / 6.0 - GAMMA + GAMMA**2, atol=1e-14)
     np.testing.assert_allclose(b, (a + g)[3], atol=1e-15)
     assert np.allclose(np.diag(g), GAMMA) and np.allclose(COEFFICIENTS[5], g.sum(axis=1))
+
+
+def test_rodas4_tableau_meets_the_order_conditions():
+    # the W-form (A, Gamma, b, bhat) reconstructed from the transformed coefficients
+    # (Hairer & Wanner, Sec. IV.7: Gamma^-1 = diag(1 / gamma) - C, A = at Gamma, b = m
+    # Gamma) meets the conditions of order 4 with b and of order 3 with bhat (Table 7.1:
+    # order 4 adds sum b alpha^3 = 1/4, sum b alpha a beta' = 1/8 - gamma/3, sum b beta
+    # alpha^2 = 1/12 - gamma/3, sum b beta beta beta' = 1/24 - gamma/2 + 3/2 gamma^2 -
+    # gamma^3); both are stiffly accurate (b and bhat the last two rows of A + Gamma);
+    # the stage times and gamma_i are the row sums of A and Gamma. Measured residuals
+    # below 4e-15.
+    a, g, b, bhat, alpha, gsum = tableau(METHODS["rodas4"])
+    gamma = METHODS["rodas4"][6][0]
+    beta = np.tril(a + g, -1)
+    beta1 = beta.sum(axis=1)
+    np.testing.assert_allclose(a.sum(axis=1), alpha, atol=1e-14)
+    np.testing.assert_allclose(g.sum(axis=1), gsum, atol=1e-14)
+    np.testing.assert_allclose(np.diag(g), gamma, atol=1e-15)
+
+    def conditions(w: np.ndarray, order: int) -> list[float]:
+        residuals = [
+            w.sum() - 1.0,
+            w @ beta1 - (0.5 - gamma),
+            w @ alpha**2 - 1.0 / 3.0,
+            w @ (beta @ beta1) - (1.0 / 6.0 - gamma + gamma**2),
+            w @ alpha**3 - 0.25,
+            (w * alpha) @ (a @ beta1) - (1.0 / 8.0 - gamma / 3.0),
+            w @ (beta @ alpha**2) - (1.0 / 12.0 - gamma / 3.0),
+            w @ (beta @ (beta @ beta1)) - (1.0 / 24.0 - gamma / 2 + 1.5 * gamma**2 - gamma**3),
+        ]
+        return residuals[: {3: 4, 4: 8}[order]]
+
+    np.testing.assert_allclose(conditions(b, 4), 0.0, atol=1e-13)
+    np.testing.assert_allclose(conditions(bhat, 3), 0.0, atol=1e-13)
+    assert abs(conditions(bhat, 4)[4]) > 1e-3  # the embedded solution is of order 3 only
+    np.testing.assert_allclose(b, (a + g)[5], atol=1e-14)
+    np.testing.assert_allclose(bhat, (a + g)[4], atol=1e-14)
+
+
+@pytest.mark.parametrize(("integrator", "order"), [("ros34pw2", 3), ("rodas4", 4)])
+def test_order_on_a_stiff_linear_mode(integrator, order):
+    # the oscillator at zeta = 10 (eigenvalues -5.01 and -1995 1/s, q0 = 1e-3 m, v0 = 0)
+    # over 1 s on uniform steps of 1/20 .. 1/160 s (a shared step sequence; the loose
+    # rtol 0.5 rejects none of them), the stiff mode stepped over (h |lambda| = 100 ..
+    # 12): the error at the end against the closed form falls with the method's order,
+    # 3 for ROS34PW2, 4 for RODAS4 (exact Jacobian); observed order between successive
+    # halvings within 0.35 of it (measured 2.91-2.97 and 4.01-4.02)
+    zeta, w = 10.0, 100.0
+    compiled = oscillator(zeta).compile()
+    root = w * np.sqrt(zeta**2 - 1)
+    l1, l2 = -zeta * w + root, -zeta * w - root
+    exact = 1e-3 * (l2 * np.exp(l1) - l1 * np.exp(l2)) / (l2 - l1)
+    errors = []
+    for steps in (20, 40, 80, 160):
+        result = simulate(
+            compiled,
+            t_end=1.0,
+            dt=0.05,
+            record_interval=1.0,
+            outputs={"q": Coordinate("osc")},
+            initial_state=np.array([1e-3, 0.0]),
+            integrator=integrator,
+            tolerance=Tolerance(0.5),
+            step_sequence=np.arange(1, steps + 1) / steps,
+        )
+        assert result.step_counts[0].tolist() == [steps, 0]
+        errors.append(abs(result.outputs["q"][0, -1] - exact))
+    observed = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(np.abs(observed - order) < 0.35), observed
 
 
 def test_lane_lu_solves_four_systems_against_numpy():
@@ -204,6 +275,34 @@ def test_simulate_with_ros34pw2_matches_fine_rk4(brake):
     np.testing.assert_array_equal(got.time, ref.time)
     scale = np.abs(ref.outputs["y_lpad"]).max()
     assert np.abs(got.outputs["y_lpad"] - ref.outputs["y_lpad"]).max() < 1e-3 * scale
+
+
+def test_rodas4_on_the_brake_against_fine_rk4(brake):
+    # RODAS4 through simulate, the first 0.1 ms against RK4 at 15.6 ns as above (measured
+    # 6.5e-5 and 7.0e-5 of the peak at rtol 1e-3, 546 and 540 steps), bound 5e-4;
+    # its work counts: a fresh Jacobian every accepted step (which gives f at the step's
+    # start), five more right-hand sides per try and the f_t difference per Jacobian
+    outputs = {"y_lpad": Coordinate("lower_pad", 0), "y_upad": Coordinate("upper_pad", 0)}
+    samples = {"nodal_force": np.array([16e3, 16.16e3])}
+    ref = simulate(brake, samples, t_end=1e-4, dt=1e-6 / 64, record_interval=1e-5, outputs=outputs)
+    got = simulate(
+        brake,
+        samples,
+        t_end=1e-4,
+        dt=1e-7,
+        record_interval=1e-5,
+        outputs=outputs,
+        integrator="rodas4",
+        tolerance=Tolerance(1e-3),
+    )
+    assert not got.failed.any()
+    for name in outputs:
+        r = ref.outputs[name]
+        assert np.abs(got.outputs[name] - r).max() < 5e-4 * np.abs(r).max(), name
+    accepted, rejected = got.step_counts.T
+    rhs, jacobians, lus = got.work_counts.T
+    np.testing.assert_array_equal(jacobians, accepted)  # the first one's and one per step
+    assert np.all(rhs >= 5 * (accepted + rejected) + accepted) and np.all(lus >= accepted)
 
 
 def test_integrator_options_are_checked_and_reach_the_brake():

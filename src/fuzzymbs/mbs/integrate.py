@@ -25,7 +25,7 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
-from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
+from fuzzymbs.mbs.kernels.rosenbrock import METHODS, ros34pw2
 from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.shared_steps import (
     SharedSteps,
@@ -38,9 +38,12 @@ from fuzzymbs.tolerance import DEFAULT_TOLERANCE, Tolerance
 
 #: Kernel choices of :func:`simulate`.
 KERNELS = ("auto", "lanes", "samples")
-#: Integrators of :func:`simulate`: the paper's fixed-step RK4, and ROS34PW2 with
-#: error control (:mod:`fuzzymbs.mbs.kernels.rosenbrock`; opt-in here, the brake model's default)
-INTEGRATORS = ("rk4", "ros34pw2")
+#: Integrators of :func:`simulate`: the paper's fixed-step RK4, and the Rosenbrock methods
+#: with error control (:mod:`fuzzymbs.mbs.kernels.rosenbrock`; opt-in here): ROS34PW2 (the
+#: brake model's default) and RODAS4
+INTEGRATORS = ("rk4", "ros34pw2", "rodas4")
+#: the integrators with error control (a tolerance, shared steps, step logs)
+ROSENBROCK = ("ros34pw2", "rodas4")
 
 
 @dataclass
@@ -52,8 +55,8 @@ class SimulationResult:
     time : (T,) recording times [s].
     outputs : {name: (B, T)} recorded outputs (NaN rows for failed samples).
     failed : (B,) bool; failure_reason : (B,) str; failure_time : (B,) [s] (NaN if ok).
-    step_counts : (B, 2) accepted and rejected steps per sample (ROS34PW2), None for RK4
-        (``t_end / dt`` steps).
+    step_counts : (B, 2) accepted and rejected steps per sample (ROS34PW2, RODAS4), None
+        for RK4 (``t_end / dt`` steps).
     step_times : the ends of the accepted steps of the first sample (ROS34PW2 with
         ``log_steps``), else None.
     step_renewals : with ``step_times``, True for each step whose Jacobian was
@@ -68,6 +71,9 @@ class SimulationResult:
     step_counts: NDArray[np.int64] | None = None
     step_times: NDArray[np.float64] | None = None
     step_renewals: NDArray[np.bool_] | None = None
+    #: (B, 3) right-hand sides, Jacobians and LU factorisations of each sample's runs
+    #: (ROS34PW2, RODAS4: the block calls it took part in), None for RK4
+    work_counts: NDArray[np.int64] | None = None
 
 
 def _check_timing(t_end: float, dt: float, record_interval: float | None) -> tuple[int, int]:
@@ -134,12 +140,14 @@ def simulate(
         lanes repeating it (about 1.4 times the cost per sample,
         docs/benchmarks.md). Both give every sample the same arithmetic, so its
         outputs are bit for bit the same whichever samples share its block.
-    integrator : {"rk4", "ros34pw2"}
+    integrator : {"rk4", "ros34pw2", "rodas4"}
         ``"rk4"``: classic RK4 at the fixed step dt (the brake paper's method;
         stable only for ``|lambda dt| < 2.785`` on the real axis). ``"ros34pw2"``:
         the linearly implicit ROS34PW2 with error control, each sample on its own
         step sequence, so that its outputs do not depend on the samples beside it
-        (docs/theory.md, "ROS34PW2").
+        (docs/theory.md, "ROS34PW2"). ``"rodas4"``: RODAS4 (order 4, six stages, a
+        fresh Jacobian every step) in the same kernel, with the same options
+        (docs/theory.md, "RODAS4").
     tolerance : Tolerance
         ROS34PW2's tolerances (:class:`~fuzzymbs.tolerance.Tolerance`; default
         :data:`~fuzzymbs.tolerance.DEFAULT_TOLERANCE`): a sample's step is accepted when
@@ -166,8 +174,8 @@ def simulate(
     """
     _check_kernel(kernel)
     rtols, atols, h_min = _check_integrator(integrator, tolerance)
-    if log_steps is not False and integrator != "ros34pw2":
-        raise InvalidParameterError("log_steps needs integrator='ros34pw2'")
+    if log_steps is not False and integrator not in ROSENBROCK:
+        raise InvalidParameterError(f"log_steps needs an integrator of {ROSENBROCK}")
     compiled = system.compile() if isinstance(system, System) else system
     if not outputs:
         raise InvalidParameterError("simulate needs at least one output")
@@ -195,7 +203,7 @@ def simulate(
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
     fail_t = np.full(batch, np.nan)
-    counts = np.zeros((batch, 2), dtype=np.int64)
+    counts = np.zeros((batch, 5), dtype=np.int64)
     step_log = np.zeros(1)
     if log_steps is not False:
         capacity = max(20 * n_steps, 10**6) if log_steps is True else int(log_steps)
@@ -227,6 +235,7 @@ def simulate(
                 sequence,
                 renewals,
                 step_log if start == 0 else np.zeros(1),
+                METHODS[integrator],
             )
         out[sl] = o
         status[sl] = st
@@ -240,9 +249,10 @@ def simulate(
         failed=status != OK,
         failure_reason=reasons,
         failure_time=fail_t,
-        step_counts=None if integrator == "rk4" else counts,
+        step_counts=None if integrator == "rk4" else counts[:, :2].copy(),
         step_times=None if logged is None else logged[:, 0].copy(),
         step_renewals=None if logged is None else logged[:, 1] != 0.0,
+        work_counts=None if integrator == "rk4" else counts[:, 2:].copy(),
     )
 
 
@@ -279,8 +289,8 @@ def _check_sequence(
     """The shared step sequence as the kernel takes it (empty: no sequence)."""
     if sequence is None:
         return np.empty(0)
-    if integrator != "ros34pw2":
-        raise InvalidParameterError("step_sequence needs integrator='ros34pw2'")
+    if integrator not in ROSENBROCK:
+        raise InvalidParameterError(f"step_sequence needs an integrator of {ROSENBROCK}")
     points = np.asarray(sequence, dtype=float)
     if points.ndim != 1 or points.size == 0 or not np.all(np.isfinite(points)):
         raise InvalidParameterError("step_sequence must be a non-empty 1-D array of finite times")
@@ -633,7 +643,7 @@ class SimulationModel:
     def scalable_tolerance(self) -> bool:
         """True for ROS34PW2: :meth:`tightened` divides its tolerance by any factor (a study
         may then choose it, :func:`fuzzymbs.study.integration_check.choose_tolerance`)."""
-        return self.settings["integrator"] == "ros34pw2"
+        return self.settings["integrator"] in ROSENBROCK
 
     def tightened(self, factor: float | None = None) -> SimulationModel:
         """The same model with the tolerance divided by ``factor`` (ROS34PW2; atol too;

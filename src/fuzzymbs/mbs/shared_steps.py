@@ -355,8 +355,8 @@ def share_steps(
         If the modal sample fails at the model's tolerance; a failure of a reference
         run is raised where the correction or the reference's error is first used.
     """
-    if model.settings["integrator"] != "ros34pw2":
-        raise InvalidParameterError("shared steps need integrator='ros34pw2'")
+    if model.settings["integrator"] not in ("ros34pw2", "rodas4"):
+        raise InvalidParameterError("shared steps need integrator='ros34pw2' or 'rodas4'")
     plain = copy.copy(model)
     plain.shared = None
     modal = {name: float(value) for name, value in modal.items()}

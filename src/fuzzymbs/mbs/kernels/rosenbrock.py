@@ -1,4 +1,6 @@
-"""A linearly implicit integrator with error control for a block of four samples: ROS34PW2.
+"""A linearly implicit integrator with error control for a block of four samples: ROS34PW2,
+or RODAS4 (:func:`rodas4_coefficients`; the method is an argument of the kernel, whose
+stage loop runs over the tableau's stages).
 
 ROS34PW2 (Rang & Angermann, BIT 45 (2005) 761) is a Rosenbrock-W method: 4 stages,
 order 3 with an embedded order-2 solution, stiffly accurate and L-stable, and it
@@ -77,22 +79,118 @@ TABLEAU_GAMMA = np.array(
 )
 TABLEAU_B = np.array([2.4212380706095346e-1, -1.2232505839045147, 1.5452602553351020, GAMMA])
 TABLEAU_BHAT = np.array([3.7810903145819369e-1, -9.6042292212423178e-2, 0.5, 2.1793326075422950e-1])
-#: the transformed coefficients: at (4, 4), c (4, 4), m (4,), m - mhat (4,), alpha (4,),
-#: gamma_i (4,) (row sums of Gamma)
-_GINV = np.linalg.inv(TABLEAU_GAMMA)
-COEFFICIENTS = (
-    TABLEAU_A @ _GINV,
-    -np.tril(_GINV, -1),
-    TABLEAU_B @ _GINV,
-    (TABLEAU_B - TABLEAU_BHAT) @ _GINV,
-    TABLEAU_A.sum(axis=1),
-    TABLEAU_GAMMA.sum(axis=1),
-)
+
+
+def transformed(tableau_a, tableau_gamma, b, bhat, jacobian_age, embedded_order):
+    """The kernel's coefficients of a Rosenbrock method given as ``(A, Gamma, b, bhat)``
+    (Hairer & Wanner, Sec. IV.7): ``(at, c, m, m - mhat, alpha, gamma_i, settings)`` with
+    ``at = A Gamma^-1`` (s, s), ``c = -Gamma^-1`` below the diagonal (s, s), ``m = b
+    Gamma^-1``, ``mhat = bhat Gamma^-1``, ``alpha`` the row sums of A, ``gamma_i`` those
+    of Gamma, and ``settings = (gamma, 1 / (embedded order + 1), Jacobian age)``."""
+    ginv = np.linalg.inv(tableau_gamma)
+    return (
+        tableau_a @ ginv,
+        -np.tril(ginv, -1),
+        b @ ginv,
+        (b - bhat) @ ginv,
+        tableau_a.sum(axis=1),
+        tableau_gamma.sum(axis=1),
+        np.array([tableau_gamma[0, 0], 1.0 / (embedded_order + 1.0), float(jacobian_age)]),
+    )
+
+
 #: accepted steps a Jacobian (and f_t) is used for before it is evaluated again (a
 #: W-method keeps its order with an aged Jacobian). On the brake over 10 ms, 10 steps
 #: gave 0.27 % of the peak in 3.1 s at rtol 1e-2, against 0.42 % in 5.8 s at rtol 3e-3
 #: with a fresh Jacobian every step (benchmarks/ros_accuracy.py)
 JACOBIAN_AGE = 10
+#: ROS34PW2 as the kernel takes it (:func:`transformed`)
+COEFFICIENTS = transformed(
+    TABLEAU_A, TABLEAU_GAMMA, TABLEAU_B, TABLEAU_BHAT, JACOBIAN_AGE, embedded_order=2
+)
+# RODAS4 (Hairer & Wanner, Solving ODEs II, 2nd ed. 1996, Sec. VI.4: "RODAS", order
+# 4 with an embedded order-3 solution, 6 stages, stiffly accurate and L-stable; the two
+# last stages at t + h), given in the transformed form the book's RODAS uses: gamma, the
+# stage times alpha_i, gamma_i = sum_j gamma_ij, a_ij = (A Gamma^-1)_ij and c_ij =
+# -(Gamma^-1)_ij (i > j), the coefficient set published with the book's code. Stiffly
+# accurate: stage 6 is at y + sum_{j<5} a_5j u_j + u_5 and y_new = Y_6 + u_6, whose last
+# term u_6 is the error estimate (y_new minus the embedded solution Y_6). Not a W-method:
+# its order 4 needs the exact Jacobian (tests/mbs/test_rosenbrock.py checks the order
+# conditions of the tableau reconstructed from these numbers).
+RODAS4_GAMMA = 0.25
+RODAS4_ALPHA = np.array([0.0, 0.386, 0.21, 0.63, 1.0, 1.0])
+RODAS4_GAMMA_SUMS = np.array([0.25, -0.1043, 0.1035, -0.3620000000000023e-01, 0.0, 0.0])
+_RODAS4_A5 = [
+    0.1221224509226641e01,
+    0.6019134481288629e01,
+    0.1253708332932087e02,
+    -0.6878860361058950,
+]
+RODAS4_AT = np.array(
+    [
+        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.1544e01, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.9466785280815826, 0.2557011698983284, 0.0, 0.0, 0.0, 0.0],
+        [0.3314825187068521e01, 0.2896124015972201e01, 0.9986419139977817, 0.0, 0.0, 0.0],
+        [*_RODAS4_A5, 0.0, 0.0],
+        [*_RODAS4_A5, 1.0, 0.0],
+    ]
+)
+RODAS4_C = np.array(
+    [
+        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [-0.56688e01, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [-0.2430093356833875e01, -0.2063599157091915, 0.0, 0.0, 0.0, 0.0],
+        [-0.1073529058151375, -0.9594562251023355e01, -0.2047028614809616e02, 0.0, 0.0, 0.0],
+        [
+            0.7496443313967647e01,
+            -0.1024680431464352e02,
+            -0.3399990352819905e02,
+            0.1170890893206160e02,
+            0.0,
+            0.0,
+        ],
+        [
+            0.8083246795921522e01,
+            -0.7981132988064893e01,
+            -0.3152159432874371e02,
+            0.1631930543123136e02,
+            -0.6058818238834054e01,
+            0.0,
+        ],
+    ]
+)
+RODAS4_M = np.array([*_RODAS4_A5, 1.0, 1.0])
+RODAS4_ERROR = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+
+
+#: RODAS4's Jacobian age (measured in benchmarks/rodas_work_precision.py)
+RODAS4_JACOBIAN_AGE = 1
+
+
+def rodas4_coefficients(jacobian_age: int) -> tuple:
+    """RODAS4 as the kernel takes it, its Jacobian renewed every ``jacobian_age`` accepted
+    steps (1: every step, as its order needs)."""
+    return (
+        RODAS4_AT,
+        RODAS4_C,
+        RODAS4_M,
+        RODAS4_ERROR,
+        RODAS4_ALPHA,
+        RODAS4_GAMMA_SUMS,
+        np.array([RODAS4_GAMMA, 1.0 / 4.0, float(jacobian_age)]),
+    )
+
+
+def tableau(coefficients: tuple) -> tuple:
+    """``(A, Gamma, b, bhat, alpha, gamma_i)`` of the W-form (Hairer & Wanner, Sec. IV.7)
+    from the kernel's transformed coefficients (the inverse of :func:`transformed`)."""
+    at, cc, m, me, alpha, gsum, settings = coefficients
+    gamma_inverse = np.diag(np.full(m.size, 1.0 / settings[0])) - cc
+    gamma_matrix = np.linalg.inv(gamma_inverse)
+    return at @ gamma_matrix, gamma_matrix, m @ gamma_matrix, (m - me) @ gamma_matrix, alpha, gsum
+
+
 #: a step along a shared sequence (from one point to the next) is accepted up to this
 #: error norm (its own steps: 1). The sequence suits the modal sample; its neighbours'
 #: errors there scatter about 1, and a rejection takes a lane off the sequence (its
@@ -111,31 +209,33 @@ SHARED_ACCEPT = 2.0
 RENEW_AFTER_REJECT = 3
 #: largest growth of the step from one step to the next
 MAX_GROWTH = 5.0
-#: exponent of the step-size update: 1 / (embedded order + 1)
-_EXPONENT = 1.0 / 3.0
 
 
 #: control rows of a block between slices, one column per lane (:func:`start_block_ros`)
 (_H, _ERR_PREV, _LU_STEP, _JAC_AGE, _NEED_JAC, _F_KNOWN) = range(6)
 (_AFTER_REJECT, _ACCEPTED, _REJECTED, _NEXT_REC, _T, _STEP) = range(6, 12)
 _GRID = 12  # the lane's next point of a shared step sequence
-_CONTROL_ROWS = 13
+#: the work a lane needed: right-hand sides (the f_t difference and the records'
+#: included, the Jacobian's own f not), Jacobians, LU factorisations (for a block of one
+#: sample, the block's calls; lanes of a mixed block share the calls they need together)
+(_N_RHS, _N_JAC, _N_LU) = (13, 14, 15)
+_CONTROL_ROWS = 16
 #: step proposal after reaching a point of a shared step sequence: the whole next interval
 _OPEN = np.inf
 
 
 @nb.njit(cache=True, nogil=True)
-def start_block_ros(sysdata, params, x0, recording, first, count, h0):
+def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages):
     """State of a block of samples ``first .. first + count - 1`` (count <= 4) at the start:
     ``(x, p, alive, work, vectors, matrices, piv, control)``, advanced by
-    :func:`advance_block_ros`. ``control`` holds one column per lane: every lane
-    keeps its own time, step, error history and Jacobian age."""
+    :func:`advance_block_ros` with a method of ``stages`` stages. ``control`` holds one
+    column per lane: every lane keeps its own time, step, error history and Jacobian age."""
     x, p, alive, _, work = start_block(sysdata, params, x0, recording, first, count)
     size = x.shape[0]
     n = size // (2 * L)
-    # f0, f_t, stage f, stage state, stage right-hand side, u_1..u_4, new state, solve,
-    # then scratch for the right-hand side and f(t + delta) of lanes that renew f0 or J
-    vectors = np.zeros((13, size))
+    # f0, f_t, stage f, stage state, stage right-hand side, new state, solve, scratch for
+    # the right-hand side and f(t + delta) of lanes that renew f0 or J, then u_1..u_s
+    vectors = np.zeros((9 + stages, size))
     # da/dq, da/dv, the stage matrix I / (gamma h) - B_v - gamma h A_q per lane then its
     # LU, and da/dq, da/dv fresh for the lanes that renew their Jacobian
     matrices = np.zeros((5, n * n * L))
@@ -232,11 +332,13 @@ def advance_block_ros(
         atols[first + min(2, count - 1)],
         atols[first + min(3, count - 1)],
     )
-    at, cc, m, me, alpha, gsum = coefficients
+    at, cc, m, me, alpha, gsum, settings = coefficients
+    stages = m.shape[0]
+    gamma, exponent, jacobian_age = settings[0], settings[1], settings[2]
     x, p, alive, work, vectors, matrices, piv, control = state
     f0, ft, fy, y, r = vectors[0], vectors[1], vectors[2], vectors[3], vectors[4]
-    u = vectors[5:9]
-    x_new, rhs_v, f_fresh, ft_fresh = vectors[9], vectors[10], vectors[11], vectors[12]
+    x_new, rhs_v, f_fresh, ft_fresh = vectors[5], vectors[6], vectors[7], vectors[8]
+    u = vectors[9:]
     jq, jv, mat, jq_fresh, jv_fresh = (
         matrices[0],
         matrices[1],
@@ -333,6 +435,10 @@ def advance_block_ros(
             any_renew = any_renew or renew[lane]
         if any_renew:
             jacobian(t_lane, x, p, sysdata, work, f_fresh, jq_fresh, jv_fresh)
+            for lane in range(L):
+                if renew[lane]:
+                    control[_N_JAC, lane] += 1.0
+                    control[_N_RHS, lane] += 1.0
             # explicit time dependence (prescribed rotations, force profiles)
             for lane in range(L):
                 delta[lane] = max(1e-9, 1e-7 * abs(t[lane]))
@@ -356,6 +462,9 @@ def advance_block_ros(
             any_renew = any_renew or renew[lane]
         if any_renew:
             rhs(t_lane, x, f_fresh, p, sysdata, work)
+            for lane in range(L):
+                if renew[lane]:
+                    control[_N_RHS, lane] += 1.0
             _copy_lanes(f_fresh, f0, renew)
             for lane in range(L):
                 if renew[lane]:
@@ -364,7 +473,7 @@ def advance_block_ros(
         for lane in range(L):
             refactor = refactor or (stepping[lane] and steps[lane] != lu_step[lane])
         step_v = V.load(steps, 0)
-        gh = GAMMA * step_v
+        gh = gamma * step_v
         if refactor:
             # every lane's matrix is a function of its own J and step alone: a lane
             # refactorised with an unchanged step gets the same factors
@@ -376,8 +485,10 @@ def advance_block_ros(
                 V.store(mat, at_ii, V.load(mat, at_ii) + inv_gh)
             lu_factor_lanes(mat, n, piv)
             for lane in range(L):
+                if stepping[lane] and steps[lane] != lu_step[lane]:
+                    control[_N_LU, lane] += 1.0
                 lu_step[lane] = steps[lane]
-        for s in range(4):
+        for s in range(stages):
             if s == 0:
                 stage_f = f0
             else:
@@ -389,6 +500,9 @@ def advance_block_ros(
                 for lane in range(L):
                     theta[lane] = t[lane] + alpha[s] * steps[lane]
                 rhs(theta, y, fy, p, sysdata, work)
+                for lane in range(L):
+                    if stepping[lane]:
+                        control[_N_RHS, lane] += 1.0
                 stage_f = fy
             ft_factor = gsum[s] * step_v
             for i in range(nstate):
@@ -414,7 +528,7 @@ def advance_block_ros(
             xi = V.load(x, L * i)
             xn = xi
             e = V.splat(0.0)
-            for j in range(4):
+            for j in range(stages):
                 uj = V.load(u[j], L * i)
                 xn = xn + m[j] * uj
                 e = e + me[j] * uj
@@ -451,10 +565,10 @@ def advance_block_ros(
                         step_log[0] = -1.0
                 accepted[lane] += 1.0
                 jac_age[lane] += 1.0
-                need_jac[lane] = 1.0 if jac_age[lane] >= JACOBIAN_AGE else 0.0
+                need_jac[lane] = 1.0 if jac_age[lane] >= jacobian_age else 0.0
                 factor = MAX_GROWTH
                 if err > 0.0:
-                    pi = 0.9 * err ** (-0.7 * _EXPONENT) * err_prev[lane] ** (0.4 * _EXPONENT)
+                    pi = 0.9 * err ** (-0.7 * exponent) * err_prev[lane] ** (0.4 * exponent)
                     factor = min(MAX_GROWTH, max(0.2, pi))
                 err_prev[lane] = max(err, 1e-4)
                 if after_reject[lane] != 0.0:
@@ -470,7 +584,7 @@ def advance_block_ros(
             else:
                 rejected[lane] += 1.0
                 after_reject[lane] = 1.0
-                h[lane] = steps[lane] * max(0.2, 0.9 * err**-_EXPONENT)
+                h[lane] = steps[lane] * max(0.2, 0.9 * err**-exponent)
                 # an aged Jacobian may be the cause
                 if jac_age[lane] >= RENEW_AFTER_REJECT:
                     need_jac[lane] = 1.0
@@ -484,6 +598,9 @@ def advance_block_ros(
             # the records the accepted steps cover, from each lane's Hermite interpolant;
             # f at a step's end is that lane's next f0
             rhs(theta, x_new, fy, p, sysdata, work)
+            for lane in range(L):
+                if covered[lane]:
+                    control[_N_RHS, lane] += 1.0
             while True:
                 any_pending = False
                 for lane in range(L):
@@ -566,11 +683,14 @@ def ros34pw2(
     sequence,
     renewals,
     step_log,
+    coefficients=COEFFICIENTS,
 ) -> None:
-    """ROS34PW2 of a batch in blocks of ``per_block`` (1 to 4) samples over the threads.
+    """ROS34PW2 (or the Rosenbrock method of ``coefficients``, e.g. RODAS4) of a batch in
+    blocks of ``per_block`` (1 to 4) samples over the threads.
 
     Arguments as :func:`advance_block_ros`; ``counts (B, 2)`` receives the accepted
-    and rejected steps of each sample. Blocks advance
+    and rejected steps of each sample, ``(B, 5)`` also the right-hand sides, Jacobians
+    and LU factorisations each took part in. Blocks advance
     ``SLICES`` slices of recording intervals at a time, round robin over the
     threads (:func:`fuzzymbs.mbs.kernels.threads.round_robin`): with 9 blocks on 2
     threads each thread carries 4.5 blocks instead of 5 and 4. Slicing does not
@@ -586,7 +706,9 @@ def ros34pw2(
         # on a shared sequence the first step is its first interval (finite: a lane that
         # does not step still carries its step into the vector arithmetic)
         h0 = sequence[0] - timing[0] if sequence.shape[0] > 0 else timing[3]
-        return start_block_ros(sysdata, params, x0, recording, first, count, h0)
+        return start_block_ros(
+            sysdata, params, x0, recording, first, count, h0, coefficients[2].shape[0]
+        )
 
     def advance(block: int, state, begin: int, end: int) -> bool:
         first = block * per_block
@@ -596,7 +718,7 @@ def ros34pw2(
             timing,
             recording,
             tolerances,
-            COEFFICIENTS,
+            coefficients,
             first,
             count,
             state,
@@ -611,6 +733,17 @@ def ros34pw2(
             for lane in range(count):
                 counts[first + lane, 0] = int(control[_ACCEPTED, lane])
                 counts[first + lane, 1] = int(control[_REJECTED, lane])
+                if counts.shape[1] >= 5:
+                    counts[first + lane, 2] = int(control[_N_RHS, lane])
+                    counts[first + lane, 3] = int(control[_N_JAC, lane])
+                    counts[first + lane, 4] = int(control[_N_LU, lane])
         return going
 
     round_robin(n_blocks, n_records, max(1, -(-n_records // SLICES)), start, advance)
+
+
+#: the Rosenbrock methods by name (:func:`fuzzymbs.mbs.integrate.simulate`'s integrator)
+METHODS = {
+    "ros34pw2": COEFFICIENTS,
+    "rodas4": rodas4_coefficients(RODAS4_JACOBIAN_AGE),
+}

@@ -56,7 +56,8 @@ OPTIONS = {
     "chunk_size": "samples per compiled call (default 64)",
     "kernel": 'lanes: "auto" = "lanes" (4 samples per SIMD vector, default) or "samples"'
     " (a block per sample)",
-    "integrator": '"ros34pw2" (default: error control at rtol; dt: first step) or "rk4" '
+    "integrator": '"ros34pw2" (default: error control at rtol; dt: first step), "rodas4" '
+    '(order 4, error control at rtol, a fresh Jacobian every step) or "rk4" '
     "(the paper's fixed step dt, not converged at 1 us)",
     "rtol": f"ROS34PW2 relative tolerance (default {DEFAULT_TOLERANCE.rtol:g})",
     "atol": f"ROS34PW2 absolute tolerance [m, m/s] (default {ATOL_PER_RTOL:g} rtol)",

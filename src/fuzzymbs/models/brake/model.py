@@ -261,8 +261,11 @@ class DiscBrake:
     integrator, rtol, atol
         ``"ros34pw2"`` (default): the linearly implicit ROS34PW2 with error control
         at rtol and atol (default: those of :data:`fuzzymbs.tolerance.DEFAULT_TOLERANCE`;
-        atol None: a fraction of rtol); ``"rk4"``: the paper's fixed-step RK4 at dt,
-        for reproducing the publication (see :func:`fuzzymbs.mbs.integrate.simulate`).
+        atol None: a fraction of rtol); ``"rodas4"``: RODAS4 (order 4, a fresh Jacobian
+        every step) in the same kernel, about half the CPU of ROS34PW2 for the same
+        error from 5e-5 to 7e-6 of the peak (docs/brake.md); ``"rk4"``: the paper's
+        fixed-step RK4 at dt, for reproducing the publication (see
+        :func:`fuzzymbs.mbs.integrate.simulate`).
         Over 10 ms, ROS34PW2 at the default rtol is 0.27 % of the peak off a converged
         reference, RK4 at 1 us 13.1 %
         (docs/brake.md, "Accuracy of the time integration"). A fuzzy study reads the
