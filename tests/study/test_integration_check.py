@@ -4,7 +4,7 @@ its cut widths."""
 from __future__ import annotations
 
 import warnings
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
@@ -572,3 +572,84 @@ def test_run_cut_bounds_against_a_direct_search():
             assert cut.upper_sample[j, e] == rows[int(np.argmax(values))]
         assert tallies[j].sum() == (4 if rows else 0)
     assert tallies[0][3] == 0  # a failed run bounds nothing
+
+
+class KeptWavy(SharedDecay):
+    """:class:`SharedDecay` with a second parameter ``b`` that moves the signal non-
+    monotonically (the adaptive method confirms its extrema in a last round), and runs
+    made ahead (``run_ahead``) kept and taken by later calls; ``evaluated`` records every
+    sample it evaluates (rtol, a, b, made ahead)."""
+
+    evaluated: ClassVar[list] = []
+
+    def __init__(self, rtol: float, modal: float | None = None) -> None:
+        super().__init__(rtol, modal)
+        self.kept: dict[tuple[float, float], np.ndarray] = {}
+
+    def share_steps(self, modal) -> KeptWavy:
+        return KeptWavy(self.rtol, float(np.asarray(modal["a"])[0]))
+
+    def tightened(self, factor: float = 10.0) -> KeptWavy:
+        return KeptWavy(self.rtol / factor, self.modal)
+
+    def _evaluate(self, a: np.ndarray, b: np.ndarray, ahead: bool) -> np.ndarray:
+        for x, y in zip(a, b, strict=True):
+            KeptWavy.evaluated.append((self.rtol, float(x), float(y), ahead))
+        y = super().__call__({"a": a})["y"]
+        return y + 0.1 * np.sin(3 * b)[:, None] * np.cos(2 * np.pi * TIME)
+
+    def run_ahead(self, samples, then=None) -> None:
+        a = np.asarray(samples["a"], dtype=float)
+        b = np.asarray(samples["b"], dtype=float)
+        for x, y, row in zip(a, b, self._evaluate(a, b, True), strict=True):
+            self.kept[(float(x), float(y))] = row
+        if then is not None:
+            then()
+
+    def __call__(self, samples):
+        a = np.asarray(samples["a"], dtype=float)
+        b = np.asarray(samples.get("b", np.full(a.shape, 0.5)), dtype=float)
+        keys = [(float(x), float(y)) for x, y in zip(a, b, strict=True)]
+        missing = [i for i, key in enumerate(keys) if key not in self.kept]
+        y = np.empty((len(a), len(TIME)))
+        if missing:
+            y[missing] = self._evaluate(a[missing], b[missing], False)
+        for i, key in enumerate(keys):
+            if key in self.kept:
+                y[i] = self.kept[key]
+        failed = np.zeros(len(a), dtype=bool)
+        return {"y": y, "failed": failed, "failure_reason": np.full(len(a), "")}
+
+
+def test_the_checks_re_runs_start_with_the_confirmation_round_and_are_not_repeated(
+    monkeypatch,
+):
+    # once the adaptive method has proposed the round that confirms its extrema (most
+    # likely its last), the check's re-runs of the samples chosen from the runs so far
+    # start on the check's tighter model; the check then takes them instead of running
+    # them again, and its figures are those of the check without them, bit for bit
+    fuzzy = {
+        "a": {"type": "triangular", "modal": 2.0, "spread": 0.1},
+        "b": {"type": "triangular", "modal": 0.5, "spread": 0.8},
+    }
+
+    def run() -> tuple[Study, Any]:
+        KeptWavy.evaluated.clear()
+        study = Study(KeptWavy(1e-2), fuzzy, method="adaptive", levels=2)
+        return study, study.run(progress=False).dataset
+
+    study, ahead = run()
+    factor = ahead.attrs["integration_tolerance_factor"]
+    check_rtol = 1e-2 / factor / 10
+    checked = [e for e in KeptWavy.evaluated if e[0] == pytest.approx(check_rtol, rel=1e-12)]
+    assert len(checked) == ahead.attrs["time_integration_runs"] == 8
+    assert all(made_ahead for *_, made_ahead in checked)  # none made again by the check
+    assert study.plan.confirming is False and study.plan.done
+    monkeypatch.setattr(Study, "check_ahead", lambda self, outputs: None)
+    _, serial = run()
+    checked = [e for e in KeptWavy.evaluated if e[0] == pytest.approx(check_rtol, rel=1e-12)]
+    assert len(checked) == 8 and not any(made_ahead for *_, made_ahead in checked)
+    for name in ("time_integration_error", "time_integration_worst", "time_integration_runs"):
+        assert ahead.attrs[name] == serial.attrs[name]
+    for name, values in ahead.data_vars.items():
+        np.testing.assert_array_equal(values.values, serial[name].values)

@@ -232,6 +232,13 @@ class AdaptiveTransformation:
         """Model runs added so far."""
         return len(self.samples)
 
+    @property
+    def confirming(self) -> bool:
+        """The last round proposed confirms the extrema on the model: the rounds end after
+        it unless it finds something the surrogate missed (a study starts its check of the
+        time integration on the runs so far meanwhile)."""
+        return self._confirming
+
     def next_batch(self) -> NDArray[np.float64]:
         """The points (B, n) of the next round; (0, n) once done."""
         if self.done:

@@ -146,6 +146,7 @@ class Study(StudyRuns):
         method_options = {key: given.pop(key) for key in list(given) if is_method_option(key)}
         options = StudyOptions.given(options, given)
         self.integration_choice: ToleranceChoice | None = None
+        self._check_model: Any = None  # the check's tighter model, re-runs made ahead
         resolved = resolve_model(model, model_options or {})
         self.model = resolved.model
         self.model_name = resolved.name
