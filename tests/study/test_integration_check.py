@@ -653,3 +653,33 @@ def test_the_checks_re_runs_start_with_the_confirmation_round_and_are_not_repeat
         assert ahead.attrs[name] == serial.attrs[name]
     for name, values in ahead.data_vars.items():
         np.testing.assert_array_equal(values.values, serial[name].values)
+
+
+@pytest.mark.filterwarnings("ignore::fuzzymbs.fuzzy.accumulate.NonMonotonicWarning")
+def test_a_fixed_plans_check_runs_beside_its_validation_runs(monkeypatch):
+    # a fixed plan's check samples are known once its runs are in: their re-runs go on
+    # beside the method check's validation runs (the reduced method misses b's interior
+    # extrema, which the validation runs report) and the check takes them, bit for bit
+    fuzzy = {
+        "a": {"type": "triangular", "modal": 2.0, "spread": 0.1},
+        "b": {"type": "triangular", "modal": 0.5, "spread": 0.8},
+    }
+
+    def run() -> tuple[Any, list]:
+        KeptWavy.evaluated.clear()
+        study = Study(KeptWavy(1e-2), fuzzy, levels=2, validation_runs=24)
+        dataset = study.run(progress=False).dataset
+        factor = dataset.attrs["integration_tolerance_factor"]
+        rtol = 1e-2 / factor / 10
+        return dataset, [e for e in KeptWavy.evaluated if e[0] == pytest.approx(rtol, rel=1e-12)]
+
+    ahead, checked = run()
+    assert len(checked) == ahead.attrs["time_integration_runs"] > 0
+    assert all(made_ahead for *_, made_ahead in checked)
+    monkeypatch.setattr(Study, "_start_check", lambda self, samples: None)
+    serial, checked = run()
+    assert not any(made_ahead for *_, made_ahead in checked)
+    for name in ("time_integration_error", "time_integration_worst", "method_error"):
+        assert ahead.attrs[name] == serial.attrs[name]
+    for name, values in ahead.data_vars.items():
+        np.testing.assert_array_equal(values.values, serial[name].values)

@@ -395,19 +395,23 @@ class StudyRuns:
     def check_ahead(self, outputs: Mapping[str, np.ndarray]) -> None:
         """Start the time-integration check's re-runs of the samples it would choose from
         the runs so far (``outputs``: every run's, in the plan's order; a plan in rounds
-        after what is most likely its last), in the background on the check's tighter
-        model, while the plan's method judges the runs. The model keeps them, and the check
-        takes those it chooses in the end (a sample's outputs do not depend on its batch,
-        so a kept run is bit for bit the run it saves). Only on shared steps (a model
-        with ``run_ahead``); a run ahead that the check does not choose is lost."""
+        after what is most likely its last) while the plan's method judges the runs
+        (:meth:`_start_check`)."""
         if not getattr(self.model, "shares_steps", False):
-            return
-        tightened = getattr(self.model, "tightened", None)
-        if not callable(tightened):
             return
         failed = np.zeros(len(self.plan.samples), dtype=bool)
         samples, _ = self._run_check_inputs(outputs, failed, include_nominal=False)
-        if not samples:
+        self._start_check(samples)
+
+    def _start_check(self, samples: list[int]) -> None:
+        """Run the time-integration check's re-runs of ``samples`` (rows of the plan) in the
+        background on the check's tighter model, kept there: the check takes those it
+        chooses in the end instead of running them again (a sample's outputs do not
+        depend on its batch, so a kept run is bit for bit the run it saves). Only on
+        shared steps (a tighter model with ``run_ahead``); a run ahead that the check does
+        not choose is lost."""
+        tightened = getattr(self.model, "tightened", None)
+        if not samples or not getattr(self.model, "shares_steps", False) or not callable(tightened):
             return
         tight = self._check_model if self._check_model is not None else tightened()
         run_ahead = getattr(tight, "run_ahead", None)
