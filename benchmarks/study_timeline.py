@@ -1,6 +1,6 @@
 """Where a brake study's time goes: every integrator call of one run, timed; one JSON line.
 
-    python benchmarks/study_timeline.py [--study 1] [--out DIR]
+    python benchmarks/study_timeline.py [--study 1] [--out DIR] [--serial-check]
 
 Runs the demo study file (``fuzzymbs run src/fuzzymbs/demos/brake/0N-studyN.toml``,
 without plots and report) in this interpreter with
@@ -20,6 +20,8 @@ Its CPU time is the thread CPU time of every thread working on its kernel calls
 (:mod:`fuzzymbs.mbs.kernels.threads`), so calls that overlap are told apart;
 ``by_purpose`` sums them, ``other_cpu_s`` is the rest of the process's CPU time
 (reading the study, the surrogate between rounds, writing the result).
+``--serial-check`` makes the time-integration check's re-runs after the plan's
+runs, as before they went on beside the method's last judgment (the same runs).
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ from bench_common import REPO, load_average
 import fuzzymbs.mbs.integrate as integrate
 import fuzzymbs.mbs.kernels.threads as threads
 from fuzzymbs.cli import app
+from fuzzymbs.study.extra_runs import StudyRuns
 
 STUDY_FILES = {1: "01-study1.toml", 2: "02-study2.toml"}
 
@@ -57,15 +60,37 @@ PURPOSES = {
 }
 
 
+#: ids of the check's tighter models that run samples ahead (their runs ahead: ``check``)
+CHECK_MODELS: set[int] = set()
+
+
 def purpose_of_call() -> str:
     """The purpose of the integrator call being made (:data:`PURPOSES`; else ``plan``)."""
     frame = sys._getframe(2)
     while frame is not None:
         purpose = PURPOSES.get(frame.f_code.co_name)
+        if purpose == "plan" and id(frame.f_locals.get("self")) in CHECK_MODELS:
+            return "check"  # the check's re-runs made ahead (StudyRuns._start_check)
         if purpose is not None:
             return purpose
         frame = frame.f_back
     return "plan"
+
+
+def label_check_runs_ahead() -> None:
+    """Record the models the check's re-runs are made ahead on (:data:`CHECK_MODELS`)."""
+    run_ahead = integrate.SimulationModel.run_ahead
+
+    def recorded(self, samples, then=None):
+        frame = sys._getframe(1)
+        while frame is not None:
+            if frame.f_code.co_name == "_start_check":
+                CHECK_MODELS.add(id(self))
+                break
+            frame = frame.f_back
+        return run_ahead(self, samples, then)
+
+    integrate.SimulationModel.run_ahead = recorded
 
 
 class KernelClock:
@@ -103,8 +128,12 @@ class KernelClock:
         threads._share = self.share
 
 
-def timeline(study: int, out: Path) -> dict:
-    """The study run once through the command line, its integrator calls timed."""
+def timeline(study: int, out: Path, serial_check: bool = False) -> dict:
+    """The study run once through the command line, its integrator calls timed
+    (``serial_check``: the check's re-runs none ahead, all after the plan's runs)."""
+    if serial_check:
+        StudyRuns._start_check = lambda self, samples: None
+    label_check_runs_ahead()
     calls: list[dict] = []
     simulate = integrate.simulate
     origin = time.perf_counter()
@@ -165,6 +194,7 @@ def timeline(study: int, out: Path) -> dict:
         entry["share"] = round(entry["cpu_s"] / cpu, 3)
     return {
         "study": study,
+        "serial_check": serial_check,
         "wall_s": round(wall, 1),
         "cpu_s": round(cpu, 1),
         "by_purpose": dict(by_purpose),
@@ -177,11 +207,14 @@ def main() -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", type=int, choices=sorted(STUDY_FILES), default=1)
     parser.add_argument("--out", type=Path, help="result folder (default: a temporary one)")
+    parser.add_argument(
+        "--serial-check", action="store_true", help="no re-runs of the check made ahead"
+    )
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="fuzzymbs-timeline-"))
     figures = {"load_average_start": load_average()}
     try:
-        figures.update(timeline(args.study, out))
+        figures.update(timeline(args.study, out, args.serial_check))
     finally:
         if args.out is None:
             shutil.rmtree(out, ignore_errors=True)
