@@ -452,10 +452,14 @@ def test_the_plans_first_points_run_ahead_on_the_model_the_choice_takes():
     fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
     study = Study(AheadDecay(1e-2), fuzzy, levels=2, integration_tolerance=0.01)
     attrs = study.run(progress=False).dataset.attrs
-    assert len(AheadDecay.ahead) == 1
+    assert len(AheadDecay.ahead) == 2
     rtol, points = AheadDecay.ahead[0]
     assert rtol == pytest.approx(1e-2 / attrs["integration_tolerance_factor"], rel=1e-12)
     np.testing.assert_array_equal(points, study.plan.samples[:8, 0])
+    # then, beside the validation runs, the check's re-runs on its tighter model
+    check_rtol, checked = AheadDecay.ahead[1]
+    assert check_rtol == pytest.approx(rtol / 10, rel=1e-12)
+    assert len(checked) == attrs["time_integration_runs"] == 4
     # the adaptive method: its first round
     AheadDecay.ahead.clear()
     adaptive = Study(AheadDecay(1e-2), fuzzy, method="adaptive", levels=2)
