@@ -120,3 +120,49 @@ def test_adaptive_study1_certifies_its_bands_and_holds_every_reduced_run():
             bands[name].upper - upper, 0.0
         )
         assert np.nanmax(width_relative(outside, lower, upper)) <= 0.012, name
+
+
+def test_the_checks_re_runs_made_ahead_are_the_checks_bit_for_bit(monkeypatch):
+    # the demo's study 1 over its first millisecond: the check's re-runs go on beside
+    # the adaptive method's last judgment and the check takes them (no integrator call
+    # of its own); every output and figure of the result as with the re-runs made by the
+    # check itself
+    import inspect
+
+    import fuzzymbs.mbs.integrate as integrate
+
+    parameters = {
+        "pad_spring_stiffness": {"type": "triangular", "modal": 200e3, "spread": 0.1},
+        "caliper_spring_stiffness": {"type": "triangular", "modal": 1e3, "spread": 0.1},
+        "nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01},
+    }
+    simulate = integrate.simulate
+
+    def run() -> tuple[object, list[int]]:
+        calls: list[int] = []
+
+        def counted(system, samples=None, **options):
+            if any(frame.function == "check_time_integration" for frame in inspect.stack(0)):
+                calls.append(len(next(iter(samples.values()))))
+            return simulate(system, samples, **options)
+
+        monkeypatch.setattr(integrate, "simulate", counted)
+        study = Study(
+            DiscBrake(t_end=1e-3),
+            parameters,
+            method="adaptive",
+            levels=[0.0, 0.25, 0.5, 0.75, 1.0],
+            outputs=["y_lpad", "y_upad", "y_cali"],
+        )
+        return study.run(progress=False).dataset, calls
+
+    ahead, calls = run()
+    assert calls == []  # the check made no run: the ones made ahead were its
+    assert ahead.attrs["time_integration_runs"] == 8
+    monkeypatch.setattr(Study, "_start_check", lambda self, samples: None)
+    serial, calls = run()
+    assert calls == [8]
+    for name in ("time_integration_error", "time_integration_worst", "method_error"):
+        assert ahead.attrs[name] == serial.attrs[name]
+    for name, values in ahead.data_vars.items():
+        np.testing.assert_array_equal(values.values, serial[name].values)

@@ -4,7 +4,7 @@ its cut widths."""
 from __future__ import annotations
 
 import warnings
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
@@ -452,10 +452,14 @@ def test_the_plans_first_points_run_ahead_on_the_model_the_choice_takes():
     fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
     study = Study(AheadDecay(1e-2), fuzzy, levels=2, integration_tolerance=0.01)
     attrs = study.run(progress=False).dataset.attrs
-    assert len(AheadDecay.ahead) == 1
+    assert len(AheadDecay.ahead) == 2
     rtol, points = AheadDecay.ahead[0]
     assert rtol == pytest.approx(1e-2 / attrs["integration_tolerance_factor"], rel=1e-12)
     np.testing.assert_array_equal(points, study.plan.samples[:8, 0])
+    # then, beside the validation runs, the check's re-runs on its tighter model
+    check_rtol, checked = AheadDecay.ahead[1]
+    assert check_rtol == pytest.approx(rtol / 10, rel=1e-12)
+    assert len(checked) == attrs["time_integration_runs"] == 4
     # the adaptive method: its first round
     AheadDecay.ahead.clear()
     adaptive = Study(AheadDecay(1e-2), fuzzy, method="adaptive", levels=2)
@@ -572,3 +576,114 @@ def test_run_cut_bounds_against_a_direct_search():
             assert cut.upper_sample[j, e] == rows[int(np.argmax(values))]
         assert tallies[j].sum() == (4 if rows else 0)
     assert tallies[0][3] == 0  # a failed run bounds nothing
+
+
+class KeptWavy(SharedDecay):
+    """:class:`SharedDecay` with a second parameter ``b`` that moves the signal non-
+    monotonically (the adaptive method confirms its extrema in a last round), and runs
+    made ahead (``run_ahead``) kept and taken by later calls; ``evaluated`` records every
+    sample it evaluates (rtol, a, b, made ahead)."""
+
+    evaluated: ClassVar[list] = []
+
+    def __init__(self, rtol: float, modal: float | None = None) -> None:
+        super().__init__(rtol, modal)
+        self.kept: dict[tuple[float, float], np.ndarray] = {}
+
+    def share_steps(self, modal) -> KeptWavy:
+        return KeptWavy(self.rtol, float(np.asarray(modal["a"])[0]))
+
+    def tightened(self, factor: float = 10.0) -> KeptWavy:
+        return KeptWavy(self.rtol / factor, self.modal)
+
+    def _evaluate(self, a: np.ndarray, b: np.ndarray, ahead: bool) -> np.ndarray:
+        for x, y in zip(a, b, strict=True):
+            KeptWavy.evaluated.append((self.rtol, float(x), float(y), ahead))
+        y = super().__call__({"a": a})["y"]
+        return y + 0.1 * np.sin(3 * b)[:, None] * np.cos(2 * np.pi * TIME)
+
+    def run_ahead(self, samples, then=None) -> None:
+        a = np.asarray(samples["a"], dtype=float)
+        b = np.asarray(samples["b"], dtype=float)
+        for x, y, row in zip(a, b, self._evaluate(a, b, True), strict=True):
+            self.kept[(float(x), float(y))] = row
+        if then is not None:
+            then()
+
+    def __call__(self, samples):
+        a = np.asarray(samples["a"], dtype=float)
+        b = np.asarray(samples.get("b", np.full(a.shape, 0.5)), dtype=float)
+        keys = [(float(x), float(y)) for x, y in zip(a, b, strict=True)]
+        missing = [i for i, key in enumerate(keys) if key not in self.kept]
+        y = np.empty((len(a), len(TIME)))
+        if missing:
+            y[missing] = self._evaluate(a[missing], b[missing], False)
+        for i, key in enumerate(keys):
+            if key in self.kept:
+                y[i] = self.kept[key]
+        failed = np.zeros(len(a), dtype=bool)
+        return {"y": y, "failed": failed, "failure_reason": np.full(len(a), "")}
+
+
+def test_the_checks_re_runs_start_with_the_confirmation_round_and_are_not_repeated(
+    monkeypatch,
+):
+    # once the adaptive method has proposed the round that confirms its extrema (most
+    # likely its last), the check's re-runs of the samples chosen from the runs so far
+    # start on the check's tighter model; the check then takes them instead of running
+    # them again, and its figures are those of the check without them, bit for bit
+    fuzzy = {
+        "a": {"type": "triangular", "modal": 2.0, "spread": 0.1},
+        "b": {"type": "triangular", "modal": 0.5, "spread": 0.8},
+    }
+
+    def run() -> tuple[Study, Any]:
+        KeptWavy.evaluated.clear()
+        study = Study(KeptWavy(1e-2), fuzzy, method="adaptive", levels=2)
+        return study, study.run(progress=False).dataset
+
+    study, ahead = run()
+    factor = ahead.attrs["integration_tolerance_factor"]
+    check_rtol = 1e-2 / factor / 10
+    checked = [e for e in KeptWavy.evaluated if e[0] == pytest.approx(check_rtol, rel=1e-12)]
+    assert len(checked) == ahead.attrs["time_integration_runs"] == 8
+    assert all(made_ahead for *_, made_ahead in checked)  # none made again by the check
+    assert study.plan.confirming is False and study.plan.done
+    monkeypatch.setattr(Study, "check_ahead", lambda self, outputs: None)
+    _, serial = run()
+    checked = [e for e in KeptWavy.evaluated if e[0] == pytest.approx(check_rtol, rel=1e-12)]
+    assert len(checked) == 8 and not any(made_ahead for *_, made_ahead in checked)
+    for name in ("time_integration_error", "time_integration_worst", "time_integration_runs"):
+        assert ahead.attrs[name] == serial.attrs[name]
+    for name, values in ahead.data_vars.items():
+        np.testing.assert_array_equal(values.values, serial[name].values)
+
+
+@pytest.mark.filterwarnings("ignore::fuzzymbs.fuzzy.accumulate.NonMonotonicWarning")
+def test_a_fixed_plans_check_runs_beside_its_validation_runs(monkeypatch):
+    # a fixed plan's check samples are known once its runs are in: their re-runs go on
+    # beside the method check's validation runs (the reduced method misses b's interior
+    # extrema, which the validation runs report) and the check takes them, bit for bit
+    fuzzy = {
+        "a": {"type": "triangular", "modal": 2.0, "spread": 0.1},
+        "b": {"type": "triangular", "modal": 0.5, "spread": 0.8},
+    }
+
+    def run() -> tuple[Any, list]:
+        KeptWavy.evaluated.clear()
+        study = Study(KeptWavy(1e-2), fuzzy, levels=2, validation_runs=24)
+        dataset = study.run(progress=False).dataset
+        factor = dataset.attrs["integration_tolerance_factor"]
+        rtol = 1e-2 / factor / 10
+        return dataset, [e for e in KeptWavy.evaluated if e[0] == pytest.approx(rtol, rel=1e-12)]
+
+    ahead, checked = run()
+    assert len(checked) == ahead.attrs["time_integration_runs"] > 0
+    assert all(made_ahead for *_, made_ahead in checked)
+    monkeypatch.setattr(Study, "_start_check", lambda self, samples: None)
+    serial, checked = run()
+    assert not any(made_ahead for *_, made_ahead in checked)
+    for name in ("time_integration_error", "time_integration_worst", "method_error"):
+        assert ahead.attrs[name] == serial.attrs[name]
+    for name, values in ahead.data_vars.items():
+        np.testing.assert_array_equal(values.values, serial[name].values)

@@ -217,7 +217,9 @@ class AdaptiveTransformation:
         self._surrogate: Surrogate | None = None
         self._bounds: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
         self._certified = False
-        self._confirming = False  # the last round confirmed the extrema on the model
+        #: the last round proposed confirms the extrema on the model: the rounds end after it
+        #: unless it finds what the surrogate missed (a study checks its time integration meanwhile)
+        self.confirming = False
         # extremal points (arg_lower, arg_upper) of the sparse grid without the correction
         self._rivals: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
@@ -381,19 +383,19 @@ class AdaptiveTransformation:
             self.errors.append(self.error)
             if self._certified and self.error <= self.tolerance:
                 # then one round confirms the extrema on the model (extremum_confirmation.py)
-                room = 0 if self._confirming else min(4 * dimension, self.max_runs - self.runs)
+                room = 0 if self.confirming else min(4 * dimension, self.max_runs - self.runs)
                 probes = confirmation_probes(
                     surrogate, *bounds[2:], self._box_low, self._box_high, self._scale(),
                     self._units, self._high > self._low, near=_NEAR, limit=room
                 )  # fmt: skip
-                self.error = max(self.errors[-2 if self._confirming else -1 :])
-                self._confirming = len(probes) > 0
-                if self._confirming:
+                self.error = max(self.errors[-2 if self.confirming else -1 :])
+                self.confirming = len(probes) > 0
+                if self.confirming:
                     self._reported = self._widened()
                     return self.to_parameters(probes), [None] * len(probes)
                 self._finish(converged=True)
                 return np.empty((0, dimension)), []
-            self._confirming = False
+            self.confirming = False
             if self._noise_limited():
                 self._finish(converged=False, status=NOISE)
                 return np.empty((0, dimension)), []

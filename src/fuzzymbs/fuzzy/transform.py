@@ -547,6 +547,12 @@ class RoundsPlan(Plan):
         """No round is left (converged, or the budget is spent)."""
         return self.engine.done
 
+    @property
+    def confirming(self) -> bool:
+        """The last round proposed confirms the method's result on the model, so that the
+        rounds most likely end after it (False for a method without such a round)."""
+        return bool(getattr(self.engine, "confirming", False))
+
     def outcome(self) -> Any:
         """Cuts, certified error, runs and rounds (once the rounds are done); the method
         warns if its budget or the model's noise stopped them above the tolerance."""

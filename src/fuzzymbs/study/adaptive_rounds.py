@@ -105,6 +105,11 @@ def run_rounds(
         plan.add(points, outputs)
         for name, value in outputs.items():
             pieces.setdefault(name, []).append(value)
+        check_ahead = getattr(study, "check_ahead", None)
+        if plan.confirming and callable(check_ahead):
+            # most likely the last round: the time-integration check's re-runs start on the
+            # runs so far while the method judges them (kept; the check takes those it needs)
+            check_ahead({name: np.concatenate(value) for name, value in pieces.items()})
         evaluated += done
         reused += from_store
         logger.info(

@@ -99,6 +99,8 @@ class StudyRuns:
     name: str
     options: StudyOptions
     run: Callable[..., Any]  # Study.run: its keywords are screen's too
+    #: the check's tighter model with re-runs made ahead (:meth:`StudyRuns.check_ahead`)
+    _check_model: Any = None
 
     def _screening_identity(self) -> dict[str, Any]:
         """What a screening store must match: the screening points and the model.
@@ -350,7 +352,8 @@ class StudyRuns:
         """The samples that give the bounds re-run by a time-integrated model at a tighter
         tolerance (:mod:`fuzzymbs.study.integration_check`); ``outputs`` (every run's, of
         a plan whose bounds are not its runs: the adaptive method) bound the cuts by the
-        runs inside each box (:func:`~fuzzymbs.study.integration_check.run_cut_bounds`)."""
+        runs inside each box (:func:`~fuzzymbs.study.integration_check.run_cut_bounds`).
+        Re-runs made ahead (:meth:`check_ahead`) are taken, not made again."""
         if not callable(getattr(self.model, "tightened", None)):
             return None
         include_nominal = not getattr(self.model, "shares_steps", False)
@@ -359,15 +362,9 @@ class StudyRuns:
                 feed, self.output_names, failed, self.options.integration_runs, include_nominal
             )
         else:
-            plan = self.plan
-            tallies, run_bounds = run_cut_bounds(
-                plan.samples, outputs, plan.cut_lower, plan.cut_upper, failed
-            )
-            samples = choose_samples(
-                tallies, plan.nominal_index, failed, self.options.integration_runs, include_nominal
-            )
-            bounds = {name: run_bounds.get(name) for name in self.output_names}
+            samples, bounds = self._run_check_inputs(outputs, failed, include_nominal)
         label = f"{self.name} (time-integration check: {len(samples)} samples, tolerance / 10)"
+        tight, self._check_model = self._check_model, None
         with progress_phase(progress, label, len(samples)):
             return check_time_integration(
                 self.model,
@@ -378,7 +375,50 @@ class StudyRuns:
                 self.plan.nominal_index,
                 self.plan.levels,
                 self.options.integration_tolerance,
+                tight=tight,
             )
+
+    def _run_check_inputs(
+        self, outputs: Mapping[str, np.ndarray], failed: np.ndarray, include_nominal: bool
+    ) -> tuple[list[int], dict[str, Any]]:
+        """The check's samples and bounds of a plan bounded by its runs inside each cut box
+        (``outputs``: every run's so far, in the plan's order)."""
+        plan = self.plan
+        tallies, run_bounds = run_cut_bounds(
+            plan.samples, outputs, plan.cut_lower, plan.cut_upper, failed
+        )
+        samples = choose_samples(
+            tallies, plan.nominal_index, failed, self.options.integration_runs, include_nominal
+        )
+        return samples, {name: run_bounds.get(name) for name in self.output_names}
+
+    def check_ahead(self, outputs: Mapping[str, np.ndarray]) -> None:
+        """Start the time-integration check's re-runs of the samples it would choose from
+        the runs so far (``outputs``: every run's, in the plan's order; a plan in rounds
+        after what is most likely its last) while the plan's method judges the runs
+        (:meth:`_start_check`)."""
+        if not getattr(self.model, "shares_steps", False):
+            return
+        failed = np.zeros(len(self.plan.samples), dtype=bool)
+        samples, _ = self._run_check_inputs(outputs, failed, include_nominal=False)
+        self._start_check(samples)
+
+    def _start_check(self, samples: list[int]) -> None:
+        """Run the time-integration check's re-runs of ``samples`` (rows of the plan) in the
+        background on the check's tighter model, kept there: the check takes those it
+        chooses in the end instead of running them again (a sample's outputs do not
+        depend on its batch, so a kept run is bit for bit the run it saves). Only on
+        shared steps (a tighter model with ``run_ahead``); a run ahead that the check does
+        not choose is lost."""
+        tightened = getattr(self.model, "tightened", None)
+        if not samples or not getattr(self.model, "shares_steps", False) or not callable(tightened):
+            return
+        tight = self._check_model if self._check_model is not None else tightened()
+        run_ahead = getattr(tight, "run_ahead", None)
+        if not callable(run_ahead):
+            return
+        self._check_model = tight
+        run_ahead(self._columns(self.plan.samples[samples], 0, len(samples)))
 
     def screen(self, **settings: Any) -> dict[str, Any]:
         """Screen a ``nonmonotonic="auto"`` study and build its extended plan.

@@ -222,6 +222,7 @@ def check_time_integration(
     nominal_index: int,
     levels: NDArray[np.float64],
     tolerance: float = StudyOptions.integration_tolerance,
+    tight: Any = None,
 ) -> IntegrationCheck | None:
     """Re-run ``samples`` with ``model.tightened()`` and measure the bounds' deviation.
 
@@ -236,6 +237,7 @@ def check_time_integration(
     nominal_index : the modal sample's index.
     levels : (L,) membership levels (for the message).
     tolerance : the study's largest acceptable error (of the cut width).
+    tight : ``model.tightened()`` made already (holding re-runs made ahead), or None.
 
     Returns
     -------
@@ -245,7 +247,8 @@ def check_time_integration(
         cannot be computed.
     """
     tightened: Callable[[], Any] | None = getattr(model, "tightened", None)
-    tight = tightened() if callable(tightened) else None
+    if tight is None:
+        tight = tightened() if callable(tightened) else None
     if tight is None:
         return None
     method = str(getattr(model, "time_integration", ""))

@@ -65,7 +65,7 @@ from fuzzymbs.study.planning import (
 from fuzzymbs.study.registry import ParameterInfo
 from fuzzymbs.study.result import StudyResult, build_dataset, check_output_names
 from fuzzymbs.study.store import open_chunks
-from fuzzymbs.study.streaming import ChunkFeed
+from fuzzymbs.study.streaming import ChunkFeed, integration_inputs
 
 __all__ = ["DEFAULT_CHUNK_SIZE", "ON_FAILURE", "Study", "StudyOptions", "StudyResult"]
 
@@ -146,6 +146,7 @@ class Study(StudyRuns):
         method_options = {key: given.pop(key) for key in list(given) if is_method_option(key)}
         options = StudyOptions.given(options, given)
         self.integration_choice: ToleranceChoice | None = None
+        self._check_model: Any = None  # the check's tighter model, re-runs made ahead
         resolved = resolve_model(model, model_options or {})
         self.model = resolved.model
         self.model_name = resolved.name
@@ -440,6 +441,13 @@ class Study(StudyRuns):
             failed, reasons = feed.failed, feed.reasons_array()
             validation = None
             if not failed.all() and (on_failure == "partial" or not failed.any()):
+                if self.validation_count() and getattr(self.model, "shares_steps", False):
+                    # the check's samples are known: their re-runs go on beside the
+                    # method check's (its rounds leave a core idle while they search)
+                    inputs = integration_inputs(
+                        feed, self.output_names, failed, self.options.integration_runs, False
+                    )
+                    self._start_check(inputs[0])
                 validation = self._validate(
                     work, feed, failed, requested_size, store, resume, progress, code
                 )
