@@ -39,14 +39,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import ModelOutputError
 from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, evaluate_series
-from fuzzymbs.fuzzy.residual_correction import KernelCorrection, cubic_kernel, distances
+from fuzzymbs.fuzzy.residual_correction import (
+    KernelCorrection,
+    cubic_kernel,
+    distances,
+    distinct_centres,
+)
 
 __all__ = ["HermiteCorrection", "flatten_gradients", "hermite_correction"]
 
 #: float64 entries of one block of kernel values
 _BLOCK_ENTRIES = 4_000_000
-#: points closer than this (unit coordinates) are one centre
-_SAME = 1e-9
 
 
 class HermiteCorrection(KernelCorrection):
@@ -76,13 +79,10 @@ class HermiteCorrection(KernelCorrection):
         sloped: NDArray[np.bool_],
         moving: NDArray,
     ) -> None:
-        self.moving = np.asarray(moving, dtype=bool)
-        centres = np.asarray(centres, dtype=float)[:, self.moving]
-        close = np.triu(distances(centres, centres) < _SAME, k=1).any(axis=0)
-        self.centres = centres[~close]
-        residuals = np.asarray(residuals, dtype=float)[~close]
-        keep = np.asarray(sloped, dtype=bool)[~close]
-        slopes = np.asarray(slopes, dtype=float)[~close][keep][:, :, self.moving]  # (G, E, m)
+        self.moving, self.centres, distinct = distinct_centres(centres, moving)
+        residuals = np.asarray(residuals, dtype=float)[distinct]
+        keep = np.asarray(sloped, dtype=bool)[distinct]
+        slopes = np.asarray(slopes, dtype=float)[distinct][keep][:, :, self.moving]  # (G, E, m)
         self.slope_centres = self.centres[keep]
         count, dimension = self.centres.shape
         sloped_count = len(self.slope_centres)
@@ -125,49 +125,50 @@ class HermiteCorrection(KernelCorrection):
         self._anchor = np.einsum("gl,gle->ge", self.slope_centres, self.slope_weights)
         self.tail = solution[size:]  # (1 + m, E)
 
+    def _slope_parts(
+        self, part: NDArray[np.float64], own: NDArray[np.intp]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """``x_k - x_g`` (k, G, m), its length (k, G) and element ``own[k]``'s gradient
+        weights at each slope centre (k, G, m)."""
+        d = part[:, None, :] - self.slope_centres[None, :, :]
+        weights = self.slope_weights[:, :, own].transpose(2, 0, 1)
+        return d, np.linalg.norm(d, axis=2), weights
+
     def _block(self) -> int:
         centres = len(self.centres) + len(self.slope_centres) * max(1, self.centres.shape[1])
         return max(1, _BLOCK_ENTRIES // max(1, centres))
 
+    # each method adds the gradient functionals' terms to the value-only correction's
+    # (KernelCorrection: the kernel on the centres and the linear tail)
+
     def values(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """(Q, E) the correction at points (Q, n)."""
+        out = super().values(points)
+        if not len(self.slope_centres):
+            return out
         points = np.atleast_2d(np.asarray(points, dtype=float))[:, self.moving]
-        out = np.empty((len(points), self.weights.shape[1]))
         block = self._block()
         for start in range(0, len(points), block):
             part = points[start : start + block]
-            kernel = cubic_kernel(part, self.centres)
-            value = kernel @ self.weights + self.tail[0] + part @ self.tail[1:]
-            if len(self.slope_centres):
-                # -3 sum_g |x - x_g| (x - x_g) . v_g
-                r = distances(part, self.slope_centres)  # (q, G)
-                along = sum(
-                    part[:, l : l + 1] * (r @ self.slope_weights[:, l, :])
-                    for l in range(part.shape[1])
-                )
-                value -= 3.0 * (along - r @ self._anchor)
-            out[start : start + block] = value
+            # -3 sum_g |x - x_g| (x - x_g) . v_g
+            r = distances(part, self.slope_centres)  # (q, G)
+            along = sum(
+                part[:, l : l + 1] * (r @ self.slope_weights[:, l, :]) for l in range(part.shape[1])
+            )
+            out[start : start + block] -= 3.0 * (along - r @ self._anchor)
         return out
 
     def at(self, points: NDArray[np.float64], element: NDArray[np.intp]) -> NDArray[np.float64]:
         """(K,) the correction of element ``element[k]`` at ``points[k]``."""
+        out = super().at(points, element)
+        if not len(self.slope_centres):
+            return out
         points = np.asarray(points, dtype=float)[:, self.moving]
-        out = np.empty(len(points))
         block = self._block()
         for start in range(0, len(points), block):
             part, own = points[start : start + block], element[start : start + block]
-            tail = self.tail[:, own]
-            value = (
-                (cubic_kernel(part, self.centres) * self.weights[:, own].T).sum(axis=1)
-                + tail[0]
-                + (part * tail[1:].T).sum(axis=1)
-            )
-            if len(self.slope_centres):
-                d = part[:, None, :] - self.slope_centres[None, :, :]  # (k, G, m)
-                r = np.linalg.norm(d, axis=2)
-                weights = self.slope_weights[:, :, own].transpose(2, 0, 1)  # (k, G, m)
-                value -= 3.0 * np.einsum("kg,kgl,kgl->k", r, d, weights)
-            out[start : start + block] = value
+            d, r, weights = self._slope_parts(part, own)
+            out[start : start + block] -= 3.0 * np.einsum("kg,kgl,kgl->k", r, d, weights)
         return out
 
     def gradient_at(
@@ -175,27 +176,21 @@ class HermiteCorrection(KernelCorrection):
     ) -> NDArray[np.float64]:
         """(K, n) the gradient of element ``element[k]``'s correction at ``points[k]``
         (zero along the directions that do not vary)."""
-        full = np.asarray(points, dtype=float)
-        points = full[:, self.moving]
-        slope = np.empty_like(points)
+        gradient = super().gradient_at(points, element)
+        if not len(self.slope_centres):
+            return gradient
+        points = np.asarray(points, dtype=float)[:, self.moving]
+        slope = gradient[:, self.moving]
         block = self._block()
         for start in range(0, len(points), block):
             part, own = points[start : start + block], element[start : start + block]
-            distance = distances(part, self.centres)  # (k, P)
-            factor = 3.0 * distance * self.weights[:, own].T  # (k, P)
-            here = factor.sum(axis=1)[:, None] * part - factor @ self.centres + self.tail[1:, own].T
-            if len(self.slope_centres):
-                # grad of -3 r (d . v) = -3 (r v + d (d . v) / r), zero at r = 0
-                d = part[:, None, :] - self.slope_centres[None, :, :]  # (k, G, m)
-                r = np.linalg.norm(d, axis=2)
-                weights = self.slope_weights[:, :, own].transpose(2, 0, 1)  # (k, G, m)
-                dot = np.einsum("kgl,kgl->kg", d, weights)
-                ratio = np.where(r > 0.0, dot / np.where(r > 0.0, r, 1.0), 0.0)
-                here -= 3.0 * (
-                    np.einsum("kg,kgl->kl", r, weights) + np.einsum("kg,kgl->kl", ratio, d)
-                )
-            slope[start : start + block] = here
-        gradient = np.zeros_like(full)
+            # grad of -3 r (d . v) = -3 (r v + d (d . v) / r), zero at r = 0
+            d, r, weights = self._slope_parts(part, own)
+            dot = np.einsum("kgl,kgl->kg", d, weights)
+            ratio = np.where(r > 0.0, dot / np.where(r > 0.0, r, 1.0), 0.0)
+            slope[start : start + block] -= 3.0 * (
+                np.einsum("kg,kgl->kl", r, weights) + np.einsum("kg,kgl->kl", ratio, d)
+            )
         gradient[:, self.moving] = slope
         return gradient
 

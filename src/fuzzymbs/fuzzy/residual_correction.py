@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["KernelCorrection", "cubic_kernel", "distances"]
+__all__ = ["KernelCorrection", "cubic_kernel", "distances", "distinct_centres"]
 
 #: float64 entries of one block of kernel values
 _BLOCK_ENTRIES = 4_000_000
@@ -49,11 +49,8 @@ class KernelCorrection:
     def __init__(
         self, centres: NDArray[np.float64], residuals: NDArray[np.float64], moving: NDArray
     ) -> None:
-        self.moving = np.asarray(moving, dtype=bool)
-        centres = np.asarray(centres, dtype=float)[:, self.moving]
-        close = np.triu(distances(centres, centres) < _SAME, k=1).any(axis=0)
-        self.centres = centres[~close]
-        residuals = np.asarray(residuals, dtype=float)[~close]
+        self.moving, self.centres, distinct = distinct_centres(centres, moving)
+        residuals = np.asarray(residuals, dtype=float)[distinct]
         count, dimension = self.centres.shape
         kernel = cubic_kernel(self.centres, self.centres)
         tail = np.concatenate((np.ones((count, 1)), self.centres), axis=1)
@@ -117,6 +114,17 @@ class KernelCorrection:
         gradient = np.zeros_like(full)
         gradient[:, self.moving] = slope
         return gradient
+
+
+def distinct_centres(
+    centres: NDArray[np.float64], moving: NDArray
+) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.bool_]]:
+    """``moving`` as booleans, the centres (P, n) in the moving directions with every point
+    closer than ``1e-9`` to an earlier one left out, and which rows were kept (P,)."""
+    moving = np.asarray(moving, dtype=bool)
+    centres = np.asarray(centres, dtype=float)[:, moving]
+    distinct = ~np.triu(distances(centres, centres) < _SAME, k=1).any(axis=0)
+    return moving, centres[distinct], distinct
 
 
 def distances(points: NDArray[np.float64], centres: NDArray[np.float64]) -> NDArray[np.float64]:
