@@ -330,6 +330,7 @@ def plot(bands: dict, path: Path) -> None:
     kinds = {  # label prefix -> marker, colour, legend, label offset
         "rk4": ("s", "k", "RK4 (the paper)", (4, 2)),
         "sha": ("^", "C1", "ROS34PW2 on shared steps (default)", (4, -9)),
+        "rod": ("v", "C2", "RODAS4 on shared steps", (4, -9)),
         "rto": ("o", "C0", "ROS34PW2, own steps per sample", (4, 2)),
     }
     for ax, (study, entries) in zip(axes, bands.items(), strict=False):
@@ -346,7 +347,10 @@ def plot(bands: dict, path: Path) -> None:
             )
             shown.add(legend)
             ax.annotate(
-                label.replace("shared rtol ", "").replace("rtol ", "").replace("rk4 ", ""),
+                label.replace("rodas4 ", "")
+                .replace("shared rtol ", "")
+                .replace("rtol ", "")
+                .replace("rk4 ", ""),
                 (entry["cpu_s"], 100 * worst),
                 fontsize=7,
                 xytext=offset,
@@ -393,6 +397,15 @@ def main(argv: list[str] | None = None) -> dict:
         help="tolerances on the modal sample's shared steps",
     )
     parser.add_argument(
+        "--shared-integrators",
+        nargs="+",
+        default=["ros34pw2"],
+        choices=["ros34pw2", "rodas4"],
+        help="Rosenbrock methods of the shared-step variants",
+    )
+    parser.add_argument("--no-rk4", action="store_true", help="leave out the paper's RK4 at 1 us")
+    parser.add_argument("--studies", type=int, nargs="+", default=[1, 2], help="studies of 'bands'")
+    parser.add_argument(
         "--cost-studies", type=int, nargs="+", default=[1], help="studies whose default to time"
     )
     args = parser.parse_args(argv)
@@ -404,7 +417,7 @@ def main(argv: list[str] | None = None) -> dict:
         plot(merged, REPO / "docs" / "figures" / "brake_band_precision.png")
         return {"bands": merged}
     t_end = 1e-3 if args.quick else 1e-2
-    studies = (1,) if args.quick else (1, 2)
+    studies = (1,) if args.quick else tuple(args.studies)
     rtols = (1e-2, 1e-3) if args.quick else tuple(args.rtol)
     figures: dict = {"load_average_start": load_average(), "t_end_s": t_end}
     parts = set(args.parts)
@@ -425,8 +438,14 @@ def main(argv: list[str] | None = None) -> dict:
             continue
         entries = {}
         variants = [(f"rtol {r:g}", {"rtol": r}, False) for r in rtols]
-        variants += [(f"shared rtol {r:g}", {"rtol": r}, True) for r in args.shared_rtol]
-        variants.append(("rk4 1 us", {"integrator": "rk4", "dt": 1e-6}, False))
+        for method in args.shared_integrators:
+            prefix = "shared" if method == "ros34pw2" else f"{method} shared"
+            variants += [
+                (f"{prefix} rtol {r:g}", {"rtol": r, "integrator": method}, True)
+                for r in args.shared_rtol
+            ]
+        if not args.no_rk4:
+            variants.append(("rk4 1 us", {"integrator": "rk4", "dt": 1e-6}, False))
         for label, settings, shared in variants:
             bands, cpu, wall = evaluate_bands(study, t_end, settings, shared)
             entries[label] = {
