@@ -12,7 +12,7 @@ on the same right-hand side, for checks.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,7 +25,14 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
-from fuzzymbs.mbs.kernels.rosenbrock import METHODS, ros34pw2
+from fuzzymbs.mbs.kernels.rosenbrock import (
+    METHODS,
+    SENS_DELTA,
+    SENS_LINEARISED,
+    SENS_STAGES,
+    no_sensitivity,
+    ros34pw2,
+)
 from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.shared_steps import (
     SharedSteps,
@@ -42,8 +49,14 @@ KERNELS = ("auto", "lanes", "samples")
 #: with error control (:mod:`fuzzymbs.mbs.kernels.rosenbrock`; opt-in here): ROS34PW2 (the
 #: brake model's default) and RODAS4
 INTEGRATORS = ("rk4", "ros34pw2", "rodas4")
-#: the integrators with error control (a tolerance, shared steps, step logs)
+#: the integrators with error control (a tolerance, shared steps, step logs, sensitivities)
 ROSENBROCK = ("ros34pw2", "rodas4")
+#: how the sensitivities' right-hand side ``f_x S + f_p`` is evaluated at a stage
+#: (docs/theory.md, "Forward sensitivities"): "stages", a directional difference of the
+#: right-hand side at every stage (one per parameter and stage); "linearised", the
+#: step's Jacobian for ``f_x S`` and a difference for ``f_p`` at the step's start (one
+#: per parameter and step, first order in the step)
+SENSITIVITY_METHODS = {"stages": SENS_STAGES, "linearised": SENS_LINEARISED}
 
 
 @dataclass
@@ -74,6 +87,14 @@ class SimulationResult:
     #: (B, 3) right-hand sides, Jacobians and LU factorisations of each sample's runs
     #: (ROS34PW2, RODAS4: the block calls it took part in), None for RK4
     work_counts: NDArray[np.int64] | None = None
+    #: {output: (B, T, P)} the outputs' derivatives with respect to the parameters asked
+    #: for (``simulate(..., sensitivities=names)``), the last axis in that order, in the
+    #: output's unit per the parameter's (NaN rows for failed samples); None without
+    gradients: dict[str, NDArray[np.float64]] | None = None
+    #: the parameters of ``gradients``' last axis
+    gradient_parameters: tuple[str, ...] = ()
+    #: (B,) right-hand sides the sensitivities took (besides ``work_counts``'), None without
+    sensitivity_rhs: NDArray[np.int64] | None = None
 
 
 def _check_timing(t_end: float, dt: float, record_interval: float | None) -> tuple[int, int]:
@@ -110,6 +131,8 @@ def simulate(
     step_sequence: NDArray[np.float64] | None = None,
     jacobian_renewals: NDArray[np.bool_] | None = None,
     log_steps: bool | int = False,
+    sensitivities: Sequence[str] = (),
+    sensitivity_method: str = "stages",
 ) -> SimulationResult:
     """Integrate a batch of samples with classic RK4 (fixed step) or ROS34PW2.
 
@@ -171,6 +194,16 @@ def simulate(
         ROS34PW2 only: return the ends of the first sample's accepted steps as
         ``step_times`` (and ``step_renewals``); a number: at most that many (default
         20 per dt, at least 10^6), more raise :class:`~fuzzymbs.errors.InvalidParameterError`.
+    sensitivities : sequence of str
+        ROS34PW2 and RODAS4 only: names of bound parameters (``compiled.parameters.names``)
+        whose forward sensitivities ``dx/dp`` are integrated with the state, on the
+        state's steps (the state's error control alone chooses them, so the outputs are
+        bit for bit those of the run without); the result's ``gradients`` then hold the
+        outputs' derivatives, (B, T, P) per output in this order, in the output's unit
+        per the parameter's (docs/theory.md, "Forward sensitivities").
+    sensitivity_method : {"stages", "linearised"}
+        How the sensitivities' right-hand side is evaluated (:data:`SENSITIVITY_METHODS`;
+        their accuracy and cost in docs/theory.md).
     """
     _check_kernel(kernel)
     rtols, atols, h_min = _check_integrator(integrator, tolerance)
@@ -182,6 +215,14 @@ def simulate(
     n_steps, every = _check_timing(t_end, dt, record_interval)
     params = compiled.parameters.values(samples or {})
     batch = params.shape[0]
+    directions = _sensitivity_directions(compiled, sensitivities, integrator, params.shape[1])
+    if sensitivity_method not in SENSITIVITY_METHODS:
+        raise InvalidParameterError(
+            f"sensitivity_method must be one of {tuple(SENSITIVITY_METHODS)}, got "
+            f"{sensitivity_method!r}"
+        )
+    sens_settings = np.array([SENS_DELTA, float(SENSITIVITY_METHODS[sensitivity_method])])
+    nsens = directions.shape[0]
     rtols = _per_sample(rtols, batch, "rtol")
     atols = _per_sample(atols, batch, "atol")
     x0 = _initial(compiled, initial_state, batch)
@@ -203,7 +244,8 @@ def simulate(
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
     fail_t = np.full(batch, np.nan)
-    counts = np.zeros((batch, 5), dtype=np.int64)
+    counts = np.zeros((batch, 6), dtype=np.int64)
+    derivatives = np.empty((batch, out_w.shape[0], n_rec, nsens))
     step_log = np.zeros(1)
     if log_steps is not False:
         capacity = max(20 * n_steps, 10**6) if log_steps is True else int(log_steps)
@@ -223,6 +265,12 @@ def simulate(
                 samples_per_block(kernel),
             )
         else:
+            d = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec, nsens))
+            sensitivity = (
+                (directions, sens_settings, d)
+                if nsens
+                else no_sensitivity(params.shape[1], d.shape[0], out_w.shape[0], n_rec)
+            )
             ros34pw2(
                 compiled.data,
                 np.ascontiguousarray(params[sl]),
@@ -236,13 +284,19 @@ def simulate(
                 renewals,
                 step_log if start == 0 else np.zeros(1),
                 METHODS[integrator],
+                sensitivity,
             )
+            derivatives[sl] = d
         out[sl] = o
         status[sl] = st
         fail_t[sl] = ft
     time = np.arange(n_rec) * every * dt
     logged = _logged(step_log) if log_steps is not False else None
     reasons = np.array([FAILURE_REASONS[int(s)] for s in status], dtype=str)
+    gradients = None
+    if nsens:
+        derivatives[status != OK] = np.nan
+        gradients = {name: derivatives[:, i] for i, name in enumerate(outputs)}
     return SimulationResult(
         time=time,
         outputs={name: out[:, i, :] for i, name in enumerate(outputs)},
@@ -252,8 +306,51 @@ def simulate(
         step_counts=None if integrator == "rk4" else counts[:, :2].copy(),
         step_times=None if logged is None else logged[:, 0].copy(),
         step_renewals=None if logged is None else logged[:, 1] != 0.0,
-        work_counts=None if integrator == "rk4" else counts[:, 2:].copy(),
+        work_counts=None if integrator == "rk4" else counts[:, 2:5].copy(),
+        gradients=gradients,
+        gradient_parameters=tuple(sensitivities) if nsens else (),
+        sensitivity_rhs=counts[:, 5].copy() if nsens else None,
     )
+
+
+def _sensitivity_directions(
+    compiled: CompiledSystem, names: Sequence[str], integrator: str, slots: int
+) -> NDArray[np.float64]:
+    """(P, slots): 1.0 in the slots each named parameter sets (the kernel's directions).
+
+    Raises
+    ------
+    InvalidParameterError
+        Not a sequence of names, a name twice, a name the system does not bind, or an
+        integrator without sensitivities (RK4).
+    """
+    if isinstance(names, str) or not all(isinstance(name, str) for name in names):
+        raise InvalidParameterError(
+            f"sensitivities must be a sequence of parameter names, got {names!r}"
+        )
+    names = tuple(names)
+    if not names:
+        return np.zeros((0, slots))
+    if integrator not in ROSENBROCK:
+        raise InvalidParameterError(
+            f"sensitivities are integrated by the Rosenbrock methods {ROSENBROCK} only; "
+            f"integrator={integrator!r} has none (choose one of them)"
+        )
+    known = compiled.parameters.names
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise InvalidParameterError(
+            f"sensitivities: unknown parameter(s) {unknown}; this system binds {list(known)}"
+        )
+    if len(set(names)) != len(names):
+        raise InvalidParameterError(f"sensitivities: a parameter named twice in {list(names)}")
+    table = compiled.parameters.slots
+    directions = np.zeros((len(names), slots))
+    for k, name in enumerate(names):
+        for slot, entry in enumerate(table):
+            if entry.parameter == name:
+                directions[k, slot] = 1.0
+    return directions
 
 
 def _logged(step_log: NDArray[np.float64]) -> NDArray[np.float64]:

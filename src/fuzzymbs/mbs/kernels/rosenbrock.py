@@ -219,17 +219,37 @@ _GRID = 12  # the lane's next point of a shared step sequence
 #: included, the Jacobian's own f not), Jacobians, LU factorisations (for a block of one
 #: sample, the block's calls; lanes of a mixed block share the calls they need together)
 (_N_RHS, _N_JAC, _N_LU) = (13, 14, 15)
-_CONTROL_ROWS = 16
+#: the lane's sensitivity right-hand side at its step's start known (:data:`_S_G0`), and
+#: the right-hand sides the sensitivities took (not counted in ``_N_RHS``)
+(_G_KNOWN, _N_SENS_RHS) = (16, 17)
+_CONTROL_ROWS = 18
 #: step proposal after reaching a point of a shared step sequence: the whole next interval
 _OPEN = np.inf
 
 
+#: rows of a parameter's sensitivity arrays in a block (``sens[k]``): the sensitivity S
+#: at the lane's time, its value at the step's end, the sensitivity right-hand side
+#: ``f_x S + f_p`` at the step's start and at its end; then the stages' increments U_i
+#: and (from ``_S_U + stages``) their right-hand sides r_i
+(_S, _S_NEW, _S_G0, _S_G1, _S_U) = range(5)
+#: sensitivity variants (``settings[1]`` of the kernel's ``sensitivity`` argument):
+#: every stage's sensitivity right-hand side a directional difference of f at the stage
+#: ("stages"), or f_p by a difference at the step's start and f_x S from the step's
+#: Jacobian ("linearised"); docs/theory.md, "Forward sensitivities"
+SENS_STAGES, SENS_LINEARISED = 0, 1
+
+
 @nb.njit(cache=True, nogil=True)
-def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages):
+def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages, nsens=0):
     """State of a block of samples ``first .. first + count - 1`` (count <= 4) at the start:
-    ``(x, p, alive, work, vectors, matrices, piv, control)``, advanced by
+    ``(x, p, alive, work, vectors, matrices, piv, sens, sens_work, control)``, advanced by
     :func:`advance_block_ros` with a method of ``stages`` stages. ``control`` holds one
-    column per lane: every lane keeps its own time, step, error history and Jacobian age."""
+    column per lane: every lane keeps its own time, step, error history and Jacobian age.
+    ``sens`` (nsens, 4 + 2 stages, size) holds the sensitivities to ``nsens`` parameters
+    (rows ``_S`` ..., zero at the start: the initial state does not depend on them),
+    ``sens_work`` the scratch of their right-hand sides and solves, ``(5, size)``: the
+    perturbed state, its f, the stage's right-hand side, the solve's, the perturbed
+    parameter row (the first ``slots L`` entries)."""
     x, p, alive, _, work = start_block(sysdata, params, x0, recording, first, count)
     size = x.shape[0]
     n = size // (2 * L)
@@ -240,6 +260,8 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages):
     # LU, and da/dq, da/dv fresh for the lanes that renew their Jacobian
     matrices = np.zeros((5, n * n * L))
     piv = np.zeros(n * L, dtype=np.int64)
+    sens = np.zeros((nsens, 4 + 2 * stages, size))
+    sens_work = np.zeros((5, max(size, p.shape[0])))
     control = np.zeros((_CONTROL_ROWS, L))
     for lane in range(L):
         control[_H, lane] = h0
@@ -247,7 +269,7 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages):
         control[_ERR_PREV, lane] = 1.0  # the last accepted step's error (PI control)
         control[_LU_STEP, lane] = -1.0  # the step the LU factors were made for
         control[_NEED_JAC, lane] = 1.0  # J and f_t are renewed every JACOBIAN_AGE steps
-    return x, p, alive, work, vectors, matrices, piv, control
+    return x, p, alive, work, vectors, matrices, piv, sens, sens_work, control
 
 
 @nb.njit(cache=True)
@@ -257,6 +279,186 @@ def _copy_lanes(src, dst, lanes):
         if lanes[lane]:
             for i in range(src.shape[0] // L):
                 dst[L * i + lane] = src[L * i + lane]
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _sensitivity_scale(p, direction, delta):
+    """Per lane, the perturbation of a parameter in its differences: ``delta`` times the
+    lane's value (``delta`` itself for a value of zero), so that the state moves by
+    ``delta`` times ``p_k S_k``, the change a 100 % change of p_k would make to first
+    order: a relative perturbation of the same size in state and parameter."""
+    scale = V.splat(0.0)
+    for slot in range(direction.shape[0]):
+        if direction[slot] != 0.0:
+            value = V.vabs(V.load(p, L * slot))
+            scale = V.where_lt(scale, value, value, scale)
+    return V.where_eq(scale, V.splat(0.0), V.splat(delta), delta * scale)
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _perturbed_parameters(p, direction, eps, dst):
+    """``dst[: slots L]`` <- the lanes' parameter rows with parameter k moved by eps."""
+    for slot in range(direction.shape[0]):
+        value = V.load(p, L * slot)
+        if direction[slot] != 0.0:
+            value = value + direction[slot] * eps
+        V.store(dst, L * slot, value)
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def _jacobian_product(jq, jv, s, dst, n):
+    """``dst`` <- ``J s`` for ``J = [[0, I], [A_q, B_v]]`` (lane-minor, per lane)."""
+    for i in range(n):
+        V.store(dst, L * i, V.load(s, L * (n + i)))
+        acc = V.splat(0.0)
+        for j in range(n):
+            acc = acc + V.load(jq, L * (n * i + j)) * V.load(s, L * j)
+            acc = acc + V.load(jv, L * (n * i + j)) * V.load(s, L * (n + j))
+        V.store(dst, L * (n + i), acc)
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def sensitivity_rhs(
+    theta, xb, fb, s, direction, p, delta, linearised, jq, jv, sysdata, work, sens_work
+):
+    """``sens_work[2]`` <- the sensitivity right-hand side ``f_x(x) s + f_p(x)`` at the
+    lane times ``theta``, with ``fb = f(theta, xb)`` known.
+
+    Directional difference (``linearised`` False): ``(f(xb + eps s, p + eps e_k) - fb) /
+    eps``, one right-hand side, exact up to O(eps) and rounding for every model of the
+    engine. Linearised: ``J s + (f(xb, p + eps e_k) - fb) / eps`` with the step's
+    Jacobian J (``jq``, ``jv``). ``sens_work`` rows: the perturbed state, its f, the
+    result, (unused), the perturbed parameter row."""
+    size = xb.shape[0]
+    n = size // (2 * L)
+    eps = _sensitivity_scale(p, direction, delta)
+    p_moved = sens_work[4][: p.shape[0]]
+    _perturbed_parameters(p, direction, eps, p_moved)
+    moved, f_moved, out = sens_work[0], sens_work[1], sens_work[2]
+    if linearised:
+        rhs(theta, xb, f_moved, p_moved, sysdata, work)
+        _jacobian_product(jq, jv, s, out, n)
+        for i in range(size // L):
+            at = L * i
+            V.store(out, at, V.load(out, at) + (V.load(f_moved, at) - V.load(fb, at)) / eps)
+    else:
+        for i in range(size // L):
+            at = L * i
+            V.store(moved, at, V.load(xb, at) + eps * V.load(s, at))
+        rhs(theta, moved, f_moved, p_moved, sysdata, work)
+        for i in range(size // L):
+            at = L * i
+            V.store(out, at, (V.load(f_moved, at) - V.load(fb, at)) / eps)
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def sensitivity_stage(
+    s,
+    theta,
+    y,
+    stage_f,
+    sk,
+    direction,
+    p,
+    delta,
+    linearised,
+    coefficients,
+    step_v,
+    jq,
+    mat,
+    piv,
+    sysdata,
+    work,
+    sens_work,
+):
+    """Stage ``s`` of one parameter's sensitivity (``sk``: its rows, ``_S`` ...), after
+    the state's stage: ``(I / (gamma h) - J) U_s = G_s + sum_j (c_sj / h) U_j`` with the
+    state's factors ``mat``, ``piv`` (the velocity-reduced solve), where ``G_s`` is the
+    sensitivity right-hand side at the stage, ``S_s = S + sum_j at_sj U_j``: at stage 0
+    the one known at the step's start; then a directional difference at ``(Y_s = y,
+    S_s)`` with ``f(Y_s) = stage_f``, or (``linearised``) ``G_0 + J (S_s - S)``, whose
+    product comes free from the earlier stages' equations, ``J U_j = U_j / (gamma h) -
+    r_j``. No ``f_t`` term: the W-method keeps its order without it (docs/theory.md)."""
+    at, cc, gamma = coefficients[0], coefficients[1], coefficients[6][0]
+    stages = at.shape[0]
+    size = y.shape[0]
+    nstate = size // L
+    n = nstate // 2
+    gh = gamma * step_v
+    inv_gh = 1.0 / gh
+    g = sens_work[2]
+    if s == 0:
+        g = sk[_S_G0]
+    elif linearised:
+        for i in range(nstate):
+            acc = V.load(sk[_S_G0], L * i)
+            for j in range(s):
+                uj = V.load(sk[_S_U + j], L * i)
+                acc = acc + at[s, j] * (uj * inv_gh - V.load(sk[_S_U + stages + j], L * i))
+            V.store(g, L * i, acc)
+    else:
+        eps = _sensitivity_scale(p, direction, delta)
+        p_moved = sens_work[4][: p.shape[0]]
+        _perturbed_parameters(p, direction, eps, p_moved)
+        moved, f_moved = sens_work[0], sens_work[1]
+        for i in range(nstate):
+            acc = V.load(sk[_S], L * i)
+            for j in range(s):
+                acc = acc + at[s, j] * V.load(sk[_S_U + j], L * i)
+            V.store(moved, L * i, V.load(y, L * i) + eps * acc)
+        rhs(theta, moved, f_moved, p_moved, sysdata, work)
+        for i in range(nstate):
+            at_i = L * i
+            V.store(g, at_i, (V.load(f_moved, at_i) - V.load(stage_f, at_i)) / eps)
+    r = sk[_S_U + stages + s]
+    for i in range(nstate):
+        acc = V.load(g, L * i)
+        for j in range(s):
+            acc = acc + (cc[s, j] / step_v) * V.load(sk[_S_U + j], L * i)
+        V.store(r, L * i, acc)
+    rhs_v = sens_work[3]
+    for i in range(n):
+        acc = V.splat(0.0)
+        for j in range(n):
+            acc = acc + V.load(jq, L * (n * i + j)) * V.load(r, L * j)
+        V.store(rhs_v, L * i, V.load(r, L * (n + i)) + gh * acc)
+    lu_solve_lanes(mat, n, piv, rhs_v)
+    us = sk[_S_U + s]
+    for i in range(n):
+        solved = V.load(rhs_v, L * i)
+        V.store(us, L * (n + i), solved)
+        V.store(us, L * i, gh * (V.load(r, L * i) + solved))
+
+
+@nb.njit(cache=True)
+def record_sensitivity_lanes(sv, out_w, out_s, first, lanes, records, k):
+    """The outputs' derivatives ``out_w sv`` (outputs are linear in the state) of the
+    lanes marked in ``lanes`` into ``out_s[sample, output, records[lane], k]``."""
+    for o in range(out_w.shape[0]):
+        value = output_value(sv, out_w, o)
+        for lane in range(L):
+            if lanes[lane]:
+                out_s[first + lane, o, records[lane], k] = V.get(value, lane)
+
+
+@nb.njit(cache=True)
+def retire_sensitivities(count, alive, sens):
+    """Failed lanes (and padding lanes repeating a failed sample) take the sensitivities
+    of the block's first healthy lane, as :func:`fuzzymbs.mbs.kernels.rk4.retire_failed`
+    gives them its state: finite numbers in every lane's arithmetic."""
+    healthy = -1
+    for lane in range(count):
+        if alive[lane]:
+            healthy = lane
+            break
+    if healthy < 0:
+        return
+    for lane in range(L):
+        if not alive[min(lane, count - 1)]:
+            for k in range(sens.shape[0]):
+                for row in range(sens.shape[1]):
+                    for i in range(sens.shape[2] // L):
+                        sens[k, row, L * i + lane] = sens[k, row, L * i + healthy]
 
 
 @nb.njit(cache=True, nogil=True, fastmath=V.FAST)
@@ -274,6 +476,7 @@ def advance_block_ros(
     sequence,
     renewals,
     step_log,
+    sensitivity,
 ):
     """Advances a block until records ``.. rec_end - 1`` are written (a step that passes
     ``rec_end`` also writes the records it covers). Returns False when the block is
@@ -315,6 +518,15 @@ def advance_block_ros(
     of the batch and whether each one's Jacobian was evaluated at its start, in
     pairs from ``step_log[1]`` (``step_log[0]``: their number; -1 when the log is
     full).
+
+    ``sensitivity = (directions, sens_settings, out_s)``: forward sensitivities
+    ``S_k = dx/dp_k`` to P parameters integrated with the state on the state's steps
+    (docs/theory.md, "Forward sensitivities"). ``directions`` (P, slots): 1.0 in the
+    slots parameter k sets (a name may set several); ``sens_settings = (delta,
+    variant)``: the relative size of the differences' perturbation and
+    :data:`SENS_STAGES` or :data:`SENS_LINEARISED`; ``out_s`` (B, n_out, n_rec, P)
+    receives the outputs' derivatives at the records. P = 0: none, and the state's
+    arithmetic is the same either way (the sensitivities only read it).
     """
     t0, interval, n_records = timing[0], timing[1], int(timing[2])
     out, status, fail_t = recording[2], recording[3], recording[4]
@@ -335,7 +547,12 @@ def advance_block_ros(
     at, cc, m, me, alpha, gsum, settings = coefficients
     stages = m.shape[0]
     gamma, exponent, jacobian_age = settings[0], settings[1], settings[2]
-    x, p, alive, work, vectors, matrices, piv, control = state
+    x, p, alive, work, vectors, matrices, piv, sens, sens_work, control = state
+    directions, sens_settings, out_s = sensitivity
+    nsens = directions.shape[0]
+    sens_delta = sens_settings[0]
+    linearised = sens_settings[1] == SENS_LINEARISED
+    g_known = control[_G_KNOWN]  # the lane's sensitivity right-hand side at t known
     f0, ft, fy, y, r = vectors[0], vectors[1], vectors[2], vectors[3], vectors[4]
     x_new, rhs_v, f_fresh, ft_fresh = vectors[5], vectors[6], vectors[7], vectors[8]
     u = vectors[9:]
@@ -383,8 +600,15 @@ def advance_block_ros(
             t[lane] = t0
             next_rec[lane] = 1.0
         record(x, recording, first, count, alive, 0, t0)
+        for k in range(nsens):
+            for lane in range(L):
+                pending[lane] = lane < count and alive[lane]
+                records[lane] = 0
+            record_sensitivity_lanes(sens[k, _S], recording[0], out_s, first, pending, records, k)
         if retire_failed(first, count, status, alive, out, x, p) or n_records == 1:
             going = False
+        elif nsens > 0:
+            retire_sensitivities(count, alive, sens)
     while going:
         # the lanes that step now: healthy, and short of the slice's last record
         any_stepping = False
@@ -454,6 +678,8 @@ def advance_block_ros(
                     jac_age[lane] = 0.0
                     f_known[lane] = 1.0
                     lu_step[lane] = -1.0
+                    if linearised:
+                        g_known[lane] = 0.0  # its f_x S is the Jacobian's
             _copy_lanes(jq_fresh, jq, renew)
             _copy_lanes(jv_fresh, jv, renew)
         any_renew = False
@@ -469,6 +695,35 @@ def advance_block_ros(
             for lane in range(L):
                 if renew[lane]:
                     f_known[lane] = 1.0
+        if nsens > 0:
+            # the sensitivities' right-hand sides at the step's start, where not known
+            # from the last step's record
+            any_renew = False
+            for lane in range(L):
+                renew[lane] = stepping[lane] and g_known[lane] == 0.0
+                any_renew = any_renew or renew[lane]
+            if any_renew:
+                for k in range(nsens):
+                    sensitivity_rhs(
+                        t_lane,
+                        x,
+                        f0,
+                        sens[k, _S],
+                        directions[k],
+                        p,
+                        sens_delta,
+                        linearised,
+                        jq,
+                        jv,
+                        sysdata,
+                        work,
+                        sens_work,
+                    )
+                    _copy_lanes(sens_work[2], sens[k, _S_G0], renew)
+                for lane in range(L):
+                    if renew[lane]:
+                        g_known[lane] = 1.0
+                        control[_N_SENS_RHS, lane] += nsens
         refactor = False
         for lane in range(L):
             refactor = refactor or (stepping[lane] and steps[lane] != lu_step[lane])
@@ -522,6 +777,31 @@ def advance_block_ros(
                 solved = V.load(rhs_v, L * i)
                 V.store(us, L * (n + i), solved)
                 V.store(us, L * i, gh * (V.load(r, L * i) + solved))
+            # the sensitivities' stage: the same matrix, their own right-hand sides
+            for k in range(nsens):
+                sensitivity_stage(
+                    s,
+                    theta,
+                    y,
+                    stage_f,
+                    sens[k],
+                    directions[k],
+                    p,
+                    sens_delta,
+                    linearised,
+                    coefficients,
+                    step_v,
+                    jq,
+                    mat,
+                    piv,
+                    sysdata,
+                    work,
+                    sens_work,
+                )
+            if nsens > 0 and s > 0 and not linearised:
+                for lane in range(L):
+                    if stepping[lane]:
+                        control[_N_SENS_RHS, lane] += nsens
         # new state and each lane's error norm; a lane whose error is not finite fails
         squares = V.splat(0.0)
         for i in range(nstate):
@@ -537,6 +817,13 @@ def advance_block_ros(
             an = V.vabs(xn)
             scaled = e / (atol + rtol * V.where_lt(ax, an, an, ax))
             squares = squares + scaled * scaled
+        for k in range(nsens):
+            sk = sens[k]
+            for i in range(nstate):
+                acc = V.load(sk[_S], L * i)
+                for j in range(stages):
+                    acc = acc + m[j] * V.load(sk[_S_U + j], L * i)
+                V.store(sk[_S_NEW], L * i, acc)
         newly_failed = False
         any_record = False
         for lane in range(L):
@@ -601,6 +888,28 @@ def advance_block_ros(
             for lane in range(L):
                 if covered[lane]:
                     control[_N_RHS, lane] += 1.0
+            # the sensitivities' right-hand sides at the step's end: their interpolant's
+            # slope there, and the next step's first stage
+            for k in range(nsens):
+                sensitivity_rhs(
+                    theta,
+                    x_new,
+                    fy,
+                    sens[k, _S_NEW],
+                    directions[k],
+                    p,
+                    sens_delta,
+                    linearised,
+                    jq,
+                    jv,
+                    sysdata,
+                    work,
+                    sens_work,
+                )
+                _copy_lanes(sens_work[2], sens[k, _S_G1], covered)
+            for lane in range(L):
+                if covered[lane]:
+                    control[_N_SENS_RHS, lane] += nsens
             while True:
                 any_pending = False
                 for lane in range(L):
@@ -614,6 +923,10 @@ def advance_block_ros(
                     break
                 hermite(x, f0, x_new, fy, step_v, V.load(delta, 0), y)
                 record_lanes(y, recording, first, pending, records, rec_times)
+                for k in range(nsens):
+                    sk = sens[k]
+                    hermite(sk[_S], sk[_S_G0], sk[_S_NEW], sk[_S_G1], step_v, V.load(delta, 0), y)
+                    record_sensitivity_lanes(y, recording[0], out_s, first, pending, records, k)
                 for lane in range(L):
                     if pending[lane]:
                         next_rec[lane] += 1.0
@@ -628,8 +941,19 @@ def advance_block_ros(
                 if covered[lane]:
                     f_known[lane] = 1.0
                 t[lane] = theta[lane]
-        if newly_failed and retire_failed(first, count, status, alive, out, x, p):
-            going = False
+                for k in range(nsens):
+                    sk = sens[k]
+                    for i in range(nstate):
+                        e = L * i + lane
+                        sk[_S, e] = sk[_S_NEW, e]
+                        if covered[lane]:
+                            sk[_S_G0, e] = sk[_S_G1, e]
+                g_known[lane] = 1.0 if covered[lane] else 0.0
+        if newly_failed:
+            if retire_failed(first, count, status, alive, out, x, p):
+                going = False
+            elif nsens > 0:
+                retire_sensitivities(count, alive, sens)
     more = False
     for lane in range(count):
         more = more or (alive[lane] and next_rec[lane] < n_records)
@@ -669,6 +993,18 @@ def record_lanes(x, recording, first, lanes, records, times):
 
 #: slices (in recording intervals) a block's run is cut into when blocks share threads
 SLICES = 16
+#: relative perturbation of the sensitivities' differences (:func:`_sensitivity_scale`)
+SENS_DELTA = 1e-7
+
+
+def no_sensitivity(slots: int, batch: int, n_out: int, n_records: int) -> tuple:
+    """The kernel's ``sensitivity`` argument for a run without sensitivities (P = 0;
+    the same types as with them, so one compiled kernel serves both)."""
+    return (
+        np.zeros((0, slots)),
+        np.array([SENS_DELTA, float(SENS_STAGES)]),
+        np.zeros((batch, n_out, n_records, 0)),
+    )
 
 
 def ros34pw2(
@@ -684,13 +1020,15 @@ def ros34pw2(
     renewals,
     step_log,
     coefficients=COEFFICIENTS,
+    sensitivity=None,
 ) -> None:
     """ROS34PW2 (or the Rosenbrock method of ``coefficients``, e.g. RODAS4) of a batch in
     blocks of ``per_block`` (1 to 4) samples over the threads.
 
-    Arguments as :func:`advance_block_ros`; ``counts (B, 2)`` receives the accepted
-    and rejected steps of each sample, ``(B, 5)`` also the right-hand sides, Jacobians
-    and LU factorisations each took part in. Blocks advance
+    Arguments as :func:`advance_block_ros` (``sensitivity`` None: no sensitivities);
+    ``counts (B, 2)`` receives the accepted and rejected steps of each sample, ``(B, 5)``
+    also the right-hand sides, Jacobians and LU factorisations each took part in, ``(B,
+    6)`` also the right-hand sides of its sensitivities. Blocks advance
     ``SLICES`` slices of recording intervals at a time, round robin over the
     threads (:func:`fuzzymbs.mbs.kernels.threads.round_robin`): with 9 blocks on 2
     threads each thread carries 4.5 blocks instead of 5 and 4. Slicing does not
@@ -699,6 +1037,9 @@ def ros34pw2(
     nsamples = params.shape[0]
     n_records = timing[2]
     n_blocks = -(-nsamples // per_block)
+    if sensitivity is None:
+        sensitivity = no_sensitivity(params.shape[1], nsamples, recording[0].shape[0], n_records)
+    nsens = sensitivity[0].shape[0]
 
     def start(block: int):
         first = block * per_block
@@ -707,7 +1048,7 @@ def ros34pw2(
         # does not step still carries its step into the vector arithmetic)
         h0 = sequence[0] - timing[0] if sequence.shape[0] > 0 else timing[3]
         return start_block_ros(
-            sysdata, params, x0, recording, first, count, h0, coefficients[2].shape[0]
+            sysdata, params, x0, recording, first, count, h0, coefficients[2].shape[0], nsens
         )
 
     def advance(block: int, state, begin: int, end: int) -> bool:
@@ -727,6 +1068,7 @@ def ros34pw2(
             sequence,
             renewals,
             step_log,
+            sensitivity,
         )
         if not going or end >= n_records:
             control = state[-1]
@@ -737,6 +1079,8 @@ def ros34pw2(
                     counts[first + lane, 2] = int(control[_N_RHS, lane])
                     counts[first + lane, 3] = int(control[_N_JAC, lane])
                     counts[first + lane, 4] = int(control[_N_LU, lane])
+                if counts.shape[1] >= 6:
+                    counts[first + lane, 5] = int(control[_N_SENS_RHS, lane])
         return going
 
     round_robin(n_blocks, n_records, max(1, -(-n_records // SLICES)), start, advance)
