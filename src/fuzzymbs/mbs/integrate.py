@@ -56,7 +56,7 @@ ROSENBROCK = ("ros34pw2", "rodas4")
 #: right-hand side at every stage (one per parameter and stage); "linearised", the
 #: step's Jacobian for ``f_x S`` and a difference for ``f_p`` at the step's start (one
 #: per parameter and step, first order in the step)
-SENSITIVITY_METHODS = {"stages": SENS_STAGES, "linearised": SENS_LINEARISED}
+SENSITIVITY_METHODS = {"stages": SENS_STAGES, "linearised": SENS_LINEARISED, "jacobian": 2}
 
 
 @dataclass

@@ -236,7 +236,7 @@ _OPEN = np.inf
 #: every stage's sensitivity right-hand side a directional difference of f at the stage
 #: ("stages"), or f_p by a difference at the step's start and f_x S from the step's
 #: Jacobian ("linearised"); docs/theory.md, "Forward sensitivities"
-SENS_STAGES, SENS_LINEARISED = 0, 1
+SENS_STAGES, SENS_LINEARISED, SENS_JACOBIAN = 0, 1, 2
 
 
 @nb.njit(cache=True, nogil=True)
@@ -362,9 +362,11 @@ def sensitivity_stage(
     p,
     delta,
     linearised,
+    jacobian_stages,
     coefficients,
     step_v,
     jq,
+    jv,
     mat,
     piv,
     sysdata,
@@ -389,6 +391,23 @@ def sensitivity_stage(
     g = sens_work[2]
     if s == 0:
         g = sk[_S_G0]
+    elif jacobian_stages:
+        # experimental: J S_s + f_p(Y_s), f_p by a difference at the stage
+        eps = _sensitivity_scale(p, direction, delta)
+        p_moved = sens_work[4][: p.shape[0]]
+        _perturbed_parameters(p, direction, eps, p_moved)
+        moved, f_moved = sens_work[0], sens_work[1]
+        for i in range(nstate):
+            acc = V.load(sk[_S], L * i)
+            for j in range(s):
+                acc = acc + at[s, j] * V.load(sk[_S_U + j], L * i)
+            V.store(moved, L * i, acc)
+        _jacobian_product(jq, jv, moved, g, n)
+        rhs(theta, y, f_moved, p_moved, sysdata, work)
+        for i in range(nstate):
+            at_i = L * i
+            value = V.load(g, at_i) + (V.load(f_moved, at_i) - V.load(stage_f, at_i)) / eps
+            V.store(g, at_i, value)
     elif linearised:
         for i in range(nstate):
             acc = V.load(sk[_S_G0], L * i)
@@ -551,7 +570,8 @@ def advance_block_ros(
     directions, sens_settings, out_s = sensitivity
     nsens = directions.shape[0]
     sens_delta = sens_settings[0]
-    linearised = sens_settings[1] == SENS_LINEARISED
+    linearised = sens_settings[1] != SENS_STAGES
+    jacobian_stages = sens_settings[1] == SENS_JACOBIAN
     g_known = control[_G_KNOWN]  # the lane's sensitivity right-hand side at t known
     f0, ft, fy, y, r = vectors[0], vectors[1], vectors[2], vectors[3], vectors[4]
     x_new, rhs_v, f_fresh, ft_fresh = vectors[5], vectors[6], vectors[7], vectors[8]
@@ -789,9 +809,11 @@ def advance_block_ros(
                     p,
                     sens_delta,
                     linearised,
+                    jacobian_stages,
                     coefficients,
                     step_v,
                     jq,
+                    jv,
                     mat,
                     piv,
                     sysdata,
@@ -994,7 +1016,7 @@ def record_lanes(x, recording, first, lanes, records, times):
 #: slices (in recording intervals) a block's run is cut into when blocks share threads
 SLICES = 16
 #: relative perturbation of the sensitivities' differences (:func:`_sensitivity_scale`)
-SENS_DELTA = 1e-7
+SENS_DELTA = 1e-4
 
 
 def no_sensitivity(slots: int, batch: int, n_out: int, n_records: int) -> tuple:
