@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -28,8 +28,6 @@ from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import (
     METHODS,
     SENS_DELTA,
-    SENS_LINEARISED,
-    SENS_STAGES,
     no_sensitivity,
     ros34pw2,
 )
@@ -51,12 +49,9 @@ KERNELS = ("auto", "lanes", "samples")
 INTEGRATORS = ("rk4", "ros34pw2", "rodas4")
 #: the integrators with error control (a tolerance, shared steps, step logs, sensitivities)
 ROSENBROCK = ("ros34pw2", "rodas4")
-#: how the sensitivities' right-hand side ``f_x S + f_p`` is evaluated at a stage
-#: (docs/theory.md, "Forward sensitivities"): "stages", a directional difference of the
-#: right-hand side at every stage (one per parameter and stage); "linearised", the
-#: step's Jacobian for ``f_x S`` and a difference for ``f_p`` at the step's start (one
-#: per parameter and step, first order in the step)
-SENSITIVITY_METHODS = {"stages": SENS_STAGES, "linearised": SENS_LINEARISED, "jacobian": 2}
+#: the key of the outputs' derivatives in a model's outputs when it is called with ``wrt``
+#: (the model protocol of :mod:`fuzzymbs.study`)
+GRADIENTS = "gradients"
 
 
 @dataclass
@@ -132,7 +127,6 @@ def simulate(
     jacobian_renewals: NDArray[np.bool_] | None = None,
     log_steps: bool | int = False,
     sensitivities: Sequence[str] = (),
-    sensitivity_method: str = "stages",
 ) -> SimulationResult:
     """Integrate a batch of samples with classic RK4 (fixed step) or ROS34PW2.
 
@@ -201,9 +195,6 @@ def simulate(
         bit for bit those of the run without); the result's ``gradients`` then hold the
         outputs' derivatives, (B, T, P) per output in this order, in the output's unit
         per the parameter's (docs/theory.md, "Forward sensitivities").
-    sensitivity_method : {"stages", "linearised"}
-        How the sensitivities' right-hand side is evaluated (:data:`SENSITIVITY_METHODS`;
-        their accuracy and cost in docs/theory.md).
     """
     _check_kernel(kernel)
     rtols, atols, h_min = _check_integrator(integrator, tolerance)
@@ -216,12 +207,7 @@ def simulate(
     params = compiled.parameters.values(samples or {})
     batch = params.shape[0]
     directions = _sensitivity_directions(compiled, sensitivities, integrator, params.shape[1])
-    if sensitivity_method not in SENSITIVITY_METHODS:
-        raise InvalidParameterError(
-            f"sensitivity_method must be one of {tuple(SENSITIVITY_METHODS)}, got "
-            f"{sensitivity_method!r}"
-        )
-    sens_settings = np.array([SENS_DELTA, float(SENSITIVITY_METHODS[sensitivity_method])])
+    sens_settings = np.array([SENS_DELTA])
     nsens = directions.shape[0]
     rtols = _per_sample(rtols, batch, "rtol")
     atols = _per_sample(atols, batch, "atol")
@@ -564,6 +550,12 @@ class SimulationModel:
     ``settings``: keyword arguments of :func:`simulate` (:data:`MODEL_SETTINGS`, its
     defaults where not given; ``t_end`` and ``dt`` required). Picklable (plain arrays);
     the kernels compile (or load from cache) on first call.
+
+    With a Rosenbrock integrator the model can differentiate its outputs: it declares
+    ``differentiable`` (every bound parameter) and ``model(samples, wrt=names)`` adds
+    ``"gradients": {output: (B, T, len(names))}``, the outputs' derivatives with respect
+    to ``names`` in that order (forward sensitivities, :func:`simulate`'s
+    ``sensitivities``), in the output's unit per the parameter's.
     """
 
     def __init__(
@@ -605,6 +597,45 @@ class SimulationModel:
     def parameter_defaults(self) -> dict[str, float]:
         return self.compiled.parameters.defaults()
 
+    @property
+    def differentiable(self) -> tuple[str, ...]:
+        """The parameters ``model(samples, wrt=...)`` differentiates the outputs with respect
+        to: every bound parameter with a Rosenbrock integrator (forward sensitivities),
+        none with RK4."""
+        if self.settings["integrator"] not in ROSENBROCK:
+            return ()
+        return self.compiled.parameters.names
+
+    def _check_wrt(self, wrt: Sequence[str] | None) -> tuple[str, ...] | None:
+        """``wrt`` as a tuple (None: no gradients asked).
+
+        Raises
+        ------
+        InvalidParameterError
+            Not a sequence of names, or a name the model cannot differentiate with respect
+            to (naming it and those it can).
+        """
+        if wrt is None:
+            return None
+        if isinstance(wrt, str) or not all(isinstance(name, str) for name in wrt):
+            raise InvalidParameterError(f"wrt must be a sequence of parameter names, got {wrt!r}")
+        names = tuple(wrt)
+        can = self.differentiable
+        unknown = [name for name in names if name not in can]
+        if unknown:
+            how = (
+                f"it differentiates with respect to {list(can)}"
+                if can
+                else f"integrator {self.settings['integrator']!r} gives no gradients "
+                f"(one of {ROSENBROCK} does)"
+            )
+            raise InvalidParameterError(
+                f"wrt: cannot differentiate with respect to {unknown}; {how}"
+            )
+        if len(set(names)) != len(names):
+            raise InvalidParameterError(f"wrt: a parameter named twice in {list(names)}")
+        return names
+
     def simulate(self, samples: Mapping[str, NDArray[np.float64]], **overrides) -> SimulationResult:
         """:func:`simulate` of ``samples`` with this model's settings, ``overrides`` replacing
         or adding keyword arguments (no correction of shared steps applied)."""
@@ -617,40 +648,57 @@ class SimulationModel:
             **settings,
         )
 
-    def __call__(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
+    def __call__(
+        self, samples: Mapping[str, NDArray[np.float64]], wrt: Sequence[str] | None = None
+    ) -> dict[str, NDArray]:
+        """The outputs of ``samples``; with ``wrt`` (names of :attr:`differentiable`) also
+        ``"gradients": {output: (B, T, len(wrt))}``. The outputs are bit for bit the same
+        with or without ``wrt``."""
+        names = self._check_wrt(wrt)
         shared = self.shared
         if shared is None:
-            return self._outputs(self.simulate(samples), {})
-        # the modal sample's error, removed from every sample
-        return self._outputs(self._on_shared_steps(samples), shared.correction)
+            return self._outputs(self.simulate(samples, sensitivities=names or ()), {}, names)
+        # the modal sample's error, removed from every sample (a constant: the gradients
+        # are those of the runs on the sequence)
+        return self._outputs(self._on_shared_steps(samples, wrt=names), shared.correction, names)
 
-    def deviations(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
+    def deviations(
+        self, samples: Mapping[str, NDArray[np.float64]], wrt: Sequence[str] | None = None
+    ) -> dict[str, NDArray]:
         """On shared steps (:meth:`share_steps`): each sample's outputs minus the modal
         sample's on the same steps, as ``__call__`` returns them. Differences and spreads
         of samples are those of the corrected outputs, and they need no reference run
-        (a study's choice of tolerance goes on while the reference runs)."""
+        (a study's choice of tolerance goes on while the reference runs). ``wrt`` as for
+        ``__call__`` (the gradients are those of the outputs)."""
+        names = self._check_wrt(wrt)
         shared = self.shared
         if shared is None:
             raise InvalidParameterError("deviations need shared steps (share_steps)")
         negated = {name: -values for name, values in shared.modal_outputs.items()}
-        return self._outputs(self._on_shared_steps(samples, keep=True), negated)
+        result = self._on_shared_steps(samples, keep=True, wrt=names)
+        return self._outputs(result, negated, names)
 
     def run_ahead(
-        self, samples: Mapping[str, NDArray[np.float64]], then: Callable[[], Any] | None = None
+        self,
+        samples: Mapping[str, NDArray[np.float64]],
+        then: Callable[[], Any] | None = None,
+        wrt: Sequence[str] | None = None,
     ) -> None:
         """On shared steps: run ``samples`` in a background thread on the free cores and keep
         them (as :meth:`deviations` does), then call ``then``; the model's next run waits
         for them and takes them. A study runs its first points so while the reference
         finishes on the other core; a failed run ahead only loses what it would have
-        kept."""
+        kept. With ``wrt`` the runs ahead also integrate those sensitivities (a kept run
+        without the gradients a later call asks for runs again)."""
         if self.shared is None:
             raise InvalidParameterError("run_ahead needs shared steps (share_steps)")
+        names = self._check_wrt(wrt)
         self._wait_ahead()
 
         def ahead() -> None:
             # on the core the reference leaves; a second joins once the reference is done
             # (fuzzymbs.mbs.kernels.threads)
-            self._shared_runs(samples, keep=True)
+            self._shared_runs(samples, keep=True, wrt=names)
             if then is not None:
                 then()
 
@@ -667,20 +715,32 @@ class SimulationModel:
             self._ahead = None
 
     def _on_shared_steps(
-        self, samples: Mapping[str, NDArray[np.float64]], keep: bool = False
+        self,
+        samples: Mapping[str, NDArray[np.float64]],
+        keep: bool = False,
+        wrt: tuple[str, ...] | None = None,
     ) -> SimulationResult:
         """The samples on the shared sequence; runs kept on it (``shared.kept``) are taken
-        as they are, the others run (and are kept too with ``keep``)."""
+        as they are (with ``wrt``: those that hold these gradients), the others run (and
+        are kept too with ``keep``)."""
         self._wait_ahead()
-        return self._shared_runs(samples, keep)
+        return self._shared_runs(samples, keep, wrt)
 
     def _shared_runs(
-        self, samples: Mapping[str, NDArray[np.float64]], keep: bool
+        self,
+        samples: Mapping[str, NDArray[np.float64]],
+        keep: bool,
+        wrt: tuple[str, ...] | None = None,
     ) -> SimulationResult:
         shared = self.shared
+        names = wrt or ()
         rows = self.compiled.parameters.values(samples)
         keys = [row.tobytes() for row in rows]
-        missing = [i for i, key in enumerate(keys) if key not in shared.kept]
+        missing = [
+            i
+            for i, key in enumerate(keys)
+            if key not in shared.kept or not shared.kept[key].has_gradients(names)
+        ]
         if missing:
             if len(missing) < len(keys):
                 samples = {
@@ -688,16 +748,37 @@ class SimulationModel:
                     for name, values in samples.items()
                 }
             result = self.simulate(
-                samples, step_sequence=shared.sequence, jacobian_renewals=shared.renewals
+                samples,
+                step_sequence=shared.sequence,
+                jacobian_renewals=shared.renewals,
+                sensitivities=names,
             )
-            if len(missing) == len(keys) and not keep:
+            renewed = any(keys[i] in shared.kept for i in missing)
+            if len(missing) == len(keys) and not keep and not renewed:
                 return result
-            fresh = {keys[i]: kept_run(result, row) for row, i in enumerate(missing)}
+            fresh = {}
+            for row, i in enumerate(missing):
+                run = kept_run(result, row)
+                earlier = shared.kept.get(keys[i])
+                if earlier is not None:
+                    # a kept run without these gradients (the modal sample's logging run,
+                    # which its replay repeats to the rounding of the step lengths) keeps
+                    # its outputs: they are bit for bit the same with or without wrt
+                    run = replace(
+                        earlier,
+                        gradients=run.gradients,
+                        gradient_parameters=run.gradient_parameters,
+                    )
+                fresh[keys[i]] = run
             if keep:
                 shared.kept.update(fresh)
         else:
             fresh = {}
         runs = [fresh[key] if key in fresh else shared.kept[key] for key in keys]
+        gradients = None
+        if names:
+            taken = [run.gradients_for(names) for run in runs]
+            gradients = {name: np.stack([g[name] for g in taken]) for name in self.outputs}
         return SimulationResult(
             time=self.coords["time"],
             outputs={name: np.stack([run.outputs[name] for run in runs]) for name in self.outputs},
@@ -705,15 +786,30 @@ class SimulationModel:
             failure_reason=np.array([run.failure_reason for run in runs], dtype=str),
             failure_time=np.array([run.failure_time for run in runs]),
             step_counts=np.stack([run.step_counts for run in runs]),
+            gradients=gradients,
+            gradient_parameters=names,
         )
 
-    @staticmethod
-    def _outputs(result: SimulationResult, added: Mapping[str, NDArray]) -> dict[str, NDArray]:
-        out: dict[str, NDArray] = dict(result.outputs)
+    def _outputs(
+        self,
+        result: SimulationResult,
+        added: Mapping[str, NDArray],
+        wrt: tuple[str, ...] | None = None,
+    ) -> dict[str, NDArray]:
+        """The model's outputs dict of a result (``added`` to its outputs; with ``wrt``
+        the ``"gradients"``, unchanged by what is added: a constant in the parameters)."""
+        out: dict[str, Any] = dict(result.outputs)
         for name, values in added.items():
             out[name] = out[name] + values
         out["failed"] = result.failed
         out["failure_reason"] = result.failure_reason
+        if wrt is not None:
+            given = result.gradients or {}
+            batch = result.failed.shape[0]
+            out[GRADIENTS] = {
+                name: given.get(name, np.empty((batch, self.coords["time"].size, 0)))
+                for name in self.outputs
+            }
         return out
 
     @property

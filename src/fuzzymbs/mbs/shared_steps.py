@@ -183,16 +183,33 @@ class KeptRun:
     failure_reason: str
     failure_time: float
     step_counts: NDArray[np.int64]
+    #: the outputs' derivatives (T, P) when the run integrated sensitivities, else empty
+    gradients: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    #: the parameters of ``gradients``' last axis
+    gradient_parameters: tuple[str, ...] = ()
+
+    def has_gradients(self, names: tuple[str, ...]) -> bool:
+        """True when the run holds the outputs' derivatives with respect to ``names``."""
+        return set(names) <= set(self.gradient_parameters)
+
+    def gradients_for(self, names: tuple[str, ...]) -> dict[str, NDArray[np.float64]]:
+        """The outputs' derivatives (T, len(names)), the last axis in ``names``' order."""
+        columns = [self.gradient_parameters.index(name) for name in names]
+        return {output: values[:, columns] for output, values in self.gradients.items()}
 
 
 def kept_run(result, row: int) -> KeptRun:
-    """Sample ``row`` of a :class:`~fuzzymbs.mbs.integrate.SimulationResult`."""
+    """Sample ``row`` of a :class:`~fuzzymbs.mbs.integrate.SimulationResult` (with its
+    outputs' derivatives, if it has them)."""
+    gradients = result.gradients or {}
     return KeptRun(
         {name: values[row].copy() for name, values in result.outputs.items()},
         bool(result.failed[row]),
         str(result.failure_reason[row]),
         float(result.failure_time[row]),
         np.asarray(result.step_counts[row]).copy(),
+        {name: values[row].copy() for name, values in gradients.items()},
+        tuple(result.gradient_parameters) if gradients else (),
     )
 
 

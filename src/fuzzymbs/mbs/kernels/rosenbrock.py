@@ -229,14 +229,12 @@ _OPEN = np.inf
 
 #: rows of a parameter's sensitivity arrays in a block (``sens[k]``): the sensitivity S
 #: at the lane's time, its value at the step's end, the sensitivity right-hand side
-#: ``f_x S + f_p`` at the step's start and at its end; then the stages' increments U_i
-#: and (from ``_S_U + stages``) their right-hand sides r_i
+#: ``f_x S + f_p`` at the step's start and at its end, then the stages' increments U_i
 (_S, _S_NEW, _S_G0, _S_G1, _S_U) = range(5)
-#: sensitivity variants (``settings[1]`` of the kernel's ``sensitivity`` argument):
-#: every stage's sensitivity right-hand side a directional difference of f at the stage
-#: ("stages"), or f_p by a difference at the step's start and f_x S from the step's
-#: Jacobian ("linearised"); docs/theory.md, "Forward sensitivities"
-SENS_STAGES, SENS_LINEARISED, SENS_JACOBIAN = 0, 1, 2
+#: rows of ``sens_work``: the perturbed state, its f, a sensitivity right-hand side, the
+#: velocity-reduced solve's right-hand side, the perturbed parameter row; from
+#: ``_W_STAGES`` the state's stage points Y_i and from ``_W_STAGES + stages`` their f
+(_W_MOVED, _W_FMOVED, _W_G, _W_SOLVE, _W_P, _W_STAGES) = range(6)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -245,11 +243,10 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages, ns
     ``(x, p, alive, work, vectors, matrices, piv, sens, sens_work, control)``, advanced by
     :func:`advance_block_ros` with a method of ``stages`` stages. ``control`` holds one
     column per lane: every lane keeps its own time, step, error history and Jacobian age.
-    ``sens`` (nsens, 4 + 2 stages, size) holds the sensitivities to ``nsens`` parameters
+    ``sens`` (nsens, 4 + stages, size) holds the sensitivities to ``nsens`` parameters
     (rows ``_S`` ..., zero at the start: the initial state does not depend on them),
-    ``sens_work`` the scratch of their right-hand sides and solves, ``(5, size)``: the
-    perturbed state, its f, the stage's right-hand side, the solve's, the perturbed
-    parameter row (the first ``slots L`` entries)."""
+    ``sens_work`` (5 + 2 stages, size) their scratch (rows ``_W_*``; one row without
+    sensitivities)."""
     x, p, alive, _, work = start_block(sysdata, params, x0, recording, first, count)
     size = x.shape[0]
     n = size // (2 * L)
@@ -260,8 +257,8 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages, ns
     # LU, and da/dq, da/dv fresh for the lanes that renew their Jacobian
     matrices = np.zeros((5, n * n * L))
     piv = np.zeros(n * L, dtype=np.int64)
-    sens = np.zeros((nsens, 4 + 2 * stages, size))
-    sens_work = np.zeros((5, max(size, p.shape[0])))
+    sens = np.zeros((nsens, 4 + stages, size))
+    sens_work = np.zeros((_W_STAGES + 2 * stages if nsens > 0 else 1, max(size, p.shape[0])))
     control = np.zeros((_CONTROL_ROWS, L))
     for lane in range(L):
         control[_H, lane] = h0
@@ -306,136 +303,76 @@ def _perturbed_parameters(p, direction, eps, dst):
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
-def _jacobian_product(jq, jv, s, dst, n):
-    """``dst`` <- ``J s`` for ``J = [[0, I], [A_q, B_v]]`` (lane-minor, per lane)."""
-    for i in range(n):
-        V.store(dst, L * i, V.load(s, L * (n + i)))
-        acc = V.splat(0.0)
-        for j in range(n):
-            acc = acc + V.load(jq, L * (n * i + j)) * V.load(s, L * j)
-            acc = acc + V.load(jv, L * (n * i + j)) * V.load(s, L * (n + j))
-        V.store(dst, L * (n + i), acc)
+def sensitivity_rhs(theta, xb, fb, s, direction, p, delta, sysdata, work, sens_work, dst):
+    """``dst`` <- the sensitivity right-hand side ``f_x(x) s + f_p(x)`` at the lane
+    times ``theta`` and states ``xb``, with ``fb = f(theta, xb)`` known: the directional
+    difference ``(f(xb + eps s, p + eps e_k) - fb) / eps`` (one right-hand side; eps
+    from :func:`_sensitivity_scale`, e_k the parameter's ``direction`` in the slots).
 
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def sensitivity_rhs(
-    theta, xb, fb, s, direction, p, delta, linearised, jq, jv, sysdata, work, sens_work
-):
-    """``sens_work[2]`` <- the sensitivity right-hand side ``f_x(x) s + f_p(x)`` at the
-    lane times ``theta``, with ``fb = f(theta, xb)`` known.
-
-    Directional difference (``linearised`` False): ``(f(xb + eps s, p + eps e_k) - fb) /
-    eps``, one right-hand side, exact up to O(eps) and rounding for every model of the
-    engine. Linearised: ``J s + (f(xb, p + eps e_k) - fb) / eps`` with the step's
-    Jacobian J (``jq``, ``jv``). ``sens_work`` rows: the perturbed state, its f, the
-    result, (unused), the perturbed parameter row."""
+    Exact to O(eps) and rounding for every model of the engine, with no derivative of
+    its own: the contact's friction, the master face's interpolation and the prescribed
+    motions are differentiated as the right-hand side computes them."""
     size = xb.shape[0]
-    n = size // (2 * L)
     eps = _sensitivity_scale(p, direction, delta)
-    p_moved = sens_work[4][: p.shape[0]]
+    p_moved = sens_work[_W_P][: p.shape[0]]
     _perturbed_parameters(p, direction, eps, p_moved)
-    moved, f_moved, out = sens_work[0], sens_work[1], sens_work[2]
-    if linearised:
-        rhs(theta, xb, f_moved, p_moved, sysdata, work)
-        _jacobian_product(jq, jv, s, out, n)
-        for i in range(size // L):
-            at = L * i
-            V.store(out, at, V.load(out, at) + (V.load(f_moved, at) - V.load(fb, at)) / eps)
-    else:
-        for i in range(size // L):
-            at = L * i
-            V.store(moved, at, V.load(xb, at) + eps * V.load(s, at))
-        rhs(theta, moved, f_moved, p_moved, sysdata, work)
-        for i in range(size // L):
-            at = L * i
-            V.store(out, at, (V.load(f_moved, at) - V.load(fb, at)) / eps)
+    moved, f_moved = sens_work[_W_MOVED], sens_work[_W_FMOVED]
+    for i in range(size // L):
+        at = L * i
+        V.store(moved, at, V.load(xb, at) + eps * V.load(s, at))
+    rhs(theta, moved, f_moved, p_moved, sysdata, work)
+    for i in range(size // L):
+        at = L * i
+        V.store(dst, at, (V.load(f_moved, at) - V.load(fb, at)) / eps)
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def sensitivity_stage(
-    s,
-    theta,
-    y,
-    stage_f,
-    sk,
-    direction,
-    p,
-    delta,
-    linearised,
-    jacobian_stages,
-    coefficients,
-    step_v,
-    jq,
-    jv,
-    mat,
-    piv,
-    sysdata,
-    work,
-    sens_work,
+    s, theta, sk, direction, p, delta, coefficients, step_v, jq, mat, piv, sysdata, work, sens_work
 ):
-    """Stage ``s`` of one parameter's sensitivity (``sk``: its rows, ``_S`` ...), after
-    the state's stage: ``(I / (gamma h) - J) U_s = G_s + sum_j (c_sj / h) U_j`` with the
-    state's factors ``mat``, ``piv`` (the velocity-reduced solve), where ``G_s`` is the
-    sensitivity right-hand side at the stage, ``S_s = S + sum_j at_sj U_j``: at stage 0
-    the one known at the step's start; then a directional difference at ``(Y_s = y,
-    S_s)`` with ``f(Y_s) = stage_f``, or (``linearised``) ``G_0 + J (S_s - S)``, whose
-    product comes free from the earlier stages' equations, ``J U_j = U_j / (gamma h) -
-    r_j``. No ``f_t`` term: the W-method keeps its order without it (docs/theory.md)."""
+    """Stage ``s`` of one parameter's sensitivity (``sk``: its rows ``_S`` ...), once the
+    state's step is computed: ``(I / (gamma h) - J) U_s = G_s + sum_j (c_sj / h) U_j``
+    with the state's factors ``mat``, ``piv`` (the velocity-reduced solve), ``G_s`` the
+    sensitivity right-hand side at the stage's point ``(Y_s, S_s = S + sum_j at_sj U_j)``:
+    at stage 0 the one at the step's start (``_S_G0``), then :func:`sensitivity_rhs` at
+    the state's stage point and f kept in ``sens_work`` (``_W_STAGES``). No ``f_t`` term:
+    the W-method keeps its order with the block-diagonal Jacobian ``diag(J, J)`` of the
+    state and its sensitivities, which drops it (docs/theory.md)."""
     at, cc, gamma = coefficients[0], coefficients[1], coefficients[6][0]
     stages = at.shape[0]
-    size = y.shape[0]
-    nstate = size // L
+    nstate = sk.shape[1] // L
     n = nstate // 2
     gh = gamma * step_v
-    inv_gh = 1.0 / gh
-    g = sens_work[2]
-    if s == 0:
-        g = sk[_S_G0]
-    elif jacobian_stages:
-        # experimental: J S_s + f_p(Y_s), f_p by a difference at the stage
-        eps = _sensitivity_scale(p, direction, delta)
-        p_moved = sens_work[4][: p.shape[0]]
-        _perturbed_parameters(p, direction, eps, p_moved)
-        moved, f_moved = sens_work[0], sens_work[1]
+    g = sk[_S_G0]
+    if s > 0:
+        g = sens_work[_W_G]
+        # S_s, kept in the solve's row until the difference has read it
+        s_stage = sens_work[_W_SOLVE]
         for i in range(nstate):
             acc = V.load(sk[_S], L * i)
             for j in range(s):
                 acc = acc + at[s, j] * V.load(sk[_S_U + j], L * i)
-            V.store(moved, L * i, acc)
-        _jacobian_product(jq, jv, moved, g, n)
-        rhs(theta, y, f_moved, p_moved, sysdata, work)
-        for i in range(nstate):
-            at_i = L * i
-            value = V.load(g, at_i) + (V.load(f_moved, at_i) - V.load(stage_f, at_i)) / eps
-            V.store(g, at_i, value)
-    elif linearised:
-        for i in range(nstate):
-            acc = V.load(sk[_S_G0], L * i)
-            for j in range(s):
-                uj = V.load(sk[_S_U + j], L * i)
-                acc = acc + at[s, j] * (uj * inv_gh - V.load(sk[_S_U + stages + j], L * i))
-            V.store(g, L * i, acc)
-    else:
-        eps = _sensitivity_scale(p, direction, delta)
-        p_moved = sens_work[4][: p.shape[0]]
-        _perturbed_parameters(p, direction, eps, p_moved)
-        moved, f_moved = sens_work[0], sens_work[1]
-        for i in range(nstate):
-            acc = V.load(sk[_S], L * i)
-            for j in range(s):
-                acc = acc + at[s, j] * V.load(sk[_S_U + j], L * i)
-            V.store(moved, L * i, V.load(y, L * i) + eps * acc)
-        rhs(theta, moved, f_moved, p_moved, sysdata, work)
-        for i in range(nstate):
-            at_i = L * i
-            V.store(g, at_i, (V.load(f_moved, at_i) - V.load(stage_f, at_i)) / eps)
-    r = sk[_S_U + stages + s]
+            V.store(s_stage, L * i, acc)
+        sensitivity_rhs(
+            theta,
+            sens_work[_W_STAGES + s],
+            sens_work[_W_STAGES + stages + s],
+            s_stage,
+            direction,
+            p,
+            delta,
+            sysdata,
+            work,
+            sens_work,
+            g,
+        )
+    r = sens_work[_W_MOVED]
     for i in range(nstate):
         acc = V.load(g, L * i)
         for j in range(s):
             acc = acc + (cc[s, j] / step_v) * V.load(sk[_S_U + j], L * i)
         V.store(r, L * i, acc)
-    rhs_v = sens_work[3]
+    rhs_v = sens_work[_W_SOLVE]
     for i in range(n):
         acc = V.splat(0.0)
         for j in range(n):
@@ -539,13 +476,15 @@ def advance_block_ros(
     full).
 
     ``sensitivity = (directions, sens_settings, out_s)``: forward sensitivities
-    ``S_k = dx/dp_k`` to P parameters integrated with the state on the state's steps
-    (docs/theory.md, "Forward sensitivities"). ``directions`` (P, slots): 1.0 in the
-    slots parameter k sets (a name may set several); ``sens_settings = (delta,
-    variant)``: the relative size of the differences' perturbation and
-    :data:`SENS_STAGES` or :data:`SENS_LINEARISED`; ``out_s`` (B, n_out, n_rec, P)
-    receives the outputs' derivatives at the records. P = 0: none, and the state's
-    arithmetic is the same either way (the sensitivities only read it).
+    ``S_k = dx/dp_k`` to P parameters integrated with the state by the same method on
+    the state's steps, each stage's solve with the state's LU (docs/theory.md, "Forward
+    sensitivities"). ``directions`` (P, slots): 1.0 in the slots parameter k sets (a
+    name may set several); ``sens_settings = (delta,)``: the relative perturbation of
+    the differences (:data:`SENS_DELTA`); ``out_s`` (B, n_out, n_rec, P) receives the
+    outputs' derivatives at the records. The sensitivities only read the state's
+    arithmetic and never steer it, so the outputs and steps are bit for bit those of
+    the run without (P = 0). Their stages are computed once a step is accepted, from
+    the state's stage points kept for them: a rejected step costs them nothing.
     """
     t0, interval, n_records = timing[0], timing[1], int(timing[2])
     out, status, fail_t = recording[2], recording[3], recording[4]
@@ -570,8 +509,6 @@ def advance_block_ros(
     directions, sens_settings, out_s = sensitivity
     nsens = directions.shape[0]
     sens_delta = sens_settings[0]
-    linearised = sens_settings[1] != SENS_STAGES
-    jacobian_stages = sens_settings[1] == SENS_JACOBIAN
     g_known = control[_G_KNOWN]  # the lane's sensitivity right-hand side at t known
     f0, ft, fy, y, r = vectors[0], vectors[1], vectors[2], vectors[3], vectors[4]
     x_new, rhs_v, f_fresh, ft_fresh = vectors[5], vectors[6], vectors[7], vectors[8]
@@ -614,6 +551,7 @@ def advance_block_ros(
     theta = np.empty(L)
     records = np.zeros(L, dtype=np.int64)
     rec_times = np.empty(L)
+    stage_t = np.empty(L)
     going = True
     if next_rec[0] == 0.0:  # the block's first call: record the initial state
         for lane in range(L):
@@ -698,8 +636,6 @@ def advance_block_ros(
                     jac_age[lane] = 0.0
                     f_known[lane] = 1.0
                     lu_step[lane] = -1.0
-                    if linearised:
-                        g_known[lane] = 0.0  # its f_x S is the Jacobian's
             _copy_lanes(jq_fresh, jq, renew)
             _copy_lanes(jv_fresh, jv, renew)
         any_renew = False
@@ -715,35 +651,6 @@ def advance_block_ros(
             for lane in range(L):
                 if renew[lane]:
                     f_known[lane] = 1.0
-        if nsens > 0:
-            # the sensitivities' right-hand sides at the step's start, where not known
-            # from the last step's record
-            any_renew = False
-            for lane in range(L):
-                renew[lane] = stepping[lane] and g_known[lane] == 0.0
-                any_renew = any_renew or renew[lane]
-            if any_renew:
-                for k in range(nsens):
-                    sensitivity_rhs(
-                        t_lane,
-                        x,
-                        f0,
-                        sens[k, _S],
-                        directions[k],
-                        p,
-                        sens_delta,
-                        linearised,
-                        jq,
-                        jv,
-                        sysdata,
-                        work,
-                        sens_work,
-                    )
-                    _copy_lanes(sens_work[2], sens[k, _S_G0], renew)
-                for lane in range(L):
-                    if renew[lane]:
-                        g_known[lane] = 1.0
-                        control[_N_SENS_RHS, lane] += nsens
         refactor = False
         for lane in range(L):
             refactor = refactor or (stepping[lane] and steps[lane] != lu_step[lane])
@@ -797,33 +704,11 @@ def advance_block_ros(
                 solved = V.load(rhs_v, L * i)
                 V.store(us, L * (n + i), solved)
                 V.store(us, L * i, gh * (V.load(r, L * i) + solved))
-            # the sensitivities' stage: the same matrix, their own right-hand sides
-            for k in range(nsens):
-                sensitivity_stage(
-                    s,
-                    theta,
-                    y,
-                    stage_f,
-                    sens[k],
-                    directions[k],
-                    p,
-                    sens_delta,
-                    linearised,
-                    jacobian_stages,
-                    coefficients,
-                    step_v,
-                    jq,
-                    jv,
-                    mat,
-                    piv,
-                    sysdata,
-                    work,
-                    sens_work,
-                )
-            if nsens > 0 and s > 0 and not linearised:
-                for lane in range(L):
-                    if stepping[lane]:
-                        control[_N_SENS_RHS, lane] += nsens
+            if nsens > 0 and s > 0:
+                # the stage's point and f, for the sensitivities once the step is accepted
+                for i in range(nstate):
+                    V.store(sens_work[_W_STAGES + s], L * i, V.load(y, L * i))
+                    V.store(sens_work[_W_STAGES + stages + s], L * i, V.load(stage_f, L * i))
         # new state and each lane's error norm; a lane whose error is not finite fails
         squares = V.splat(0.0)
         for i in range(nstate):
@@ -839,13 +724,6 @@ def advance_block_ros(
             an = V.vabs(xn)
             scaled = e / (atol + rtol * V.where_lt(ax, an, an, ax))
             squares = squares + scaled * scaled
-        for k in range(nsens):
-            sk = sens[k]
-            for i in range(nstate):
-                acc = V.load(sk[_S], L * i)
-                for j in range(stages):
-                    acc = acc + m[j] * V.load(sk[_S_U + j], L * i)
-                V.store(sk[_S_NEW], L * i, acc)
         newly_failed = False
         any_record = False
         for lane in range(L):
@@ -903,6 +781,69 @@ def advance_block_ros(
                     newly_failed = True
             if not took[lane]:
                 theta[lane] = t[lane]
+        any_took = False
+        for lane in range(L):
+            any_took = any_took or took[lane]
+        if nsens > 0 and any_took:
+            # the sensitivities' step, for the lanes whose step is accepted: their
+            # right-hand side at the step's start where the last step's record did not
+            # leave it, then the stages at the state's stage points
+            any_renew = False
+            for lane in range(L):
+                renew[lane] = took[lane] and g_known[lane] == 0.0
+                any_renew = any_renew or renew[lane]
+            if any_renew:
+                for k in range(nsens):
+                    g = sens_work[_W_G]
+                    sensitivity_rhs(
+                        t_lane,
+                        x,
+                        f0,
+                        sens[k, _S],
+                        directions[k],
+                        p,
+                        sens_delta,
+                        sysdata,
+                        work,
+                        sens_work,
+                        g,
+                    )
+                    _copy_lanes(g, sens[k, _S_G0], renew)
+                for lane in range(L):
+                    if renew[lane]:
+                        g_known[lane] = 1.0
+                        control[_N_SENS_RHS, lane] += nsens
+            for stage in range(stages):
+                for lane in range(L):
+                    stage_t[lane] = t_lane[lane] + alpha[stage] * steps[lane]
+                for k in range(nsens):
+                    sensitivity_stage(
+                        stage,
+                        stage_t,
+                        sens[k],
+                        directions[k],
+                        p,
+                        sens_delta,
+                        coefficients,
+                        step_v,
+                        jq,
+                        mat,
+                        piv,
+                        sysdata,
+                        work,
+                        sens_work,
+                    )
+                if stage > 0:
+                    for lane in range(L):
+                        if took[lane]:
+                            control[_N_SENS_RHS, lane] += nsens
+            for k in range(nsens):
+                sk = sens[k]
+                for i in range(nstate):
+                    acc = V.load(sk[_S], L * i)
+                    for j in range(stages):
+                        acc = acc + m[j] * V.load(sk[_S_U + j], L * i)
+                    V.store(sk[_S_NEW], L * i, acc)
         if any_record:
             # the records the accepted steps cover, from each lane's Hermite interpolant;
             # f at a step's end is that lane's next f0
@@ -913,6 +854,7 @@ def advance_block_ros(
             # the sensitivities' right-hand sides at the step's end: their interpolant's
             # slope there, and the next step's first stage
             for k in range(nsens):
+                g = sens_work[_W_G]
                 sensitivity_rhs(
                     theta,
                     x_new,
@@ -921,14 +863,12 @@ def advance_block_ros(
                     directions[k],
                     p,
                     sens_delta,
-                    linearised,
-                    jq,
-                    jv,
                     sysdata,
                     work,
                     sens_work,
+                    g,
                 )
-                _copy_lanes(sens_work[2], sens[k, _S_G1], covered)
+                _copy_lanes(g, sens[k, _S_G1], covered)
             for lane in range(L):
                 if covered[lane]:
                     control[_N_SENS_RHS, lane] += nsens
@@ -1015,7 +955,12 @@ def record_lanes(x, recording, first, lanes, records, times):
 
 #: slices (in recording intervals) a block's run is cut into when blocks share threads
 SLICES = 16
-#: relative perturbation of the sensitivities' differences (:func:`_sensitivity_scale`)
+#: relative perturbation of the sensitivities' differences (:func:`_sensitivity_scale`).
+#: On the brake's first millisecond (benchmarks/brake_sensitivities.py, against central
+#: differences of whole runs at rtol 1e-6): 1e-7 left rounding noise of 26 times the
+#: pads' derivative to k_c (a 7e-16 m per N/m quantity) and 85 % of the caliper's to the
+#: disc speed, 1e-5 0.19 and 1.2 %, 1e-4 1.5 % and 0.02 %; 1e-3 no better, the pads'
+#: derivative to k growing from 1.3e-5 to 3.8e-5 of its peak (the differences' own error)
 SENS_DELTA = 1e-4
 
 
@@ -1024,7 +969,7 @@ def no_sensitivity(slots: int, batch: int, n_out: int, n_records: int) -> tuple:
     the same types as with them, so one compiled kernel serves both)."""
     return (
         np.zeros((0, slots)),
-        np.array([SENS_DELTA, float(SENS_STAGES)]),
+        np.array([SENS_DELTA]),
         np.zeros((batch, n_out, n_records, 0)),
     )
 
