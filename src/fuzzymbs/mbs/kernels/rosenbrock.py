@@ -960,7 +960,10 @@ SLICES = 16
 #: differences of whole runs at rtol 1e-6): 1e-7 left rounding noise of 26 times the
 #: pads' derivative to k_c (a 7e-16 m per N/m quantity) and 85 % of the caliper's to the
 #: disc speed, 1e-5 0.19 and 1.2 %, 1e-4 1.5 % and 0.02 %; 1e-3 no better, the pads'
-#: derivative to k growing from 1.3e-5 to 3.8e-5 of its peak (the differences' own error)
+#: derivative to k growing from 1.3e-5 to 3.8e-5 of its peak. The differences' own
+#: error is O(delta) relative: 1.4e-4 of the peak on a spring-mass oscillator (the spring
+#: force is bilinear in k and x), 1e-4 on a block sliding on a belt (tests/mbs/
+#: test_sensitivities.py), far below what a fuzzy band asks (a per cent of its width)
 SENS_DELTA = 1e-4
 
 
