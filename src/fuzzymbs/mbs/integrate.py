@@ -25,16 +25,16 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
-from fuzzymbs.mbs.kernels.rosenbrock import (
-    METHODS,
-    SENS_DELTA,
-    no_sensitivity,
-    ros34pw2,
-)
+from fuzzymbs.mbs.kernels.rosenbrock import METHODS, ros34pw2
+from fuzzymbs.mbs.kernels.sensitivities import SENS_DELTA, no_sensitivity
 from fuzzymbs.mbs.kernels.simd import LANES
+from fuzzymbs.mbs.sensitivities import checked_wrt, sensitivity_directions
 from fuzzymbs.mbs.shared_steps import (
     SharedSteps,
+    checked_renewals,
+    checked_sequence,
     kept_run,
+    logged_steps,
     predicted_reference_error,
     share_steps,
 )
@@ -206,7 +206,9 @@ def simulate(
     n_steps, every = _check_timing(t_end, dt, record_interval)
     params = compiled.parameters.values(samples or {})
     batch = params.shape[0]
-    directions = _sensitivity_directions(compiled, sensitivities, integrator, params.shape[1])
+    directions = sensitivity_directions(
+        compiled, sensitivities, integrator in ROSENBROCK, params.shape[1]
+    )
     sens_settings = np.array([SENS_DELTA])
     nsens = directions.shape[0]
     rtols = _per_sample(rtols, batch, "rtol")
@@ -225,8 +227,10 @@ def simulate(
     )
     n_rec = n_steps // every + 1
     # the kernel's final time, computed as it computes it
-    sequence = _check_sequence(step_sequence, integrator, 0.0 + (n_rec - 1) * float(every * dt))
-    renewals = _check_renewals(jacobian_renewals, sequence)
+    sequence = checked_sequence(
+        step_sequence, integrator in ROSENBROCK, 0.0 + (n_rec - 1) * float(every * dt)
+    )
+    renewals = checked_renewals(jacobian_renewals, sequence)
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
     fail_t = np.full(batch, np.nan)
@@ -277,7 +281,7 @@ def simulate(
         status[sl] = st
         fail_t[sl] = ft
     time = np.arange(n_rec) * every * dt
-    logged = _logged(step_log) if log_steps is not False else None
+    logged = logged_steps(step_log) if log_steps is not False else None
     reasons = np.array([FAILURE_REASONS[int(s)] for s in status], dtype=str)
     gradients = None
     if nsens:
@@ -297,95 +301,6 @@ def simulate(
         gradient_parameters=tuple(sensitivities) if nsens else (),
         sensitivity_rhs=counts[:, 5].copy() if nsens else None,
     )
-
-
-def _sensitivity_directions(
-    compiled: CompiledSystem, names: Sequence[str], integrator: str, slots: int
-) -> NDArray[np.float64]:
-    """(P, slots): 1.0 in the slots each named parameter sets (the kernel's directions).
-
-    Raises
-    ------
-    InvalidParameterError
-        Not a sequence of names, a name twice, a name the system does not bind, or an
-        integrator without sensitivities (RK4).
-    """
-    if isinstance(names, str) or not all(isinstance(name, str) for name in names):
-        raise InvalidParameterError(
-            f"sensitivities must be a sequence of parameter names, got {names!r}"
-        )
-    names = tuple(names)
-    if not names:
-        return np.zeros((0, slots))
-    if integrator not in ROSENBROCK:
-        raise InvalidParameterError(
-            f"sensitivities are integrated by the Rosenbrock methods {ROSENBROCK} only; "
-            f"integrator={integrator!r} has none (choose one of them)"
-        )
-    known = compiled.parameters.names
-    unknown = [name for name in names if name not in known]
-    if unknown:
-        raise InvalidParameterError(
-            f"sensitivities: unknown parameter(s) {unknown}; this system binds {list(known)}"
-        )
-    if len(set(names)) != len(names):
-        raise InvalidParameterError(f"sensitivities: a parameter named twice in {list(names)}")
-    table = compiled.parameters.slots
-    directions = np.zeros((len(names), slots))
-    for k, name in enumerate(names):
-        for slot, entry in enumerate(table):
-            if entry.parameter == name:
-                directions[k, slot] = 1.0
-    return directions
-
-
-def _logged(step_log: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(count, 2): the logged steps' ends and their Jacobian flags."""
-    count = int(step_log[0])
-    if count < 0:
-        raise InvalidParameterError(
-            f"log_steps: more than {(step_log.size - 1) // 2} steps, more than the log holds"
-        )
-    return step_log[1 : 1 + 2 * count].reshape(count, 2)
-
-
-def _check_renewals(
-    renewals: NDArray[np.bool_] | None, sequence: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """The Jacobian flags of a shared sequence as the kernel takes them (empty: none)."""
-    if renewals is None:
-        return np.empty(0)
-    flags = np.asarray(renewals)
-    if sequence.size == 0:
-        raise InvalidParameterError("jacobian_renewals needs a step_sequence")
-    if flags.dtype != np.bool_ or flags.shape != sequence.shape:
-        raise InvalidParameterError(
-            f"jacobian_renewals must be a bool array of the step_sequence's length "
-            f"{sequence.size}, got {flags.dtype} of shape {flags.shape}"
-        )
-    return flags.astype(float)
-
-
-def _check_sequence(
-    sequence: NDArray[np.float64] | None, integrator: str, t_end: float
-) -> NDArray[np.float64]:
-    """The shared step sequence as the kernel takes it (empty: no sequence)."""
-    if sequence is None:
-        return np.empty(0)
-    if integrator not in ROSENBROCK:
-        raise InvalidParameterError(f"step_sequence needs an integrator of {ROSENBROCK}")
-    points = np.asarray(sequence, dtype=float)
-    if points.ndim != 1 or points.size == 0 or not np.all(np.isfinite(points)):
-        raise InvalidParameterError("step_sequence must be a non-empty 1-D array of finite times")
-    if points[0] <= 0.0 or np.any(np.diff(points) <= 0.0):
-        raise InvalidParameterError("step_sequence must increase from above t = 0")
-    if abs(points[-1] - t_end) > 1e-9 * t_end:
-        raise InvalidParameterError(
-            f"step_sequence must end at t_end = {t_end} s, got {points[-1]!r}"
-        )
-    points = np.ascontiguousarray(points)
-    points[-1] = t_end  # the kernel's final time, exactly
-    return points
 
 
 def _check_integrator(
@@ -606,35 +521,8 @@ class SimulationModel:
             return ()
         return self.compiled.parameters.names
 
-    def _check_wrt(self, wrt: Sequence[str] | None) -> tuple[str, ...] | None:
-        """``wrt`` as a tuple (None: no gradients asked).
-
-        Raises
-        ------
-        InvalidParameterError
-            Not a sequence of names, or a name the model cannot differentiate with respect
-            to (naming it and those it can).
-        """
-        if wrt is None:
-            return None
-        if isinstance(wrt, str) or not all(isinstance(name, str) for name in wrt):
-            raise InvalidParameterError(f"wrt must be a sequence of parameter names, got {wrt!r}")
-        names = tuple(wrt)
-        can = self.differentiable
-        unknown = [name for name in names if name not in can]
-        if unknown:
-            how = (
-                f"it differentiates with respect to {list(can)}"
-                if can
-                else f"integrator {self.settings['integrator']!r} gives no gradients "
-                f"(one of {ROSENBROCK} does)"
-            )
-            raise InvalidParameterError(
-                f"wrt: cannot differentiate with respect to {unknown}; {how}"
-            )
-        if len(set(names)) != len(names):
-            raise InvalidParameterError(f"wrt: a parameter named twice in {list(names)}")
-        return names
+    def _wrt(self, wrt: Sequence[str] | None) -> tuple[str, ...] | None:
+        return checked_wrt(wrt, self.differentiable, self.settings["integrator"])
 
     def simulate(self, samples: Mapping[str, NDArray[np.float64]], **overrides) -> SimulationResult:
         """:func:`simulate` of ``samples`` with this model's settings, ``overrides`` replacing
@@ -654,7 +542,7 @@ class SimulationModel:
         """The outputs of ``samples``; with ``wrt`` (names of :attr:`differentiable`) also
         ``"gradients": {output: (B, T, len(wrt))}``. The outputs are bit for bit the same
         with or without ``wrt``."""
-        names = self._check_wrt(wrt)
+        names = self._wrt(wrt)
         shared = self.shared
         if shared is None:
             return self._outputs(self.simulate(samples, sensitivities=names or ()), {}, names)
@@ -670,7 +558,7 @@ class SimulationModel:
         of samples are those of the corrected outputs, and they need no reference run
         (a study's choice of tolerance goes on while the reference runs). ``wrt`` as for
         ``__call__`` (the gradients are those of the outputs)."""
-        names = self._check_wrt(wrt)
+        names = self._wrt(wrt)
         shared = self.shared
         if shared is None:
             raise InvalidParameterError("deviations need shared steps (share_steps)")
@@ -692,7 +580,7 @@ class SimulationModel:
         without the gradients a later call asks for runs again)."""
         if self.shared is None:
             raise InvalidParameterError("run_ahead needs shared steps (share_steps)")
-        names = self._check_wrt(wrt)
+        names = self._wrt(wrt)
         self._wait_ahead()
 
         def ahead() -> None:

@@ -44,16 +44,23 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
+from fuzzymbs.mbs.kernels.dense_output import hermite, record_lanes
 from fuzzymbs.mbs.kernels.jacobian import jacobian
 from fuzzymbs.mbs.kernels.layout import NONFINITE, STEP_TOO_SMALL
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
-from fuzzymbs.mbs.kernels.rhs import rhs
-from fuzzymbs.mbs.kernels.rk4 import (
-    output_value,
-    record,
-    retire_failed,
-    start_block,
-    store_output,
+from fuzzymbs.mbs.kernels.rhs import copy_lanes, rhs
+from fuzzymbs.mbs.kernels.rk4 import record, retire_failed, start_block
+from fuzzymbs.mbs.kernels.sensitivities import (
+    S_ROW,
+    accept_sensitivities,
+    end_sensitivities,
+    keep_stage,
+    new_sensitivities,
+    no_sensitivity,
+    record_sensitivities,
+    record_sensitivity_lanes,
+    retire_sensitivities,
+    step_sensitivities,
 )
 from fuzzymbs.mbs.kernels.threads import round_robin
 
@@ -227,26 +234,14 @@ _CONTROL_ROWS = 18
 _OPEN = np.inf
 
 
-#: rows of a parameter's sensitivity arrays in a block (``sens[k]``): the sensitivity S
-#: at the lane's time, its value at the step's end, the sensitivity right-hand side
-#: ``f_x S + f_p`` at the step's start and at its end, then the stages' increments U_i
-(_S, _S_NEW, _S_G0, _S_G1, _S_U) = range(5)
-#: rows of ``sens_work``: the perturbed state, its f, a sensitivity right-hand side, the
-#: velocity-reduced solve's right-hand side, the perturbed parameter row; from
-#: ``_W_STAGES`` the state's stage points Y_i and from ``_W_STAGES + stages`` their f
-(_W_MOVED, _W_FMOVED, _W_G, _W_SOLVE, _W_P, _W_STAGES) = range(6)
-
-
 @nb.njit(cache=True, nogil=True)
 def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages, nsens=0):
     """State of a block of samples ``first .. first + count - 1`` (count <= 4) at the start:
     ``(x, p, alive, work, vectors, matrices, piv, sens, sens_work, control)``, advanced by
     :func:`advance_block_ros` with a method of ``stages`` stages. ``control`` holds one
     column per lane: every lane keeps its own time, step, error history and Jacobian age.
-    ``sens`` (nsens, 4 + stages, size) holds the sensitivities to ``nsens`` parameters
-    (rows ``_S`` ..., zero at the start: the initial state does not depend on them),
-    ``sens_work`` (5 + 2 stages, size) their scratch (rows ``_W_*``; one row without
-    sensitivities)."""
+    ``sens``, ``sens_work``: the sensitivities to ``nsens`` parameters and their work
+    arrays (:mod:`fuzzymbs.mbs.kernels.sensitivities`)."""
     x, p, alive, _, work = start_block(sysdata, params, x0, recording, first, count)
     size = x.shape[0]
     n = size // (2 * L)
@@ -257,8 +252,7 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages, ns
     # LU, and da/dq, da/dv fresh for the lanes that renew their Jacobian
     matrices = np.zeros((5, n * n * L))
     piv = np.zeros(n * L, dtype=np.int64)
-    sens = np.zeros((nsens, 4 + stages, size))
-    sens_work = np.zeros((_W_STAGES + 2 * stages if nsens > 0 else 1, max(size, p.shape[0])))
+    sens, sens_work = new_sensitivities(nsens, stages, size, p.shape[0])
     control = np.zeros((_CONTROL_ROWS, L))
     for lane in range(L):
         control[_H, lane] = h0
@@ -267,154 +261,6 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages, ns
         control[_LU_STEP, lane] = -1.0  # the step the LU factors were made for
         control[_NEED_JAC, lane] = 1.0  # J and f_t are renewed every JACOBIAN_AGE steps
     return x, p, alive, work, vectors, matrices, piv, sens, sens_work, control
-
-
-@nb.njit(cache=True)
-def _copy_lanes(src, dst, lanes):
-    """``dst`` <- ``src`` in the lanes where ``lanes`` is True (lane-minor arrays)."""
-    for lane in range(L):
-        if lanes[lane]:
-            for i in range(src.shape[0] // L):
-                dst[L * i + lane] = src[L * i + lane]
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def _sensitivity_scale(p, direction, delta):
-    """Per lane, the perturbation of a parameter in its differences: ``delta`` times the
-    lane's value (``delta`` itself for a value of zero), so that the state moves by
-    ``delta`` times ``p_k S_k``, the change a 100 % change of p_k would make to first
-    order: a relative perturbation of the same size in state and parameter."""
-    scale = V.splat(0.0)
-    for slot in range(direction.shape[0]):
-        if direction[slot] != 0.0:
-            value = V.vabs(V.load(p, L * slot))
-            scale = V.where_lt(scale, value, value, scale)
-    return V.where_eq(scale, V.splat(0.0), V.splat(delta), delta * scale)
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def _perturbed_parameters(p, direction, eps, dst):
-    """``dst[: slots L]`` <- the lanes' parameter rows with parameter k moved by eps."""
-    for slot in range(direction.shape[0]):
-        value = V.load(p, L * slot)
-        if direction[slot] != 0.0:
-            value = value + direction[slot] * eps
-        V.store(dst, L * slot, value)
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def sensitivity_rhs(theta, xb, fb, s, direction, p, delta, sysdata, work, sens_work, dst):
-    """``dst`` <- the sensitivity right-hand side ``f_x(x) s + f_p(x)`` at the lane
-    times ``theta`` and states ``xb``, with ``fb = f(theta, xb)`` known: the directional
-    difference ``(f(xb + eps s, p + eps e_k) - fb) / eps`` (one right-hand side; eps
-    from :func:`_sensitivity_scale`, e_k the parameter's ``direction`` in the slots).
-
-    Exact to O(eps) and rounding for every model of the engine, with no derivative of
-    its own: the contact's friction, the master face's interpolation and the prescribed
-    motions are differentiated as the right-hand side computes them."""
-    size = xb.shape[0]
-    eps = _sensitivity_scale(p, direction, delta)
-    p_moved = sens_work[_W_P][: p.shape[0]]
-    _perturbed_parameters(p, direction, eps, p_moved)
-    moved, f_moved = sens_work[_W_MOVED], sens_work[_W_FMOVED]
-    for i in range(size // L):
-        at = L * i
-        V.store(moved, at, V.load(xb, at) + eps * V.load(s, at))
-    rhs(theta, moved, f_moved, p_moved, sysdata, work)
-    for i in range(size // L):
-        at = L * i
-        V.store(dst, at, (V.load(f_moved, at) - V.load(fb, at)) / eps)
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def sensitivity_stage(
-    s, theta, sk, direction, p, delta, coefficients, step_v, jq, mat, piv, sysdata, work, sens_work
-):
-    """Stage ``s`` of one parameter's sensitivity (``sk``: its rows ``_S`` ...), once the
-    state's step is computed: ``(I / (gamma h) - J) U_s = G_s + sum_j (c_sj / h) U_j``
-    with the state's factors ``mat``, ``piv`` (the velocity-reduced solve), ``G_s`` the
-    sensitivity right-hand side at the stage's point ``(Y_s, S_s = S + sum_j at_sj U_j)``:
-    at stage 0 the one at the step's start (``_S_G0``), then :func:`sensitivity_rhs` at
-    the state's stage point and f kept in ``sens_work`` (``_W_STAGES``). No ``f_t`` term:
-    the W-method keeps its order with the block-diagonal Jacobian ``diag(J, J)`` of the
-    state and its sensitivities, which drops it (docs/theory.md)."""
-    at, cc, gamma = coefficients[0], coefficients[1], coefficients[6][0]
-    stages = at.shape[0]
-    nstate = sk.shape[1] // L
-    n = nstate // 2
-    gh = gamma * step_v
-    g = sk[_S_G0]
-    if s > 0:
-        g = sens_work[_W_G]
-        # S_s, kept in the solve's row until the difference has read it
-        s_stage = sens_work[_W_SOLVE]
-        for i in range(nstate):
-            acc = V.load(sk[_S], L * i)
-            for j in range(s):
-                acc = acc + at[s, j] * V.load(sk[_S_U + j], L * i)
-            V.store(s_stage, L * i, acc)
-        sensitivity_rhs(
-            theta,
-            sens_work[_W_STAGES + s],
-            sens_work[_W_STAGES + stages + s],
-            s_stage,
-            direction,
-            p,
-            delta,
-            sysdata,
-            work,
-            sens_work,
-            g,
-        )
-    r = sens_work[_W_MOVED]
-    for i in range(nstate):
-        acc = V.load(g, L * i)
-        for j in range(s):
-            acc = acc + (cc[s, j] / step_v) * V.load(sk[_S_U + j], L * i)
-        V.store(r, L * i, acc)
-    rhs_v = sens_work[_W_SOLVE]
-    for i in range(n):
-        acc = V.splat(0.0)
-        for j in range(n):
-            acc = acc + V.load(jq, L * (n * i + j)) * V.load(r, L * j)
-        V.store(rhs_v, L * i, V.load(r, L * (n + i)) + gh * acc)
-    lu_solve_lanes(mat, n, piv, rhs_v)
-    us = sk[_S_U + s]
-    for i in range(n):
-        solved = V.load(rhs_v, L * i)
-        V.store(us, L * (n + i), solved)
-        V.store(us, L * i, gh * (V.load(r, L * i) + solved))
-
-
-@nb.njit(cache=True)
-def record_sensitivity_lanes(sv, out_w, out_s, first, lanes, records, k):
-    """The outputs' derivatives ``out_w sv`` (outputs are linear in the state) of the
-    lanes marked in ``lanes`` into ``out_s[sample, output, records[lane], k]``."""
-    for o in range(out_w.shape[0]):
-        value = output_value(sv, out_w, o)
-        for lane in range(L):
-            if lanes[lane]:
-                out_s[first + lane, o, records[lane], k] = V.get(value, lane)
-
-
-@nb.njit(cache=True)
-def retire_sensitivities(count, alive, sens):
-    """Failed lanes (and padding lanes repeating a failed sample) take the sensitivities
-    of the block's first healthy lane, as :func:`fuzzymbs.mbs.kernels.rk4.retire_failed`
-    gives them its state: finite numbers in every lane's arithmetic."""
-    healthy = -1
-    for lane in range(count):
-        if alive[lane]:
-            healthy = lane
-            break
-    if healthy < 0:
-        return
-    for lane in range(L):
-        if not alive[min(lane, count - 1)]:
-            for k in range(sens.shape[0]):
-                for row in range(sens.shape[1]):
-                    for i in range(sens.shape[2] // L):
-                        sens[k, row, L * i + lane] = sens[k, row, L * i + healthy]
 
 
 @nb.njit(cache=True, nogil=True, fastmath=V.FAST)
@@ -506,9 +352,8 @@ def advance_block_ros(
     stages = m.shape[0]
     gamma, exponent, jacobian_age = settings[0], settings[1], settings[2]
     x, p, alive, work, vectors, matrices, piv, sens, sens_work, control = state
-    directions, sens_settings, out_s = sensitivity
-    nsens = directions.shape[0]
-    sens_delta = sens_settings[0]
+    nsens = sensitivity[0].shape[0]
+    sens_block = (*sensitivity, sens, sens_work)
     g_known = control[_G_KNOWN]  # the lane's sensitivity right-hand side at t known
     f0, ft, fy, y, r = vectors[0], vectors[1], vectors[2], vectors[3], vectors[4]
     x_new, rhs_v, f_fresh, ft_fresh = vectors[5], vectors[6], vectors[7], vectors[8]
@@ -551,7 +396,6 @@ def advance_block_ros(
     theta = np.empty(L)
     records = np.zeros(L, dtype=np.int64)
     rec_times = np.empty(L)
-    stage_t = np.empty(L)
     going = True
     if next_rec[0] == 0.0:  # the block's first call: record the initial state
         for lane in range(L):
@@ -562,7 +406,10 @@ def advance_block_ros(
             for lane in range(L):
                 pending[lane] = lane < count and alive[lane]
                 records[lane] = 0
-            record_sensitivity_lanes(sens[k, _S], recording[0], out_s, first, pending, records, k)
+            out_s = sensitivity[2]
+            record_sensitivity_lanes(
+                sens[k, S_ROW], recording[0], out_s, first, pending, records, k
+            )
         if retire_failed(first, count, status, alive, out, x, p) or n_records == 1:
             going = False
         elif nsens > 0:
@@ -636,8 +483,8 @@ def advance_block_ros(
                     jac_age[lane] = 0.0
                     f_known[lane] = 1.0
                     lu_step[lane] = -1.0
-            _copy_lanes(jq_fresh, jq, renew)
-            _copy_lanes(jv_fresh, jv, renew)
+            copy_lanes(jq_fresh, jq, renew)
+            copy_lanes(jv_fresh, jv, renew)
         any_renew = False
         for lane in range(L):
             renew[lane] = stepping[lane] and f_known[lane] == 0.0
@@ -647,7 +494,7 @@ def advance_block_ros(
             for lane in range(L):
                 if renew[lane]:
                     control[_N_RHS, lane] += 1.0
-            _copy_lanes(f_fresh, f0, renew)
+            copy_lanes(f_fresh, f0, renew)
             for lane in range(L):
                 if renew[lane]:
                     f_known[lane] = 1.0
@@ -704,11 +551,8 @@ def advance_block_ros(
                 solved = V.load(rhs_v, L * i)
                 V.store(us, L * (n + i), solved)
                 V.store(us, L * i, gh * (V.load(r, L * i) + solved))
-            if nsens > 0 and s > 0:
-                # the stage's point and f, for the sensitivities once the step is accepted
-                for i in range(nstate):
-                    V.store(sens_work[_W_STAGES + s], L * i, V.load(y, L * i))
-                    V.store(sens_work[_W_STAGES + stages + s], L * i, V.load(stage_f, L * i))
+            if nsens > 0 and s > 0:  # for the sensitivities, once the step is accepted
+                keep_stage(sens_work, s, stages, y, stage_f)
         # new state and each lane's error norm; a lane whose error is not finite fails
         squares = V.splat(0.0)
         for i in range(nstate):
@@ -785,65 +629,11 @@ def advance_block_ros(
         for lane in range(L):
             any_took = any_took or took[lane]
         if nsens > 0 and any_took:
-            # the sensitivities' step, for the lanes whose step is accepted: their
-            # right-hand side at the step's start where the last step's record did not
-            # leave it, then the stages at the state's stage points
-            any_renew = False
-            for lane in range(L):
-                renew[lane] = took[lane] and g_known[lane] == 0.0
-                any_renew = any_renew or renew[lane]
-            if any_renew:
-                for k in range(nsens):
-                    g = sens_work[_W_G]
-                    sensitivity_rhs(
-                        t_lane,
-                        x,
-                        f0,
-                        sens[k, _S],
-                        directions[k],
-                        p,
-                        sens_delta,
-                        sysdata,
-                        work,
-                        sens_work,
-                        g,
-                    )
-                    _copy_lanes(g, sens[k, _S_G0], renew)
-                for lane in range(L):
-                    if renew[lane]:
-                        g_known[lane] = 1.0
-                        control[_N_SENS_RHS, lane] += nsens
-            for stage in range(stages):
-                for lane in range(L):
-                    stage_t[lane] = t_lane[lane] + alpha[stage] * steps[lane]
-                for k in range(nsens):
-                    sensitivity_stage(
-                        stage,
-                        stage_t,
-                        sens[k],
-                        directions[k],
-                        p,
-                        sens_delta,
-                        coefficients,
-                        step_v,
-                        jq,
-                        mat,
-                        piv,
-                        sysdata,
-                        work,
-                        sens_work,
-                    )
-                if stage > 0:
-                    for lane in range(L):
-                        if took[lane]:
-                            control[_N_SENS_RHS, lane] += nsens
-            for k in range(nsens):
-                sk = sens[k]
-                for i in range(nstate):
-                    acc = V.load(sk[_S], L * i)
-                    for j in range(stages):
-                        acc = acc + m[j] * V.load(sk[_S_U + j], L * i)
-                    V.store(sk[_S_NEW], L * i, acc)
+            state_step = (at, cc, m, alpha, gamma, steps, step_v, jq, mat, piv, work)
+            counter = control[_N_SENS_RHS]
+            step_sensitivities(
+                took, g_known, counter, t_lane, x, f0, sens_block, p, state_step, sysdata
+            )
         if any_record:
             # the records the accepted steps cover, from each lane's Hermite interpolant;
             # f at a step's end is that lane's next f0
@@ -853,25 +643,9 @@ def advance_block_ros(
                     control[_N_RHS, lane] += 1.0
             # the sensitivities' right-hand sides at the step's end: their interpolant's
             # slope there, and the next step's first stage
-            for k in range(nsens):
-                g = sens_work[_W_G]
-                sensitivity_rhs(
-                    theta,
-                    x_new,
-                    fy,
-                    sens[k, _S_NEW],
-                    directions[k],
-                    p,
-                    sens_delta,
-                    sysdata,
-                    work,
-                    sens_work,
-                    g,
-                )
-                _copy_lanes(g, sens[k, _S_G1], covered)
-            for lane in range(L):
-                if covered[lane]:
-                    control[_N_SENS_RHS, lane] += nsens
+            if nsens > 0:
+                counter = control[_N_SENS_RHS]
+                end_sensitivities(theta, x_new, fy, covered, counter, sens_block, p, sysdata, work)
             while True:
                 any_pending = False
                 for lane in range(L):
@@ -885,10 +659,11 @@ def advance_block_ros(
                     break
                 hermite(x, f0, x_new, fy, step_v, V.load(delta, 0), y)
                 record_lanes(y, recording, first, pending, records, rec_times)
-                for k in range(nsens):
-                    sk = sens[k]
-                    hermite(sk[_S], sk[_S_G0], sk[_S_NEW], sk[_S_G1], step_v, V.load(delta, 0), y)
-                    record_sensitivity_lanes(y, recording[0], out_s, first, pending, records, k)
+                if nsens > 0:
+                    theta_v = V.load(delta, 0)
+                    record_sensitivities(
+                        sens_block, recording[0], step_v, theta_v, first, pending, records
+                    )
                 for lane in range(L):
                     if pending[lane]:
                         next_rec[lane] += 1.0
@@ -903,14 +678,7 @@ def advance_block_ros(
                 if covered[lane]:
                     f_known[lane] = 1.0
                 t[lane] = theta[lane]
-                for k in range(nsens):
-                    sk = sens[k]
-                    for i in range(nstate):
-                        e = L * i + lane
-                        sk[_S, e] = sk[_S_NEW, e]
-                        if covered[lane]:
-                            sk[_S_G0, e] = sk[_S_G1, e]
-                g_known[lane] = 1.0 if covered[lane] else 0.0
+        accept_sensitivities(took, covered, g_known, sens)
         if newly_failed:
             if retire_failed(first, count, status, alive, out, x, p):
                 going = False
@@ -922,59 +690,8 @@ def advance_block_ros(
     return more
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
-def hermite(xa, fa, xb, fb, h, theta, dst):
-    """``dst`` <- the cubic Hermite interpolant at ``t_a + theta h`` of a step of length h
-    from (x_a, f_a) to (x_b, f_b); ``h`` and ``theta`` are lane vectors (a step and a
-    point in it per lane)."""
-    t2 = theta * theta
-    t3 = t2 * theta
-    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
-    h10 = (t3 - 2.0 * t2 + theta) * h
-    h01 = 3.0 * t2 - 2.0 * t3
-    h11 = (t3 - t2) * h
-    for i in range(xa.shape[0] // L):
-        at = L * i
-        value = h00 * V.load(xa, at) + h10 * V.load(fa, at)
-        value = value + h01 * V.load(xb, at) + h11 * V.load(fb, at)
-        V.store(dst, at, value)
-
-
-@nb.njit(cache=True)
-def record_lanes(x, recording, first, lanes, records, times):
-    """Outputs of the lanes marked in ``lanes`` into their own record ``records[lane]``
-    at ``times[lane]``; a lane whose output leaves its bound (or is not finite) is
-    flagged (``recording`` as for :func:`fuzzymbs.mbs.kernels.rk4.rk4`)."""
-    out_w = recording[0]
-    for o in range(out_w.shape[0]):
-        y = output_value(x, out_w, o)
-        for lane in range(L):
-            if lanes[lane]:
-                store_output(recording, first + lane, o, records[lane], V.get(y, lane), times[lane])
-
-
 #: slices (in recording intervals) a block's run is cut into when blocks share threads
 SLICES = 16
-#: relative perturbation of the sensitivities' differences (:func:`_sensitivity_scale`).
-#: On the brake's first millisecond (benchmarks/brake_sensitivities.py, against central
-#: differences of whole runs at rtol 1e-6): 1e-7 left rounding noise of 26 times the
-#: pads' derivative to k_c (a 7e-16 m per N/m quantity) and 85 % of the caliper's to the
-#: disc speed, 1e-5 0.19 and 1.2 %, 1e-4 1.5 % and 0.02 %; 1e-3 no better, the pads'
-#: derivative to k growing from 1.3e-5 to 3.8e-5 of its peak. The differences' own
-#: error is O(delta) relative: 1.4e-4 of the peak on a spring-mass oscillator (the spring
-#: force is bilinear in k and x), 1e-4 on a block sliding on a belt (tests/mbs/
-#: test_sensitivities.py), far below what a fuzzy band asks (a per cent of its width)
-SENS_DELTA = 1e-4
-
-
-def no_sensitivity(slots: int, batch: int, n_out: int, n_records: int) -> tuple:
-    """The kernel's ``sensitivity`` argument for a run without sensitivities (P = 0;
-    the same types as with them, so one compiled kernel serves both)."""
-    return (
-        np.zeros((0, slots)),
-        np.array([SENS_DELTA]),
-        np.zeros((batch, n_out, n_records, 0)),
-    )
 
 
 def ros34pw2(
