@@ -45,16 +45,26 @@ def test_brake_declares_and_returns_gradients(brake):
         brake(samples, wrt=["speed"])
 
 
-@pytest.mark.slow  # about 30 s: the reference's runs at rtol 1e-6
+#: bounds of the comparison with central differences: 3x the measured errors; 1e-4 (6x
+#: the largest of the others) else
+BOUNDS = {
+    ("y_lpad", "pad_spring_stiffness"): 5e-3,
+    ("y_lpad", "disc_speed"): 1.5e-2,
+    ("y_cali", "disc_speed"): 4e-2,
+}
+
+
+@pytest.mark.slow  # about 15 s: the reference's runs at rtol 1e-6
 def test_brake_derivatives_against_central_differences():
     # reference: central differences (1e-3 relative) of whole runs at rtol 1e-6 on one
     # shared step sequence (the nominal sample's, the same steps for both runs) over the
     # first 0.3 ms (contact closing, the first slip reversals); the sensitivities at rtol
     # 1e-4 on their own steps. Measured (largest error over time relative to each
-    # derivative's peak, pads / caliper): k 7.4e-4 / 2.3e-5, F_n 7.8e-5 / 1.8e-5, omega
-    # 1.1e-3 / 2.5e-4 (the state's own error at this rtol is about 5e-5 of the peak; the
-    # pads' derivative to k_c, 1e-15 m per N/m, is left out: the differences' rounding
-    # there is 1 % of it). Bound 5e-3.
+    # derivative's peak): pads k 1.5e-3, F_n 1.7e-5, omega 4.3e-3; caliper k 8.1e-6, k_c
+    # 3.0e-7, F_n 8.1e-6, omega 1.2e-2 (the caliper's derivative to omega is the pads'
+    # asymmetry, 7.5e-15 m per rad/s this early: a small difference of the pads' large
+    # derivatives, whose error it takes). The pads' derivative to k_c (1e-16 m per N/m)
+    # is left out: the differences' rounding there is a per cent of it. Bounds: 3x.
     t_end = 3e-4
     compiled = DiscBrake(t_end=t_end).compiled
     outputs = {"y_lpad": Coordinate("lower_pad", 0), "y_cali": Coordinate("caliper", 0)}
@@ -90,11 +100,11 @@ def test_brake_derivatives_against_central_differences():
                 continue
             reference = (y[k, 0] - y[k, 1]) / (2e-3 * nominal[name])
             error = np.abs(result.gradients[output][0, :, k] - reference).max()
-            print(output, name, error / np.abs(reference).max())
-            assert error < 5e-3 * np.abs(reference).max(), (output, name)
+            bound = BOUNDS.get((output, name), 1e-4)
+            assert error < bound * np.abs(reference).max(), (output, name)
 
 
-@pytest.mark.slow  # the brake's lanes: about 15 s
+@pytest.mark.slow  # the brake's lanes: about 5 s
 def test_brake_gradients_do_not_depend_on_the_block():
     # six samples that differ in every parameter (frictionless and fast-turning lanes
     # beside ordinary ones: the per-lane contact path), alone and packed with others:
@@ -130,7 +140,7 @@ def test_brake_gradients_on_shared_steps():
     # sample's kept logging run included), the gradients those of simulate on the
     # sequence, and a run kept by deviations without gradients is run again for them
     brake = DiscBrake(t_end=1e-4, record_interval=1e-5, rtol=1e-3)
-    shared = brake.share_steps({})
+    shared = brake.share_steps({"nodal_force": 16e3, "pad_spring_stiffness": 2e5})
     samples = {"nodal_force": np.array([16e3, 16.16e3]), "pad_spring_stiffness": [2e5, 1.8e5]}
     shared.deviations(samples)  # keeps the runs, without gradients
     plain = shared(samples)
