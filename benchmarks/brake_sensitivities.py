@@ -1,7 +1,7 @@
 """The brake's outputs' derivatives from forward sensitivities: accuracy and cost.
 
     python benchmarks/brake_sensitivities.py [--parts accuracy cost] [--t-end S]
-        [--cost-t-end S] [--rtol ...] [--repeats N]
+        [--cost-t-end S] [--rtol ...] [--cost-rtol ...] [--repeats N] [--delta D]
 
 Prints readable tables to stderr and one JSON line to stdout.
 
@@ -25,6 +25,9 @@ over ``--cost-t-end``, default 2 ms, at each ``--rtol``): process CPU time of th
 (the smallest of ``--repeats``, the variants alternating) and the kernel's counts, for no
 sensitivities and for 1 (each of study 1's parameters), study 1's three, study 2's three
 and all four; the ratios against the run without, in the same process.
+
+``--delta``: the differences' relative perturbation instead of the kernel's
+(:data:`fuzzymbs.mbs.kernels.sensitivities.SENS_DELTA`), for its choice.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzymbs.mbs import integrate
 from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
@@ -330,8 +334,16 @@ def main() -> None:
     parser.add_argument("--rtol", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4])
     parser.add_argument("--cost-rtol", type=float, nargs="+", default=[1e-2, 1e-3])
     parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument(
+        "--delta",
+        type=float,
+        default=None,
+        help="relative perturbation of the differences (default the kernel's SENS_DELTA)",
+    )
     args = parser.parse_args()
-    report: dict = {}
+    if args.delta is not None:
+        integrate.SENS_DELTA = args.delta  # simulate reads it at every call
+    report: dict = {"delta": integrate.SENS_DELTA}
     if "accuracy" in args.parts:
         report["accuracy"] = accuracy(args.t_end, args.rtol)
     if "cost" in args.parts:
