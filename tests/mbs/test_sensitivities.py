@@ -231,6 +231,24 @@ def test_a_samples_derivatives_do_not_depend_on_its_block(block):
         np.testing.assert_array_equal(packed.sensitivity_rhs, alone.sensitivity_rhs[rows])
 
 
+def test_a_failed_sample_leaves_its_block_mates_derivatives_alone(block):
+    # a sample pressed beyond the displacement bound fails (NaN derivatives); its lane
+    # then repeats a healthy one, and the others' derivatives stay bit for bit their own
+    samples = _block_samples(4, seed=6)
+    samples["press"][1] = -1e7  # N: 500 m into the belt, beyond the 1 m bound at once
+    names = ("mu", "press")
+    alone = _run_block(block, samples, np.arange(4), kernel="samples", sensitivities=names)
+    packed = _run_block(block, samples, np.arange(4), sensitivities=names)
+    assert alone.failed.tolist() == packed.failed.tolist() == [False, True, False, False]
+    for name in BLOCK_OUTPUTS:
+        assert np.isnan(packed.gradients[name][1]).all()
+        healthy = [0, 2, 3]
+        assert np.isfinite(packed.gradients[name][healthy]).all()
+        np.testing.assert_array_equal(
+            packed.gradients[name][healthy], alone.gradients[name][healthy]
+        )
+
+
 def test_sliding_block_derivatives_against_central_differences(block):
     # contact and friction: central differences (1e-4 relative) of whole runs at rtol 1e-8
     # on one shared step sequence (the same steps for both, smooth in the parameters),
