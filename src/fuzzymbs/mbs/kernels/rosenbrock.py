@@ -36,6 +36,10 @@ recording times: the outputs there come from the cubic Hermite interpolant of th
 covering step (x and f at both ends; f at the end is the next step's first
 stage), and only the last step is shortened. On the brake over 10 ms this took 8 %
 fewer steps than stopping at every 10 us record (15,490 against 16,847 at rtol 1e-2).
+
+Forward sensitivities (the outputs' derivatives with respect to parameters) ride along
+on the same steps, each stage solved with the state's LU
+(:mod:`fuzzymbs.mbs.kernels.sensitivities`).
 """
 
 from __future__ import annotations
@@ -226,7 +230,7 @@ _GRID = 12  # the lane's next point of a shared step sequence
 #: included, the Jacobian's own f not), Jacobians, LU factorisations (for a block of one
 #: sample, the block's calls; lanes of a mixed block share the calls they need together)
 (_N_RHS, _N_JAC, _N_LU) = (13, 14, 15)
-#: the lane's sensitivity right-hand side at its step's start known (:data:`_S_G0`), and
+#: the lane's sensitivity right-hand side at its step's start known (``G0``), and
 #: the right-hand sides the sensitivities took (not counted in ``_N_RHS``)
 (_G_KNOWN, _N_SENS_RHS) = (16, 17)
 _CONTROL_ROWS = 18
@@ -326,11 +330,12 @@ def advance_block_ros(
     the state's steps, each stage's solve with the state's LU (docs/theory.md, "Forward
     sensitivities"). ``directions`` (P, slots): 1.0 in the slots parameter k sets (a
     name may set several); ``sens_settings = (delta,)``: the relative perturbation of
-    the differences (:data:`SENS_DELTA`); ``out_s`` (B, n_out, n_rec, P) receives the
-    outputs' derivatives at the records. The sensitivities only read the state's
-    arithmetic and never steer it, so the outputs and steps are bit for bit those of
-    the run without (P = 0). Their stages are computed once a step is accepted, from
-    the state's stage points kept for them: a rejected step costs them nothing.
+    the differences (:data:`fuzzymbs.mbs.kernels.sensitivities.SENS_DELTA`); ``out_s``
+    (B, n_out, n_rec, P) receives the outputs' derivatives at the records. The
+    sensitivities only read the state's arithmetic and never steer it, so the outputs
+    and steps are bit for bit those of the run without (P = 0). Their stages are
+    computed once a step is accepted, from the state's stage points kept for them: a
+    rejected step costs them nothing.
     """
     t0, interval, n_records = timing[0], timing[1], int(timing[2])
     out, status, fail_t = recording[2], recording[3], recording[4]
