@@ -12,8 +12,8 @@ on the same right-hand side, for checks.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -26,10 +26,15 @@ from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import METHODS, ros34pw2
+from fuzzymbs.mbs.kernels.sensitivities import SENS_DELTA, no_sensitivity
 from fuzzymbs.mbs.kernels.simd import LANES
+from fuzzymbs.mbs.sensitivities import checked_wrt, sensitivity_directions
 from fuzzymbs.mbs.shared_steps import (
     SharedSteps,
+    checked_renewals,
+    checked_sequence,
     kept_run,
+    logged_steps,
     predicted_reference_error,
     share_steps,
 )
@@ -42,8 +47,11 @@ KERNELS = ("auto", "lanes", "samples")
 #: with error control (:mod:`fuzzymbs.mbs.kernels.rosenbrock`; opt-in here): ROS34PW2 (the
 #: brake model's default) and RODAS4
 INTEGRATORS = ("rk4", "ros34pw2", "rodas4")
-#: the integrators with error control (a tolerance, shared steps, step logs)
+#: the integrators with error control (a tolerance, shared steps, step logs, sensitivities)
 ROSENBROCK = ("ros34pw2", "rodas4")
+#: the key of the outputs' derivatives in a model's outputs when it is called with ``wrt``
+#: (the model protocol of :mod:`fuzzymbs.study`)
+GRADIENTS = "gradients"
 
 
 @dataclass
@@ -74,6 +82,14 @@ class SimulationResult:
     #: (B, 3) right-hand sides, Jacobians and LU factorisations of each sample's runs
     #: (ROS34PW2, RODAS4: the block calls it took part in), None for RK4
     work_counts: NDArray[np.int64] | None = None
+    #: {output: (B, T, P)} the outputs' derivatives with respect to the parameters asked
+    #: for (``simulate(..., sensitivities=names)``), the last axis in that order, in the
+    #: output's unit per the parameter's (NaN rows for failed samples); None without
+    gradients: dict[str, NDArray[np.float64]] | None = None
+    #: the parameters of ``gradients``' last axis
+    gradient_parameters: tuple[str, ...] = ()
+    #: (B,) right-hand sides the sensitivities took (besides ``work_counts``'), None without
+    sensitivity_rhs: NDArray[np.int64] | None = None
 
 
 def _check_timing(t_end: float, dt: float, record_interval: float | None) -> tuple[int, int]:
@@ -110,6 +126,7 @@ def simulate(
     step_sequence: NDArray[np.float64] | None = None,
     jacobian_renewals: NDArray[np.bool_] | None = None,
     log_steps: bool | int = False,
+    sensitivities: Sequence[str] = (),
 ) -> SimulationResult:
     """Integrate a batch of samples with classic RK4 (fixed step) or ROS34PW2.
 
@@ -171,6 +188,13 @@ def simulate(
         ROS34PW2 only: return the ends of the first sample's accepted steps as
         ``step_times`` (and ``step_renewals``); a number: at most that many (default
         20 per dt, at least 10^6), more raise :class:`~fuzzymbs.errors.InvalidParameterError`.
+    sensitivities : sequence of str
+        ROS34PW2 and RODAS4 only: names of bound parameters (``compiled.parameters.names``)
+        whose forward sensitivities ``dx/dp`` are integrated with the state, on the
+        state's steps (the state's error control alone chooses them, so the outputs are
+        bit for bit those of the run without); the result's ``gradients`` then hold the
+        outputs' derivatives, (B, T, P) per output in this order, in the output's unit
+        per the parameter's (docs/theory.md, "Forward sensitivities").
     """
     _check_kernel(kernel)
     rtols, atols, h_min = _check_integrator(integrator, tolerance)
@@ -182,6 +206,11 @@ def simulate(
     n_steps, every = _check_timing(t_end, dt, record_interval)
     params = compiled.parameters.values(samples or {})
     batch = params.shape[0]
+    directions = sensitivity_directions(
+        compiled, sensitivities, integrator in ROSENBROCK, params.shape[1]
+    )
+    sens_settings = np.array([SENS_DELTA])
+    nsens = directions.shape[0]
     rtols = _per_sample(rtols, batch, "rtol")
     atols = _per_sample(atols, batch, "atol")
     x0 = _initial(compiled, initial_state, batch)
@@ -198,12 +227,15 @@ def simulate(
     )
     n_rec = n_steps // every + 1
     # the kernel's final time, computed as it computes it
-    sequence = _check_sequence(step_sequence, integrator, 0.0 + (n_rec - 1) * float(every * dt))
-    renewals = _check_renewals(jacobian_renewals, sequence)
+    sequence = checked_sequence(
+        step_sequence, integrator in ROSENBROCK, 0.0 + (n_rec - 1) * float(every * dt)
+    )
+    renewals = checked_renewals(jacobian_renewals, sequence)
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
     fail_t = np.full(batch, np.nan)
-    counts = np.zeros((batch, 5), dtype=np.int64)
+    counts = np.zeros((batch, 6), dtype=np.int64)
+    derivatives = np.empty((batch, out_w.shape[0], n_rec, nsens))
     step_log = np.zeros(1)
     if log_steps is not False:
         capacity = max(20 * n_steps, 10**6) if log_steps is True else int(log_steps)
@@ -223,6 +255,12 @@ def simulate(
                 samples_per_block(kernel),
             )
         else:
+            d = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec, nsens))
+            sensitivity = (
+                (directions, sens_settings, d)
+                if nsens
+                else no_sensitivity(params.shape[1], d.shape[0], out_w.shape[0], n_rec)
+            )
             ros34pw2(
                 compiled.data,
                 np.ascontiguousarray(params[sl]),
@@ -236,13 +274,19 @@ def simulate(
                 renewals,
                 step_log if start == 0 else np.zeros(1),
                 METHODS[integrator],
+                sensitivity,
             )
+            derivatives[sl] = d
         out[sl] = o
         status[sl] = st
         fail_t[sl] = ft
     time = np.arange(n_rec) * every * dt
-    logged = _logged(step_log) if log_steps is not False else None
+    logged = logged_steps(step_log) if log_steps is not False else None
     reasons = np.array([FAILURE_REASONS[int(s)] for s in status], dtype=str)
+    gradients = None
+    if nsens:
+        derivatives[status != OK] = np.nan
+        gradients = {name: derivatives[:, i] for i, name in enumerate(outputs)}
     return SimulationResult(
         time=time,
         outputs={name: out[:, i, :] for i, name in enumerate(outputs)},
@@ -252,57 +296,11 @@ def simulate(
         step_counts=None if integrator == "rk4" else counts[:, :2].copy(),
         step_times=None if logged is None else logged[:, 0].copy(),
         step_renewals=None if logged is None else logged[:, 1] != 0.0,
-        work_counts=None if integrator == "rk4" else counts[:, 2:].copy(),
+        work_counts=None if integrator == "rk4" else counts[:, 2:5].copy(),
+        gradients=gradients,
+        gradient_parameters=tuple(sensitivities) if nsens else (),
+        sensitivity_rhs=counts[:, 5].copy() if nsens else None,
     )
-
-
-def _logged(step_log: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(count, 2): the logged steps' ends and their Jacobian flags."""
-    count = int(step_log[0])
-    if count < 0:
-        raise InvalidParameterError(
-            f"log_steps: more than {(step_log.size - 1) // 2} steps, more than the log holds"
-        )
-    return step_log[1 : 1 + 2 * count].reshape(count, 2)
-
-
-def _check_renewals(
-    renewals: NDArray[np.bool_] | None, sequence: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """The Jacobian flags of a shared sequence as the kernel takes them (empty: none)."""
-    if renewals is None:
-        return np.empty(0)
-    flags = np.asarray(renewals)
-    if sequence.size == 0:
-        raise InvalidParameterError("jacobian_renewals needs a step_sequence")
-    if flags.dtype != np.bool_ or flags.shape != sequence.shape:
-        raise InvalidParameterError(
-            f"jacobian_renewals must be a bool array of the step_sequence's length "
-            f"{sequence.size}, got {flags.dtype} of shape {flags.shape}"
-        )
-    return flags.astype(float)
-
-
-def _check_sequence(
-    sequence: NDArray[np.float64] | None, integrator: str, t_end: float
-) -> NDArray[np.float64]:
-    """The shared step sequence as the kernel takes it (empty: no sequence)."""
-    if sequence is None:
-        return np.empty(0)
-    if integrator not in ROSENBROCK:
-        raise InvalidParameterError(f"step_sequence needs an integrator of {ROSENBROCK}")
-    points = np.asarray(sequence, dtype=float)
-    if points.ndim != 1 or points.size == 0 or not np.all(np.isfinite(points)):
-        raise InvalidParameterError("step_sequence must be a non-empty 1-D array of finite times")
-    if points[0] <= 0.0 or np.any(np.diff(points) <= 0.0):
-        raise InvalidParameterError("step_sequence must increase from above t = 0")
-    if abs(points[-1] - t_end) > 1e-9 * t_end:
-        raise InvalidParameterError(
-            f"step_sequence must end at t_end = {t_end} s, got {points[-1]!r}"
-        )
-    points = np.ascontiguousarray(points)
-    points[-1] = t_end  # the kernel's final time, exactly
-    return points
 
 
 def _check_integrator(
@@ -467,6 +465,12 @@ class SimulationModel:
     ``settings``: keyword arguments of :func:`simulate` (:data:`MODEL_SETTINGS`, its
     defaults where not given; ``t_end`` and ``dt`` required). Picklable (plain arrays);
     the kernels compile (or load from cache) on first call.
+
+    With a Rosenbrock integrator the model can differentiate its outputs: it declares
+    ``differentiable`` (every bound parameter) and ``model(samples, wrt=names)`` adds
+    ``"gradients": {output: (B, T, len(names))}``, the outputs' derivatives with respect
+    to ``names`` in that order (forward sensitivities, :func:`simulate`'s
+    ``sensitivities``), in the output's unit per the parameter's.
     """
 
     def __init__(
@@ -508,6 +512,18 @@ class SimulationModel:
     def parameter_defaults(self) -> dict[str, float]:
         return self.compiled.parameters.defaults()
 
+    @property
+    def differentiable(self) -> tuple[str, ...]:
+        """The parameters ``model(samples, wrt=...)`` differentiates the outputs with respect
+        to: every bound parameter with a Rosenbrock integrator (forward sensitivities),
+        none with RK4."""
+        if self.settings["integrator"] not in ROSENBROCK:
+            return ()
+        return self.compiled.parameters.names
+
+    def _wrt(self, wrt: Sequence[str] | None) -> tuple[str, ...] | None:
+        return checked_wrt(wrt, self.differentiable, self.settings["integrator"])
+
     def simulate(self, samples: Mapping[str, NDArray[np.float64]], **overrides) -> SimulationResult:
         """:func:`simulate` of ``samples`` with this model's settings, ``overrides`` replacing
         or adding keyword arguments (no correction of shared steps applied)."""
@@ -520,40 +536,57 @@ class SimulationModel:
             **settings,
         )
 
-    def __call__(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
+    def __call__(
+        self, samples: Mapping[str, NDArray[np.float64]], wrt: Sequence[str] | None = None
+    ) -> dict[str, NDArray]:
+        """The outputs of ``samples``; with ``wrt`` (names of :attr:`differentiable`) also
+        ``"gradients": {output: (B, T, len(wrt))}``. The outputs are bit for bit the same
+        with or without ``wrt``."""
+        names = self._wrt(wrt)
         shared = self.shared
         if shared is None:
-            return self._outputs(self.simulate(samples), {})
-        # the modal sample's error, removed from every sample
-        return self._outputs(self._on_shared_steps(samples), shared.correction)
+            return self._outputs(self.simulate(samples, sensitivities=names or ()), {}, names)
+        # the modal sample's error, removed from every sample (a constant: the gradients
+        # are those of the runs on the sequence)
+        return self._outputs(self._on_shared_steps(samples, wrt=names), shared.correction, names)
 
-    def deviations(self, samples: Mapping[str, NDArray[np.float64]]) -> dict[str, NDArray]:
+    def deviations(
+        self, samples: Mapping[str, NDArray[np.float64]], wrt: Sequence[str] | None = None
+    ) -> dict[str, NDArray]:
         """On shared steps (:meth:`share_steps`): each sample's outputs minus the modal
         sample's on the same steps, as ``__call__`` returns them. Differences and spreads
         of samples are those of the corrected outputs, and they need no reference run
-        (a study's choice of tolerance goes on while the reference runs)."""
+        (a study's choice of tolerance goes on while the reference runs). ``wrt`` as for
+        ``__call__`` (the gradients are those of the outputs)."""
+        names = self._wrt(wrt)
         shared = self.shared
         if shared is None:
             raise InvalidParameterError("deviations need shared steps (share_steps)")
         negated = {name: -values for name, values in shared.modal_outputs.items()}
-        return self._outputs(self._on_shared_steps(samples, keep=True), negated)
+        result = self._on_shared_steps(samples, keep=True, wrt=names)
+        return self._outputs(result, negated, names)
 
     def run_ahead(
-        self, samples: Mapping[str, NDArray[np.float64]], then: Callable[[], Any] | None = None
+        self,
+        samples: Mapping[str, NDArray[np.float64]],
+        then: Callable[[], Any] | None = None,
+        wrt: Sequence[str] | None = None,
     ) -> None:
         """On shared steps: run ``samples`` in a background thread on the free cores and keep
         them (as :meth:`deviations` does), then call ``then``; the model's next run waits
         for them and takes them. A study runs its first points so while the reference
         finishes on the other core; a failed run ahead only loses what it would have
-        kept."""
+        kept. With ``wrt`` the runs ahead also integrate those sensitivities (a kept run
+        without the gradients a later call asks for runs again)."""
         if self.shared is None:
             raise InvalidParameterError("run_ahead needs shared steps (share_steps)")
+        names = self._wrt(wrt)
         self._wait_ahead()
 
         def ahead() -> None:
             # on the core the reference leaves; a second joins once the reference is done
             # (fuzzymbs.mbs.kernels.threads)
-            self._shared_runs(samples, keep=True)
+            self._shared_runs(samples, keep=True, wrt=names)
             if then is not None:
                 then()
 
@@ -570,20 +603,32 @@ class SimulationModel:
             self._ahead = None
 
     def _on_shared_steps(
-        self, samples: Mapping[str, NDArray[np.float64]], keep: bool = False
+        self,
+        samples: Mapping[str, NDArray[np.float64]],
+        keep: bool = False,
+        wrt: tuple[str, ...] | None = None,
     ) -> SimulationResult:
         """The samples on the shared sequence; runs kept on it (``shared.kept``) are taken
-        as they are, the others run (and are kept too with ``keep``)."""
+        as they are (with ``wrt``: those that hold these gradients), the others run (and
+        are kept too with ``keep``)."""
         self._wait_ahead()
-        return self._shared_runs(samples, keep)
+        return self._shared_runs(samples, keep, wrt)
 
     def _shared_runs(
-        self, samples: Mapping[str, NDArray[np.float64]], keep: bool
+        self,
+        samples: Mapping[str, NDArray[np.float64]],
+        keep: bool,
+        wrt: tuple[str, ...] | None = None,
     ) -> SimulationResult:
         shared = self.shared
+        names = wrt or ()
         rows = self.compiled.parameters.values(samples)
         keys = [row.tobytes() for row in rows]
-        missing = [i for i, key in enumerate(keys) if key not in shared.kept]
+        missing = [
+            i
+            for i, key in enumerate(keys)
+            if key not in shared.kept or not shared.kept[key].has_gradients(names)
+        ]
         if missing:
             if len(missing) < len(keys):
                 samples = {
@@ -591,16 +636,37 @@ class SimulationModel:
                     for name, values in samples.items()
                 }
             result = self.simulate(
-                samples, step_sequence=shared.sequence, jacobian_renewals=shared.renewals
+                samples,
+                step_sequence=shared.sequence,
+                jacobian_renewals=shared.renewals,
+                sensitivities=names,
             )
-            if len(missing) == len(keys) and not keep:
+            renewed = any(keys[i] in shared.kept for i in missing)
+            if len(missing) == len(keys) and not keep and not renewed:
                 return result
-            fresh = {keys[i]: kept_run(result, row) for row, i in enumerate(missing)}
+            fresh = {}
+            for row, i in enumerate(missing):
+                run = kept_run(result, row)
+                earlier = shared.kept.get(keys[i])
+                if earlier is not None:
+                    # a kept run without these gradients (the modal sample's logging run,
+                    # which its replay repeats to the rounding of the step lengths) keeps
+                    # its outputs: they are bit for bit the same with or without wrt
+                    run = replace(
+                        earlier,
+                        gradients=run.gradients,
+                        gradient_parameters=run.gradient_parameters,
+                    )
+                fresh[keys[i]] = run
             if keep:
                 shared.kept.update(fresh)
         else:
             fresh = {}
         runs = [fresh[key] if key in fresh else shared.kept[key] for key in keys]
+        gradients = None
+        if names:
+            taken = [run.gradients_for(names) for run in runs]
+            gradients = {name: np.stack([g[name] for g in taken]) for name in self.outputs}
         return SimulationResult(
             time=self.coords["time"],
             outputs={name: np.stack([run.outputs[name] for run in runs]) for name in self.outputs},
@@ -608,15 +674,30 @@ class SimulationModel:
             failure_reason=np.array([run.failure_reason for run in runs], dtype=str),
             failure_time=np.array([run.failure_time for run in runs]),
             step_counts=np.stack([run.step_counts for run in runs]),
+            gradients=gradients,
+            gradient_parameters=names,
         )
 
-    @staticmethod
-    def _outputs(result: SimulationResult, added: Mapping[str, NDArray]) -> dict[str, NDArray]:
-        out: dict[str, NDArray] = dict(result.outputs)
+    def _outputs(
+        self,
+        result: SimulationResult,
+        added: Mapping[str, NDArray],
+        wrt: tuple[str, ...] | None = None,
+    ) -> dict[str, NDArray]:
+        """The model's outputs dict of a result (``added`` to its outputs; with ``wrt``
+        the ``"gradients"``, unchanged by what is added: a constant in the parameters)."""
+        out: dict[str, Any] = dict(result.outputs)
         for name, values in added.items():
             out[name] = out[name] + values
         out["failed"] = result.failed
         out["failure_reason"] = result.failure_reason
+        if wrt is not None:
+            given = result.gradients or {}
+            batch = result.failed.shape[0]
+            out[GRADIENTS] = {
+                name: given.get(name, np.empty((batch, self.coords["time"].size, 0)))
+                for name in self.outputs
+            }
         return out
 
     @property

@@ -105,7 +105,10 @@ __all__ = [
     "KeptRun",
     "SharedSteps",
     "ahead_tolerance",
+    "checked_renewals",
+    "checked_sequence",
     "kept_run",
+    "logged_steps",
     "predicted_reference_error",
     "share_steps",
 ]
@@ -183,17 +186,84 @@ class KeptRun:
     failure_reason: str
     failure_time: float
     step_counts: NDArray[np.int64]
+    #: the outputs' derivatives (T, P) when the run integrated sensitivities, else empty
+    gradients: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    #: the parameters of ``gradients``' last axis
+    gradient_parameters: tuple[str, ...] = ()
+
+    def has_gradients(self, names: tuple[str, ...]) -> bool:
+        """True when the run holds the outputs' derivatives with respect to ``names``."""
+        return set(names) <= set(self.gradient_parameters)
+
+    def gradients_for(self, names: tuple[str, ...]) -> dict[str, NDArray[np.float64]]:
+        """The outputs' derivatives (T, len(names)), the last axis in ``names``' order."""
+        columns = [self.gradient_parameters.index(name) for name in names]
+        return {output: values[:, columns] for output, values in self.gradients.items()}
 
 
 def kept_run(result, row: int) -> KeptRun:
-    """Sample ``row`` of a :class:`~fuzzymbs.mbs.integrate.SimulationResult`."""
+    """Sample ``row`` of a :class:`~fuzzymbs.mbs.integrate.SimulationResult` (with its
+    outputs' derivatives, if it has them)."""
+    gradients = result.gradients or {}
     return KeptRun(
         {name: values[row].copy() for name, values in result.outputs.items()},
         bool(result.failed[row]),
         str(result.failure_reason[row]),
         float(result.failure_time[row]),
         np.asarray(result.step_counts[row]).copy(),
+        {name: values[row].copy() for name, values in gradients.items()},
+        tuple(result.gradient_parameters) if gradients else (),
     )
+
+
+def logged_steps(step_log: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(count, 2): the logged steps' ends and their Jacobian flags."""
+    count = int(step_log[0])
+    if count < 0:
+        raise InvalidParameterError(
+            f"log_steps: more than {(step_log.size - 1) // 2} steps, more than the log holds"
+        )
+    return step_log[1 : 1 + 2 * count].reshape(count, 2)
+
+
+def checked_renewals(
+    renewals: NDArray[np.bool_] | None, sequence: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The Jacobian flags of a shared sequence as the kernel takes them (empty: none)."""
+    if renewals is None:
+        return np.empty(0)
+    flags = np.asarray(renewals)
+    if sequence.size == 0:
+        raise InvalidParameterError("jacobian_renewals needs a step_sequence")
+    if flags.dtype != np.bool_ or flags.shape != sequence.shape:
+        raise InvalidParameterError(
+            f"jacobian_renewals must be a bool array of the step_sequence's length "
+            f"{sequence.size}, got {flags.dtype} of shape {flags.shape}"
+        )
+    return flags.astype(float)
+
+
+def checked_sequence(
+    sequence: NDArray[np.float64] | None, adaptive: bool, t_end: float
+) -> NDArray[np.float64]:
+    """The shared step sequence as the kernel takes it (empty: no sequence); ``adaptive``:
+    the integrator is a Rosenbrock method (RK4 takes no sequence)."""
+    if sequence is None:
+        return np.empty(0)
+    if not adaptive:
+        raise InvalidParameterError("step_sequence needs an integrator of ('ros34pw2', 'rodas4')")
+    points = np.asarray(sequence, dtype=float)
+    if points.ndim != 1 or points.size == 0 or not np.all(np.isfinite(points)):
+        raise InvalidParameterError("step_sequence must be a non-empty 1-D array of finite times")
+    if points[0] <= 0.0 or np.any(np.diff(points) <= 0.0):
+        raise InvalidParameterError("step_sequence must increase from above t = 0")
+    if abs(points[-1] - t_end) > 1e-9 * t_end:
+        raise InvalidParameterError(
+            f"step_sequence must end at t_end = {t_end} s, got {points[-1]!r}"
+        )
+    points = np.ascontiguousarray(points)
+    points[-1] = t_end  # the kernel's final time, exactly
+    return points
 
 
 def predicted_reference_error(

@@ -110,6 +110,15 @@ def get_lane(lanes, lane, values):
         values[i] = lanes[L * i + lane]
 
 
+@nb.njit(cache=True)
+def copy_lanes(src, dst, lanes):
+    """``dst`` <- ``src`` in the lanes where ``lanes`` is True (lane-minor arrays)."""
+    for lane in range(L):
+        if lanes[lane]:
+            for i in range(src.shape[0] // L):
+                dst[L * i + lane] = src[L * i + lane]
+
+
 @nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
 def rhs(t, x, dx, p, sysdata, work):
     """Time derivatives ``dx (2n L)`` of the lane states ``x (2n L)`` at time t (one

@@ -36,6 +36,10 @@ recording times: the outputs there come from the cubic Hermite interpolant of th
 covering step (x and f at both ends; f at the end is the next step's first
 stage), and only the last step is shortened. On the brake over 10 ms this took 8 %
 fewer steps than stopping at every 10 us record (15,490 against 16,847 at rtol 1e-2).
+
+Forward sensitivities (the outputs' derivatives with respect to parameters) ride along
+on the same steps, each stage solved with the state's LU
+(:mod:`fuzzymbs.mbs.kernels.sensitivities`).
 """
 
 from __future__ import annotations
@@ -44,16 +48,23 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
+from fuzzymbs.mbs.kernels.dense_output import hermite, record_lanes
 from fuzzymbs.mbs.kernels.jacobian import jacobian
 from fuzzymbs.mbs.kernels.layout import NONFINITE, STEP_TOO_SMALL
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
-from fuzzymbs.mbs.kernels.rhs import rhs
-from fuzzymbs.mbs.kernels.rk4 import (
-    output_value,
-    record,
-    retire_failed,
-    start_block,
-    store_output,
+from fuzzymbs.mbs.kernels.rhs import copy_lanes, rhs
+from fuzzymbs.mbs.kernels.rk4 import record, retire_failed, start_block
+from fuzzymbs.mbs.kernels.sensitivities import (
+    S_ROW,
+    accept_sensitivities,
+    end_sensitivities,
+    keep_stage,
+    new_sensitivities,
+    no_sensitivity,
+    record_sensitivities,
+    record_sensitivity_lanes,
+    retire_sensitivities,
+    step_sensitivities,
 )
 from fuzzymbs.mbs.kernels.threads import round_robin
 
@@ -219,17 +230,22 @@ _GRID = 12  # the lane's next point of a shared step sequence
 #: included, the Jacobian's own f not), Jacobians, LU factorisations (for a block of one
 #: sample, the block's calls; lanes of a mixed block share the calls they need together)
 (_N_RHS, _N_JAC, _N_LU) = (13, 14, 15)
-_CONTROL_ROWS = 16
+#: the lane's sensitivity right-hand side at its step's start known (``G0``), and
+#: the right-hand sides the sensitivities took (not counted in ``_N_RHS``)
+(_G_KNOWN, _N_SENS_RHS) = (16, 17)
+_CONTROL_ROWS = 18
 #: step proposal after reaching a point of a shared step sequence: the whole next interval
 _OPEN = np.inf
 
 
 @nb.njit(cache=True, nogil=True)
-def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages):
+def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages, nsens=0):
     """State of a block of samples ``first .. first + count - 1`` (count <= 4) at the start:
-    ``(x, p, alive, work, vectors, matrices, piv, control)``, advanced by
+    ``(x, p, alive, work, vectors, matrices, piv, sens, sens_work, control)``, advanced by
     :func:`advance_block_ros` with a method of ``stages`` stages. ``control`` holds one
-    column per lane: every lane keeps its own time, step, error history and Jacobian age."""
+    column per lane: every lane keeps its own time, step, error history and Jacobian age.
+    ``sens``, ``sens_work``: the sensitivities to ``nsens`` parameters and their work
+    arrays (:mod:`fuzzymbs.mbs.kernels.sensitivities`)."""
     x, p, alive, _, work = start_block(sysdata, params, x0, recording, first, count)
     size = x.shape[0]
     n = size // (2 * L)
@@ -240,6 +256,7 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages):
     # LU, and da/dq, da/dv fresh for the lanes that renew their Jacobian
     matrices = np.zeros((5, n * n * L))
     piv = np.zeros(n * L, dtype=np.int64)
+    sens, sens_work = new_sensitivities(nsens, stages, size, p.shape[0])
     control = np.zeros((_CONTROL_ROWS, L))
     for lane in range(L):
         control[_H, lane] = h0
@@ -247,16 +264,7 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages):
         control[_ERR_PREV, lane] = 1.0  # the last accepted step's error (PI control)
         control[_LU_STEP, lane] = -1.0  # the step the LU factors were made for
         control[_NEED_JAC, lane] = 1.0  # J and f_t are renewed every JACOBIAN_AGE steps
-    return x, p, alive, work, vectors, matrices, piv, control
-
-
-@nb.njit(cache=True)
-def _copy_lanes(src, dst, lanes):
-    """``dst`` <- ``src`` in the lanes where ``lanes`` is True (lane-minor arrays)."""
-    for lane in range(L):
-        if lanes[lane]:
-            for i in range(src.shape[0] // L):
-                dst[L * i + lane] = src[L * i + lane]
+    return x, p, alive, work, vectors, matrices, piv, sens, sens_work, control
 
 
 @nb.njit(cache=True, nogil=True, fastmath=V.FAST)
@@ -274,6 +282,7 @@ def advance_block_ros(
     sequence,
     renewals,
     step_log,
+    sensitivity,
 ):
     """Advances a block until records ``.. rec_end - 1`` are written (a step that passes
     ``rec_end`` also writes the records it covers). Returns False when the block is
@@ -315,6 +324,18 @@ def advance_block_ros(
     of the batch and whether each one's Jacobian was evaluated at its start, in
     pairs from ``step_log[1]`` (``step_log[0]``: their number; -1 when the log is
     full).
+
+    ``sensitivity = (directions, sens_settings, out_s)``: forward sensitivities
+    ``S_k = dx/dp_k`` to P parameters integrated with the state by the same method on
+    the state's steps, each stage's solve with the state's LU (docs/theory.md, "Forward
+    sensitivities"). ``directions`` (P, slots): 1.0 in the slots parameter k sets (a
+    name may set several); ``sens_settings = (delta,)``: the relative perturbation of
+    the differences (:data:`fuzzymbs.mbs.kernels.sensitivities.SENS_DELTA`); ``out_s``
+    (B, n_out, n_rec, P) receives the outputs' derivatives at the records. The
+    sensitivities only read the state's arithmetic and never steer it, so the outputs
+    and steps are bit for bit those of the run without (P = 0). Their stages are
+    computed once a step is accepted, from the state's stage points kept for them: a
+    rejected step costs them nothing.
     """
     t0, interval, n_records = timing[0], timing[1], int(timing[2])
     out, status, fail_t = recording[2], recording[3], recording[4]
@@ -335,7 +356,10 @@ def advance_block_ros(
     at, cc, m, me, alpha, gsum, settings = coefficients
     stages = m.shape[0]
     gamma, exponent, jacobian_age = settings[0], settings[1], settings[2]
-    x, p, alive, work, vectors, matrices, piv, control = state
+    x, p, alive, work, vectors, matrices, piv, sens, sens_work, control = state
+    nsens = sensitivity[0].shape[0]
+    sens_block = (*sensitivity, sens, sens_work)
+    g_known = control[_G_KNOWN]  # the lane's sensitivity right-hand side at t known
     f0, ft, fy, y, r = vectors[0], vectors[1], vectors[2], vectors[3], vectors[4]
     x_new, rhs_v, f_fresh, ft_fresh = vectors[5], vectors[6], vectors[7], vectors[8]
     u = vectors[9:]
@@ -383,8 +407,18 @@ def advance_block_ros(
             t[lane] = t0
             next_rec[lane] = 1.0
         record(x, recording, first, count, alive, 0, t0)
+        for k in range(nsens):
+            for lane in range(L):
+                pending[lane] = lane < count and alive[lane]
+                records[lane] = 0
+            out_s = sensitivity[2]
+            record_sensitivity_lanes(
+                sens[k, S_ROW], recording[0], out_s, first, pending, records, k
+            )
         if retire_failed(first, count, status, alive, out, x, p) or n_records == 1:
             going = False
+        elif nsens > 0:
+            retire_sensitivities(count, alive, sens)
     while going:
         # the lanes that step now: healthy, and short of the slice's last record
         any_stepping = False
@@ -454,8 +488,8 @@ def advance_block_ros(
                     jac_age[lane] = 0.0
                     f_known[lane] = 1.0
                     lu_step[lane] = -1.0
-            _copy_lanes(jq_fresh, jq, renew)
-            _copy_lanes(jv_fresh, jv, renew)
+            copy_lanes(jq_fresh, jq, renew)
+            copy_lanes(jv_fresh, jv, renew)
         any_renew = False
         for lane in range(L):
             renew[lane] = stepping[lane] and f_known[lane] == 0.0
@@ -465,7 +499,7 @@ def advance_block_ros(
             for lane in range(L):
                 if renew[lane]:
                     control[_N_RHS, lane] += 1.0
-            _copy_lanes(f_fresh, f0, renew)
+            copy_lanes(f_fresh, f0, renew)
             for lane in range(L):
                 if renew[lane]:
                     f_known[lane] = 1.0
@@ -522,6 +556,8 @@ def advance_block_ros(
                 solved = V.load(rhs_v, L * i)
                 V.store(us, L * (n + i), solved)
                 V.store(us, L * i, gh * (V.load(r, L * i) + solved))
+            if nsens > 0 and s > 0:  # for the sensitivities, once the step is accepted
+                keep_stage(sens_work, s, stages, y, stage_f)
         # new state and each lane's error norm; a lane whose error is not finite fails
         squares = V.splat(0.0)
         for i in range(nstate):
@@ -594,6 +630,15 @@ def advance_block_ros(
                     newly_failed = True
             if not took[lane]:
                 theta[lane] = t[lane]
+        any_took = False
+        for lane in range(L):
+            any_took = any_took or took[lane]
+        if nsens > 0 and any_took:
+            state_step = (at, cc, m, alpha, gamma, steps, step_v, jq, mat, piv, work)
+            counter = control[_N_SENS_RHS]
+            step_sensitivities(
+                took, g_known, counter, t_lane, x, f0, sens_block, p, state_step, sysdata
+            )
         if any_record:
             # the records the accepted steps cover, from each lane's Hermite interpolant;
             # f at a step's end is that lane's next f0
@@ -601,6 +646,11 @@ def advance_block_ros(
             for lane in range(L):
                 if covered[lane]:
                     control[_N_RHS, lane] += 1.0
+            # the sensitivities' right-hand sides at the step's end: their interpolant's
+            # slope there, and the next step's first stage
+            if nsens > 0:
+                counter = control[_N_SENS_RHS]
+                end_sensitivities(theta, x_new, fy, covered, counter, sens_block, p, sysdata, work)
             while True:
                 any_pending = False
                 for lane in range(L):
@@ -614,6 +664,11 @@ def advance_block_ros(
                     break
                 hermite(x, f0, x_new, fy, step_v, V.load(delta, 0), y)
                 record_lanes(y, recording, first, pending, records, rec_times)
+                if nsens > 0:
+                    theta_v = V.load(delta, 0)
+                    record_sensitivities(
+                        sens_block, recording[0], step_v, theta_v, first, pending, records
+                    )
                 for lane in range(L):
                     if pending[lane]:
                         next_rec[lane] += 1.0
@@ -628,43 +683,16 @@ def advance_block_ros(
                 if covered[lane]:
                     f_known[lane] = 1.0
                 t[lane] = theta[lane]
-        if newly_failed and retire_failed(first, count, status, alive, out, x, p):
-            going = False
+        accept_sensitivities(took, covered, g_known, sens)
+        if newly_failed:
+            if retire_failed(first, count, status, alive, out, x, p):
+                going = False
+            elif nsens > 0:
+                retire_sensitivities(count, alive, sens)
     more = False
     for lane in range(count):
         more = more or (alive[lane] and next_rec[lane] < n_records)
     return more
-
-
-@nb.njit(cache=True, fastmath=V.FAST)
-def hermite(xa, fa, xb, fb, h, theta, dst):
-    """``dst`` <- the cubic Hermite interpolant at ``t_a + theta h`` of a step of length h
-    from (x_a, f_a) to (x_b, f_b); ``h`` and ``theta`` are lane vectors (a step and a
-    point in it per lane)."""
-    t2 = theta * theta
-    t3 = t2 * theta
-    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
-    h10 = (t3 - 2.0 * t2 + theta) * h
-    h01 = 3.0 * t2 - 2.0 * t3
-    h11 = (t3 - t2) * h
-    for i in range(xa.shape[0] // L):
-        at = L * i
-        value = h00 * V.load(xa, at) + h10 * V.load(fa, at)
-        value = value + h01 * V.load(xb, at) + h11 * V.load(fb, at)
-        V.store(dst, at, value)
-
-
-@nb.njit(cache=True)
-def record_lanes(x, recording, first, lanes, records, times):
-    """Outputs of the lanes marked in ``lanes`` into their own record ``records[lane]``
-    at ``times[lane]``; a lane whose output leaves its bound (or is not finite) is
-    flagged (``recording`` as for :func:`fuzzymbs.mbs.kernels.rk4.rk4`)."""
-    out_w = recording[0]
-    for o in range(out_w.shape[0]):
-        y = output_value(x, out_w, o)
-        for lane in range(L):
-            if lanes[lane]:
-                store_output(recording, first + lane, o, records[lane], V.get(y, lane), times[lane])
 
 
 #: slices (in recording intervals) a block's run is cut into when blocks share threads
@@ -684,13 +712,15 @@ def ros34pw2(
     renewals,
     step_log,
     coefficients=COEFFICIENTS,
+    sensitivity=None,
 ) -> None:
     """ROS34PW2 (or the Rosenbrock method of ``coefficients``, e.g. RODAS4) of a batch in
     blocks of ``per_block`` (1 to 4) samples over the threads.
 
-    Arguments as :func:`advance_block_ros`; ``counts (B, 2)`` receives the accepted
-    and rejected steps of each sample, ``(B, 5)`` also the right-hand sides, Jacobians
-    and LU factorisations each took part in. Blocks advance
+    Arguments as :func:`advance_block_ros` (``sensitivity`` None: no sensitivities);
+    ``counts (B, 2)`` receives the accepted and rejected steps of each sample, ``(B, 5)``
+    also the right-hand sides, Jacobians and LU factorisations each took part in, ``(B,
+    6)`` also the right-hand sides of its sensitivities. Blocks advance
     ``SLICES`` slices of recording intervals at a time, round robin over the
     threads (:func:`fuzzymbs.mbs.kernels.threads.round_robin`): with 9 blocks on 2
     threads each thread carries 4.5 blocks instead of 5 and 4. Slicing does not
@@ -699,6 +729,9 @@ def ros34pw2(
     nsamples = params.shape[0]
     n_records = timing[2]
     n_blocks = -(-nsamples // per_block)
+    if sensitivity is None:
+        sensitivity = no_sensitivity(params.shape[1], nsamples, recording[0].shape[0], n_records)
+    nsens = sensitivity[0].shape[0]
 
     def start(block: int):
         first = block * per_block
@@ -707,7 +740,7 @@ def ros34pw2(
         # does not step still carries its step into the vector arithmetic)
         h0 = sequence[0] - timing[0] if sequence.shape[0] > 0 else timing[3]
         return start_block_ros(
-            sysdata, params, x0, recording, first, count, h0, coefficients[2].shape[0]
+            sysdata, params, x0, recording, first, count, h0, coefficients[2].shape[0], nsens
         )
 
     def advance(block: int, state, begin: int, end: int) -> bool:
@@ -727,6 +760,7 @@ def ros34pw2(
             sequence,
             renewals,
             step_log,
+            sensitivity,
         )
         if not going or end >= n_records:
             control = state[-1]
@@ -737,6 +771,8 @@ def ros34pw2(
                     counts[first + lane, 2] = int(control[_N_RHS, lane])
                     counts[first + lane, 3] = int(control[_N_JAC, lane])
                     counts[first + lane, 4] = int(control[_N_LU, lane])
+                if counts.shape[1] >= 6:
+                    counts[first + lane, 5] = int(control[_N_SENS_RHS, lane])
         return going
 
     round_robin(n_blocks, n_records, max(1, -(-n_records // SLICES)), start, advance)

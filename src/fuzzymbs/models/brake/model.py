@@ -27,7 +27,7 @@ of mass, because the elastic modes carry no net translation), over
 from __future__ import annotations
 
 import copy
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -364,16 +364,30 @@ class DiscBrake:
         :meth:`fuzzymbs.mbs.integrate.SimulationModel.prepare_tightened`)."""
         self.simulation.prepare_tightened(factor)
 
-    def deviations(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
+    @property
+    def differentiable(self) -> tuple[str, ...]:
+        """The parameters ``brake(samples, wrt=names)`` gives the outputs' derivatives for:
+        all six with a Rosenbrock integrator (each is a column of the kernel's parameter
+        rows, the disc speed through the prescribed rotation), none with RK4."""
+        return self.simulation.differentiable
+
+    def deviations(
+        self, samples: Mapping[str, Any], wrt: Sequence[str] | None = None
+    ) -> dict[str, NDArray]:
         """On shared steps: each sample's outputs minus the modal sample's on the same
         steps (no reference run needed; see
         :meth:`fuzzymbs.mbs.integrate.SimulationModel.deviations`)."""
-        return self.simulation.deviations(check_samples(samples))
+        return self.simulation.deviations(check_samples(samples), wrt)
 
-    def run_ahead(self, samples: Mapping[str, Any], then: Callable[[], Any] | None = None) -> None:
+    def run_ahead(
+        self,
+        samples: Mapping[str, Any],
+        then: Callable[[], Any] | None = None,
+        wrt: Sequence[str] | None = None,
+    ) -> None:
         """On shared steps: run ``samples`` in the background and keep them for a later
         call (see :meth:`fuzzymbs.mbs.integrate.SimulationModel.run_ahead`)."""
-        self.simulation.run_ahead(check_samples(samples), then)
+        self.simulation.run_ahead(check_samples(samples), then, wrt)
 
     @property
     def shares_steps(self) -> bool:
@@ -401,9 +415,18 @@ class DiscBrake:
         shared.simulation = self.simulation.share_steps(single)
         return shared
 
-    def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
-        """Integrate a batch of samples; failed samples are NaN rows flagged in ``failed``."""
-        return self.simulation(check_samples(samples))
+    def __call__(
+        self, samples: Mapping[str, Any], wrt: Sequence[str] | None = None
+    ) -> dict[str, NDArray]:
+        """Integrate a batch of samples; failed samples are NaN rows flagged in ``failed``.
+
+        With ``wrt`` (names of :attr:`differentiable`) the result also holds
+        ``"gradients": {output: (B, T, len(wrt))}``, the outputs' derivatives with respect
+        to those parameters in that order [m per the parameter's unit; m/s for the
+        velocities], from forward sensitivities integrated with the run (docs/brake.md,
+        "Derivatives of the outputs"); the outputs themselves are bit for bit the same.
+        """
+        return self.simulation(check_samples(samples), wrt)
 
     def step_stability(
         self, samples: Mapping[str, Any] | None = None, dt: float | None = None
