@@ -86,3 +86,23 @@ def lu_solve_lanes(lu, n, piv, b):
         for j in range(i + 1, n):
             acc = acc - V.load(lu, L * (n * i + j)) * V.load(b, L * j)
         V.store(b, L * i, acc / V.load(lu, L * (n * i + i)))
+
+
+@nb.njit(cache=True, fastmath=V.FAST)
+def reduced_stage_solve(jq, mat, piv, n, gh, r, solve, u):
+    """A Rosenbrock stage's ``u`` for the state ``[q, v]`` with ``J = [[0, I], [A_q, B_v]]``:
+    ``(I / (gamma h) - B_v - gamma h A_q) u_v = r_v + gamma h A_q r_q`` with the stage
+    matrix's factors ``mat``, ``piv`` (:func:`lu_factor_lanes`), then ``u_q = gamma h (r_q
+    + u_v)`` (docs/theory.md, "ROS34PW2"). ``jq``: ``A_q`` per lane; ``n``: coordinates;
+    ``gh``: gamma h per lane (a vector); ``solve`` (at least n L): scratch; lane-minor
+    arrays."""
+    for i in range(n):
+        acc = V.splat(0.0)
+        for j in range(n):
+            acc = acc + V.load(jq, L * (n * i + j)) * V.load(r, L * j)
+        V.store(solve, L * i, V.load(r, L * (n + i)) + gh * acc)
+    lu_solve_lanes(mat, n, piv, solve)
+    for i in range(n):
+        solved = V.load(solve, L * i)
+        V.store(u, L * (n + i), solved)
+        V.store(u, L * i, gh * (V.load(r, L * i) + solved))

@@ -51,7 +51,7 @@ from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.dense_output import hermite, record_lanes
 from fuzzymbs.mbs.kernels.jacobian import jacobian
 from fuzzymbs.mbs.kernels.layout import NONFINITE, STEP_TOO_SMALL
-from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
+from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, reduced_stage_solve
 from fuzzymbs.mbs.kernels.rhs import copy_lanes, rhs
 from fuzzymbs.mbs.kernels.rk4 import record, retire_failed, start_block
 from fuzzymbs.mbs.kernels.sensitivities import (
@@ -545,17 +545,7 @@ def advance_block_ros(
                     acc = acc + (cc[s, j] / step_v) * V.load(u[j], L * i)
                 V.store(r, L * i, acc)
             # velocity-reduced solve: (I/(g h) - B - g h A) u_v = r_v + g h A r_q
-            for i in range(n):
-                acc = V.splat(0.0)
-                for j in range(n):
-                    acc = acc + V.load(jq, L * (n * i + j)) * V.load(r, L * j)
-                V.store(rhs_v, L * i, V.load(r, L * (n + i)) + gh * acc)
-            lu_solve_lanes(mat, n, piv, rhs_v)
-            us = u[s]
-            for i in range(n):
-                solved = V.load(rhs_v, L * i)
-                V.store(us, L * (n + i), solved)
-                V.store(us, L * i, gh * (V.load(r, L * i) + solved))
+            reduced_stage_solve(jq, mat, piv, n, gh, r, rhs_v, u[s])
             if nsens > 0 and s > 0:  # for the sensitivities, once the step is accepted
                 keep_stage(sens_work, s, stages, y, stage_f)
         # new state and each lane's error norm; a lane whose error is not finite fails

@@ -33,7 +33,7 @@ import numpy as np
 
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.dense_output import hermite
-from fuzzymbs.mbs.kernels.linalg import lu_solve_lanes
+from fuzzymbs.mbs.kernels.linalg import reduced_stage_solve
 from fuzzymbs.mbs.kernels.rhs import copy_lanes, rhs
 from fuzzymbs.mbs.kernels.rk4 import output_value
 
@@ -154,19 +154,8 @@ def sensitivity_stage(s, theta, sk, direction, p, delta, method, sysdata, rhs_wo
         for j in range(s):
             acc = acc + (cc[s, j] / step_v) * V.load(sk[U0 + j], L * i)
         V.store(r, L * i, acc)
-    # velocity-reduced solve, as the state's: (I/(g h) - B - g h A) u_v = r_v + g h A r_q
-    rhs_v = work[W_SOLVE]
-    for i in range(n):
-        acc = V.splat(0.0)
-        for j in range(n):
-            acc = acc + V.load(jq, L * (n * i + j)) * V.load(r, L * j)
-        V.store(rhs_v, L * i, V.load(r, L * (n + i)) + gh * acc)
-    lu_solve_lanes(mat, n, piv, rhs_v)
-    us = sk[U0 + s]
-    for i in range(n):
-        solved = V.load(rhs_v, L * i)
-        V.store(us, L * (n + i), solved)
-        V.store(us, L * i, gh * (V.load(r, L * i) + solved))
+    # velocity-reduced solve with the state's factors
+    reduced_stage_solve(jq, mat, piv, n, gh, r, work[W_SOLVE], sk[U0 + s])
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
