@@ -62,6 +62,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
     node_values,
 )
 from fuzzymbs.fuzzy.extremum_confirmation import confirmation_probes
+from fuzzymbs.fuzzy.first_order import first_order_check, first_order_steps
 from fuzzymbs.fuzzy.grids import unique_rows
 from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.hermite_correction import flatten_gradients, hermite_correction
@@ -369,11 +370,16 @@ class AdaptiveTransformation(NoiseRule):
             if self._certified and self.error <= self.tolerance:
                 # then one round confirms the extrema on the model (extremum_confirmation.py)
                 room = 0 if self.confirming else min(4 * dimension, self.max_runs - self.runs)
+                # with the model's gradients, first the steps of the extrema whose
+                # first-order conditions fail (first_order.py); then the probes
+                steps, gap = self._first_order(surrogate, bounds)
                 probes = confirmation_probes(
                     surrogate, *bounds[2:], self._box_low, self._box_high, self._scale(),
-                    self._units, self._high > self._low, near=_NEAR, limit=room
+                    np.concatenate((self._units, steps)), self._high > self._low, near=_NEAR,
+                    limit=max(room - len(steps), 0),
                 )  # fmt: skip
-                self.error = max(self.errors[-2 if self.confirming else -1 :])
+                probes = np.concatenate((steps, probes))
+                self.error = max(*self.errors[-2 if self.confirming else -1 :], gap)
                 self.confirming = len(probes) > 0
                 if self.confirming:
                     self._reported = self._widened()
@@ -417,6 +423,27 @@ class AdaptiveTransformation(NoiseRule):
             units = np.concatenate((units, twins))
             labels += [TWIN] * len(twins)
         return self.to_parameters(units), labels
+
+    def _first_order(
+        self, surrogate: Surrogate, bounds: tuple[NDArray, ...]
+    ) -> tuple[NDArray[np.float64], float]:
+        """With the model's gradients, each extremum's first-order conditions checked at its
+        confirming run (:mod:`fuzzymbs.fuzzy.first_order`): the steps (P, n) of those whose
+        gap exceeds the tolerance, the largest gap first, and the largest gap, which the
+        reported error includes. None and 0 without gradients."""
+        dimension = len(self.names)
+        if self._slopes is None or not self._sloped.any():
+            return np.empty((0, dimension)), 0.0
+        moving = self._high > self._low
+        check = first_order_check(
+            surrogate, *bounds[2:], (self._box_low, self._box_high), self._scale(),
+            (self._units, self._slopes, self._sloped), moving, _NEAR,
+        )  # fmt: skip
+        limit = min(4 * dimension, self.max_runs - self.runs)
+        steps = first_order_steps(
+            check, self._units, moving, tolerance=self.tolerance, near=_NEAR, limit=limit
+        )
+        return steps, float(np.nanmax(check.gap, initial=0.0))
 
     def _drop_index(self, index: tuple[int, ...]) -> None:
         self.grid.remove_index(index)

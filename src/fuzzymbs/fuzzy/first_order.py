@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from fuzzymbs.fuzzy.extremum_confirmation import surrogate_hessian
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
-__all__ = ["FirstOrder", "first_order_check"]
+__all__ = ["FirstOrder", "first_order_check", "first_order_steps"]
 
 #: a coordinate closer than this to its box bound lies on the face (unit cube)
 _ON_FACE = 1e-9
@@ -194,3 +194,30 @@ def _quadratic_ascent(
     gains = np.stack([model(d) for d in steps])
     best = np.argmax(gains, axis=0)
     return gains[best, np.arange(count)], steps[best, np.arange(count)]
+
+
+def first_order_steps(
+    check: FirstOrder,
+    runs: NDArray[np.float64],
+    moving: NDArray[np.bool_],
+    *,
+    tolerance: float,
+    near: float,
+    limit: int,
+) -> NDArray[np.float64]:
+    """The steps (P, n) of the extrema whose first-order gap exceeds ``tolerance``, the
+    largest gap first, each farther than ``near`` (max norm over the moving coordinates)
+    from every run and every step chosen (a shorter step is below the resolution of the
+    runs), at most ``limit``: one batch for the model. None: every extremum a run confirms
+    meets its first-order conditions to the tolerance."""
+    violated = np.flatnonzero(check.gap > tolerance)
+    violated = violated[np.argsort(-check.gap[violated], kind="stable")]
+    chosen: list[NDArray[np.float64]] = []
+    taken = runs[:, moving]
+    for point in check.step[violated]:
+        if len(chosen) >= limit:
+            break
+        others = np.concatenate((taken, np.array(chosen).reshape(-1, len(point))[:, moving]))
+        if not len(others) or np.abs(others - point[moving]).max(axis=1).min() > near:
+            chosen.append(point)
+    return np.array(chosen).reshape(-1, runs.shape[1])
