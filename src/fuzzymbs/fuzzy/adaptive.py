@@ -367,12 +367,16 @@ class AdaptiveTransformation(NoiseRule):
             self._surrogate, self._bounds = surrogate, bounds
             self.error = self._certified_error(before)
             self.errors.append(self.error)
+            steps, gap = np.empty((0, dimension)), 0.0
+            if self._certified and self.error <= self.tolerance:
+                # with the model's gradients, the steps of the extrema whose first-order
+                # conditions fail (first_order.py); a gap no step can close: refine on
+                steps, gap = self._first_order(surrogate, bounds)
+                if gap > self.tolerance and not len(steps):
+                    self.error = gap
             if self._certified and self.error <= self.tolerance:
                 # then one round confirms the extrema on the model (extremum_confirmation.py)
                 room = 0 if self.confirming else min(4 * dimension, self.max_runs - self.runs)
-                # with the model's gradients, first the steps of the extrema whose
-                # first-order conditions fail (first_order.py); then the probes
-                steps, gap = self._first_order(surrogate, bounds)
                 probes = confirmation_probes(
                     surrogate, *bounds[2:], self._box_low, self._box_high, self._scale(),
                     np.concatenate((self._units, steps)), self._high > self._low, near=_NEAR,
