@@ -78,6 +78,8 @@ class OptionInfo(NamedTuple):
             return "default chosen from the parameters"
         if isinstance(value, bool):
             return f"default {str(value).lower()}"
+        if isinstance(value, str):
+            return f'default "{value}"'
         if isinstance(value, tuple):
             return f"default {', '.join(value) or 'none'}"
         if isinstance(value, int):
@@ -146,6 +148,12 @@ def checked_value(owner: str, name: str, value: Any, hint: Any, meta: Any, error
         ):
             raise bad()
         return float(value)
+    if typing.get_origin(kind) is typing.Literal:  # one of a few values (true != 1)
+        for choice in typing.get_args(kind):
+            same_kind = isinstance(value, bool | np.bool_) == isinstance(choice, bool)
+            if same_kind and isinstance(value, str | bool | np.bool_) and value == choice:
+                return choice
+        raise bad()
     if typing.get_origin(kind) is tuple:  # names
         if value is None:
             return ()

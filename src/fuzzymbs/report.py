@@ -130,7 +130,13 @@ def checks(dataset: xarray.Dataset) -> list[Check]:
                     "method error",
                     verdict,
                     f"{100 * error:.3g} % of the cut's width certified by the adaptive method "
-                    f"({int(attrs['adaptive_runs'])} runs, {int(attrs['adaptive_rounds'])} "
+                    f"({int(attrs['adaptive_runs'])} runs"
+                    + (
+                        f" with the model's gradients ({attrs['adaptive_gradients']})"
+                        if attrs.get("adaptive_gradients", "none") != "none"
+                        else ""
+                    )
+                    + f", {int(attrs['adaptive_rounds'])} "
                     f"rounds); {'within' if verdict == 'pass' else 'EXCEEDS'} the tolerance "
                     f"{100 * tolerance:.3g} %"
                     + (

@@ -52,6 +52,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import ModelOutputError
+from fuzzymbs.fuzzy.adaptive_noise import TWIN, NoiseRule
 from fuzzymbs.fuzzy.band_scale import CERTIFIED, WIDTH_FLOOR
 from fuzzymbs.fuzzy.box_search import box_extremes
 from fuzzymbs.fuzzy.chebyshev_grid import (
@@ -61,6 +62,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
     node_values,
 )
 from fuzzymbs.fuzzy.extremum_confirmation import confirmation_probes
+from fuzzymbs.fuzzy.first_order import first_order_check, first_order_steps
 from fuzzymbs.fuzzy.grids import unique_rows
 from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.hermite_correction import flatten_gradients, hermite_correction
@@ -75,24 +77,8 @@ _NEAR = 0.02
 _REFINE_SHARE = 0.8
 #: Halton candidates for exploration points per parameter
 _EXPLORE_POOL = 512
-#: rounds in a row without a new smallest error (above the tolerance) before twin runs probe
-#: the model's noise; 3, because the hard test cases' errors rise for up to two rounds while
-#: the refinement resolves an extremum (bump3: 0.026, 0.085, 0.076, then 0.0048)
-_STALL_ROUNDS = 3
-#: twin runs per probing round, each beside one of the last round's certification runs
-_TWINS = 4
-#: a twin's offset from its run (unit cube, every moving coordinate): far below the node
-#: spacing and the certification's ``_NEAR``, so a smooth model differs there by its slope
-#: times 1e-4 of the support and the spread is the model's own noise
-_TWIN_OFFSET = 2e-4
-#: the rounds stop as limited by noise when, stalled, the smallest error they reached is at
-#: most this multiple of the noise (the certification's ``|f - s|`` at a new run is itself
-#: a spread between noisy runs, measured at 1 to 7 times the twins' spread)
-_NOISE_FACTOR = 2.0
 #: the statuses of :attr:`AdaptiveOutcome.status`
 CONVERGED, BUDGET, NOISE = "converged", "budget", "noise"
-#: a batch label: a twin run (off the grid, outside the surrogate)
-TWIN = "twin"
 
 #: a surrogate: the sparse grid's Chebyshev series (degrees, coefficients) and the
 #: kernel correction through the runs off the grid (None before there are any)
@@ -144,7 +130,7 @@ class AdaptiveOutcome:
     status: str = CONVERGED
 
 
-class AdaptiveTransformation:
+class AdaptiveTransformation(NoiseRule):
     """The adaptive method's state machine; pure, no model and no I/O.
 
     Parameters
@@ -381,14 +367,23 @@ class AdaptiveTransformation:
             self._surrogate, self._bounds = surrogate, bounds
             self.error = self._certified_error(before)
             self.errors.append(self.error)
+            steps, gap = np.empty((0, dimension)), 0.0
+            if self._certified and self.error <= self.tolerance:
+                # with the model's gradients, the steps of the extrema whose first-order
+                # conditions fail (first_order.py); a gap no step can close: refine on
+                steps, gap = self._first_order(surrogate, bounds)
+                if gap > self.tolerance and not len(steps):
+                    self.error = gap
             if self._certified and self.error <= self.tolerance:
                 # then one round confirms the extrema on the model (extremum_confirmation.py)
                 room = 0 if self.confirming else min(4 * dimension, self.max_runs - self.runs)
                 probes = confirmation_probes(
                     surrogate, *bounds[2:], self._box_low, self._box_high, self._scale(),
-                    self._units, self._high > self._low, near=_NEAR, limit=room
+                    np.concatenate((self._units, steps)), self._high > self._low, near=_NEAR,
+                    limit=max(room - len(steps), 0),
                 )  # fmt: skip
-                self.error = max(self.errors[-2 if self.confirming else -1 :])
+                probes = np.concatenate((steps, probes))
+                self.error = max(*self.errors[-2 if self.confirming else -1 :], gap)
                 self.confirming = len(probes) > 0
                 if self.confirming:
                     self._reported = self._widened()
@@ -433,47 +428,26 @@ class AdaptiveTransformation:
             labels += [TWIN] * len(twins)
         return self.to_parameters(units), labels
 
-    # ------------------------------------------------------------------- noise
-    def _stalled(self) -> bool:
-        """The error, above the tolerance, has not reached a new smallest value for
-        ``_STALL_ROUNDS`` rounds in a row: time to measure the model's noise."""
-        errors = self.errors
-        if len(errors) <= _STALL_ROUNDS or errors[-1] <= self.tolerance:
-            return False
-        return min(errors[-_STALL_ROUNDS:]) >= min(errors[:-_STALL_ROUNDS])
-
-    def _noise_limited(self) -> bool:
-        """The error has stalled, the noise is above the tolerance, and the smallest error
-        the rounds reached is at most ``_NOISE_FACTOR`` times the noise: refinement never
-        got below the noise (under noise the error rises again as the surrogate, through
-        ever more noisy runs, grows rougher), so it cannot reach the tolerance."""
-        if not self.noise > self.tolerance or not self._stalled():
-            return False
-        return min(self.errors) <= _NOISE_FACTOR * self.noise
-
-    def _twin_points(self, room: int) -> NDArray[np.float64]:
-        """Up to ``_TWINS`` points (unit cube) each ``_TWIN_OFFSET`` beside one of the last
-        round's certification runs (the most doubtful first), inside the cube."""
-        batch = self._last_batch
-        bases = batch[np.isin(batch, self._off_grid)][: min(_TWINS, max(room, 0))]
+    def _first_order(
+        self, surrogate: Surrogate, bounds: tuple[NDArray, ...]
+    ) -> tuple[NDArray[np.float64], float]:
+        """With the model's gradients, each extremum's first-order conditions checked at its
+        confirming run (:mod:`fuzzymbs.fuzzy.first_order`): the steps (P, n) of those whose
+        gap exceeds the tolerance, the largest gap first, and the largest gap, which the
+        reported error includes. None and 0 without gradients."""
+        dimension = len(self.names)
+        if self._slopes is None or not self._sloped.any():
+            return np.empty((0, dimension)), 0.0
         moving = self._high > self._low
-        units = self._units[bases]
-        step = np.where(units + _TWIN_OFFSET <= 1.0, _TWIN_OFFSET, -_TWIN_OFFSET)
-        return np.where(moving, units + step, units)
-
-    def _spread(self, rows: NDArray[np.intp]) -> float:
-        """The largest ``|f - s|`` (cut-width scale of the highest level holding the point)
-        at the batch's twins ``rows``: ``s`` was built through the neighbour a twin sits
-        beside, so this is the model's spread over ``_TWIN_OFFSET``."""
-        assert self._values is not None
-        index = self.runs - len(self._last_predicted) + rows
-        error = np.abs(self._values[index] - self._last_predicted[rows])
-        scale = self._scale() if self._bounds is not None else None
-        if scale is None:
-            return 0.0
-        holding = self._levels_holding(self._units[index])
-        relative = error / scale[holding]
-        return float(np.max(np.where(np.isfinite(relative), relative, 0.0), initial=0.0))
+        check = first_order_check(
+            surrogate, *bounds[2:], (self._box_low, self._box_high), self._scale(),
+            (self._units, self._slopes, self._sloped), moving, _NEAR,
+        )  # fmt: skip
+        limit = min(4 * dimension, self.max_runs - self.runs)
+        steps = first_order_steps(
+            check, self._units, moving, tolerance=self.tolerance, near=_NEAR, limit=limit
+        )
+        return steps, float(np.nanmax(check.gap, initial=0.0))
 
     def _drop_index(self, index: tuple[int, ...]) -> None:
         self.grid.remove_index(index)

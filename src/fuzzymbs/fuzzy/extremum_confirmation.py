@@ -53,7 +53,7 @@ from fuzzymbs.fuzzy.box_search import climb, values_at
 from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
-__all__ = ["FLAT", "MIN_STEP", "confirmation_probes"]
+__all__ = ["FLAT", "MIN_STEP", "confirmation_probes", "surrogate_gradient", "surrogate_hessian"]
 
 #: the change (cut-width scale) the surrogate's quadratic model may predict over a probe step
 FLAT = 0.1
@@ -70,7 +70,7 @@ _STEP = 1e-4
 _ON_FACE = 1e-9
 
 
-def _gradient(
+def surrogate_gradient(
     degrees: NDArray[np.int64],
     coefficients: NDArray[np.float64],
     correction: KernelCorrection | None,
@@ -83,6 +83,32 @@ def _gradient(
     if correction is not None:
         slope = slope + correction.gradient_at(points, element)
     return slope
+
+
+def surrogate_hessian(
+    surrogate: tuple[NDArray[np.int64], NDArray[np.float64], KernelCorrection | None],
+    points: NDArray[np.float64],
+    element: NDArray[np.intp],
+    sign: NDArray[np.float64],
+    free: NDArray[np.bool_],
+) -> NDArray[np.float64]:
+    """(K, n, n) the Hessian of ``sign[k]`` times element ``element[k]`` of the surrogate at
+    ``points[k]`` over its ``free`` coordinates (central differences of the gradient,
+    symmetrised; zero in the rows and columns of the other coordinates)."""
+    degrees, coefficients, correction = surrogate
+    count, dimension = points.shape
+    hessian = np.zeros((count, dimension, dimension))
+    for i in range(dimension):
+        if not free[:, i].any():
+            continue
+        shift = np.zeros(dimension)
+        shift[i] = _STEP
+        forward = surrogate_gradient(degrees, coefficients, correction, points + shift, element)
+        backward = surrogate_gradient(degrees, coefficients, correction, points - shift, element)
+        hessian[:, i, :] = sign[:, None] * (forward - backward) / (2.0 * _STEP)
+    hessian = 0.5 * (hessian + hessian.transpose(0, 2, 1))
+    mask = free[:, :, None] & free[:, None, :]
+    return np.where(mask, hessian, 0.0)
 
 
 def _distance(points: NDArray[np.float64], others: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -150,7 +176,7 @@ def confirmation_probes(
     if not len(points):
         return np.empty((0, dimension))
     # 1. free coordinates: inside the box, or on a face the slope cannot hold it to
-    slope = sign[:, None] * _gradient(degrees, coefficients, correction, points, element)
+    slope = sign[:, None] * surrogate_gradient(degrees, coefficients, correction, points, element)
     inside = (points > low + _ON_FACE) & (points < high - _ON_FACE)
     weak = np.abs(slope) * (high - low) <= FLAT * width[:, None]
     free = (inside | weak) & (high > low) & moving[None, :]
@@ -162,18 +188,7 @@ def confirmation_probes(
         return np.empty((0, dimension))
     # 2. the Hessian of sigma s over the free coordinates (central differences of the gradient)
     count = len(points)
-    hessian = np.zeros((count, dimension, dimension))
-    for i in range(dimension):
-        if not free[:, i].any():
-            continue
-        shift = np.zeros(dimension)
-        shift[i] = _STEP
-        forward = _gradient(degrees, coefficients, correction, points + shift, element)
-        backward = _gradient(degrees, coefficients, correction, points - shift, element)
-        hessian[:, i, :] = sign[:, None] * (forward - backward) / (2.0 * _STEP)
-    hessian = 0.5 * (hessian + hessian.transpose(0, 2, 1))
-    mask = free[:, :, None] & free[:, None, :]
-    hessian = np.where(mask, hessian, 0.0)
+    hessian = surrogate_hessian(surrogate, points, element, sign, free)
     # a fixed coordinate gets a large positive sentinel: its eigenvector is its own axis
     sentinel = 1e300
     diagonal = np.arange(dimension)

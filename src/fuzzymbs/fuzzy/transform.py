@@ -500,6 +500,10 @@ class Plan:
         return digest.hexdigest()
 
 
+#: a model's gradients ``{output: (B, *shape, n)}`` with respect to the fuzzy parameters
+Gradients = Mapping[str, ArrayLike]
+
+
 class RoundsPlan(Plan):
     """The plan of a method that runs in rounds (adaptive): points proposed until done.
 
@@ -537,10 +541,19 @@ class RoundsPlan(Plan):
         """Points (B, n) of the next round; none once the rounds are done."""
         return self.engine.next_batch()
 
-    def add(self, points: ArrayLike, outputs: Mapping[str, ArrayLike]) -> None:
-        """The model's outputs ``{name: (B, ...)}`` at the points of :meth:`next_batch`."""
+    def add(
+        self,
+        points: ArrayLike,
+        outputs: Mapping[str, ArrayLike],
+        *,
+        gradients: Gradients | None = None,
+    ) -> None:
+        """The model's outputs ``{name: (B, ...)}`` at the points of :meth:`next_batch`, and
+        optionally their gradients ``{name: (B, ..., n)}`` with respect to the fuzzy
+        parameters (last axis in :attr:`names` order, the parameters' units; None: the
+        value-only rounds)."""
         self._outcome = None
-        self.engine.add(points, outputs)
+        self.engine.add(points, outputs, gradients)
 
     @property
     def done(self) -> bool:

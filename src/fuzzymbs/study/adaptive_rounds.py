@@ -3,7 +3,8 @@
 A study with ``method="adaptive"`` drives its
 :class:`~fuzzymbs.fuzzy.transform.RoundsPlan` round by round: the plan
 proposes the round's points, the study evaluates them chunk by chunk on its
-executor into ``STORE/adaptive-<round>-<fingerprint>/`` (like the screening and
+executor into ``STORE/adaptive-<round>-<fingerprint>/`` (``...-gradients/`` for a round
+run with the model's gradients; like the screening and
 validation runs), and hands the outputs back. The points of round k follow
 from the outputs of rounds 0..k-1 alone, so after an interruption (even
 ``kill -9``) a rerun replays the stored rounds, proposes the same points bit
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import logging
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +35,7 @@ def run_rounds(
     study: Any,
     settings: tuple[Any, int, bool, bool, dict[str, Any] | None],
     store: str | Path | None,
+    wrt: Sequence[str] = (),
 ) -> tuple[dict[str, np.ndarray], int, int]:
     """Run the adaptive plan of ``study`` from its first round to its last.
 
@@ -43,6 +46,8 @@ def run_rounds(
     settings : executor, chunk size, resume, progress, code version (as the study's
         other extra runs take them).
     store : the study's store folder, or None.
+    wrt : the fuzzy parameters (in the plan's order) the model's gradients are asked for
+        with every round's outputs; empty: none (the model is called as ever).
 
     Returns
     -------
@@ -78,17 +83,18 @@ def run_rounds(
             "plan_fingerprint": plan.fingerprint(),
             **study.model_identity(),
         }
-        folder = (
-            None
-            if store is None
-            else Path(store) / f"{ROUND_FOLDER}-{round_number:03d}-{digest[:12]}"
-        )
-        outputs, failed, reasons, done, from_store = study.run_table(
+        if wrt:  # chunks with gradients apart from chunks without
+            identity["gradients_wrt"] = list(wrt)
+        # a round run with gradients has a folder of its own beside the same points' without
+        name = f"{ROUND_FOLDER}-{round_number:03d}-{digest[:12]}" + ("-gradients" if wrt else "")
+        folder = None if store is None else Path(store) / name
+        outputs, failed, reasons, done, from_store, gradients = study.run_table(
             points,
             identity,
             folder,
             (f"round {round_number}", f"adaptive round {round_number}"),
             settings,
+            wrt=wrt,
         )
         if failed.any():
             first = int(np.flatnonzero(failed)[0])
@@ -102,7 +108,7 @@ def run_rounds(
                 "enters its surrogate, so it cannot go on. Fix the model's failing runs or use "
                 "a fixed method (e.g. 'general') with on_failure='partial'"
             )
-        plan.add(points, outputs)
+        plan.add(points, outputs, gradients=gradients if wrt else None)
         for name, value in outputs.items():
             pieces.setdefault(name, []).append(value)
         check_ahead = getattr(study, "check_ahead", None)

@@ -26,6 +26,10 @@ REASON_KEY = "failure_reason"
 #: Optional model output giving coordinate values found while running (e.g. the time column
 #: of an external program's output file): ``{dim: (T,) array}``, not batched.
 COORDS_KEY = "coords"
+#: The model's gradients when a study calls it with ``wrt=names`` (a model that declares
+#: ``differentiable``): ``{output: (B, *output_shape, len(wrt))}``, the last axis in
+#: ``wrt`` order and in the parameters' units.
+GRADIENTS_KEY = "gradients"
 #: an output name becomes NetCDF variables (``<name>_lower``) and plot file names
 #: (``<name>_membership_time_0.5.png``): it starts with a letter, digit or "_", holds
 #: no path separator, control or reserved file-name character, and is at most 100 long
@@ -70,14 +74,17 @@ class ChunkResult:
     failed: np.ndarray  # (B,) bool
     reasons: np.ndarray  # (B,) str, "" where the sample succeeded
     coords: dict[str, np.ndarray] = field(default_factory=dict)  # returned under COORDS_KEY
+    #: ``{output: (B, *shape, len(wrt))}`` where the model was asked for its gradients (NaN
+    #: rows for failed samples); empty otherwise
+    gradients: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def size(self) -> int:
         return self.stop - self.start
 
     def without_outputs(self) -> ChunkResult:
-        """The chunk's extent, failures and coordinates, without its outputs (what a
-        streaming runner keeps once the outputs were reduced)."""
+        """The chunk's extent, failures and coordinates, without its outputs and gradients
+        (what a streaming runner keeps once the outputs were reduced)."""
         return ChunkResult(self.start, self.stop, {}, self.failed, self.reasons, self.coords)
 
 
@@ -190,7 +197,7 @@ def _checked_outputs(
             f"the model returned {type(raw).__name__}; it must return a dict "
             "{output name: (B, ...) array}"
         )
-    reserved = (FAILED_KEY, REASON_KEY, COORDS_KEY)
+    reserved = (FAILED_KEY, REASON_KEY, COORDS_KEY, GRADIENTS_KEY)
     names = list(wanted) if wanted else [k for k in raw if k not in reserved]
     failed = np.zeros(size, dtype=bool)
     reasons = np.full(size, "", dtype=object)
@@ -254,6 +261,72 @@ def _checked_outputs(
     return outputs, failed, reasons
 
 
+def _checked_gradients(
+    raw: Mapping[str, Any],
+    outputs: Mapping[str, np.ndarray],
+    failed: np.ndarray,
+    reasons: np.ndarray,
+    wrt: Sequence[str],
+) -> dict[str, np.ndarray]:
+    """The gradients a model returned under :data:`GRADIENTS_KEY` when called with ``wrt``,
+    one ``(B, *shape, len(wrt))`` array per kept output (NaN rows where a sample failed).
+
+    A gradient with NaN or inf fails its sample (``failed`` and ``reasons`` are updated in
+    place): a run whose gradient is unknown is reported, never averaged in.
+
+    Raises
+    ------
+    ModelOutputError
+        No gradients, not a dict, an output without its gradient, a wrong shape, complex
+        or non-numeric values: the model breaks the gradient protocol.
+    """
+    given = raw.get(GRADIENTS_KEY)
+    asked = f"the model was called with wrt={list(wrt)}"
+    if given is None and failed.all():
+        return {}  # every sample failed: a model may return nothing then
+    if not isinstance(given, Mapping):
+        got = "no gradients" if given is None else f"{type(given).__name__}"
+        raise ModelOutputError(
+            f"{asked} (it declares them differentiable) but returned {got} under "
+            f"{GRADIENTS_KEY!r}; it must return {{output name: (B, *output shape, "
+            f"{len(wrt)}) array}}, the last axis in the order of wrt"
+        )
+    size = len(failed)
+    gradients: dict[str, np.ndarray] = {}
+    for name, values in outputs.items():
+        if name not in given:
+            raise ModelOutputError(
+                f"{asked} but returned no gradient of output {name!r} (gradients of: "
+                f"{', '.join(map(str, given)) or 'none'})"
+            )
+        try:
+            slope = np.asarray(given[name])
+        except (TypeError, ValueError) as exc:
+            raise ModelOutputError(f"gradient of output {name!r} is not an array ({exc})") from None
+        expected = (size, *values.shape[1:], len(wrt))
+        if slope.dtype.kind not in "biuf" or slope.shape != expected:
+            kind = "complex" if np.iscomplexobj(slope) else f"{slope.dtype} {slope.shape}"
+            raise ModelOutputError(
+                f"gradient of output {name!r} must be a real array of shape {expected} "
+                f"(samples, output shape, one entry per parameter of wrt={list(wrt)}), got {kind}"
+            )
+        slope = np.array(slope, dtype=np.float64)
+        finite = np.isfinite(slope.reshape(size, -1, len(wrt)))
+        for i in np.flatnonzero(~finite.all(axis=(1, 2)) & ~failed):
+            bad = [wrt[k] for k in np.flatnonzero(~finite[i].all(axis=0))]
+            reasons[i] = (
+                f"non-finite gradient (NaN or inf) of output {name!r} with respect to "
+                f"{', '.join(bad)}"
+            )
+            failed[i] = True
+        gradients[name] = slope
+    for name in outputs:
+        outputs[name][failed] = np.nan
+    for slope in gradients.values():
+        slope[failed] = np.nan
+    return gradients
+
+
 class SampleStopped(Exception):
     """A model call ended by the runner: it exited or ran over its time limit."""
 
@@ -301,10 +374,18 @@ def _guards(limit: float | None) -> Iterator[None]:
             os._exit = _REAL_EXIT
 
 
-def _call_model(model: Any, columns: Mapping[str, np.ndarray], limit: float | None) -> Any:
-    """``model(columns)``; an exit or a time-out of the model raises :class:`SampleStopped`."""
+def _call_model(
+    model: Any,
+    columns: Mapping[str, np.ndarray],
+    limit: float | None,
+    wrt: Sequence[str] | None = None,
+) -> Any:
+    """``model(columns)`` (with ``wrt``: ``model(columns, wrt=list(wrt))``); an exit or a
+    time-out of the model raises :class:`SampleStopped`."""
     try:
         with _guards(limit):
+            if wrt:
+                return model(dict(columns), wrt=list(wrt))
             return model(dict(columns))
     except SystemExit as exc:  # a model's sys.exit must not end the study (with status 0)
         raise SampleStopped(f"the model called sys.exit({exc.code!r})") from None
@@ -317,6 +398,7 @@ def evaluate_chunk(
     outputs: Sequence[str] | None = None,
     timeout: float | None = None,
     threads: int | None = None,
+    wrt: Sequence[str] | None = None,
 ) -> ChunkResult:
     """Evaluate samples ``start : start + B`` with one model call.
 
@@ -343,6 +425,11 @@ def evaluate_chunk(
     threads : int, optional
         The compiled kernels limited to this many threads for the chunk (a worker of a
         pool, :func:`kernel_threads`); None: as they are.
+    wrt : sequence of str, optional
+        Parameters to differentiate with respect to: the model is called as
+        ``model(columns, wrt=list(wrt))`` and its gradients are checked and kept
+        (:attr:`ChunkResult.gradients`; a non-finite gradient fails its sample). None or
+        empty: ``model(columns)``, as for every model.
 
     A model that calls ``sys.exit`` or ``os._exit`` (the latter where enforced
     like the timeout) fails the affected samples with that reason instead of
@@ -355,11 +442,11 @@ def evaluate_chunk(
     """
     if threads is not None:
         with kernel_threads(threads):
-            return evaluate_chunk(model, columns, start, outputs, timeout)
+            return evaluate_chunk(model, columns, start, outputs, timeout, None, wrt)
     size = len(next(iter(columns.values())))
     try:
         # a batch may take ``timeout`` per sample; a single sample, ``timeout``
-        raw = _call_model(model, columns, None if timeout is None else timeout * size)
+        raw = _call_model(model, columns, None if timeout is None else timeout * size, wrt)
     except Exception as exc:
         if size == 1:
             return ChunkResult(
@@ -375,15 +462,22 @@ def evaluate_chunk(
         try:
             data, failed, reasons = _checked_outputs(raw, size, outputs)
             coords = _checked_coords(raw)
+            slopes = _checked_gradients(raw, data, failed, reasons, wrt) if wrt else {}
         except ModelOutputError as exc:
             raise ModelOutputError(
                 f"{exc} (model called with samples {start} to {start + size - 1}, B = {size})"
             ) from None
-        return ChunkResult(start, start + size, data, failed, reasons.astype(str), coords)
+        return ChunkResult(start, start + size, data, failed, reasons.astype(str), coords, slopes)
     # Isolate the failing samples: one call per sample, only after a batched call raised.
     singles = [
         evaluate_chunk(
-            model, {k: v[i : i + 1] for k, v in columns.items()}, start + i, outputs, timeout
+            model,
+            {k: v[i : i + 1] for k, v in columns.items()},
+            start + i,
+            outputs,
+            timeout,
+            None,
+            wrt,
         )
         for i in range(size)
     ]
@@ -403,7 +497,15 @@ def evaluate_chunk(
                 merged[i] = single.outputs[name][0]
         data[name] = merged
     coords = merged_coords(singles)
-    return ChunkResult(start, start + size, data, failed, reasons, coords)
+    slopes: dict[str, np.ndarray] = {}
+    for name in data if wrt else ():
+        rows = [s.gradients.get(name) for s in singles]
+        shape = next((r.shape[1:] for r in rows if r is not None), None)
+        if shape is not None:
+            slopes[name] = np.stack(
+                [r[0] if r is not None else np.full(shape, np.nan) for r in rows]
+            )
+    return ChunkResult(start, start + size, data, failed, reasons, coords, slopes)
 
 
 @contextmanager

@@ -117,6 +117,7 @@ def evaluate_chunks(
     fail_fast: Callable[[], None] | None,
     on_chunk: Callable[[int, ChunkResult], None] | None = None,
     may_submit: Callable[[], bool] | None = None,
+    wrt: Sequence[str] = (),
 ) -> int:
     """Evaluate chunks ``missing`` of a table of ``count`` samples into ``results``.
 
@@ -137,6 +138,8 @@ def evaluate_chunks(
         with the run count).
     may_submit : while it returns False no further chunk is submitted (the
         consumer's backlog is full); chunks already running still finish.
+    wrt : the parameters the model differentiates its outputs with respect to in every
+        chunk (:func:`~fuzzymbs.study.evaluation.evaluate_chunk`); empty: none.
 
     Returns
     -------
@@ -165,6 +168,8 @@ def evaluate_chunks(
             ):
                 index = queue.pop(0)
                 start, stop = index * size, min((index + 1) * size, count)
+                # wrt only where asked: a task without it is the same call as ever
+                extra = (tuple(wrt),) if wrt else ()
                 try:
                     future = resolved.executor.submit(
                         evaluate_chunk,
@@ -174,6 +179,7 @@ def evaluate_chunks(
                         outputs,
                         work.timeout,
                         resolved.task_threads,
+                        *extra,
                     )
                 except BrokenExecutor as exc:  # a worker died on an earlier chunk
                     raise _lost_worker(exc, start, stop, resolved.label) from exc

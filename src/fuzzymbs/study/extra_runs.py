@@ -14,9 +14,9 @@ import json
 import logging
 import math
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -41,6 +41,7 @@ from fuzzymbs.study.execution import (
     evaluate_chunks,
     progress_phase,
 )
+from fuzzymbs.study.gradients import assemble_gradients
 from fuzzymbs.study.integration_check import (
     IntegrationCheck,
     check_time_integration,
@@ -59,7 +60,7 @@ from fuzzymbs.study.streaming import (
     integration_inputs,
 )
 
-__all__ = ["SCREENING_FOLDER", "VALIDATION_FOLDER", "StudyRuns"]
+__all__ = ["SCREENING_FOLDER", "VALIDATION_FOLDER", "StudyRuns", "TableRuns"]
 
 logger = logging.getLogger("fuzzymbs.study.study")
 
@@ -88,6 +89,21 @@ def balanced_chunk_size(count: int, size: int) -> int:
         return size
     tasks = ROUND_TASKS * math.ceil(math.ceil(count / size) / ROUND_TASKS)
     return math.ceil(count / tasks)
+
+
+class TableRuns(NamedTuple):
+    """The runs of a table of points (:meth:`StudyRuns.run_table`)."""
+
+    #: ``{name: (N, ...)}`` in row order, NaN rows where a run failed
+    outputs: dict[str, np.ndarray]
+    #: (N,) which runs failed, and why ("" where none)
+    failed: np.ndarray
+    reasons: np.ndarray
+    #: runs evaluated now, and read from the store
+    evaluated: int
+    reused: int
+    #: ``{name: (N, *shape, len(wrt))}`` where the table was run with ``wrt``, else empty
+    gradients: dict[str, np.ndarray]
 
 
 class StudyRuns:
@@ -498,7 +514,7 @@ class StudyRuns:
                     + self._screening_failures(failed, reasons)
                 )
 
-        outputs, failed, reasons, evaluated, reused = self.run_table(
+        outputs, failed, reasons, evaluated, reused, _ = self.run_table(
             screening.samples,
             self._screening_identity(),
             None if store is None else Path(store) / SCREENING_FOLDER,
@@ -561,9 +577,12 @@ class StudyRuns:
         labels: tuple[str, str],
         settings: tuple[LazyExecutor, int, bool, bool, dict[str, Any] | None],
         stop_at_failure: Callable[[np.ndarray, np.ndarray], None] | None = None,
-    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, int, int]:
-        """Evaluate the rows of a parameter table (screening or validation points) chunk by
-        chunk into ``folder``: ``(outputs, failed, reasons, evaluated, reused)``.
+        wrt: Sequence[str] = (),
+    ) -> TableRuns:
+        """Evaluate the rows of a parameter table (screening points, an adaptive round)
+        chunk by chunk into ``folder``: outputs, failures, counts and, with ``wrt``, the
+        model's gradients with respect to those parameters (stored with the chunks, so a
+        resumed table gets them back too).
 
         ``labels``: the progress bar's and the output check's names of the runs;
         ``settings``: executor, chunk size, resume, progress, code version;
@@ -589,11 +608,13 @@ class StudyRuns:
             work,
             (progress, labels[0]),
             fail_fast=fail_fast,
+            wrt=tuple(wrt),
         )
         ordered = [results[i] for i in range(chunk_count)]
         outputs, failed, reasons = assemble_chunks(ordered, count, self._output_check, labels[1])
         self._adopt_coords(ordered)
-        return outputs, failed, reasons, int(evaluated), int(reused)
+        gradients = assemble_gradients(ordered, count, wrt) if wrt else {}
+        return TableRuns(outputs, failed, reasons, int(evaluated), int(reused), gradients)
 
     def _evaluate_rows(
         self,
@@ -609,7 +630,7 @@ class StudyRuns:
 
         ``chunks``: the store, chunk size, chunks at hand, missing chunks and those reused
         (from :func:`~fuzzymbs.study.store.open_chunks`); ``shown``: a progress bar and its
-        label; ``hooks``: ``fail_fast``, ``on_chunk``, ``may_submit``.
+        label; ``hooks``: ``fail_fast``, ``on_chunk``, ``may_submit``, ``wrt``.
         """
         chunk_store, size, results, missing, reused = chunks
         progress, label = shown

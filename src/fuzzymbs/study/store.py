@@ -15,6 +15,7 @@ Layout::
 
     STORE/manifest.json        identity of the study, code version, sample count, chunk size
     STORE/chunk-000000.npz     start, stop, failed, failure_reason, output__<name>, digest
+                               (and gradient__<name> where the model was asked for them)
 
 The manifest's ``code`` record (fuzzymbs version, model source digest, see
 :mod:`fuzzymbs.study.code_version`) keeps chunks of different code apart: a
@@ -45,6 +46,9 @@ VERSION = 1
 _OUTPUT_PREFIX = "output__"
 #: prefix of coordinate arrays a model returned while running (e.g. an external program's time)
 _COORD_PREFIX = "coord__"
+#: prefix of the gradients of an output (a chunk of a study that asked for them): a resumed
+#: run gets them back with the outputs
+_GRADIENT_PREFIX = "gradient__"
 
 
 def json_safe(value: Any) -> Any:
@@ -321,6 +325,8 @@ class ChunkStore:
             arrays[_OUTPUT_PREFIX + name] = values
         for dim, values in chunk.coords.items():
             arrays[_COORD_PREFIX + dim] = values
+        for name, values in chunk.gradients.items():
+            arrays[_GRADIENT_PREFIX + name] = values
         arrays[_DIGEST_KEY] = np.array(chunk_digest(arrays))
         _write_atomic(self.chunk_path(index), lambda handle: np.savez(handle, **arrays))
 
@@ -346,6 +352,11 @@ class ChunkStore:
                 for key, values in arrays.items()
                 if key.startswith(_COORD_PREFIX)
             }
+            gradients = {
+                key[len(_GRADIENT_PREFIX) :]: values
+                for key, values in arrays.items()
+                if key.startswith(_GRADIENT_PREFIX)
+            }
             failed = arrays["failed"].astype(bool)
             reasons = arrays["failure_reason"].astype(str)
         except KeyError as exc:
@@ -364,7 +375,7 @@ class ChunkStore:
         if (start, stop) != (expected_start, expected_stop) or failed.shape != (stop - start,):
             logger.warning("stored chunk %s has the wrong extent; it is evaluated again", path)
             return None
-        return ChunkResult(start, stop, outputs, failed, reasons, coords)
+        return ChunkResult(start, stop, outputs, failed, reasons, coords, gradients)
 
     def finished(self) -> list[int]:
         """Indices of the chunk files present (not yet validated)."""

@@ -50,6 +50,7 @@ from fuzzymbs.study.execution import (
     check_run_settings,
 )
 from fuzzymbs.study.extra_runs import StudyRuns
+from fuzzymbs.study.gradients import gradient_parameters
 from fuzzymbs.study.integration_check import ToleranceChoice
 from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE
 from fuzzymbs.study.options import StudyOptions
@@ -192,6 +193,7 @@ class Study(StudyRuns):
         check_output_names(dict.fromkeys(self.output_names))  # before any evaluation
         self.name = name or (self.model_name.split(":")[-1].split(".")[-1])
         self.description = description
+        self.gradient_parameters()  # gradients = true with a model that cannot: refused now
 
     @property
     def plan(self) -> Plan:
@@ -284,6 +286,23 @@ class Study(StudyRuns):
             if self.integration_choice.shared_steps:
                 identity["integration_shared_steps"] = True
         return identity
+
+    def gradient_parameters(self) -> tuple[str, ...]:
+        """The fuzzy parameters the study asks its model's gradients for with every run
+        (:func:`~fuzzymbs.study.gradients.gradient_parameters`): all of them where the
+        method uses gradients (the adaptive method's option ``gradients``, ``"auto"`` by
+        default) and the model declares every one in ``model.differentiable``; else none.
+
+        Raises
+        ------
+        InvalidParameterError
+            ``gradients = true`` and the model cannot differentiate with respect to some
+            fuzzy parameters (naming them).
+        """
+        if self._plan is None:  # an extended plan still to be screened: no gradients
+            return ()
+        setting = getattr(self._plan.scheme, "gradients", False)  # a method that uses them
+        return gradient_parameters(self.model, self._plan.names, setting, self.model_name)
 
     def _plan_levels(self) -> np.ndarray:
         return make_levels(self._levels)
@@ -494,7 +513,8 @@ class Study(StudyRuns):
         then the result; its certification replaces the validation runs of the fixed
         methods (``settings``: executor, chunk size, resume, progress, code version)."""
         work, size, _, progress, code = settings
-        outputs, evaluated, reused = run_rounds(self, settings, store)
+        wrt = self.gradient_parameters()
+        outputs, evaluated, reused = run_rounds(self, settings, store, wrt)
         plan = self.plan
         count = len(plan)
         failed = np.zeros(count, dtype=bool)
@@ -519,6 +539,8 @@ class Study(StudyRuns):
                 integration=integration,
             )
         dataset.attrs.update(plan.attrs())
+        # whether the rounds used the model's gradients, and with respect to what
+        dataset.attrs["adaptive_gradients"] = ", ".join(wrt) if wrt else "none"
         stopped = plan.scheme.stop_message(plan.outcome())
         if stopped is not None:
             message = f"study {self.name!r}: {stopped}"

@@ -85,8 +85,10 @@ def _adaptive_line(attrs: dict) -> str:
             f" (stopped by the model's own noise, about {100 * float(attrs['adaptive_noise']):.3g} "
             "% of the cut width: integrate more accurately or raise method_tolerance)"
         )
+    gradients = attrs.get("adaptive_gradients", "none")
+    used = "" if gradients == "none" else f" with the model's gradients ({gradients})"
     return (
-        f"Method check: adaptive, {int(attrs['adaptive_runs'])} runs in "
+        f"Method check: adaptive, {int(attrs['adaptive_runs'])} runs{used} in "
         f"{int(attrs['adaptive_rounds'])} rounds{stopped}; certified method error "
         f"{100 * error:.3g} % of the cut's width, {verdict} the tolerance {100 * tolerance:.3g} %"
     )

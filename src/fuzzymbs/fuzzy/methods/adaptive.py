@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +37,8 @@ DEFAULT_ADAPTIVE_TOLERANCE = 0.01
 DEFAULT_ADAPTIVE_MAX_RUNS = 2000
 #: search-grid points per cut box on the surrogate unless the caller sets them
 DEFAULT_ADAPTIVE_SEARCH_POINTS = 20_000
+#: the model's gradients enter the rounds where the model can give them all
+GRADIENTS_AUTO = "auto"
 
 
 class AdaptiveWarning(UserWarning):
@@ -80,6 +82,12 @@ class Adaptive(Method):
         Run budget (default 2,000); at least ``2 n + 2``, the first round.
     search_points : int
         Search-grid points per cut box on the surrogate (default 20,000; at least 3^n).
+    gradients : {"auto", True, False}
+        Whether a study asks the model for the gradients of its outputs with respect to
+        the fuzzy parameters and hands them to the surrogate
+        (:mod:`fuzzymbs.fuzzy.hermite_correction`): ``"auto"`` (default) where the model
+        declares every fuzzy parameter in ``model.differentiable``, ``True`` always (an
+        error for a model that cannot), ``False`` never (the value-only rounds).
     """
 
     name = "adaptive"
@@ -110,6 +118,12 @@ class Adaptive(Method):
         must="an int >= 3^n",
         minimum=1,
     )
+    gradients: Literal["auto", True, False] = option(
+        GRADIENTS_AUTO,
+        "use the model's gradients with respect to the fuzzy parameters: auto (where the "
+        "model can give them all), true or false",
+        must='"auto", true or false',
+    )
 
     def checked(self, names: tuple[str, ...]) -> Adaptive:
         """A budget of at least the first round; ``search_points`` at least ``3^n``."""
@@ -128,7 +142,12 @@ class Adaptive(Method):
         return self
 
     def describe(self) -> dict[str, Any]:
-        return self.option_values()
+        """The options; ``gradients`` only where it is not the default, so that the plans
+        (and the stores) of studies that leave it alone keep their fingerprints."""
+        values = self.option_values()
+        if values["gradients"] == GRADIENTS_AUTO:
+            del values["gradients"]
+        return values
 
     def count(self, request: CountRequest) -> tuple[int, bool]:
         """The run budget: no fixed count (the model's outputs decide the rounds)."""

@@ -1,0 +1,123 @@
+"""A study's model gradients: which ones it asks for, and gathering them from the chunks.
+
+A model that can differentiate its outputs declares ``differentiable``, a tuple of
+the parameter names it can differentiate with respect to, and accepts
+``model(samples, wrt=names)``: it returns its usual outputs plus, under
+:data:`~fuzzymbs.study.evaluation.GRADIENTS_KEY` (``"gradients"``), ``{output:
+(B, *output_shape, len(wrt))}`` with the last axis in ``wrt`` order, in the
+parameters' units. A study of a method that uses them (the adaptive method's
+option ``gradients``) asks for the gradients with respect to its fuzzy parameters
+(:func:`gradient_parameters`); every other study, and every model without
+``differentiable``, calls the model as before.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from fuzzymbs.errors import InvalidParameterError, ModelOutputError
+from fuzzymbs.study.evaluation import ChunkResult
+
+__all__ = ["assemble_gradients", "declared_differentiable", "gradient_parameters"]
+
+
+def declared_differentiable(model: Any, model_name: str) -> tuple[str, ...]:
+    """The parameters ``model`` declares it can differentiate with respect to (its
+    ``differentiable`` attribute; none when it has none).
+
+    Raises
+    ------
+    InvalidParameterError
+        ``differentiable`` is not a sequence of parameter names.
+    """
+    declared = getattr(model, "differentiable", None)
+    if declared is None:
+        return ()
+    if isinstance(declared, str) or not isinstance(declared, Sequence):
+        declared = None
+    elif not all(isinstance(name, str) for name in declared):
+        declared = None
+    if declared is None:
+        raise InvalidParameterError(
+            f"model {model_name!r}: differentiable must be a tuple of parameter names, "
+            f"got {getattr(model, 'differentiable', None)!r}"
+        )
+    return tuple(declared)
+
+
+def gradient_parameters(
+    model: Any, names: Sequence[str], setting: Any, model_name: str
+) -> tuple[str, ...]:
+    """The fuzzy parameters a study asks its model's gradients for (``wrt``), or none.
+
+    Parameters
+    ----------
+    model : the study's model.
+    names : its fuzzy parameters, in the plan's order.
+    setting : {"auto", True, False}
+        The method's option ``gradients``: ``"auto"`` asks where the model declares
+        every fuzzy parameter differentiable, ``True`` always, ``False`` never.
+    model_name : the model's name, for the message.
+
+    Returns
+    -------
+    tuple of str
+        ``names`` when the gradients are used, else ``()``.
+
+    Raises
+    ------
+    InvalidParameterError
+        ``setting`` is True and the model cannot differentiate with respect to some
+        fuzzy parameters (naming them).
+    """
+    if setting is False:
+        return ()
+    declared = declared_differentiable(model, model_name)
+    missing = [name for name in names if name not in declared]
+    if not missing:
+        return tuple(names)
+    if setting is True:
+        can = f"only {', '.join(declared)}" if declared else "none (no differentiable attribute)"
+        raise InvalidParameterError(
+            f"gradients = true, but model {model_name!r} cannot differentiate its outputs with "
+            f"respect to the fuzzy parameter(s) {', '.join(missing)} (it declares {can}); set "
+            'gradients = "auto" to use them only where the model gives them all, or false'
+        )
+    return ()
+
+
+def assemble_gradients(
+    chunks: Sequence[ChunkResult], count: int, wrt: Sequence[str]
+) -> dict[str, np.ndarray]:
+    """Every output's gradients ``(count, *shape, len(wrt))`` in row order (NaN rows for
+    failed samples) from a table's chunks.
+
+    Raises
+    ------
+    ModelOutputError
+        A chunk with successful runs holds no gradient of one of its outputs (a store
+        written without them).
+    """
+    shapes: dict[str, tuple[int, ...]] = {}
+    for chunk in chunks:
+        if chunk.failed.all():
+            continue
+        for name in chunk.outputs:
+            if name not in chunk.gradients:
+                raise ModelOutputError(
+                    f"samples {chunk.start} to {chunk.stop - 1} have no gradient of output "
+                    f"{name!r} with respect to {list(wrt)}; the model (or the stored chunk) "
+                    "did not return it"
+                )
+            shapes.setdefault(name, chunk.gradients[name].shape[1:])
+    gathered = {}
+    for name, shape in shapes.items():
+        merged = np.full((count, *shape), np.nan)
+        for chunk in chunks:
+            if name in chunk.gradients:
+                merged[chunk.start : chunk.stop] = chunk.gradients[name]
+        gathered[name] = merged
+    return gathered
