@@ -213,3 +213,37 @@ def test_gradient_rounds_agree_across_executors():
         assert_identical(other.dataset, inline.dataset)
         for key in ("method_error", "adaptive_runs", "adaptive_gradients"):
             assert other.dataset.attrs[key] == inline.dataset.attrs[key]
+
+
+class _PricedCase:
+    """A differentiable model whose gradients cost ``cost`` of a run per parameter."""
+
+    differentiable = ("a", "b", "c")
+
+    def __init__(self, cost: float | None) -> None:
+        if cost is not None:
+            self.gradient_cost = cost
+
+
+def test_auto_asks_for_gradients_only_where_they_cost_at_most_a_second_run():
+    # the rule of fuzzymbs.study.gradients: 1 + n x gradient_cost <= AUTO_MAX_RUN_COST (2)
+    from fuzzymbs.study.gradients import gradient_parameters
+
+    names = ("a", "b", "c")
+    assert gradient_parameters(_PricedCase(None), names, "auto", "m") == names  # free
+    assert gradient_parameters(_PricedCase(0.33), names, "auto", "m") == names  # 1.99 runs
+    assert gradient_parameters(_PricedCase(0.72), names, "auto", "m") == ()  # the brake: 3.16
+    assert gradient_parameters(_PricedCase(0.72), names, True, "m") == names  # asked for
+
+
+def test_the_brake_studies_run_without_gradients_by_default():
+    # the brake's three-parameter studies: its sensitivities cost 0.72 of a run per
+    # parameter with ROS34PW2 (docs/benchmarks.md, "Forward sensitivities"), 3.2 runs in all
+    from fuzzymbs.models.brake import DiscBrake
+    from fuzzymbs.study.gradients import gradient_parameters
+
+    brake = DiscBrake(t_end=1e-4)
+    names = ("pad_spring_stiffness", "caliper_spring_stiffness", "nodal_force")
+    assert set(names) <= set(brake.differentiable)
+    assert gradient_parameters(brake, names, "auto", "brake") == ()
+    assert gradient_parameters(brake, names[:1], "auto", "brake") == names[:1]  # 1.72 runs

@@ -521,6 +521,15 @@ class SimulationModel:
             return ()
         return self.compiled.parameters.names
 
+    @property
+    def gradient_cost(self) -> float:
+        """CPU of a run per parameter differentiated, as a fraction of the run without:
+        one right-hand side per parameter and stage besides the state's (the brake
+        over 2 ms, study 1's three parameters: 3.0-3.2 times the run with ROS34PW2, 2.2
+        with RODAS4, whose Jacobian every step they do not need; docs/benchmarks.md,
+        "Forward sensitivities"). A study's ``gradients = "auto"`` weighs it."""
+        return 0.4 if self.settings["integrator"] == "rodas4" else 0.72
+
     def _wrt(self, wrt: Sequence[str] | None) -> tuple[str, ...] | None:
         return checked_wrt(wrt, self.differentiable, self.settings["integrator"])
 

@@ -9,6 +9,15 @@ parameters' units. A study of a method that uses them (the adaptive method's
 option ``gradients``) asks for the gradients with respect to its fuzzy parameters
 (:func:`gradient_parameters`); every other study, and every model without
 ``differentiable``, calls the model as before.
+
+Gradients are not free everywhere: a model may also declare ``gradient_cost``, the
+CPU a run takes for each parameter differentiated, as a fraction of the run without
+(the brake's forward sensitivities: about 0.72 with ROS34PW2, 0.40 with RODAS4,
+docs/benchmarks.md, "Forward sensitivities"). ``"auto"`` asks for gradients only
+where a run with them costs at most :data:`AUTO_MAX_RUN_COST` times one without: on
+the closed-form hard cases gradients save at most 2.2 times the runs
+(docs/fuzzy.md), so a dearer run does not pay for them. A model that declares no
+cost is taken to give them for free (its own closed form).
 """
 
 from __future__ import annotations
@@ -21,7 +30,17 @@ import numpy as np
 from fuzzymbs.errors import InvalidParameterError, ModelOutputError
 from fuzzymbs.study.evaluation import ChunkResult
 
-__all__ = ["assemble_gradients", "declared_differentiable", "gradient_parameters"]
+__all__ = [
+    "AUTO_MAX_RUN_COST",
+    "assemble_gradients",
+    "declared_differentiable",
+    "gradient_parameters",
+]
+
+#: ``gradients = "auto"`` asks for a model's gradients only where a run with them costs at
+#: most this many runs without (``1 + n gradient_cost``): the hard cases' runs fall at most
+#: 2.2 times with gradients (bump3, docs/fuzzy.md), so the break-even lies near 2
+AUTO_MAX_RUN_COST = 2.0
 
 
 def declared_differentiable(model: Any, model_name: str) -> tuple[str, ...]:
@@ -59,7 +78,9 @@ def gradient_parameters(
     names : its fuzzy parameters, in the plan's order.
     setting : {"auto", True, False}
         The method's option ``gradients``: ``"auto"`` asks where the model declares
-        every fuzzy parameter differentiable, ``True`` always, ``False`` never.
+        every fuzzy parameter differentiable and a run with their gradients costs at
+        most :data:`AUTO_MAX_RUN_COST` runs without (:func:`run_cost`), ``True``
+        always, ``False`` never.
     model_name : the model's name, for the message.
 
     Returns
@@ -78,6 +99,8 @@ def gradient_parameters(
     declared = declared_differentiable(model, model_name)
     missing = [name for name in names if name not in declared]
     if not missing:
+        if setting == "auto" and run_cost(model, len(names)) > AUTO_MAX_RUN_COST:
+            return ()  # dearer than the runs they save (the brake's three: about 3.2)
         return tuple(names)
     if setting is True:
         can = f"only {', '.join(declared)}" if declared else "none (no differentiable attribute)"
@@ -87,6 +110,13 @@ def gradient_parameters(
             'gradients = "auto" to use them only where the model gives them all, or false'
         )
     return ()
+
+
+def run_cost(model: Any, parameters: int) -> float:
+    """What a run with the gradients for ``parameters`` parameters costs, in runs without:
+    ``1 + parameters x model.gradient_cost`` (no ``gradient_cost``: 1, free gradients)."""
+    cost = float(getattr(model, "gradient_cost", 0.0) or 0.0)
+    return 1.0 + parameters * cost
 
 
 def assemble_gradients(

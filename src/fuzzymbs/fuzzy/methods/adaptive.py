@@ -86,7 +86,9 @@ class Adaptive(Method):
         Whether a study asks the model for the gradients of its outputs with respect to
         the fuzzy parameters and hands them to the surrogate
         (:mod:`fuzzymbs.fuzzy.hermite_correction`): ``"auto"`` (default) where the model
-        declares every fuzzy parameter in ``model.differentiable``, ``True`` always (an
+        declares every fuzzy parameter in ``model.differentiable`` and a run with them
+        costs at most twice a run without (``model.gradient_cost``;
+        :func:`fuzzymbs.study.gradients.gradient_parameters`), ``True`` always (an
         error for a model that cannot), ``False`` never (the value-only rounds).
     """
 
@@ -121,7 +123,7 @@ class Adaptive(Method):
     gradients: Literal["auto", True, False] = option(
         GRADIENTS_AUTO,
         "use the model's gradients with respect to the fuzzy parameters: auto (where the "
-        "model can give them all), true or false",
+        "model can give them all at most doubling a run's cost), true or false",
         must='"auto", true or false',
     )
 
