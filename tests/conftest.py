@@ -2,6 +2,8 @@
 
 import os
 
+import pytest
+
 # BLAS pinned to one thread: kernels parallelise over samples, not inside BLAS.
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -42,6 +44,7 @@ KERNELS_FIRST = (
 )
 
 
+@pytest.hookimpl(optionalhook=True)  # without pytest-xdist (-p no:xdist) it is never called
 def pytest_xdist_make_scheduler(config, log):
     """xdist's load scheduling, each process first sent one group of KERNELS_FIRST."""
     if config.getvalue("dist") != "load":
