@@ -158,3 +158,76 @@ def run_in_checkout(
     measure two versions of fuzzymbs in the same run)."""
     paths = {"PYTHONPATH": str(Path(checkout) / "src"), **(env or {})}
     return run_json_subprocess(code, env=paths, timeout=timeout)
+
+
+# ---- one brake sample through simulate (ros_accuracy.py, rodas_work_precision.py) ------
+#: the brake's outputs compared: the pads' normal displacements (the accuracy criterion,
+#: the first BRAKE_PADS rows) and the caliper's (reported apart)
+BRAKE_OUTPUT_BODIES = ("lower_pad", "upper_pad", "caliper")
+BRAKE_OUTPUT_NAMES = ("y_lpad", "y_upad", "y_cali")
+BRAKE_PADS = 2
+BRAKE_RECORD = 1e-5  # s
+#: the nominal brake and the corner sample (k -10 %, k_c +10 %, F_n +1 %)
+BRAKE_SAMPLES: dict[str, dict[str, float]] = {
+    "nominal": {},
+    "corner": {
+        "pad_spring_stiffness": 180e3,
+        "caliper_spring_stiffness": 1.1e3,
+        "nodal_force": 16.16e3,
+    },
+}
+
+
+def brake_outputs() -> dict[str, Any]:
+    """BRAKE_OUTPUT_NAMES: the normal displacement of each of BRAKE_OUTPUT_BODIES."""
+    from fuzzymbs.mbs.system import Coordinate
+
+    return {
+        name: Coordinate(body, 0)
+        for name, body in zip(BRAKE_OUTPUT_NAMES, BRAKE_OUTPUT_BODIES, strict=True)
+    }
+
+
+def brake_run(
+    compiled: Any,
+    sample: dict[str, float],
+    t_end: float,
+    clock: Callable[[], float] = time.perf_counter,
+    **options: Any,
+) -> tuple[Any, float, Any]:
+    """One sample of the brake alone in its block (kernel "samples"), recorded every
+    BRAKE_RECORD: outputs (3, T) in BRAKE_OUTPUT_NAMES' order, the ``clock`` seconds of
+    the :func:`fuzzymbs.mbs.integrate.simulate` call and its result; ``options`` go to
+    ``simulate`` (dt, integrator, tolerance)."""
+    import numpy as np
+
+    from fuzzymbs.mbs.integrate import simulate
+
+    outputs = brake_outputs()
+    values = {name: np.array([value]) for name, value in sample.items()}
+    start = clock()
+    result = simulate(
+        compiled,
+        values,
+        t_end=t_end,
+        record_interval=BRAKE_RECORD,
+        outputs=outputs,
+        kernel="samples",
+        **options,
+    )
+    seconds = clock() - start
+    if result.failed.any():
+        raise RuntimeError(f"{options} failed on {sample}")
+    return np.array([result.outputs[name][0] for name in outputs]), seconds, result
+
+
+def brake_errors(y: Any, reference: Any) -> dict[str, float]:
+    """The largest deviation over time from ``reference``, relative to its peak: of the
+    pads (the larger of the two, ``error``) and of the caliper (``error_y_cali``)."""
+    from fuzzymbs.study.integration_check import peak_relative_deviation
+
+    pads = range(BRAKE_PADS)
+    return {
+        "error": max(peak_relative_deviation(y[i], reference[i]) for i in pads),
+        "error_y_cali": peak_relative_deviation(y[BRAKE_PADS], reference[BRAKE_PADS]),
+    }

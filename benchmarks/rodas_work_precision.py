@@ -32,29 +32,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench_common import BRAKE_SAMPLES, brake_errors, brake_run
 
-from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.mbs.kernels import rosenbrock
-from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
-from fuzzymbs.study.integration_check import peak_relative_deviation
 from fuzzymbs.tolerance import Tolerance
 
-OUTPUTS = {
-    "y_lpad": Coordinate("lower_pad", 0),
-    "y_upad": Coordinate("upper_pad", 0),
-    "y_cali": Coordinate("caliper", 0),
-}
-PADS = 2
-RECORD = 1e-5  # s
-SAMPLES = {
-    "nominal": {},
-    "corner": {
-        "pad_spring_stiffness": 180e3,
-        "caliper_spring_stiffness": 1.1e3,
-        "nodal_force": 16.16e3,
-    },
-}
 RTOLS = (1e-2, 1e-3, 1e-4, 1e-5)
 #: (label, integrator, Jacobian age or None for the method's own)
 VARIANTS = (
@@ -77,25 +60,17 @@ def run(compiled, sample: dict, t_end: float, integrator: str, rtol: float, age:
     if age is not None:
         methods["rodas4"] = rosenbrock.rodas4_coefficients(age)
     try:
-        values = {name: np.array([value]) for name, value in sample.items()}
-        start = time.process_time()
-        result = simulate(
+        return brake_run(
             compiled,
-            values,
-            t_end=t_end,
+            sample,
+            t_end,
+            clock=time.process_time,
             dt=1e-7,
-            record_interval=RECORD,
-            outputs=OUTPUTS,
-            kernel="samples",
             integrator=integrator,
             tolerance=Tolerance(rtol),
         )
-        seconds = time.process_time() - start
     finally:
         methods["rodas4"] = kept
-    if result.failed.any():
-        raise RuntimeError(f"{integrator} at rtol {rtol:g} failed on {sample}")
-    return np.array([result.outputs[name][0] for name in OUTPUTS]), seconds, result
 
 
 def reference(compiled, label: str, sample: dict, t_end: float) -> tuple[np.ndarray, dict]:
@@ -108,6 +83,7 @@ def reference(compiled, label: str, sample: dict, t_end: float) -> tuple[np.ndar
         return stored["y"], json.loads(str(stored["check"]))
     y, seconds, result = run(compiled, sample, t_end, *REFERENCE, None)
     other, other_seconds, other_result = run(compiled, sample, t_end, *CHECK, None)
+    errors = brake_errors(other, y)
     check = {
         "reference": f"{REFERENCE[0]} rtol {REFERENCE[1]:g}",
         "reference_cpu_s": round(seconds, 2),
@@ -115,8 +91,8 @@ def reference(compiled, label: str, sample: dict, t_end: float) -> tuple[np.ndar
         "against": f"{CHECK[0]} rtol {CHECK[1]:g}",
         "against_cpu_s": round(other_seconds, 2),
         "against_steps": other_result.step_counts[0].tolist(),
-        "pads": max(peak_relative_deviation(other[i], y[i]) for i in range(PADS)),
-        "y_cali": peak_relative_deviation(other[PADS], y[PADS]),
+        "pads": errors["error"],
+        "y_cali": errors["error_y_cali"],
     }
     CACHE.mkdir(exist_ok=True)
     np.savez(path, y=y, check=json.dumps(check))
@@ -128,7 +104,7 @@ def table(t_end: float, rtols: tuple[float, ...], repeats: int, aged: bool) -> d
     for integrator in ("ros34pw2", "rodas4"):  # compile
         run(compiled, {}, 2e-5, integrator, 1e-2, None)
     figures: dict = {"benchmark": "rodas_work_precision", "t_end_s": t_end, "repeats": repeats}
-    for label, sample in SAMPLES.items():
+    for label, sample in BRAKE_SAMPLES.items():
         ref, check = reference(compiled, label, sample, t_end)
         entry: dict = {"reference_check": check, "rows": []}
         for name, integrator, age in VARIANTS if aged else VARIANTS[:2]:
@@ -147,8 +123,7 @@ def table(t_end: float, rtols: tuple[float, ...], repeats: int, aged: bool) -> d
                         "rhs": rhs,
                         "jacobians": jacobians,
                         "lu": lus,
-                        "error": max(peak_relative_deviation(y[i], ref[i]) for i in range(PADS)),
-                        "error_y_cali": peak_relative_deviation(y[PADS], ref[PADS]),
+                        **brake_errors(y, ref),
                     }
                 )
         figures[label] = entry

@@ -2,6 +2,8 @@
 
 import os
 
+import pytest
+
 # BLAS pinned to one thread: kernels parallelise over samples, not inside BLAS.
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -9,3 +11,66 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 os.environ.setdefault("MPLBACKEND", "Agg")
 # No user trust file (fuzzymbs.study.trust): a study file's code runs only where a test allows it.
 os.environ["FUZZYMBS_TRUST_FILE"] = os.path.join(os.path.dirname(__file__), "no-trust-file.toml")
+
+
+# ---- what each test process runs first (pytest-xdist) ------------------------------------
+# On a fresh clone most of the default suite's time is Numba compiling kernels, once in
+# every test process that calls a kernel before another process has written it to the
+# cache. With xdist's plain load scheduling both processes reach the same kernel family
+# at about the same time and both compile it; both also build the module-scoped fixtures
+# of a module whose tests they share. So each process starts with one group below: the
+# tests that first call one family of kernels (each group about a minute of compilation,
+# the two balanced) and the tests of an expensive module-scoped fixture (an entry without
+# "::" is a whole module). Every later caller, on either process, loads the kernels from
+# the cache. tests/test_kernels_first.py checks the entries; a missing one is skipped here.
+KERNELS_FIRST = (
+    (  # the gear pair's kernels: MUBOCO-PR static, its dynamics, the FE reference's contact
+        "tests/models/test_gear_docs.py::test_gears_guide_example_runs",
+        "tests/models/test_gear_dynamics.py::test_slow_running_dte_approaches_the_static_ste",
+        "tests/models/test_gear_fe.py",  # its FE tables: once per process (module_fe_cache)
+        # the quickstart demo (the module's demo_out fixture)
+        "tests/test_cli.py::test_demo_writes_results_plots_and_summary",
+        "tests/test_cli.py::test_sparse_demo_matches_closed_form_and_a_dense_search",
+        "tests/test_cli.py::test_rerun_resumes_from_the_output_folder",
+        "tests/test_cli.py::test_plot_command_redraws",
+    ),
+    (  # the elastic multibody engine's: right-hand side, Jacobian, RK4, ROS34PW2 / RODAS4
+        "tests/mbs/test_contact.py::test_static_penetration_equals_load_over_penalty",
+        "tests/mbs/test_jacobian.py::test_hoffmann_jacobian_is_the_closed_form[0.0]",
+        "tests/mbs/test_model.py::test_node_displacement_output_of_elastic_translating_body",
+        "tests/mbs/test_rosenbrock.py::test_order_on_a_stiff_linear_mode[ros34pw2-3]",
+        "tests/mbs/test_reference.py::test_rk4_matches_dop853_on_rotating_elastic_contact[samples]",
+    ),
+)
+
+
+@pytest.hookimpl(optionalhook=True)  # without pytest-xdist (-p no:xdist) it is never called
+def pytest_xdist_make_scheduler(config, log):
+    """xdist's load scheduling, each process first sent one group of KERNELS_FIRST."""
+    if config.getvalue("dist") != "load":
+        return None
+    from xdist.scheduler import LoadScheduling
+
+    class KernelsFirstScheduling(LoadScheduling):
+        def __init__(self, config, log=None):
+            super().__init__(config, log)
+            self.groups = list(KERNELS_FIRST)
+
+        def _send_tests(self, node, num):
+            # the first send to each process (the initial distribution) leads with a group
+            if self.groups and self.collection is not None:
+                group = self.groups.pop(0)
+                first = [
+                    i
+                    for i, nodeid in enumerate(self.collection)
+                    if any(nodeid == e or nodeid.startswith(e + "::") for e in group)
+                ]
+                first = [i for i in first if i in self.pending]
+                if first:
+                    for i in first:
+                        self.pending.remove(i)
+                    self.node2pending[node].extend(first)
+                    node.send_runtest_some(first)
+            super()._send_tests(node, num)
+
+    return KernelsFirstScheduling(config, log)

@@ -7,6 +7,7 @@ No source file is over 800 lines.
 """
 
 import ast
+import functools
 from pathlib import Path
 
 SOURCE = Path(__file__).resolve().parents[1] / "src" / "fuzzymbs"
@@ -19,7 +20,6 @@ def _module_name(path: Path) -> str:
 
 
 FILES = sorted(SOURCE.rglob("*.py"))
-TREES = {path: ast.parse(path.read_text(encoding="utf-8")) for path in FILES}
 MODULES = {_module_name(path) for path in FILES}
 
 
@@ -43,13 +43,20 @@ def _defined(tree: ast.AST) -> set[str]:
     return {name for name in names if _private(name)}
 
 
-DEFINED = {path: _defined(tree) for path, tree in TREES.items()}
-DEFINED_ANYWHERE = set().union(*DEFINED.values())
+@functools.cache
+def _parsed() -> tuple[dict[Path, ast.AST], dict[Path, set[str]], set[str]]:
+    """Every source file's tree, the private names each defines, and all of those names
+    (parsed on first use, not when the module is collected: only the process that runs
+    these tests pays for it)."""
+    trees = {path: ast.parse(path.read_text(encoding="utf-8")) for path in FILES}
+    defined = {path: _defined(tree) for path, tree in trees.items()}
+    return trees, defined, set().union(*defined.values())
 
 
 def _private_uses(path: Path) -> list[str]:
-    tree = TREES[path]
-    own = DEFINED[path]
+    trees, defined, defined_anywhere = _parsed()
+    tree = trees[path]
+    own = defined[path]
     modules: set[str] = set()  # local names bound to a fuzzymbs module
     found = []
     for node in ast.walk(tree):
@@ -75,7 +82,7 @@ def _private_uses(path: Path) -> list[str]:
             continue
         on_module = isinstance(base, ast.Name) and base.id in modules
         # a name no module of the package defines is a third party's (os._exit)
-        foreign = node.attr in DEFINED_ANYWHERE and node.attr not in own
+        foreign = node.attr in defined_anywhere and node.attr not in own
         if on_module or foreign:
             found.append(f"line {node.lineno}: {ast.unparse(node)}")
     return found
@@ -89,17 +96,18 @@ def test_no_private_name_is_used_across_modules():
 def test_the_check_finds_a_private_name_used_across_modules():
     # the check itself, on a module written for it: all three kinds are found
     module = SOURCE / "fuzzy" / "_structure_probe.py"
-    TREES[module] = ast.parse(
+    trees, defined, _ = _parsed()
+    trees[module] = ast.parse(
         "from fuzzymbs.fuzzy.chebyshev_grid import _positions\n"
         "from fuzzymbs.fuzzy import chebyshev_grid\n"
         "chebyshev_grid._to_coefficients(1)\n"
         "def f(grid):\n    return grid._index_set\n"
     )
-    DEFINED[module] = _defined(TREES[module])
+    defined[module] = _defined(trees[module])
     try:
         assert len(_private_uses(module)) == 3
     finally:
-        del TREES[module], DEFINED[module]
+        del trees[module], defined[module]
 
 
 def test_no_source_file_is_over_800_lines():

@@ -443,8 +443,9 @@ def _solve_static_batch(
                 pair_kind[b, j, i] = kind
                 total += m_w
             wheel_moment[b, j] = total
-        last1[b] = beta1
-        last2[b] = beta2
+        for i in range(n_pairs):  # element by element: no slice-assignment code to compile
+            last1[b, i] = beta1[i]
+            last2[b, i] = beta2[i]
         if status[b] != 0:
             for j in range(n_pos):
                 ste[b, j] = np.nan
