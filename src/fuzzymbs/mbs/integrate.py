@@ -11,6 +11,7 @@ on the same right-hand side, for checks.
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -28,7 +29,7 @@ from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import METHODS, ros34pw2
 from fuzzymbs.mbs.kernels.sensitivities import SENS_DELTA, no_sensitivity
 from fuzzymbs.mbs.kernels.simd import LANES
-from fuzzymbs.mbs.sensitivities import checked_wrt, sensitivity_directions
+from fuzzymbs.mbs.sensitivities import checked_wrt, gradient_cost, sensitivity_directions
 from fuzzymbs.mbs.shared_steps import (
     SharedSteps,
     checked_renewals,
@@ -466,11 +467,9 @@ class SimulationModel:
     defaults where not given; ``t_end`` and ``dt`` required). Picklable (plain arrays);
     the kernels compile (or load from cache) on first call.
 
-    With a Rosenbrock integrator the model can differentiate its outputs: it declares
-    ``differentiable`` (every bound parameter) and ``model(samples, wrt=names)`` adds
-    ``"gradients": {output: (B, T, len(names))}``, the outputs' derivatives with respect
-    to ``names`` in that order (forward sensitivities, :func:`simulate`'s
-    ``sensitivities``), in the output's unit per the parameter's.
+    With a Rosenbrock integrator ``model(samples, wrt=names)`` (names of ``differentiable``)
+    adds ``"gradients": {output: (B, T, len(names))}``, in the output's unit per the
+    parameter's (forward sensitivities, :func:`simulate`'s ``sensitivities``).
     """
 
     def __init__(
@@ -514,21 +513,16 @@ class SimulationModel:
 
     @property
     def differentiable(self) -> tuple[str, ...]:
-        """The parameters ``model(samples, wrt=...)`` differentiates the outputs with respect
-        to: every bound parameter with a Rosenbrock integrator (forward sensitivities),
-        none with RK4."""
+        """Parameters ``model(samples, wrt=...)`` differentiates with respect to: every
+        bound one with a Rosenbrock integrator (forward sensitivities), none with RK4."""
         if self.settings["integrator"] not in ROSENBROCK:
             return ()
         return self.compiled.parameters.names
 
     @property
     def gradient_cost(self) -> float:
-        """CPU of a run per parameter differentiated, as a fraction of the run without:
-        one right-hand side per parameter and stage besides the state's (the brake
-        over 2 ms, study 1's three parameters: 3.0-3.2 times the run with ROS34PW2, 2.2
-        with RODAS4, whose Jacobian every step they do not need; docs/benchmarks.md,
-        "Forward sensitivities"). A study's ``gradients = "auto"`` weighs it."""
-        return 0.4 if self.settings["integrator"] == "rodas4" else 0.72
+        """:func:`~fuzzymbs.mbs.sensitivities.gradient_cost` of this model's integrator."""
+        return gradient_cost(self.settings["integrator"])
 
     def _wrt(self, wrt: Sequence[str] | None) -> tuple[str, ...] | None:
         return checked_wrt(wrt, self.differentiable, self.settings["integrator"])
@@ -552,12 +546,11 @@ class SimulationModel:
         ``"gradients": {output: (B, T, len(wrt))}``. The outputs are bit for bit the same
         with or without ``wrt``."""
         names = self._wrt(wrt)
-        shared = self.shared
-        if shared is None:
+        if self.shared is None:
             return self._outputs(self.simulate(samples, sensitivities=names or ()), {}, names)
-        # the modal sample's error, removed from every sample (a constant: the gradients
-        # are those of the runs on the sequence)
-        return self._outputs(self._on_shared_steps(samples, wrt=names), shared.correction, names)
+        # the modal sample's error removed from every sample (a constant to the gradients)
+        correction = self.shared.correction
+        return self._outputs(self._on_shared_steps(samples, wrt=names), correction, names)
 
     def deviations(
         self, samples: Mapping[str, NDArray[np.float64]], wrt: Sequence[str] | None = None
@@ -605,10 +598,8 @@ class SimulationModel:
         """Wait for the runs of :meth:`run_ahead`, if any (their errors are its own)."""
         ahead = getattr(self, "_ahead", None)
         if ahead is not None:
-            try:
+            with contextlib.suppress(Exception):  # the runs are made again where needed
                 ahead.result()
-            except Exception:  # the runs are made again where they are needed
-                pass
             self._ahead = None
 
     def _on_shared_steps(
