@@ -285,3 +285,17 @@ def test_brake_bands_quick_runs():
     fine = max(max(v) for v in study["rtol 0.001"]["deviation"].values())
     assert fine < coarse
     assert figures["cost"]["best"]["default"]["time_integration_error"] < 0.01
+
+
+def test_brake_targets_variant_is_the_demo_with_rodas4(tmp_path):
+    # benchmarks/brake_targets.py's RODAS4 variant: the demo's study file, its model's
+    # integrator the only change
+    import tomllib
+
+    targets = pytest.importorskip("brake_targets")
+    demo = targets.FILES[1]["default"]
+    copy = targets.with_integrator(demo, "rodas4", tmp_path)
+    original, changed = (tomllib.loads(path.read_text()) for path in (demo, copy))
+    assert changed["model"].pop("options") == {"integrator": "rodas4"}
+    assert changed == original
+    assert targets.FILES[1]["paper"].exists() and targets.FILES[2]["paper"].exists()
