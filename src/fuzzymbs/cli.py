@@ -253,8 +253,9 @@ def run(
         list[str] | None,
         typer.Option(
             "--option",
-            help="A study option NAME=VALUE overriding the file's [study] one, e.g. "
-            "validation_runs=0 (fuzzymbs info lists them); repeatable.",
+            help="A study or method option NAME=VALUE overriding the file's [study] one, "
+            "e.g. validation_runs=0 or gradients=false (fuzzymbs info lists them); "
+            "repeatable.",
         ),
     ] = None,
     quiet: QuietOption = False,

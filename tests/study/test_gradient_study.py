@@ -247,3 +247,20 @@ def test_the_brake_studies_run_without_gradients_by_default():
     assert set(names) <= set(brake.differentiable)
     assert gradient_parameters(brake, names, "auto", "brake") == ()
     assert gradient_parameters(brake, names[:1], "auto", "brake") == names[:1]  # 1.72 runs
+
+
+def test_command_line_option_reaches_the_method(tmp_path):
+    # fuzzymbs run --option gradients=false: a method's option overrides the file's
+    from fuzzymbs.study.studyfile import load_study_file
+
+    path = tmp_path / "study.toml"
+    path.write_text(
+        '[study]\nmethod = "adaptive"\nlevels = 2\n[model]\nname = "sdof-resonance"\n'
+        '[parameters.stiffness]\ntype = "triangular"\nlower = 900.0\nmodal = 1000.0\n'
+        "upper = 1100.0\n"
+    )
+    assert load_study_file(path).study.gradient_parameters() == ("stiffness",)
+    loaded = load_study_file(path, study_options={"gradients": False})
+    assert loaded.study.gradient_parameters() == ()
+    with pytest.raises(StudyFileError, match="gradients"):
+        load_study_file(path, study_options={"gradients": "yes"})

@@ -409,7 +409,8 @@ def load_study_file(
         so a Dask address in the file is neither checked nor used).
     study_options : mapping, optional
         Study options by name overriding the file's ``[study]`` ones
-        (``fuzzymbs run --option NAME=VALUE``; :class:`~fuzzymbs.study.options.StudyOptions`).
+        (``fuzzymbs run --option NAME=VALUE``; :class:`~fuzzymbs.study.options.StudyOptions`),
+        or the method's options (e.g. ``gradients``).
 
     Returns
     -------
@@ -460,13 +461,19 @@ def load_study_file(
     try:
         # the method and its options as one object (nonmonotonic = "auto" is the study's:
         # its screening names them)
+        # the command line's --option NAME=VALUE: a method's option goes to the method
+        command_line = dict(study_options or {})
+        method_given = {key: getattr(parsed.study, key) for key in METHOD_OPTION_KEYS}
+        method_given.update(
+            {key: command_line.pop(key) for key in list(command_line) if key in method_given}
+        )
         method = method_named(
             parsed.study.method,
             nonmonotonic=None if auto else parsed.study.nonmonotonic,
-            **{key: getattr(parsed.study, key) for key in METHOD_OPTION_KEYS},
+            **method_given,
         )
         given = {item.name: getattr(parsed.study, item.name) for item in StudyOptions.options()}
-        given.update(study_options or {})  # the command line's --option NAME=VALUE
+        given.update(command_line)
         if max_runs is not None:  # the command line's --max-runs
             given["max_runs"] = max_runs
         study = Study(
