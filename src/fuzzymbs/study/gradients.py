@@ -35,6 +35,7 @@ __all__ = [
     "assemble_gradients",
     "declared_differentiable",
     "gradient_parameters",
+    "run_cost",
 ]
 
 #: ``gradients = "auto"`` asks for a model's gradients only where a run with them costs at
