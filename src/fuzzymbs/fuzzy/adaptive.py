@@ -206,7 +206,8 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         #: the last round proposed confirms the extrema on the model: the rounds end after it
         #: unless it finds what the surrogate missed (a study checks its time integration meanwhile)
         self.confirming = False
-        #: a first-order gap above the tolerance that no step could close (first_order.py)
+        #: a first-order gap above the tolerance that no step could close (first_order.py),
+        #: or a confirmation round that found the surrogate off: the grid is refined next
         self._open_gap = False
         # extremal points (arg_lower, arg_upper) of the sparse grid without the correction
         self._rivals: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
@@ -392,6 +393,8 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
                     return self.to_parameters(probes), [None] * len(probes)
                 self._finish(converged=True)
                 return np.empty((0, dimension)), []
+            # a confirmation that found the surrogate off: refine (adaptive_gradients.py)
+            self._open_gap = self._open_gap or self.confirming
             self.confirming = False
             if self._noise_limited():
                 self._finish(converged=False, status=NOISE)
