@@ -5,15 +5,18 @@ models of :mod:`fuzzymbs.models.closed_form.resonance` carry analytic gradients
 (``case.gradient``). Each case runs the adaptive method
 (:class:`fuzzymbs.fuzzy.adaptive.AdaptiveTransformation`, 6 levels, tolerance 1 %,
 budget 2,000) twice: on the outputs alone, and on the outputs and their gradients
-(:mod:`fuzzymbs.fuzzy.hermite_correction`). For both: runs, run-equivalents (a run
-with gradients counted as 1.5 runs, the cost the time-integrated models aim at for
-three parameters), the true miss (``band_miss`` against the closed form, or the
-dense grid, polished by a local optimiser for two degrees of freedom), the certified
-error, the status, and the honesty check (true miss at most 1 % + the truth's 0.1 %,
-or reported error at least half the true miss). Prints the Markdown table of
-docs/fuzzy.md.
+(:mod:`fuzzymbs.fuzzy.hermite_correction` for the surrogate,
+:mod:`fuzzymbs.fuzzy.first_order` for the extrema's first-order conditions,
+:mod:`fuzzymbs.fuzzy.adaptive_gradients` for the refinement's rest). For both: runs,
+run-equivalents (a run with gradients counted as 1.5 runs, the cost the
+time-integrated models aim at for three parameters), the true miss (``band_miss``
+against the closed form, or the dense grid, polished by a local optimiser for two
+degrees of freedom), the certified error, the status, and the honesty check (true miss
+at most 1 % + the truth's 0.1 %, or reported error at least half the true miss). Prints
+the Markdown table of docs/fuzzy.md. ``--gradients-only`` skips the runs without
+gradients (bit for bit those of a model without them, tested).
 
-    python benchmarks/gradient_adaptive.py [case-name ...]
+    python benchmarks/gradient_adaptive.py [--gradients-only] [case-name ...]
 """
 
 from __future__ import annotations
@@ -66,12 +69,14 @@ def run(case: HardCase, gradients: bool) -> AdaptiveTransformation:
 
 
 def main(names: list[str]) -> None:
+    only = "--gradients-only" in names
+    names = [name for name in names if name != "--gradients-only"]
     rows = []
     for case in [*hard_cases(), *resonance_cases()]:
         if names and case.name not in names:
             continue
         truth = truth_of(case)
-        for gradients in (False, True):
+        for gradients in (True,) if only else (False, True):
             start = time.perf_counter()
             outcome = run(case, gradients).outcome()
             seconds = time.perf_counter() - start
@@ -89,6 +94,8 @@ def main(names: list[str]) -> None:
                 f"{seconds:.1f} s",
                 flush=True,
             )
+    if only:
+        return
     print()
     print(
         "| case | runs without | runs with gradients | ratio | run-equivalents with (x 1.5) "

@@ -23,19 +23,26 @@ BOX = (np.array([[-1.0, -1.0]]), np.array([[1.0, 1.0]]))
 MOVING = np.array([True, True])
 
 
-def _check(run, gradient, maximum_at, scale=1.0):
+def _value(u, v):
+    return -((u - 0.3) ** 2) + v
+
+
+def _check(run, gradient, maximum_at, scale=1.0, reported=None):
     units = np.array([run], dtype=float)
+    values = np.array([[_value(*run)]])  # (N, E)
     slopes = np.array([[gradient]], dtype=float)  # (N, E, n)
     arg = np.array([[maximum_at]], dtype=float)  # (L, E, n)
+    bounds = values if reported is None else np.array([[reported]])
     return first_order_check(
         (DEGREES, COEFFICIENTS, None),
         arg.copy(),
         arg.copy(),
         BOX,
         np.array([[scale]]),
-        (units, slopes, np.array([True])),
+        (units, values, slopes, np.array([True])),
         MOVING,
-        near=0.02,
+        0.02,
+        (bounds, bounds),
     )
 
 
@@ -48,6 +55,9 @@ def test_the_gap_is_what_the_model_still_rises_with_its_gradient_at_an_active_bo
     np.testing.assert_allclose(check.step[1], [0.3, 1.0], atol=1e-6)
     # for the minimum the same run's gradient points up both ways: towards (-1, -1)
     assert check.gap[0] > 0.0 and check.run.tolist() == [0, 0]
+    # a maximum already reported at the true 1.0 misses nothing: the run lies below it
+    reported = _check((0.0, 1.0), (0.6, 1.0), (0.0, 1.0), scale=0.5, reported=1.0)
+    assert reported.gap[1] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_a_kkt_point_has_no_gap_and_a_far_run_confirms_nothing():

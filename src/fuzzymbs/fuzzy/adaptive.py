@@ -52,6 +52,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import ModelOutputError
+from fuzzymbs.fuzzy.adaptive_gradients import GradientRounds
 from fuzzymbs.fuzzy.adaptive_noise import TWIN, NoiseRule
 from fuzzymbs.fuzzy.band_scale import CERTIFIED, WIDTH_FLOOR
 from fuzzymbs.fuzzy.box_search import box_extremes
@@ -62,7 +63,6 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
     node_values,
 )
 from fuzzymbs.fuzzy.extremum_confirmation import confirmation_probes
-from fuzzymbs.fuzzy.first_order import first_order_check, first_order_steps
 from fuzzymbs.fuzzy.grids import unique_rows
 from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.hermite_correction import flatten_gradients, hermite_correction
@@ -130,7 +130,7 @@ class AdaptiveOutcome:
     status: str = CONVERGED
 
 
-class AdaptiveTransformation(NoiseRule):
+class AdaptiveTransformation(NoiseRule, GradientRounds):
     """The adaptive method's state machine; pure, no model and no I/O.
 
     Parameters
@@ -206,6 +206,9 @@ class AdaptiveTransformation(NoiseRule):
         #: the last round proposed confirms the extrema on the model: the rounds end after it
         #: unless it finds what the surrogate missed (a study checks its time integration meanwhile)
         self.confirming = False
+        #: a first-order gap above the tolerance that no step could close (first_order.py),
+        #: or a confirmation round that found the surrogate off: the grid is refined next
+        self._open_gap = False
         # extremal points (arg_lower, arg_upper) of the sparse grid without the correction
         self._rivals: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
@@ -371,9 +374,9 @@ class AdaptiveTransformation(NoiseRule):
             if self._certified and self.error <= self.tolerance:
                 # with the model's gradients, the steps of the extrema whose first-order
                 # conditions fail (first_order.py); a gap no step can close: refine on
-                steps, gap = self._first_order(surrogate, bounds)
+                steps, gap = self._first_order(surrogate, bounds, _NEAR)
                 if gap > self.tolerance and not len(steps):
-                    self.error = gap
+                    self.error, self._open_gap = gap, True
             if self._certified and self.error <= self.tolerance:
                 # then one round confirms the extrema on the model (extremum_confirmation.py)
                 room = 0 if self.confirming else min(4 * dimension, self.max_runs - self.runs)
@@ -390,6 +393,8 @@ class AdaptiveTransformation(NoiseRule):
                     return self.to_parameters(probes), [None] * len(probes)
                 self._finish(converged=True)
                 return np.empty((0, dimension)), []
+            # a confirmation that found the surrogate off: refine (adaptive_gradients.py)
+            self._open_gap = self._open_gap or self.confirming
             self.confirming = False
             if self._noise_limited():
                 self._finish(converged=False, status=NOISE)
@@ -405,7 +410,7 @@ class AdaptiveTransformation(NoiseRule):
             )
             self._rivals = rival[2], rival[3]
         doubt = self._doubt(scale, surrogate[2])
-        refine = self._refinement(scale)
+        refine = [] if self._settled() else self._refinement(scale)
         nodes = []
         for index in refine:
             nodes += self.grid.add_index(index)
@@ -427,27 +432,6 @@ class AdaptiveTransformation(NoiseRule):
             units = np.concatenate((units, twins))
             labels += [TWIN] * len(twins)
         return self.to_parameters(units), labels
-
-    def _first_order(
-        self, surrogate: Surrogate, bounds: tuple[NDArray, ...]
-    ) -> tuple[NDArray[np.float64], float]:
-        """With the model's gradients, each extremum's first-order conditions checked at its
-        confirming run (:mod:`fuzzymbs.fuzzy.first_order`): the steps (P, n) of those whose
-        gap exceeds the tolerance, the largest gap first, and the largest gap, which the
-        reported error includes. None and 0 without gradients."""
-        dimension = len(self.names)
-        if self._slopes is None or not self._sloped.any():
-            return np.empty((0, dimension)), 0.0
-        moving = self._high > self._low
-        check = first_order_check(
-            surrogate, *bounds[2:], (self._box_low, self._box_high), self._scale(),
-            (self._units, self._slopes, self._sloped), moving, _NEAR,
-        )  # fmt: skip
-        limit = min(4 * dimension, self.max_runs - self.runs)
-        steps = first_order_steps(
-            check, self._units, moving, tolerance=self.tolerance, near=_NEAR, limit=limit
-        )
-        return steps, float(np.nanmax(check.gap, initial=0.0))
 
     def _drop_index(self, index: tuple[int, ...]) -> None:
         self.grid.remove_index(index)

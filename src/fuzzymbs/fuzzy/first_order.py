@@ -78,9 +78,10 @@ def first_order_check(
     arg_upper: NDArray[np.float64],
     box: tuple[NDArray[np.float64], NDArray[np.float64]],
     scale: NDArray[np.float64],
-    runs: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]],
+    runs: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]],
     moving: NDArray[np.bool_],
     near: float,
+    reported: tuple[NDArray[np.float64], NDArray[np.float64]],
 ) -> FirstOrder:
     """The first-order gap of every extremum at its confirming run (module docstring).
 
@@ -92,14 +93,18 @@ def first_order_check(
     box : (low, high), each (L, n): the cut boxes (unit cube).
     scale : ndarray (L, E)
         The cut-width scale (inf: a crisp cut, nothing to check: left out).
-    runs : (units (N, n), slopes (N, E, n), sloped (N,))
-        Every run (unit cube), the model's gradients there (unit coordinates) and which
-        runs have one.
+    runs : (units (N, n), values (N, E), slopes (N, E, n), sloped (N,))
+        Every run (unit cube), the model's outputs and gradients there (unit coordinates)
+        and which runs have one.
     moving : ndarray (n,) of bool
         Parameters that vary.
     near : float
         A run at most this far (max norm over the moving coordinates) from an extremum
         confirms it.
+    reported : (lower, upper), each (L, E)
+        The bounds the method reports: the gap is how far the run's value plus the gain
+        reaches beyond the bound of its side (a run below a maximum the surrogate already
+        reports higher gains nothing the bound misses).
 
     Returns
     -------
@@ -108,7 +113,7 @@ def first_order_check(
         with a finite scale and a box of some width.
     """
     box_low, box_high = box
-    units, slopes, sloped = runs
+    units, values, slopes, sloped = runs
     count_levels, elements, dimension = arg_lower.shape
     points = np.concatenate((arg_lower.reshape(-1, dimension), arg_upper.reshape(-1, dimension)))
     level = np.tile(np.repeat(np.arange(count_levels), elements), 2)
@@ -144,7 +149,10 @@ def first_order_check(
     free = (p != 0.0) | ((here > lo + _ON_FACE) & (here < hi - _ON_FACE) & moving & (hi > lo))
     hessian = surrogate_hessian(surrogate, here, element[rows], sign[rows], free)
     gain, move = _quadratic_ascent(p, hessian, here, lo, hi, free)
-    gap[rows] = gain / width[rows]
+    bound = np.where(sign > 0.0, reported[1][level, element], reported[0][level, element])
+    # beyond the reported bound: (f + gain - upper) for a maximum, (lower - f + gain) for a minimum
+    short = sign[rows] * (values[run[rows], element[rows]] - bound[rows])
+    gap[rows] = np.maximum(short + gain, 0.0) / width[rows]
     step[rows] = np.clip(here + move, lo, hi)
     return FirstOrder(gap, step, points, run)
 
