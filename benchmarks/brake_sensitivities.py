@@ -112,13 +112,9 @@ def _central_differences(compiled, t_end, rtol, sequence, renewals, step):
     return out, runs.step_counts
 
 
-def reference(compiled, t_end: float) -> dict[str, np.ndarray]:
-    """Central differences at rtol 1e-6 (and their step check), cached on disk."""
-    key = hashlib.sha256(f"sens-ref {t_end} {REFERENCE_RTOL} {FD_STEP} v1".encode()).hexdigest()
-    path = CACHE / f"brake_sensitivities_{key[:16]}.npz"
-    if path.is_file():
-        with np.load(path) as data:
-            return {name: data[name] for name in data.files}
+def logged_sequence(compiled, t_end: float, rtol: float) -> tuple[np.ndarray, np.ndarray]:
+    """The nominal sample's accepted steps at ``rtol`` with ROS34PW2 and where each took a
+    fresh Jacobian (the shared sequence the central differences replay)."""
     log = simulate(
         compiled,
         _columns(NOMINAL),
@@ -127,10 +123,20 @@ def reference(compiled, t_end: float) -> dict[str, np.ndarray]:
         record_interval=RECORD,
         outputs=OUTPUTS,
         integrator="ros34pw2",
-        tolerance=Tolerance(REFERENCE_RTOL),
+        tolerance=Tolerance(rtol),
         log_steps=True,
     )
-    seq, ren = log.step_times, log.step_renewals
+    return log.step_times, log.step_renewals
+
+
+def reference(compiled, t_end: float) -> dict[str, np.ndarray]:
+    """Central differences at rtol 1e-6 (and their step check), cached on disk."""
+    key = hashlib.sha256(f"sens-ref {t_end} {REFERENCE_RTOL} {FD_STEP} v1".encode()).hexdigest()
+    path = CACHE / f"brake_sensitivities_{key[:16]}.npz"
+    if path.is_file():
+        with np.load(path) as data:
+            return {name: data[name] for name in data.files}
+    seq, ren = logged_sequence(compiled, t_end, REFERENCE_RTOL)
     fine, _ = _central_differences(compiled, t_end, REFERENCE_RTOL, seq, ren, FD_STEP)
     check, _ = _central_differences(compiled, t_end, REFERENCE_RTOL, seq, ren, FD_STEP / 10)
     data = {**fine, **{f"{name}_check": values for name, values in check.items()}}
@@ -206,18 +212,7 @@ def accuracy(t_end: float, rtols: list[float]) -> dict:
     result["own_steps"] = rows
     # on a shared sequence: the derivative of the discrete map
     rtol = 1e-3
-    log = simulate(
-        compiled,
-        _columns(NOMINAL),
-        t_end=t_end,
-        dt=1e-6,
-        record_interval=RECORD,
-        outputs=OUTPUTS,
-        integrator="ros34pw2",
-        tolerance=Tolerance(rtol),
-        log_steps=True,
-    )
-    seq, ren = log.step_times, log.step_renewals
+    seq, ren = logged_sequence(compiled, t_end, rtol)
     discrete, counts = _central_differences(compiled, t_end, rtol, seq, ren, FD_STEP)
     run = simulate(
         compiled,
