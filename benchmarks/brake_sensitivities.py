@@ -335,9 +335,7 @@ def main() -> None:
         default=None,
         help="relative perturbation of the differences (default the kernel's SENS_DELTA)",
     )
-    parser.add_argument("--mode", type=float, default=0.0)
     args = parser.parse_args()
-    integrate.SENS_MODE = args.mode
     if args.delta is not None:
         integrate.SENS_DELTA = args.delta  # simulate reads it at every call
     report: dict = {"delta": integrate.SENS_DELTA}

@@ -28,8 +28,6 @@ from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import METHODS, ros34pw2
 from fuzzymbs.mbs.kernels.sensitivities import SENS_DELTA, no_sensitivity
-
-SENS_MODE = 0.0
 from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.sensitivities import checked_wrt, gradient_cost, sensitivity_directions
 from fuzzymbs.mbs.shared_steps import (
@@ -212,7 +210,7 @@ def simulate(
     directions = sensitivity_directions(
         compiled, sensitivities, integrator in ROSENBROCK, params.shape[1]
     )
-    sens_settings = np.array([SENS_DELTA, SENS_MODE])
+    sens_settings = np.array([SENS_DELTA])
     nsens = directions.shape[0]
     rtols = _per_sample(rtols, batch, "rtol")
     atols = _per_sample(atols, batch, "atol")

@@ -624,7 +624,7 @@ def advance_block_ros(
         for lane in range(L):
             any_took = any_took or took[lane]
         if nsens > 0 and any_took:
-            state_step = (at, cc, m, alpha, gamma, steps, step_v, jq, jv, mat, piv, work)
+            state_step = (at, cc, m, alpha, gamma, steps, step_v, jq, mat, piv, work)
             counter = control[_N_SENS_RHS]
             step_sensitivities(
                 took, g_known, counter, t_lane, x, f0, sens_block, p, state_step, sysdata

@@ -132,30 +132,13 @@ def sensitivity_stage(s, theta, sk, direction, p, delta, method, sysdata, rhs_wo
     diagonal Jacobian ``diag(J, J)``, which drops it (docs/theory.md). ``method = (at,
     cc, gamma, h, jq, mat, piv)``: the tableau, the lanes' steps (a vector), the
     Jacobian's ``A_q`` block and the stage matrix's LU."""
-    at, cc, gamma, step_v, jq, jv, mat, piv, mode = method
+    at, cc, gamma, step_v, jq, mat, piv = method
     stages = at.shape[0]
     nstate = sk.shape[1] // L
     n = nstate // 2
     gh = gamma * step_v
     g = sk[G0]
-    if s > 0 and mode == 1.0:
-        # G_s ~ G_0 + J (S_s - S): exact at the step's start, the step's Jacobian for
-        # the increment within the step only
-        g = work[W_G]
-        d = work[W_SOLVE]
-        for i in range(nstate):
-            acc = V.splat(0.0)
-            for j in range(s):
-                acc = acc + at[s, j] * V.load(sk[U0 + j], L * i)
-            V.store(d, L * i, acc)
-        for i in range(n):
-            V.store(g, L * i, V.load(sk[G0], L * i) + V.load(d, L * (n + i)))
-            acc = V.load(sk[G0], L * (n + i))
-            for j in range(n):
-                acc = acc + V.load(jq, L * (n * i + j)) * V.load(d, L * j)
-                acc = acc + V.load(jv, L * (n * i + j)) * V.load(d, L * (n + j))
-            V.store(g, L * (n + i), acc)
-    elif s > 0:
+    if s > 0:
         g = work[W_G]
         s_stage = work[W_SOLVE]  # S_s, until the difference has read it
         for i in range(nstate):
@@ -186,10 +169,9 @@ def step_sensitivities(took, g_known, counter, t, x, f0, sensitivity, p, state_s
     (an array and a vector), the Jacobian's ``A_q`` and the stage matrix's LU, the right-
     hand side's work arrays. ``counter`` (per lane) counts the right-hand sides."""
     directions, settings, _, sens, work = sensitivity
-    at, cc, m, alpha, gamma, steps, step_v, jq, jv, mat, piv, rhs_work = state_step
+    at, cc, m, alpha, gamma, steps, step_v, jq, mat, piv, rhs_work = state_step
     nsens = directions.shape[0]
     delta = settings[0]
-    mode = settings[1] if settings.shape[0] > 1 else 0.0
     stages = m.shape[0]
     renew = np.zeros(L, dtype=np.bool_)
     any_renew = False
@@ -208,7 +190,7 @@ def step_sensitivities(took, g_known, counter, t, x, f0, sensitivity, p, state_s
                 g_known[lane] = 1.0
                 counter[lane] += nsens
     stage_t = np.empty(L)
-    method = (at, cc, gamma, step_v, jq, jv, mat, piv, mode)
+    method = (at, cc, gamma, step_v, jq, mat, piv)
     for s in range(stages):
         for lane in range(L):
             stage_t[lane] = t[lane] + alpha[s] * steps[lane]
@@ -216,7 +198,7 @@ def step_sensitivities(took, g_known, counter, t, x, f0, sensitivity, p, state_s
             sensitivity_stage(
                 s, stage_t, sens[k], directions[k], p, delta, method, sysdata, rhs_work, work
             )
-        if s > 0 and mode != 1.0:
+        if s > 0:
             for lane in range(L):
                 if took[lane]:
                     counter[lane] += nsens
