@@ -7,18 +7,22 @@ Prints readable tables to stderr and one JSON line to stdout.
 Workload: the eight corners of study 1's mu = 0 box (k, k_c +-10 %, F_n +-1 %; two
 blocks of four samples, one per thread) over ``--t-end`` (default 2 ms), recorded every
 10 us: ROS34PW2 at ``--rtol`` (default 1e-3, the studies'), the same with the
-sensitivities to study 1's three parameters, and RK4 at dt = 1 us, the variants
-alternating, the smallest process CPU time of ``--repeats``.
+sensitivities to study 1's three parameters, and RK4 at dt = 1 us; then both
+ROS34PW2 variants on eight nominal samples (" | lanes in step": the four lanes of a
+block take the same steps, so no lane idles while another steps). The variants
+alternate; the smallest process CPU time of ``--repeats`` counts.
 
 Flops: :mod:`brake_flops` counted from the compiled system's sizes and the kernel's own
 work counters per sample (steps, right-hand sides, Jacobians, LUs, the sensitivities'
 right-hand sides). The share of checked contact nodes in contact and the LU's work
 (its rows that couple to each pivot column) are measured on the run's own states: the
-Jacobian kernel evaluated at every 20th record of each sample.
+Jacobian kernel evaluated at every 5th record of each sample.
 
 Rates: flops per CPU-second of the call (both threads' CPU) against NumPy's 3000 x 3000
 float64 matmul on one BLAS thread in this process (``gflops_per_cpu_second`` and
-``fraction_of_one_core``); with ``--two-core`` also wall rates against the 2-thread
+``fraction_of_one_core``), and beside it the rate of independent fused multiply-adds
+of the kernels' own vector type (four float64 lanes: the ceiling of code written with
+it where the CPU's widest vectors hold eight); with ``--two-core`` also wall rates against the 2-thread
 matmul (a fresh interpreter; meaningful only on a quiet machine: the load average is
 reported). Where the time goes: each kernel part called alone on one block (4 samples)
 in a compiled loop, its CPU time per call and its own rate, and the run's parts
@@ -81,6 +85,37 @@ def matmul_cpu_rate(size: int = 3000, repeat: int = 3) -> dict:
     return {"gflops_per_cpu_second": flops / best_cpu / 1e9, "gflops_wall": flops / best_wall / 1e9}
 
 
+@nb.njit(nogil=True, fastmath=V.FAST)
+def _fma_chains(count, m, c):
+    """``count`` rounds of 12 independent fused multiply-adds of the kernels' 4-lane vector."""
+    # distinct starts, or the compiler would merge equal chains
+    a0, a1, a2 = V.make(1.0, 1.1, 1.2, 1.3), V.make(2.0, 2.1, 2.2, 2.3), V.make(3.0, 3.1, 3.2, 3.3)
+    a3, a4, a5 = V.make(4.0, 4.1, 4.2, 4.3), V.make(5.0, 5.1, 5.2, 5.3), V.make(6.0, 6.1, 6.2, 6.3)
+    b0, b1, b2 = V.make(7.0, 7.1, 7.2, 7.3), V.make(8.0, 8.1, 8.2, 8.3), V.make(9.0, 9.1, 9.2, 9.3)
+    b3, b4, b5 = V.make(0.5, 0.6, 0.7, 0.8), V.make(1.5, 1.6, 1.7, 1.8), V.make(2.5, 2.6, 2.7, 2.8)
+    mv, cv = V.splat(m), V.splat(c)
+    for _ in range(count):
+        a0, a1, a2 = V.fma(a0, mv, cv), V.fma(a1, mv, cv), V.fma(a2, mv, cv)
+        a3, a4, a5 = V.fma(a3, mv, cv), V.fma(a4, mv, cv), V.fma(a5, mv, cv)
+        b0, b1, b2 = V.fma(b0, mv, cv), V.fma(b1, mv, cv), V.fma(b2, mv, cv)
+        b3, b4, b5 = V.fma(b3, mv, cv), V.fma(b4, mv, cv), V.fma(b5, mv, cv)
+    total = a0 + a1 + a2 + a3 + a4 + a5 + b0 + b1 + b2 + b3 + b4 + b5
+    return V.get(total, 0) + V.get(total, 3)
+
+
+def vector_fma_rate(count: int = 50_000_000) -> float:
+    """GFLOP/s per CPU-second of the kernels' vector (four float64 lanes) in independent
+    fused multiply-adds: the peak of code written with it (half the matmul's where the
+    CPU has 8-wide vectors)."""
+    _fma_chains(10, 0.999999, 1e-9)
+    best = float("inf")
+    for _ in range(3):
+        start = time.process_time()
+        _fma_chains(count, 0.999999, 1e-9)
+        best = min(best, time.process_time() - start)
+    return 12 * L * 2.0 * count / best / 1e9
+
+
 def lanes(rows: np.ndarray) -> np.ndarray:
     """(4, m) rows -> the kernels' lane-minor (m L,) array."""
     return np.ascontiguousarray(rows.T).reshape(-1)
@@ -98,7 +133,7 @@ def state_outputs(compiled) -> dict:
     return {name: out[name] for name in order}
 
 
-def contact_and_lu(compiled, samples, t_end, rtol, every=20) -> dict:
+def contact_and_lu(compiled, samples, t_end, rtol, every=5) -> dict:
     """The share of checked slave nodes in contact and the LU's operations, averaged over
     the Jacobian kernel at every ``every``-th record of each sample's ROS34PW2 run."""
     data = compiled.data
@@ -220,30 +255,59 @@ def part_times(compiled, samples, t_end, step) -> dict:
     }
 
 
+SENS = "ros34pw2 + sensitivities (k, k_c, F_n)"
+#: the same variants with the eight samples all nominal: the lanes step together
+IN_STEP = " | lanes in step"
+
+
 def timed(compiled, samples, repeats, common) -> dict:
     """Smallest CPU and wall time of each variant (alternating), with the counters."""
+    ros = {"integrator": "ros34pw2", "tolerance": common["tolerance"]}
+    nominal = {name: np.full(8, value) for name, value in zip(STUDY1, NOMINAL, strict=True)}
     variants = {
-        "ros34pw2": {"integrator": "ros34pw2", "tolerance": common["tolerance"]},
-        "ros34pw2 + sensitivities (k, k_c, F_n)": {
-            "integrator": "ros34pw2",
-            "tolerance": common["tolerance"],
-            "sensitivities": STUDY1,
-        },
-        "rk4": {"integrator": "rk4"},
+        "ros34pw2": (samples, ros),
+        SENS: (samples, {**ros, "sensitivities": STUDY1}),
+        "rk4": (samples, {"integrator": "rk4"}),
+        "ros34pw2" + IN_STEP: (nominal, ros),
+        SENS + IN_STEP: (nominal, {**ros, "sensitivities": STUDY1}),
     }
     base = {key: value for key, value in common.items() if key != "tolerance"}
     best = {label: [float("inf"), float("inf")] for label in variants}
     runs = {}
-    for options in variants.values():  # warm (compiled, cached) before timing
-        simulate(compiled, samples, **{**base, "t_end": 2 * RECORD}, **options)
+    for chosen, options in variants.values():  # warm (compiled, cached) before timing
+        simulate(compiled, chosen, **{**base, "t_end": 2 * RECORD}, **options)
     for _ in range(repeats):
-        for label, options in variants.items():
+        for label, (chosen, options) in variants.items():
             cpu, wall = time.process_time(), time.perf_counter()
-            runs[label] = simulate(compiled, samples, **base, **options)
+            runs[label] = simulate(compiled, chosen, **base, **options)
             wall = time.perf_counter() - wall
             best[label][0] = min(best[label][0], time.process_time() - cpu)
             best[label][1] = min(best[label][1], wall)
     return {"best": best, "runs": runs}
+
+
+def run_flops(data, ros, sens, af, lu, records) -> tuple[dict, dict, list]:
+    """Flops by part of a ROS34PW2 run and of its sensitivities (summed over the batch),
+    and each sample's counters."""
+    state: dict[str, float] = {}
+    extra: dict[str, float] = {}
+    per_sample = []
+    for b in range(ros.step_counts.shape[0]):
+        counts = dict(zip(("accepted", "rejected"), ros.step_counts[b].tolist(), strict=True))
+        counts.update(zip(("rhs", "jacobians", "lus"), ros.work_counts[b].tolist(), strict=True))
+        per_sample.append(counts)
+        parts = brake_flops.rosenbrock_flops(data, counts, af, lu, records=records)
+        for key, value in parts.items():
+            state[key] = state.get(key, 0.0) + value
+        rhs = float(sens.sensitivity_rhs[b])
+        parts = brake_flops.sensitivity_flops(
+            data, counts["accepted"], rhs, len(STUDY1), af, records=records
+        )
+        for key, value in parts.items():
+            extra[key] = extra.get(key, 0.0) + value
+    if not np.array_equal(sens.work_counts, ros.work_counts):
+        raise RuntimeError("the sensitivities changed the state's work")
+    return state, extra, per_sample
 
 
 def main() -> None:
@@ -265,6 +329,7 @@ def main() -> None:
     af, lu = contact["active_fraction"], contact["lu_flops"]
     matmul = matmul_cpu_rate()
     one = matmul["gflops_per_cpu_second"]
+    matmul["vector_fma_gflops_per_cpu_second"] = vector_fma_rate()
     two = None
     if args.two_core:
         from matmul_rate import matmul_gflops
@@ -281,39 +346,19 @@ def main() -> None:
         "matmul_2_threads": two,
         "contact_and_lu": contact,
     }
-    flops = {}
-    ros = measured["runs"]["ros34pw2"]
-    sens = measured["runs"]["ros34pw2 + sensitivities (k, k_c, F_n)"]
-    per_sample = []
-    for b in range(batch):
-        counts = dict(zip(("accepted", "rejected"), ros.step_counts[b].tolist(), strict=True))
-        counts.update(zip(("rhs", "jacobians", "lus"), ros.work_counts[b].tolist(), strict=True))
-        per_sample.append(counts)
-        parts = brake_flops.rosenbrock_flops(data, counts, af, lu, records=records)
-        for key, value in parts.items():
-            flops.setdefault("ros34pw2", {}).setdefault(key, 0.0)
-            flops["ros34pw2"][key] += value
-        extra = brake_flops.sensitivity_flops(
-            data,
-            counts["accepted"],
-            float(sens.sensitivity_rhs[b]),
-            len(STUDY1),
-            af,
-            records=records,
-        )
-        for key, value in extra.items():
-            flops.setdefault("sensitivities", {}).setdefault(key, 0.0)
-            flops["sensitivities"][key] += value
-    if not np.array_equal(sens.work_counts, ros.work_counts):
-        raise RuntimeError("the sensitivities changed the state's work")
+    runs = measured["runs"]
+    state, extra, per_sample = run_flops(data, runs["ros34pw2"], runs[SENS], af, lu, records)
+    flops = {"ros34pw2": state, "sensitivities": extra}
     steps = round(args.t_end / DT)
     rk4 = brake_flops.step_flops(data, af)
     flops["rk4"] = {"steps": rk4["flops_per_sample_step"] * steps * batch}
+    same = run_flops(data, runs["ros34pw2" + IN_STEP], runs[SENS + IN_STEP], af, lu, records)
     totals = {
-        "ros34pw2": sum(flops["ros34pw2"].values()),
-        "ros34pw2 + sensitivities (k, k_c, F_n)": sum(flops["ros34pw2"].values())
-        + sum(flops["sensitivities"].values()),
+        "ros34pw2": sum(state.values()),
+        SENS: sum(state.values()) + sum(extra.values()),
         "rk4": flops["rk4"]["steps"],
+        "ros34pw2" + IN_STEP: sum(same[0].values()),
+        SENS + IN_STEP: sum(same[0].values()) + sum(same[1].values()),
     }
     rows = {}
     for label, (cpu, wall) in measured["best"].items():
@@ -330,14 +375,14 @@ def main() -> None:
             rows[label]["gflops_wall"] = round(wall_rate, 2)
             rows[label]["fraction_of_two_core_wall"] = round(wall_rate / max(one, two), 4)
     # the sensitivities alone: their flops over the CPU time they add
-    added = measured["best"]["ros34pw2 + sensitivities (k, k_c, F_n)"][0]
-    added -= measured["best"]["ros34pw2"][0]
-    rate = sum(flops["sensitivities"].values()) / added / 1e9
-    rows["sensitivities alone (added CPU)"] = {
-        "cpu_s": round(added, 3),
-        "gflops_per_cpu_second": round(rate, 2),
-        "fraction_of_one_core": round(rate / one, 4),
-    }
+    for suffix, extra_flops in (("", extra), (IN_STEP, same[1])):
+        added = measured["best"][SENS + suffix][0] - measured["best"]["ros34pw2" + suffix][0]
+        rate = sum(extra_flops.values()) / added / 1e9
+        rows["sensitivities alone (added CPU)" + suffix] = {
+            "cpu_s": round(added, 3),
+            "gflops_per_cpu_second": round(rate, 2),
+            "fraction_of_one_core": round(rate / one, 4),
+        }
     report["variants"] = rows
     report["flops_by_part"] = {
         label: {key: round(value / 1e9, 4) for key, value in parts.items()}
@@ -346,6 +391,7 @@ def main() -> None:
     report["counts_per_sample_mean"] = {
         key: float(np.mean([c[key] for c in per_sample])) for key in per_sample[0]
     }
+    sens = runs[SENS]
     report["counts_per_sample_mean"]["sensitivity_rhs"] = float(np.mean(sens.sensitivity_rhs))
     report["per_call"] = parts_report(compiled, samples, args.t_end, contact, af, lu)
     report["predicted_cpu_s"] = predicted(report, per_sample, sens, batch)
@@ -408,7 +454,9 @@ def predicted(report, per_sample, sens, batch) -> dict:
 def _print(report: dict) -> None:
     say = sys.stderr.write
     one = report["matmul_1_thread"]["gflops_per_cpu_second"]
-    say(f"matmul 1 thread: {one:.1f} GFLOP/s per CPU-second; load {report['load_average_start']}\n")
+    fma = report["matmul_1_thread"]["vector_fma_gflops_per_cpu_second"]
+    say(f"matmul 1 thread: {one:.1f} GFLOP/s per CPU-second (4-lane FMA chains {fma:.1f}); ")
+    say(f"load {report['load_average_start']}\n")
     c = report["contact_and_lu"]
     say(
         f"in contact {100 * c['active_fraction']:.1f} % of checked nodes; LU {c['lu_flops']:.0f}"
