@@ -22,9 +22,10 @@ Rates: flops per CPU-second of the call (both threads' CPU) against NumPy's 3000
 float64 matmul on one BLAS thread in this process (``gflops_per_cpu_second`` and
 ``fraction_of_one_core``), and beside it the rate of independent fused multiply-adds
 of the kernels' own vector type (four float64 lanes: the ceiling of code written with
-it where the CPU's widest vectors hold eight); with ``--two-core`` also wall rates against the 2-thread
-matmul (a fresh interpreter; meaningful only on a quiet machine: the load average is
-reported). Where the time goes: each kernel part called alone on one block (4 samples)
+it where the CPU's widest vectors hold eight), and RK4 on 343 samples (the batch of
+run.py's flop fraction) over 0.2 ms; with ``--two-core`` also wall rates against the
+2-thread matmul (a fresh interpreter; meaningful only on a quiet machine: the load
+average is reported). Where the time goes: each kernel part called alone on one block (4 samples)
 in a compiled loop, its CPU time per call and its own rate, and the run's parts
 predicted from the counters times these times.
 """
@@ -394,10 +395,35 @@ def main() -> None:
     sens = runs[SENS]
     report["counts_per_sample_mean"]["sensitivity_rhs"] = float(np.mean(sens.sensitivity_rhs))
     report["per_call"] = parts_report(compiled, samples, args.t_end, contact, af, lu)
+    report["rk4_large_batch"] = rk4_large_batch(compiled, af, one, args.repeats)
     report["predicted_cpu_s"] = predicted(report, per_sample, sens, batch)
     report["load_average_end"] = load_average()
     _print(report)
     print(json.dumps(report))
+
+
+def rk4_large_batch(compiled, af, one, repeats, batch=343, t_end=2e-4) -> dict:
+    """RK4 on ``batch`` samples drawn in study 1's box (86 blocks over the two threads,
+    the batch run.py's flop fraction reads) over ``t_end``: the same rate per CPU-second."""
+    rng = np.random.default_rng(0)
+    values = NOMINAL * (1.0 + HALF_WIDTH * rng.uniform(-1.0, 1.0, (batch, 3)))
+    samples = {name: values[:, k] for k, name in enumerate(STUDY1)}
+    common = {"t_end": t_end, "dt": DT, "record_interval": RECORD, "outputs": OUTPUTS}
+    simulate(compiled, samples, **{**common, "t_end": 2 * RECORD}, integrator="rk4")
+    best = float("inf")
+    for _ in range(repeats):
+        start = time.process_time()
+        simulate(compiled, samples, **common, integrator="rk4")
+        best = min(best, time.process_time() - start)
+    flops = brake_flops.step_flops(compiled.data, af)["flops_per_sample_step"]
+    rate = flops * round(t_end / DT) * batch / best / 1e9
+    return {
+        "batch": batch,
+        "t_end_s": t_end,
+        "cpu_s": round(best, 3),
+        "gflops_per_cpu_second": round(rate, 2),
+        "fraction_of_one_core": round(rate / one, 4),
+    }
 
 
 def parts_report(compiled, samples, t_end, contact, af, lu) -> dict:
@@ -476,6 +502,9 @@ def _print(report: dict) -> None:
             f"  per block call {label:12s} {row['cpu_us']:9.2f} us  "
             f"{row['gflops_per_cpu_second']:6.2f} GFLOP/s\n"
         )
+    big = report["rk4_large_batch"]
+    say(f"  rk4, {big['batch']} samples: {big['gflops_per_cpu_second']:.2f} GFLOP/s per CPU-s, ")
+    say(f"{100 * big['fraction_of_one_core']:.1f} % of one core\n")
     say(f"  predicted CPU by part: {report['predicted_cpu_s']}\n")
 
 
