@@ -8,6 +8,12 @@ division, arctan2 and hypot count as 1 each (their real cost is higher, which
 makes the bound optimistic for the contact part). Contact work depends on how
 many slave nodes touch: ``active_fraction`` (measured on the trajectory by the
 NumPy baseline, :class:`brake_numpy.ContactStats`) weights the in-contact part.
+
+The Rosenbrock path (ROS34PW2, RODAS4) and the forward sensitivities are counted per
+call in the same way (:func:`jacobian_flops`, :func:`lu_flops`,
+:func:`stage_solve_flops`) and multiplied by the kernel's own work counters of a
+sample (:func:`rosenbrock_flops`, :func:`sensitivity_flops`); benchmarks/ros_flops.py
+measures the rates.
 """
 
 from __future__ import annotations
