@@ -7,7 +7,7 @@ fuzzymbs, so each is checked against the compiled kernel:
   equations) against the batched RK4 kernel's trajectory;
 * the interpreted MUBOCO-PR solver (the kernels' source without Numba) against
   the compiled batched STE;
-* the flop count against a hand count of one term.
+* the flop counts (RK4, Rosenbrock, sensitivities) against hand counts.
 """
 
 from __future__ import annotations
@@ -91,6 +91,51 @@ def test_flop_count_terms(brake):
     assert count["coordinates"] == data[0]
     more = step_flops(data, active_fraction=1.0)["flops_per_sample_step"]
     assert more > count["flops_per_sample_step"]  # contact work grows with touching nodes
+
+
+def test_rosenbrock_flop_count_by_hand(brake):
+    from brake_flops import (
+        jacobian_flops,
+        lu_flops,
+        rhs_flops,
+        rosenbrock_flops,
+        sensitivity_flops,
+        stage_solve_flops,
+    )
+
+    _, model = brake
+    data = model.compiled.data
+    n = int(data[0])
+    # LU: dense 3 x 3 (steps k = 0, 1, 2: 1 + 2 + 8, 1 + 1 + 2, 1); two uncoupled 2 x 2
+    # blocks (1 + 3 + 6, then 1 + 2 with nothing below coupled, 1 + 1 + 2, 1)
+    assert lu_flops(n=3) == 16
+    assert lu_flops(np.kron(np.eye(2), np.ones((2, 2))) != 0) == 18
+    assert lu_flops(n=n) == n * (n - 1) / 2 + n + 2 * sum(m * m for m in range(n))
+    # stage solve, n = 2: A_q r_q with gamma h and r_v (8 + 4), substitutions (2 + 2 + 2
+    # divisions), u_q (4)
+    assert stage_solve_flops(2) == 22
+    # contact products: every pass couples the disc (16 modes) and a pad (1 + 8), 25
+    # columns; 146 checked points, 3 rows each into two matrices, then each pass's sums
+    full = jacobian_flops(data, active_fraction=1.0)
+    assert full["contact_products"] == 12 * 25**2 * 146 + 4 * 2 * 25**2
+    assert jacobian_flops(data, active_fraction=0.0)["contact_products"] == 0
+    # one accepted step on a fresh LU: 3 stage right-hand sides, the stage matrix and its
+    # LU, 4 stage solves, combinations sum_s (4 s + 2) 2n + (4 * 4 + 5) 2n = 106 n
+    f_rhs = sum(rhs_flops(data, 1.0).values())
+    one = {"accepted": 1, "rejected": 0, "rhs": 3, "jacobians": 0, "lus": 1}
+    parts = rosenbrock_flops(data, one, 1.0)
+    expected = 3 * f_rhs + 2 * n * n + n + lu_flops(n=n) + 4 * (4 * n * n + 3 * n) + 106 * n
+    assert sum(parts.values()) == pytest.approx(expected, rel=1e-12)
+    # linear in the counters; a Jacobian adds its own right-hand side and more
+    double = rosenbrock_flops(data, {key: 2 * value for key, value in one.items()}, 1.0)
+    assert sum(double.values()) == pytest.approx(2 * expected, rel=1e-12)
+    more = rosenbrock_flops(data, {**one, "jacobians": 1}, 1.0)
+    assert sum(more.values()) - expected > sum(full.values()) > f_rhs
+    # sensitivities, one parameter and step: 3 differences (f + 4 per entry), 4 solves,
+    # S_s and the stage sums (0 + 4 + 8 + 12) 2n, S_new 2 * 4 * 2n
+    sens = sensitivity_flops(data, accepted=1, sens_rhs=3, parameters=1, active_fraction=1.0)
+    by_hand = 3 * (f_rhs + 8 * n) + 4 * stage_solve_flops(n) + 64 * n
+    assert sum(sens.values()) == pytest.approx(by_hand, rel=1e-12)
 
 
 def test_targets_and_table_structure():
