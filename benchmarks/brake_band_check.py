@@ -69,7 +69,6 @@ def check_study(study_number: int, points: int, t_end: float | None) -> dict[str
         "points_per_level": found["points"],
         "failed": found["failed"],
         "misses": found["misses"],
-        "reach": found["reach"],
         "largest_miss": found["error"],
         "worst": found["worst"],
         "within_claim": found["error"] is not None and found["error"] <= CLAIM,

@@ -65,9 +65,6 @@ class BandCheck:
     misses : output -> (L,) the largest miss of any point held against that level, on
         the cut-width scale (0: every point inside the band; NaN: no point in that
         level's box, or a cut of no width).
-    reach : output -> (L,) the same before the floor at 0: negative where every point
-        stayed inside the band, by that much of the cut width at least (how near the
-        points came to its edge).
     points : (L,) how many points were held against each level.
     runs, failed : the points run, and how many of them failed (left out).
     error : the largest miss over outputs and levels (NaN: nothing could be checked).
@@ -80,7 +77,6 @@ class BandCheck:
 
     levels: NDArray[np.float64]
     misses: dict[str, NDArray[np.float64]]
-    reach: dict[str, NDArray[np.float64]]
     points: NDArray[np.int64]
     runs: int
     failed: int
@@ -99,7 +95,6 @@ class BandCheck:
         return {
             "levels": [float(v) for v in self.levels],
             "misses": {name: [number(v) for v in m] for name, m in self.misses.items()},
-            "reach": {name: [number(v) for v in m] for name, m in self.reach.items()},
             "points": [int(v) for v in self.points],
             "runs": self.runs,
             "failed": self.failed,
@@ -139,12 +134,7 @@ def band_misses(
     samples: NDArray[np.float64],
     outputs: Mapping[str, NDArray[np.float64]],
     failed: NDArray[np.bool_] | None = None,
-) -> tuple[
-    dict[str, NDArray[np.float64]],
-    dict[str, NDArray[np.float64]],
-    NDArray[np.int64],
-    dict[str, Any] | None,
-]:
+) -> tuple[dict[str, NDArray[np.float64]], NDArray[np.int64], dict[str, Any] | None]:
     """How far the outputs of ``samples`` lie outside ``bands``, per output and level.
 
     Parameters
@@ -157,20 +147,18 @@ def band_misses(
 
     Returns
     -------
-    (misses, reach, points, worst)
-        ``reach``: output -> (L,) the largest ``max(l - y, y - u) / max(u - l, 0.1
-        max(u - l))`` over the points inside each level's box and the elements (NaN: no
-        such point, or no width; negative: every point inside the band by that much
-        at least); ``misses``: the same floored at 0, the part outside the band;
-        ``points``: (L,) points per level; ``worst``: where the largest positive miss
-        is, or None.
+    (misses, points, worst)
+        ``misses``: output -> (L,) the largest ``(max(l - y, 0) + max(y - u, 0)) /
+        max(u - l, 0.1 max(u - l))`` over the points inside each level's box and the
+        elements (NaN: no such point, or no width); ``points``: (L,) points per level;
+        ``worst``: where the largest miss is, or None (no point left a band).
     """
     samples = np.asarray(samples, dtype=float)
     levels = len(plan.levels)
     ok = np.ones(len(samples), bool) if failed is None else ~np.asarray(failed, bool)
     top = box_level(plan, samples)  # a point lies in the box of every level up to it
     inside = (np.arange(levels)[:, None] <= top[None, :]) & ok[None, :]  # (L, P)
-    reach: dict[str, NDArray[np.float64]] = {}
+    misses: dict[str, NDArray[np.float64]] = {}
     worst: dict[str, Any] | None = None
     largest = 0.0  # a point exactly on a band is no miss
     for name, (lower, upper) in bands.items():
@@ -181,9 +169,9 @@ def band_misses(
         scale = np.maximum(width, WIDTH_FLOOR * widest)  # (L, size)
         usable = (widest[:, 0] > 0) & np.isfinite(scale).all(axis=1)
         y = np.asarray(outputs[name], dtype=float).reshape(len(samples), 1, -1)  # (P, 1, size)
-        signed = np.maximum(lo[None] - y, y - hi[None])  # (P, L, size), < 0 inside
+        beyond = np.maximum(lo[None] - y, 0.0) + np.maximum(y - hi[None], 0.0)  # (P, L, size)
         with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = np.where(inside.T[:, :, None] & usable[None, :, None], signed / scale, np.nan)
+            ratio = np.where(inside.T[:, :, None] & usable[None, :, None], beyond / scale, np.nan)
         found = np.full(levels, np.nan)
         for j in range(levels):
             if not np.isfinite(ratio[:, j]).any():
@@ -200,9 +188,8 @@ def band_misses(
                     "element": [int(i) for i in np.unravel_index(element, shape)] if shape else [],
                     "miss": float(found[j]),
                 }
-        reach[name] = found
-    misses = {name: np.where(np.isnan(r), np.nan, np.maximum(r, 0.0)) for name, r in reach.items()}
-    return misses, reach, inside.sum(axis=1).astype(np.int64), worst
+        misses[name] = found
+    return misses, inside.sum(axis=1).astype(np.int64), worst
 
 
 def independent_model(model: Any, factor: float | None = None) -> Any:
@@ -269,14 +256,13 @@ def check_bands(
     for name in bands:  # a non-finite output fails its run, as in a study
         values = np.asarray(outputs[name], dtype=float).reshape(len(samples), -1)
         failed = failed | ~np.isfinite(values).all(axis=1)
-    misses, reach, points, worst = band_misses(plan, bands, samples, outputs, failed)
+    misses, points, worst = band_misses(plan, bands, samples, outputs, failed)
     finite = [m[np.isfinite(m)] for m in misses.values()]
     error = max((float(m.max()) for m in finite if m.size), default=float("nan"))
     rtol = getattr(model, "tolerance", None)
     return BandCheck(
         levels=np.asarray(plan.levels, dtype=float),
         misses=misses,
-        reach=reach,
         points=points,
         runs=len(samples),
         failed=int(failed.sum()),
