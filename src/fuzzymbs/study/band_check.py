@@ -73,6 +73,8 @@ class BandCheck:
     time_integration : the independent model's time integration in words ("" without).
     rtol : the independent model's relative tolerance (NaN without one).
     samples : (runs, n) the points, columns in the plan's parameter order.
+    point_misses : (runs,) each point's largest miss over outputs and levels (NaN:
+        failed), e.g. to re-run the points that miss at a tighter tolerance.
     """
 
     levels: NDArray[np.float64]
@@ -85,6 +87,7 @@ class BandCheck:
     time_integration: str = ""
     rtol: float = float("nan")
     samples: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)), repr=False)
+    point_misses: NDArray[np.float64] = field(default_factory=lambda: np.empty(0), repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe summary (misses per output as lists over the levels, NaN as None)."""
@@ -134,7 +137,9 @@ def band_misses(
     samples: NDArray[np.float64],
     outputs: Mapping[str, NDArray[np.float64]],
     failed: NDArray[np.bool_] | None = None,
-) -> tuple[dict[str, NDArray[np.float64]], NDArray[np.int64], dict[str, Any] | None]:
+) -> tuple[
+    dict[str, NDArray[np.float64]], NDArray[np.float64], NDArray[np.int64], dict[str, Any] | None
+]:
     """How far the outputs of ``samples`` lie outside ``bands``, per output and level.
 
     Parameters
@@ -147,11 +152,13 @@ def band_misses(
 
     Returns
     -------
-    (misses, points, worst)
+    (misses, point_misses, points, worst)
         ``misses``: output -> (L,) the largest ``(max(l - y, 0) + max(y - u, 0)) /
         max(u - l, 0.1 max(u - l))`` over the points inside each level's box and the
-        elements (NaN: no such point, or no width); ``points``: (L,) points per level;
-        ``worst``: where the largest miss is, or None (no point left a band).
+        elements (NaN: no such point, or no width); ``point_misses``: (P,) each point's
+        largest over the outputs, levels and elements (NaN: failed); ``points``: (L,)
+        points per level; ``worst``: where the largest miss is, or None (no point left
+        a band).
     """
     samples = np.asarray(samples, dtype=float)
     levels = len(plan.levels)
@@ -159,6 +166,7 @@ def band_misses(
     top = box_level(plan, samples)  # a point lies in the box of every level up to it
     inside = (np.arange(levels)[:, None] <= top[None, :]) & ok[None, :]  # (L, P)
     misses: dict[str, NDArray[np.float64]] = {}
+    per_point = np.where(ok, 0.0, np.nan)
     worst: dict[str, Any] | None = None
     largest = 0.0  # a point exactly on a band is no miss
     for name, (lower, upper) in bands.items():
@@ -172,6 +180,8 @@ def band_misses(
         beyond = np.maximum(lo[None] - y, 0.0) + np.maximum(y - hi[None], 0.0)  # (P, L, size)
         with np.errstate(invalid="ignore", divide="ignore"):
             ratio = np.where(inside.T[:, :, None] & usable[None, :, None], beyond / scale, np.nan)
+        with np.errstate(invalid="ignore"):
+            per_point = np.fmax(per_point, np.nan_to_num(ratio, nan=0.0).max(axis=(1, 2)))
         found = np.full(levels, np.nan)
         for j in range(levels):
             if not np.isfinite(ratio[:, j]).any():
@@ -189,7 +199,8 @@ def band_misses(
                     "miss": float(found[j]),
                 }
         misses[name] = found
-    return misses, inside.sum(axis=1).astype(np.int64), worst
+    per_point[~ok] = np.nan
+    return misses, per_point, inside.sum(axis=1).astype(np.int64), worst
 
 
 def independent_model(model: Any, factor: float | None = None) -> Any:
@@ -256,7 +267,7 @@ def check_bands(
     for name in bands:  # a non-finite output fails its run, as in a study
         values = np.asarray(outputs[name], dtype=float).reshape(len(samples), -1)
         failed = failed | ~np.isfinite(values).all(axis=1)
-    misses, points, worst = band_misses(plan, bands, samples, outputs, failed)
+    misses, point_misses, points, worst = band_misses(plan, bands, samples, outputs, failed)
     finite = [m[np.isfinite(m)] for m in misses.values()]
     error = max((float(m.max()) for m in finite if m.size), default=float("nan"))
     rtol = getattr(model, "tolerance", None)
@@ -271,6 +282,7 @@ def check_bands(
         time_integration=str(getattr(model, "time_integration", "")),
         rtol=float(np.max(tolerance_of(model).rtol)) if rtol is not None else float("nan"),
         samples=samples,
+        point_misses=point_misses,
     )
 
 
