@@ -69,6 +69,12 @@ def test_a_band_wrong_on_purpose_is_caught_by_the_amount_it_misses():
     assert check.misses["z"][1] == 0.0 and check.misses["z"][3] == 0.0
     assert check.error == max(check.misses["z"][0], check.misses["z"][2])
     assert check.worst is not None and check.worst["miss"] == check.error
+    # each point's own largest miss: beyond the wrong upper bound of the support, and
+    # for a point in the 0.5 box below the wrong lower bound of that cut
+    above = np.maximum(z - upper[0], 0) / scale[0]
+    below = np.where(in_half, np.maximum(lower[2] - z, 0) / scale[2], 0.0)
+    assert check.point_misses == pytest.approx(np.maximum(above, below), abs=1e-12)
+    assert np.nanmax(check.point_misses) == check.error
 
 
 def test_the_reduced_method_on_a_bump_is_caught_and_never_over_the_true_miss():
@@ -116,6 +122,7 @@ def test_a_failed_or_non_finite_run_is_left_out():
 
     check = check_bands(model, plan, exact_product_bands(plan), count=8)
     assert check.failed == 2 and check.points[0] == 14 and check.error == 0.0
+    assert np.isnan(check.point_misses[:2]).all() and np.all(check.point_misses[2:] == 0.0)
 
 
 def test_a_finished_study_is_checked_on_its_own_model_and_bands():
