@@ -34,7 +34,7 @@ from fuzzymbs.fuzzy.band_scale import WIDTH_FLOOR, level_widest
 from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.transform import Plan
 from fuzzymbs.fuzzy.validation_points import box_level
-from fuzzymbs.tolerance import tolerance_of
+from fuzzymbs.tolerance import Tolerance, tolerance_of
 
 __all__ = [
     "BOXES",
@@ -270,7 +270,7 @@ def check_bands(
     misses, point_misses, points, worst = band_misses(plan, bands, samples, outputs, failed)
     finite = [m[np.isfinite(m)] for m in misses.values()]
     error = max((float(m.max()) for m in finite if m.size), default=float("nan"))
-    rtol = getattr(model, "tolerance", None)
+    tolerance = getattr(model, "tolerance", None)  # time-integrated models only
     return BandCheck(
         levels=np.asarray(plan.levels, dtype=float),
         misses=misses,
@@ -280,7 +280,7 @@ def check_bands(
         error=error,
         worst=worst,
         time_integration=str(getattr(model, "time_integration", "")),
-        rtol=float(np.max(tolerance_of(model).rtol)) if rtol is not None else float("nan"),
+        rtol=float(np.max(tolerance.rtol)) if isinstance(tolerance, Tolerance) else float("nan"),
         samples=samples,
         point_misses=point_misses,
     )
