@@ -429,3 +429,22 @@ def test_samples_of_one_batch_at_their_own_tolerances():
         model.simulate(twice, tolerance=Tolerance(np.array([1e-6, 1e-5, 1e-4])))
     with pytest.raises(InvalidParameterError, match="rtol must be in"):
         model.simulate(twice, tolerance=Tolerance(np.array([1e-6, 0.0])))
+
+
+def test_own_steps_undo_the_shared_steps_bit_for_bit(scheme, shared):
+    # the band check's independent model (fuzzymbs.study.band_check.independent_model):
+    # the shared brake on each sample's own steps, tenfold tighter. Reference: a brake
+    # built at that rtol that never shared steps; same kernel, same arithmetic, so the
+    # outputs are bit for bit its own
+    from fuzzymbs.study.band_check import independent_model
+
+    rows = [1, 5, 12]
+    own = independent_model(shared)
+    assert shared.shares_steps and not own.shares_steps
+    assert own.tolerance.rtol == pytest.approx(1e-4)
+    fresh = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-4)
+    found, expected = own(_columns(scheme, rows)), fresh(_columns(scheme, rows))
+    for name in OUTPUTS:
+        np.testing.assert_array_equal(found[name], expected[name])
+    with_shared = shared(_columns(scheme, rows))  # the shared model keeps its own steps
+    assert not np.array_equal(with_shared["y_lpad"], found["y_lpad"])

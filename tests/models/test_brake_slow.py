@@ -86,27 +86,38 @@ def test_hat_clamp_breaks_the_mirror_symmetry():
     assert abs(offsets["hat"]) > 1e-6
 
 
-def test_adaptive_study1_certifies_its_bands_and_holds_every_reduced_run():
-    # the demo's setting (adaptive, shared steps, tolerance chosen by the study) over the
-    # first millisecond (the pads' ringing). Independent reference: the reduced plan's
-    # 33 runs, evaluated with the model the study chose, are values of that model inside
-    # the cut boxes, so the certified bands must hold them (within the 1 % method
-    # tolerance of the cut width plus the runs' common time-integration error, which
-    # the shared steps make smooth)
-    from fuzzymbs.fuzzy import plan as make_plan
-    from fuzzymbs.fuzzy.band_scale import width_relative
-
+@pytest.fixture(scope="module")
+def adaptive_study1_1ms():
+    """The demo's study 1 (adaptive, shared steps, tolerance chosen by the study) over
+    the first millisecond (the pads' ringing), run once for the tests below."""
     parameters = {
         "pad_spring_stiffness": {"type": "triangular", "modal": 200e3, "spread": 0.1},
         "caliper_spring_stiffness": {"type": "triangular", "modal": 1e3, "spread": 0.1},
         "nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01},
     }
+    study = Study(
+        DiscBrake(t_end=1e-3),
+        parameters,
+        method="adaptive",
+        levels=[0.0, 0.25, 0.5, 0.75, 1.0],
+        outputs=["y_lpad", "y_upad", "y_cali"],
+    )
+    return study, study.run(progress=False)
+
+
+def test_adaptive_study1_certifies_its_bands_and_holds_every_reduced_run(adaptive_study1_1ms):
+    # the demo's setting over the first millisecond. Independent reference: the reduced
+    # plan's 33 runs, evaluated with the model the study chose, are values of that model
+    # inside the cut boxes, so the certified bands must hold them (within the 1 % method
+    # tolerance of the cut width plus the runs' common time-integration error, which
+    # the shared steps make smooth)
+    from fuzzymbs.fuzzy import plan as make_plan
+    from fuzzymbs.fuzzy.band_scale import width_relative
+
     levels = [0.0, 0.25, 0.5, 0.75, 1.0]
     outputs = ["y_lpad", "y_upad", "y_cali"]
-    study = Study(
-        DiscBrake(t_end=1e-3), parameters, method="adaptive", levels=levels, outputs=outputs
-    )
-    data = study.run(progress=False).dataset
+    study, result = adaptive_study1_1ms
+    data = result.dataset
     assert data.attrs["method_converged"] == 1
     assert data.attrs["method_error"] <= 0.01
     assert data.attrs["time_integration_error"] <= 0.01
@@ -120,6 +131,25 @@ def test_adaptive_study1_certifies_its_bands_and_holds_every_reduced_run():
             bands[name].upper - upper, 0.0
         )
         assert np.nanmax(width_relative(outside, lower, upper)) <= 0.012, name
+
+
+def test_adaptive_study1_bands_hold_independent_points(adaptive_study1_1ms):
+    # the bands stay true: 16 scrambled Halton points in the support box and 16 in the
+    # mu = 0.5 box, none of the study's runs, integrated on their own steps at a tenth
+    # of the rtol the study chose (independent of its shared steps and their
+    # reference), leave no band of a level whose box holds them by more than 1 % of
+    # the cut width (the study's method tolerance; normalisation of method_error).
+    # The full 10 ms studies: benchmarks/brake_band_check.py (docs/brake.md)
+    from fuzzymbs.study.band_check import check_study_bands
+
+    study, result = adaptive_study1_1ms
+    assert study.model.shares_steps
+    check = check_study_bands(study, result, count=16)
+    assert check.rtol == pytest.approx(study.model.tolerance.rtol / 10)
+    assert "modal sample" not in check.time_integration  # own steps
+    assert check.runs == 32 and check.failed == 0
+    assert check.points[0] == 32 and check.points[2] >= 16
+    assert check.error <= 0.01, check.worst
 
 
 def test_the_checks_re_runs_made_ahead_are_the_checks_bit_for_bit(monkeypatch):

@@ -423,6 +423,15 @@ class DiscBrake:
         shared.simulation = self.simulation.share_steps(single)
         return shared
 
+    def own_steps(self) -> DiscBrake:
+        """The same brake with each sample on its own step sequence again (undoes
+        :meth:`share_steps`): a model whose errors are independent of the study's, for
+        checking its bands (:func:`fuzzymbs.study.band_check.independent_model`)."""
+        own = copy.copy(self)
+        own.simulation = copy.copy(self.simulation)  # a copy drops runs kept or prepared
+        own.simulation.shared = None
+        return own
+
     def __call__(
         self, samples: Mapping[str, Any], wrt: Sequence[str] | None = None
     ) -> dict[str, NDArray]:
