@@ -280,10 +280,9 @@ def contact_pass(c, x, p, sysdata, work):
             j_f = V.where_lt(V.splat(v_cells - 1.0), j_f, V.splat(v_cells - 1.0), j_f)
             j_f = V.where_lt(j_f, zero, zero, j_f)
             cell_f = i_f * float(nv) + j_f
-            c0 = V.get(cell_f, 0)
-            fast = c0 == V.get(cell_f, 1) and c0 == V.get(cell_f, 2) and c0 == V.get(cell_f, 3)
+            fast = V.same_lanes(cell_f)
         if fast:
-            if V.get(on, 0) + V.get(on, 1) + V.get(on, 2) + V.get(on, 3) == 0.0:
+            if V.all_zero(on):  # on is 0 or 1 per lane
                 continue
             xi = cell_offset(fu, i_f)
             eta = cell_offset(fv, j_f)

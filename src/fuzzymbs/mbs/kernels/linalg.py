@@ -57,8 +57,7 @@ def lu_factor_lanes(a, n, piv):
         for i in range(k + 1, n):
             factor = V.load(a, L * (n * i + k)) * inverse
             V.store(a, L * (n * i + k), factor)
-            f = L * (n * i + k)
-            if a[f] == 0.0 and a[f + 1] == 0.0 and a[f + 2] == 0.0 and a[f + 3] == 0.0:
+            if V.all_zero(factor):
                 continue  # row i does not couple to k in any lane (bodies that do not touch)
             for j in range(k + 1, n):
                 at = L * (n * i + j)

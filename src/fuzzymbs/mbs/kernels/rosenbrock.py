@@ -341,18 +341,11 @@ def advance_block_ros(
     out, status, fail_t = recording[2], recording[3], recording[4]
     rtols, atols, h_min = tolerances
     # each lane's tolerances (a padded lane: its block's last sample's)
-    rtol = V.make(
-        rtols[first + min(0, count - 1)],
-        rtols[first + min(1, count - 1)],
-        rtols[first + min(2, count - 1)],
-        rtols[first + min(3, count - 1)],
-    )
-    atol = V.make(
-        atols[first + min(0, count - 1)],
-        atols[first + min(1, count - 1)],
-        atols[first + min(2, count - 1)],
-        atols[first + min(3, count - 1)],
-    )
+    rtol = V.splat(0.0)
+    atol = V.splat(0.0)
+    for lane in range(L):
+        rtol = V.insert(rtol, lane, rtols[first + min(lane, count - 1)])
+        atol = V.insert(atol, lane, atols[first + min(lane, count - 1)])
     at, cc, m, me, alpha, gsum, settings = coefficients
     stages = m.shape[0]
     gamma, exponent, jacobian_age = settings[0], settings[1], settings[2]

@@ -25,13 +25,25 @@ callers index within their own work arrays.
 from __future__ import annotations
 
 import operator
+import os
 
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic, models, overload, register_model
 
-LANES = 4
+
+def _lanes() -> int:
+    """The lane count: ``FUZZYMBS_LANES`` (4 or 8) if set, else 4."""
+    value = os.environ.get("FUZZYMBS_LANES", "4")
+    if value not in ("4", "8"):
+        raise ValueError(f"FUZZYMBS_LANES must be 4 or 8, not {value!r}")
+    return int(value)
+
+
+#: samples per vector, fixed at import (the kernels' on-disk caches hold one width:
+#: delete them after changing it)
+LANES = _lanes()
 # Fast-math flags of the kernels: reassociation and FMA contraction; NaN/inf semantics
 # are kept (no 'nnan'/'ninf') so that blown-up samples are still detected.
 FAST = {"reassoc", "contract", "arcp"}
@@ -126,17 +138,51 @@ def broadcast(typingctx, arr, index):
 
 
 @intrinsic
-def make(typingctx, a, b, c, d):
-    """The vector (a, b, c, d)."""
+def insert(typingctx, v, lane, x):
+    """v with lane ``lane`` set to the scalar x."""
+    if not (v == vec4 and isinstance(lane, types.Integer)):
+        return None
+    if not isinstance(x, (types.Float, types.Integer)):
+        return None
 
     def codegen(context, builder, sig, args):
-        vector = ir.Constant(_VECTOR, ir.Undefined)
-        for k in range(LANES):
-            value = context.cast(builder, args[k], sig.args[k], types.float64)
-            vector = builder.insert_element(vector, value, ir.Constant(_I32, k))
-        return vector
+        value = context.cast(builder, args[2], sig.args[2], types.float64)
+        return builder.insert_element(args[0], value, args[1])
 
-    return vec4(a, b, c, d), codegen
+    return vec4(v, lane, x), codegen
+
+
+def _all_set(builder, mask):
+    # the L-bit mask as one integer: every lane true
+    bits = builder.bitcast(mask, ir.IntType(LANES))
+    return builder.icmp_unsigned("==", bits, ir.Constant(ir.IntType(LANES), (1 << LANES) - 1))
+
+
+@intrinsic
+def all_zero(typingctx, v):
+    """True if every lane of v equals 0.0 (a NaN lane does not)."""
+    if v != vec4:
+        return None
+
+    def codegen(context, builder, sig, args):
+        zero = ir.Constant(_VECTOR, [ir.Constant(ir.DoubleType(), 0.0)] * LANES)
+        return _all_set(builder, builder.fcmp_ordered("==", args[0], zero))
+
+    return types.boolean(v), codegen
+
+
+@intrinsic
+def same_lanes(typingctx, v):
+    """True if every lane of v equals lane 0 (none if lane 0 is NaN)."""
+    if v != vec4:
+        return None
+
+    def codegen(context, builder, sig, args):
+        first = ir.Constant(ir.VectorType(_I32, LANES), [ir.Constant(_I32, 0)] * LANES)
+        spread = builder.shuffle_vector(args[0], ir.Constant(_VECTOR, ir.Undefined), first)
+        return _all_set(builder, builder.fcmp_ordered("==", args[0], spread))
+
+    return types.boolean(v), codegen
 
 
 @intrinsic
@@ -185,7 +231,7 @@ def fma(typingctx, a, b, c):
     """a * b + c with one rounding."""
     if not (a == vec4 and b == vec4 and c == vec4):
         return None
-    return vec4(a, b, c), _llvm_call("llvm.fma.v4f64", 3)
+    return vec4(a, b, c), _llvm_call(f"llvm.fma.v{LANES}f64", 3)
 
 
 @intrinsic
@@ -193,7 +239,7 @@ def sqrt(typingctx, a):
     """Square root per lane."""
     if a != vec4:
         return None
-    return vec4(a), _llvm_call("llvm.sqrt.v4f64", 1)
+    return vec4(a), _llvm_call(f"llvm.sqrt.v{LANES}f64", 1)
 
 
 @intrinsic
@@ -201,7 +247,7 @@ def floor(typingctx, a):
     """Largest integer <= a, per lane (as float64)."""
     if a != vec4:
         return None
-    return vec4(a), _llvm_call("llvm.floor.v4f64", 1)
+    return vec4(a), _llvm_call(f"llvm.floor.v{LANES}f64", 1)
 
 
 @intrinsic
@@ -209,7 +255,7 @@ def vabs(typingctx, a):
     """Absolute value per lane."""
     if a != vec4:
         return None
-    return vec4(a), _llvm_call("llvm.fabs.v4f64", 1)
+    return vec4(a), _llvm_call(f"llvm.fabs.v{LANES}f64", 1)
 
 
 def _select(predicate: str):

@@ -206,15 +206,14 @@ def solve_lanes(a, b, size, ok):
         count = 0
         for j in range(k + 1, size):
             at = L * (size * k + j)
-            if a[at] != 0.0 or a[at + 1] != 0.0 or a[at + 2] != 0.0 or a[at + 3] != 0.0:
+            if not V.all_zero(V.load(a, at)):
                 columns[count] = j
                 count += 1
         inverse = 1.0 / V.load(a, L * (size * k + k))
         bk = V.load(b, L * k)
         for i in range(k + 1, size):
             factor = V.load(a, L * (size * i + k)) * inverse
-            f = L * (size * i + k)
-            if a[f] == 0.0 and a[f + 1] == 0.0 and a[f + 2] == 0.0 and a[f + 3] == 0.0:
+            if V.all_zero(V.load(a, L * (size * i + k))):
                 continue
             for index in range(count):
                 j = columns[index]

@@ -170,12 +170,14 @@ def _lanewise(function):
 
     def typer(x):
         if x == V.vec4:
-            return lambda x: V.make(
-                function(V.get(x, 0)),
-                function(V.get(x, 1)),
-                function(V.get(x, 2)),
-                function(V.get(x, 3)),
-            )
+
+            def lanes(x):
+                out = V.splat(0.0)
+                for lane in range(LANES):
+                    out = V.insert(out, lane, function(V.get(x, lane)))
+                return out
+
+            return lanes
         return lambda x: function(x)
 
     return typer
