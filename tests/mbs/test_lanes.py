@@ -267,3 +267,16 @@ def test_rodas4_sample_is_independent_of_its_block(brake):
         np.testing.assert_array_equal(packed.outputs[name], alone.outputs[name][order])
     np.testing.assert_array_equal(packed.step_counts, alone.step_counts[order])
     assert len(set(alone.step_counts[:, 0].tolist())) > 2
+
+
+def test_lane_count_is_chosen_from_the_cpu_unless_set(monkeypatch):
+    # 8 lanes where Numba compiles for AVX-512F, else 4; FUZZYMBS_LANES overrides
+    monkeypatch.delenv("FUZZYMBS_LANES", raising=False)
+    assert simd.choose_lanes() == (8 if simd.has_avx512() else 4)
+    for value in ("4", "8"):
+        monkeypatch.setenv("FUZZYMBS_LANES", value)
+        assert simd.choose_lanes() == int(value)
+    monkeypatch.setenv("FUZZYMBS_LANES", "16")
+    with pytest.raises(ValueError, match="FUZZYMBS_LANES must be 4 or 8"):
+        simd.choose_lanes()
+    simd.check_cache()  # this process's cached kernels are of its width

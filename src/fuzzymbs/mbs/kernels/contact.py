@@ -1,4 +1,4 @@
-"""Master-slave penalty contact with regularised Coulomb friction, four lanes per vector.
+"""Master-slave penalty contact with regularised Coulomb friction, LANES per vector.
 
 One contact pass: every slave node of one body against the master surface of
 another, given as a structured grid of master nodes over a chart (plane or
@@ -162,7 +162,7 @@ def record_force_law(jrec, at, normal, slide, direction, friction, stiffness, da
 
 @nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
 def contact_pass(c, x, p, sysdata, work):
-    """Penalty normal force and regularised Coulomb friction of pass c, four lanes.
+    """Penalty normal force and regularised Coulomb friction of pass c, all lanes.
 
     Reads the lanes' node positions and velocities from ``work`` (filled by the
     node kinematics) and adds the contact forces to its node forces.

@@ -1,7 +1,7 @@
 """Kinematics of the bodies' tracked nodes and the generalised forces of node forces.
 
-Four samples (lanes) per :mod:`~fuzzymbs.mbs.kernels.simd` vector, arrays
-lane-minor (element ``i`` of lane ``l`` at ``4 i + l``):
+LANES samples (lanes) per :mod:`~fuzzymbs.mbs.kernels.simd` vector, arrays
+lane-minor (element ``i`` of lane ``l`` at ``L i + l``):
 
 * :func:`frame_rotations`: angle, speed, acceleration and rotation matrix A(t)
   of every rotating body (prescribed speed profile times the speed parameter);
@@ -289,7 +289,7 @@ def _loaded(f0, f1, f2):
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
-    """Generalised forces of the tracked nodes' forces, four lanes per vector.
+    """Generalised forces of the tracked nodes' forces, all lanes per vector.
 
     ``node_f`` (tracked 3 L) is rotated to the body frames in place; the results
     are added to ``q_gen`` (n L): one axpy over the modes per node loaded in some

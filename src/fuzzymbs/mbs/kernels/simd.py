@@ -1,21 +1,28 @@
-"""Four-lane float64 vectors for Numba kernels: one LLVM ``<4 x double>`` per value.
+"""Float64 vectors of LANES lanes for Numba kernels: one LLVM ``<LANES x double>`` per value.
 
 Numba gives no SIMD type, and LLVM's loop vectoriser leaves the lockstep
 kernels (:mod:`fuzzymbs.mbs.kernels`) scalar: their arrays may alias and Numba
 cannot say otherwise (docs/embs.md, "Samples in lockstep"). This module
 declares the vector type directly, so that every operation on it *is* one
-AVX2 instruction, whatever the aliasing:
+vector instruction (AVX2 at 4 lanes, AVX-512 at 8), whatever the aliasing:
 
-* :func:`load` / :func:`store`: four consecutive float64 of a C-contiguous
-  1-d array (lane-minor layout: element ``i`` of lane ``l`` at ``4 i + l``), or
-  of a C-ordered array of any dimension at a flat index (an (N, 4) array's row
-  ``i`` at ``4 i``);
-* :func:`splat`, :func:`broadcast`, :func:`make`, :func:`get`: build and read
-  vectors;
+* :func:`load` / :func:`store`: :data:`LANES` consecutive float64 of a C-contiguous
+  1-d array (lane-minor layout: element ``i`` of lane ``l`` at ``LANES i + l``), or
+  of a C-ordered array of any dimension at a flat index (an (N, LANES) array's row
+  ``i`` at ``LANES i``);
+* :func:`splat`, :func:`broadcast`, :func:`insert`, :func:`get`: build and read
+  vectors; :func:`all_zero`, :func:`same_lanes`: tests over the lanes;
 * ``+ - * /`` and unary ``-`` between vectors and with scalars, :func:`fma`,
   :func:`sqrt`, :func:`floor`, :func:`vabs`;
 * selects ``where_lt(a, b, x, y) = a < b ? x : y`` (per lane) and friends, so
   that branches become masks.
+
+:data:`LANES` is fixed at import: 8 where the CPU the kernels are compiled for has
+AVX-512F (Numba's target features), else 4; ``FUZZYMBS_LANES=4`` or ``8`` overrides
+it. Every lane does the same per-element operations at either width, so a sample's
+results are bit for bit the same (docs/benchmarks.md, "Lane width"). Numba's on-disk
+caches hold one width: :func:`check_cache` (run at import) stops a process whose
+cached kernels were compiled for the other one.
 
 Inside ``@njit(fastmath=...)`` functions Numba's fast-math pass flags these
 operations like scalar ones. Inputs outside the array are not checked: the
@@ -27,30 +34,42 @@ from __future__ import annotations
 import operator
 import os
 
+import numba as nb
 from llvmlite import ir
 from numba import types
-from numba.core import cgutils
+from numba.core import cgutils, config
+from numba.core.codegen import get_host_cpu_features
 from numba.extending import intrinsic, models, overload, register_model
 
 
-def _lanes() -> int:
-    """The lane count: ``FUZZYMBS_LANES`` (4 or 8) if set, else 4."""
-    value = os.environ.get("FUZZYMBS_LANES", "4")
-    if value not in ("4", "8"):
+def has_avx512() -> bool:
+    """True if the CPU Numba compiles for has AVX-512F (``NUMBA_CPU_FEATURES`` if set,
+    else the host's)."""
+    features = config.CPU_FEATURES
+    if features is None:
+        features = get_host_cpu_features()
+    return "+avx512f" in features.split(",")
+
+
+def choose_lanes() -> int:
+    """``FUZZYMBS_LANES`` (4 or 8) if set, else 8 with AVX-512F and 4 without."""
+    value = os.environ.get("FUZZYMBS_LANES", "").strip()
+    if value in ("4", "8"):
+        return int(value)
+    if value:
         raise ValueError(f"FUZZYMBS_LANES must be 4 or 8, not {value!r}")
-    return int(value)
+    return 8 if has_avx512() else 4
 
 
-#: samples per vector, fixed at import (the kernels' on-disk caches hold one width:
-#: delete them after changing it)
-LANES = _lanes()
+#: samples per vector, fixed at import (:func:`choose_lanes`)
+LANES = choose_lanes()
 # Fast-math flags of the kernels: reassociation and FMA contraction; NaN/inf semantics
 # are kept (no 'nnan'/'ninf') so that blown-up samples are still detected.
 FAST = {"reassoc", "contract", "arcp"}
 
 
 class Vec4Type(types.Type):
-    """Numba type of a 4-lane float64 vector."""
+    """Numba type of a float64 vector of :data:`LANES` lanes (named for the first width)."""
 
     def __init__(self) -> None:
         super().__init__(name="Vec4")
@@ -80,7 +99,7 @@ def _is_float_array(arr) -> bool:
 
 @intrinsic
 def load(typingctx, arr, index):
-    """``arr[index : index + 4]`` as a vector (1-d C-contiguous float64 array)."""
+    """``arr[index : index + LANES]`` as a vector (1-d C-contiguous float64 array)."""
     if not (_is_float_array(arr) and isinstance(index, types.Integer)):
         return None
 
@@ -92,7 +111,7 @@ def load(typingctx, arr, index):
 
 @intrinsic
 def store(typingctx, arr, index, value):
-    """``arr[index : index + 4] = value``."""
+    """``arr[index : index + LANES] = value``."""
     if not (_is_float_array(arr) and isinstance(index, types.Integer) and value == vec4):
         return None
 
@@ -106,7 +125,7 @@ def store(typingctx, arr, index, value):
 
 @intrinsic
 def splat(typingctx, x):
-    """All four lanes equal to the scalar x."""
+    """Every lane equal to the scalar x."""
     if not isinstance(x, (types.Float, types.Integer)):
         return None
 
@@ -122,7 +141,7 @@ def splat(typingctx, x):
 
 @intrinsic
 def broadcast(typingctx, arr, index):
-    """All four lanes equal to ``arr[index]`` (no negative-index wrap-around: index >= 0)."""
+    """Every lane equal to ``arr[index]`` (no negative-index wrap-around: index >= 0)."""
     if not (_is_float_array(arr) and isinstance(index, types.Integer)):
         return None
 
@@ -313,3 +332,32 @@ def _neg(a):
     if isinstance(a, Vec4Type):
         return lambda a: _sub(splat(0.0), a)
     return None
+
+
+@nb.njit(cache=True)
+def _cached_lanes():
+    return LANES  # frozen into the cached machine code with the kernels
+
+
+def check_cache() -> None:
+    """Raise if Numba's on-disk cache holds kernels of the other lane count.
+
+    The cache is keyed by the source files and the CPU, not by :data:`LANES`, so
+    kernels cached at one width would be loaded at the other (and write past their
+    arrays).
+
+    Raises
+    ------
+    RuntimeError
+        With the command that deletes the caches.
+    """
+    cached = _cached_lanes()
+    if cached != LANES:
+        raise RuntimeError(
+            f"Numba's cache holds the kernels for {cached} lanes, this process runs "
+            f"{LANES} (FUZZYMBS_LANES): delete the caches (find <fuzzymbs>/src -name "
+            "'*.nb[ic]' -delete) or give each width its own NUMBA_CACHE_DIR"
+        )
+
+
+check_cache()

@@ -154,7 +154,7 @@ def solve_constrained(mass, jac, quadratic, acceleration, system, solution):
 
 @nb.njit(cache=True)
 def solve_lanes(a, b, size, ok):
-    """:func:`solve_in_place` of four systems at once, one per SIMD lane: a x = b into ``b``.
+    """:func:`solve_in_place` of LANES systems at once, one per SIMD lane: a x = b into ``b``.
 
     ``a`` (size size L,) and ``b`` (size L,) are lane-minor (element (i, j) of lane l
     at ``L (size i + j) + l``); ``ok[lane]`` is set False where a pivot of that lane is
