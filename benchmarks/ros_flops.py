@@ -121,7 +121,7 @@ def vector_fma_rate(count: int = 50_000_000) -> float:
 
 
 def lanes(rows: np.ndarray) -> np.ndarray:
-    """(4, m) rows -> the kernels' lane-minor (m L,) array."""
+    """(L, m) rows -> the kernels' lane-minor (m L,) array."""
     return np.ascontiguousarray(rows.T).reshape(-1)
 
 
@@ -219,7 +219,7 @@ def _cpu_per_call(call, count) -> float:
 
 
 def part_times(compiled, samples, t_end, step) -> dict:
-    """CPU time per call of the kernel's parts on one block (the first four corners at
+    """CPU time per call of the kernel's parts on one block (the first L corners at
     their state halfway through the run, RK4 at 1 us from the same start)."""
     data = compiled.data
     n = int(data[0])
@@ -431,7 +431,7 @@ def rk4_large_batch(compiled, af, one, repeats, batch=343, t_end=2e-4) -> dict:
 
 
 def parts_report(compiled, samples, t_end, contact, af, lu) -> dict:
-    """Per block call of each part: CPU time, flops of its four samples, rate."""
+    """Per block call of each part: CPU time, flops of its L samples, rate."""
     data = compiled.data
     n = int(data[0])
     times = part_times(compiled, samples, t_end, contact["typical_step_s"])
@@ -454,7 +454,7 @@ def parts_report(compiled, samples, t_end, contact, af, lu) -> dict:
 
 def predicted(report, per_sample, sens) -> dict:
     """The ROS34PW2 run's CPU by part: the counters times the parts' CPU per call (a
-    block call serves four samples), against the measured CPU."""
+    block call serves L samples), against the measured CPU."""
     calls = report["per_call"]
     total = {"rhs": 0.0, "jacobian": 0.0, "lu": 0.0, "stage_solve": 0.0}
     for counts in per_sample:
