@@ -18,6 +18,11 @@ study 1's samples (k, k_c +-10 %, F_n +-1 %; the 33 of the reduced plan, or a
 * ``ros_shared``: the same on the modal sample's step sequence (``share_steps``; the
   sequence's logging and reference runs are not timed);
 * ``sens``: ``ros_own`` with the three parameters' forward sensitivities;
+* ``single``: ``ros_own`` of the modal sample alone (a block whose lanes repeat it);
+* ``study``: the shared-step study as ``DiscBrake.share_steps`` runs it, at the
+  default tolerance: the modal sample's logging run and its reference block (three
+  lanes: rtol 1e-6, the tightened one and the run logged ahead) timed with the 33
+  samples on the shared steps and the correction (sample-steps: the 33 samples' only);
 * ``planar``: the flexible slider-crank (DOP853), 11 samples over 40 ms (its
   own lane kernels, DOP853 on their own steps).
 
@@ -26,7 +31,7 @@ sample's accepted and rejected steps, the padding lanes not counted), CPU
 microseconds per sample-step, and a hash of every output (outputs, gradients, step
 counts, status): equal hashes mean the two widths give every sample bit for bit the
 same results. ``ratio_8_over_4`` < 1: 8 lanes are cheaper. ``--quick``: a fifth of the
-time spans, one round.
+time spans, one round; ``--t-end``: one span for every case.
 """
 
 from __future__ import annotations
@@ -38,7 +43,7 @@ import json
 import numpy as np
 from bench_common import BENCH_DIR, load_average, log, machine, run_json_subprocess
 
-CASES = ("rk4_343", "rk4_33", "ros_own", "ros_shared", "sens", "planar")
+CASES = ("rk4_343", "rk4_33", "ros_own", "ros_shared", "sens", "single", "study", "planar")
 #: the time span [s] of each case
 SPANS = {
     "rk4_343": 2e-4,
@@ -46,6 +51,8 @@ SPANS = {
     "ros_own": 1e-3,
     "ros_shared": 1e-3,
     "sens": 1e-3,
+    "single": 1e-3,
+    "study": 1e-3,
     "planar": 4e-2,
 }
 
@@ -78,6 +85,19 @@ def _brake_call(case: str, t_end: float):
     from fuzzymbs.models.brake import DiscBrake
 
     samples, modal = _study_samples(grid=case == "rk4_343")
+    if case == "study":
+        brake = DiscBrake(t_end=t_end)
+        single = {name: v[modal : modal + 1] for name, v in samples.items()}
+
+        def study():
+            shared = brake.share_steps(single)
+            out = shared(samples)
+            arrays = [out[name] for name in sorted(brake.outputs)] + [out["failed"]]
+            return arrays, len(samples["nodal_force"]) * shared.simulation.shared.sequence.size
+
+        return study
+    if case == "single":
+        samples = {name: v[modal : modal + 1] for name, v in samples.items()}
     if case.startswith("rk4"):
         simulation = DiscBrake(t_end=t_end, integrator="rk4", dt=1e-6).simulation
 
@@ -143,7 +163,7 @@ def child(case: str, t_end: float, repeat: int) -> dict:
         start = time.process_time()
         result, steps = run()
         best = min(best, time.process_time() - start)
-    if case == "planar":
+    if case in ("planar", "study"):
         arrays = result
     else:
         arrays = [result.outputs[name] for name in sorted(result.outputs)]
@@ -175,11 +195,12 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
+    parser.add_argument("--t-end", type=float, help="every case's time span [s]")
     args = parser.parse_args()
     rounds = 1 if args.quick else args.rounds
     found: dict = {"machine": machine(), "rounds": rounds, "repeat": args.repeat}
     for case in args.cases:
-        t_end = SPANS[case] / (5 if args.quick else 1)
+        t_end = args.t_end or SPANS[case] / (5 if args.quick else 1)
         runs: dict[int, list[dict]] = {4: [], 8: []}
         for k in range(rounds):
             for lanes in (4, 8) if k % 2 == 0 else (8, 4):
