@@ -269,10 +269,10 @@ def test_rodas4_sample_is_independent_of_its_block(brake):
     assert len(set(alone.step_counts[:, 0].tolist())) > 2
 
 
-def test_lane_count_is_chosen_from_the_cpu_unless_set(monkeypatch):
-    # 8 lanes where Numba compiles for AVX-512F, else 4; FUZZYMBS_LANES overrides
+def test_lane_count_is_four_unless_set(monkeypatch):
+    # 4 lanes; FUZZYMBS_LANES=8 for AVX-512 (bit for bit the same results)
     monkeypatch.delenv("FUZZYMBS_LANES", raising=False)
-    assert simd.choose_lanes() == (8 if simd.has_avx512() else 4)
+    assert simd.choose_lanes() == 4
     for value in ("4", "8"):
         monkeypatch.setenv("FUZZYMBS_LANES", value)
         assert simd.choose_lanes() == int(value)

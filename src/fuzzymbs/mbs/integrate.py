@@ -152,7 +152,7 @@ def simulate(
         Samples per compiled call.
     kernel : {"auto", "lanes", "samples"}
         How samples share the lanes of the lockstep kernel (one SIMD vector of
-        :data:`~fuzzymbs.mbs.kernels.simd.LANES` samples, 4 or 8, per quantity).
+        :data:`~fuzzymbs.mbs.kernels.simd.LANES` samples, 4 by default, per quantity).
         ``"auto"`` and ``"lanes"``: blocks of LANES samples, a last, partial block
         padded with copies of its last sample. ``"samples"``: a block per sample,
         its lanes repeating it (about 1.4 times the cost per sample,

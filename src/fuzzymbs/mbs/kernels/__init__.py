@@ -1,7 +1,7 @@
 """The compiled physics of the elastic multibody engine, written once for all lanes.
 
-Each function here runs :data:`~fuzzymbs.mbs.kernels.simd.LANES` samples (lanes: 8
-with AVX-512, else 4) per SIMD vector (:mod:`~fuzzymbs.mbs.kernels.simd`); a single
+Each function here runs :data:`~fuzzymbs.mbs.kernels.simd.LANES` samples (lanes: 4, or 8
+with ``FUZZYMBS_LANES=8``) per SIMD vector (:mod:`~fuzzymbs.mbs.kernels.simd`); a single
 sample runs as a block whose lanes repeat it. The modules follow the right-hand
 side's data flow:
 

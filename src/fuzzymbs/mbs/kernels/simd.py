@@ -17,12 +17,13 @@ vector instruction (AVX2 at 4 lanes, AVX-512 at 8), whatever the aliasing:
 * selects ``where_lt(a, b, x, y) = a < b ? x : y`` (per lane) and friends, so
   that branches become masks.
 
-:data:`LANES` is fixed at import: 8 where the CPU the kernels are compiled for has
-AVX-512F (Numba's target features), else 4; ``FUZZYMBS_LANES=4`` or ``8`` overrides
-it. Every lane does the same per-element operations at either width, so a sample's
-results are bit for bit the same (docs/benchmarks.md, "Lane width"). Numba's on-disk
-caches hold one width: :func:`check_cache` (run at import) stops a process whose
-cached kernels were compiled for the other one.
+:data:`LANES` is fixed at import: 4, or ``FUZZYMBS_LANES=8`` (AVX-512). Every lane
+does the same per-element operations at either width, so a sample's results are bit
+for bit the same; 8 lanes make large RK4 batches cheaper but single-sample blocks
+(a shared-step study's modal and reference runs) dearer, and a default study slower
+(docs/benchmarks.md, "Lane width"). Numba's on-disk caches hold one width:
+:func:`check_cache` (run at import) stops a process whose cached kernels were
+compiled for the other one.
 
 Inside ``@njit(fastmath=...)`` functions Numba's fast-math pass flags these
 operations like scalar ones. Inputs outside the array are not checked: the
@@ -37,28 +38,18 @@ import os
 import numba as nb
 from llvmlite import ir
 from numba import types
-from numba.core import cgutils, config
-from numba.core.codegen import get_host_cpu_features
+from numba.core import cgutils
 from numba.extending import intrinsic, models, overload, register_model
 
 
-def has_avx512() -> bool:
-    """True if the CPU Numba compiles for has AVX-512F (``NUMBA_CPU_FEATURES`` if set,
-    else the host's)."""
-    features = config.CPU_FEATURES
-    if features is None:
-        features = get_host_cpu_features()
-    return "+avx512f" in features.split(",")
-
-
 def choose_lanes() -> int:
-    """``FUZZYMBS_LANES`` (4 or 8) if set, else 8 with AVX-512F and 4 without."""
+    """``FUZZYMBS_LANES`` (4 or 8) if set, else 4."""
     value = os.environ.get("FUZZYMBS_LANES", "").strip()
     if value in ("4", "8"):
         return int(value)
     if value:
         raise ValueError(f"FUZZYMBS_LANES must be 4 or 8, not {value!r}")
-    return 8 if has_avx512() else 4
+    return 4
 
 
 #: samples per vector, fixed at import (:func:`choose_lanes`)
@@ -340,11 +331,12 @@ def _cached_lanes():
 
 
 def check_cache() -> None:
-    """Raise if Numba's on-disk cache holds kernels of the other lane count.
+    """Raise if Numba's on-disk cache holds code of the other lane count.
 
     The cache is keyed by the source files and the CPU, not by :data:`LANES`, so
     kernels cached at one width would be loaded at the other (and write past their
-    arrays).
+    arrays). The check reads this module's own cached function: it catches a switch
+    of ``FUZZYMBS_LANES``, not an edit of this file (delete the caches then too).
 
     Raises
     ------
@@ -355,7 +347,7 @@ def check_cache() -> None:
     if cached != LANES:
         raise RuntimeError(
             f"Numba's cache holds the kernels for {cached} lanes, this process runs "
-            f"{LANES} (FUZZYMBS_LANES): delete the caches (find <fuzzymbs>/src -name "
+            f"{LANES} (FUZZYMBS_LANES): delete the caches (find <checkout> -name "
             "'*.nb[ic]' -delete) or give each width its own NUMBA_CACHE_DIR"
         )
 

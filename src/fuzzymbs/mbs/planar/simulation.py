@@ -5,7 +5,7 @@ with its own step size per sample (so a
 sample's trajectory is the same whatever batch it runs in), every output time
 hit exactly, and the joints projected after every accepted step
 (:mod:`fuzzymbs.mbs.planar.kernels`). The error control covers every
-coordinate, the constrained ones included. Samples run LANES (4 or 8) at a time, one per
+coordinate, the constrained ones included. Samples run LANES (4; 8 by choice) at a time, one per
 SIMD lane (:mod:`fuzzymbs.mbs.planar.lanes`), bit for bit as the one-sample
 kernel runs them (:mod:`fuzzymbs.mbs.planar.integrator`, ``kernel="samples"``).
 """
