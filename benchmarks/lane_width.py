@@ -30,9 +30,10 @@ study 1's samples (k, k_c +-10 %, F_n +-1 %; the 33 of the reduced plan, or a
 Per case and width: CPU seconds, sample-steps (samples x steps; ROS34PW2: each
 sample's accepted and rejected steps, the padding lanes not counted), CPU
 microseconds per sample-step, and a hash of every output (outputs, gradients, step
-counts, status): equal hashes mean the two widths give every sample bit for bit the
-same results. ``ratio_8_over_4`` < 1: 8 lanes are cheaper. ``--quick``: a fifth of the
-time spans, one round; ``--t-end``: one span for every case.
+counts, failure flags and times): equal hashes mean the two widths give every sample
+bit for bit the same results. ``ratio_8_over_4`` < 1: 8 lanes are cheaper.
+``--quick``: a fifth of the time spans, one round; ``--t-end``: one span for every
+case.
 """
 
 from __future__ import annotations
