@@ -41,6 +41,7 @@ from fuzzymbs import Triangular, plan
 from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.mbs.kernels.jacobian import jacobian
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_sample
+from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.study.integration_check import peak_relative_deviation
@@ -56,7 +57,7 @@ RK4_STEPS = (1e-6, 5e-7, 2.5e-7, 1.25e-7, 6.25e-8, 3.125e-8)
 ROS_RTOLS = (2e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4)
 SCIPY = (("Radau", 1e-3), ("Radau", 1e-4), ("BDF", 1e-3), ("BDF", 1e-4), ("LSODA", 1e-4))
 CACHE = Path(__file__).resolve().parent / ".cache"
-L = 4
+L = LANES
 
 
 class OverBudget(Exception):

@@ -88,12 +88,15 @@ def matmul_cpu_rate(size: int = 3000, repeat: int = 3) -> dict:
 
 @nb.njit(nogil=True, fastmath=V.FAST)
 def _fma_chains(count, m, c):
-    """``count`` rounds of 12 independent fused multiply-adds of the kernels' 4-lane vector."""
+    """``count`` rounds of 12 independent fused multiply-adds of the kernels' lane vector."""
     # distinct starts, or the compiler would merge equal chains
-    a0, a1, a2 = V.make(1.0, 1.1, 1.2, 1.3), V.make(2.0, 2.1, 2.2, 2.3), V.make(3.0, 3.1, 3.2, 3.3)
-    a3, a4, a5 = V.make(4.0, 4.1, 4.2, 4.3), V.make(5.0, 5.1, 5.2, 5.3), V.make(6.0, 6.1, 6.2, 6.3)
-    b0, b1, b2 = V.make(7.0, 7.1, 7.2, 7.3), V.make(8.0, 8.1, 8.2, 8.3), V.make(9.0, 9.1, 9.2, 9.3)
-    b3, b4, b5 = V.make(0.5, 0.6, 0.7, 0.8), V.make(1.5, 1.6, 1.7, 1.8), V.make(2.5, 2.6, 2.7, 2.8)
+    step = V.splat(0.0)
+    for lane in range(L):
+        step = V.insert(step, lane, 0.1 * lane)
+    a0, a1, a2 = step + 1.0, step + 2.0, step + 3.0
+    a3, a4, a5 = step + 4.0, step + 5.0, step + 6.0
+    b0, b1, b2 = step + 7.0, step + 8.0, step + 9.0
+    b3, b4, b5 = step + 0.5, step + 1.5, step + 2.5
     mv, cv = V.splat(m), V.splat(c)
     for _ in range(count):
         a0, a1, a2 = V.fma(a0, mv, cv), V.fma(a1, mv, cv), V.fma(a2, mv, cv)
@@ -101,7 +104,7 @@ def _fma_chains(count, m, c):
         b0, b1, b2 = V.fma(b0, mv, cv), V.fma(b1, mv, cv), V.fma(b2, mv, cv)
         b3, b4, b5 = V.fma(b3, mv, cv), V.fma(b4, mv, cv), V.fma(b5, mv, cv)
     total = a0 + a1 + a2 + a3 + a4 + a5 + b0 + b1 + b2 + b3 + b4 + b5
-    return V.get(total, 0) + V.get(total, 3)
+    return V.get(total, 0) + V.get(total, L - 1)
 
 
 def vector_fma_rate(count: int = 50_000_000) -> float:
@@ -118,7 +121,7 @@ def vector_fma_rate(count: int = 50_000_000) -> float:
 
 
 def lanes(rows: np.ndarray) -> np.ndarray:
-    """(4, m) rows -> the kernels' lane-minor (m L,) array."""
+    """(L, m) rows -> the kernels' lane-minor (m L,) array."""
     return np.ascontiguousarray(rows.T).reshape(-1)
 
 
@@ -216,7 +219,7 @@ def _cpu_per_call(call, count) -> float:
 
 
 def part_times(compiled, samples, t_end, step) -> dict:
-    """CPU time per call of the kernel's parts on one block (the first four corners at
+    """CPU time per call of the kernel's parts on one block (the first L corners at
     their state halfway through the run, RK4 at 1 us from the same start)."""
     data = compiled.data
     n = int(data[0])
@@ -428,7 +431,7 @@ def rk4_large_batch(compiled, af, one, repeats, batch=343, t_end=2e-4) -> dict:
 
 
 def parts_report(compiled, samples, t_end, contact, af, lu) -> dict:
-    """Per block call of each part: CPU time, flops of its four samples, rate."""
+    """Per block call of each part: CPU time, flops of its L samples, rate."""
     data = compiled.data
     n = int(data[0])
     times = part_times(compiled, samples, t_end, contact["typical_step_s"])
@@ -451,7 +454,7 @@ def parts_report(compiled, samples, t_end, contact, af, lu) -> dict:
 
 def predicted(report, per_sample, sens) -> dict:
     """The ROS34PW2 run's CPU by part: the counters times the parts' CPU per call (a
-    block call serves four samples), against the measured CPU."""
+    block call serves L samples), against the measured CPU."""
     calls = report["per_call"]
     total = {"rhs": 0.0, "jacobian": 0.0, "lu": 0.0, "stage_solve": 0.0}
     for counts in per_sample:

@@ -2,10 +2,10 @@
 
     python benchmarks/ros_parts.py
 
-The calling thread, one block of four lanes (the nominal brake in its loaded steady
+The calling thread, one block of ``LANES`` lanes (the nominal brake in its loaded steady
 state, small random velocities), warm kernels. Per call, in milliseconds: a
 right-hand side (``rhs_ms``; a step takes four), the Jacobian (``jacobian_ms``;
-a step takes a tenth of one), the four lanes' LU of the 41 x 41 stage matrix
+a step takes a tenth of one), the lanes' LU of the 41 x 41 stage matrix
 (``lu_ms``, one per step) and one solve (``solve_ms``, four per step). The
 figures behind docs/theory.md's and docs/benchmarks.md's split of a step.
 """
@@ -21,10 +21,11 @@ import numpy as np
 from fuzzymbs.mbs.kernels.jacobian import jacobian
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs, set_lane
+from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.linearize import steady_state
 from fuzzymbs.models.brake import DiscBrake
 
-L = 4
+L = LANES
 
 
 @nb.njit

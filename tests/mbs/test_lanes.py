@@ -115,7 +115,9 @@ def test_failed_lane_is_reported_and_leaves_its_block_mates_alone(brake):
     np.testing.assert_array_equal(lanes.outputs["y_lpad"][healthy], ref.outputs["y_lpad"][healthy])
 
 
-@pytest.mark.parametrize(("kernel", "expected"), [("auto", 4), ("lanes", 4), ("samples", 1)])
+@pytest.mark.parametrize(
+    ("kernel", "expected"), [("auto", simd.LANES), ("lanes", simd.LANES), ("samples", 1)]
+)
 def test_samples_per_block(kernel, expected):
     assert samples_per_block(kernel) == expected
 
@@ -135,18 +137,36 @@ def test_simd_primitives_against_numpy():
             y = simd.load(b, k)
             r = simd.fma(x, y, simd.sqrt(simd.vabs(x))) / (y + 2.0) - simd.floor(x)
             r = simd.where_lt(x, y, r, -r)
-            simd.store(out, k, r + simd.broadcast(a, 0) * simd.make(1, 2, 3, simd.get(y, 3)))
+            lane_factor = simd.splat(0.0)
+            for lane in range(simd.LANES - 1):
+                lane_factor = simd.insert(lane_factor, lane, lane + 1)
+            lane_factor = simd.insert(lane_factor, simd.LANES - 1, simd.get(y, simd.LANES - 1))
+            simd.store(out, k, r + simd.broadcast(a, 0) * lane_factor)
 
+    @nb.njit
+    def reductions(v):
+        x = simd.load(v, 0)
+        return simd.all_zero(x), simd.same_lanes(x)
+
+    lanes = simd.LANES
     rng = np.random.default_rng(0)
-    a = rng.normal(size=16)
-    b = rng.normal(size=16)
-    out = np.empty(16)
+    a = rng.normal(size=4 * lanes)
+    b = rng.normal(size=4 * lanes)
+    out = np.empty(4 * lanes)
     apply(a, b, out)
     r = (a * b + np.sqrt(np.abs(a))) / (b + 2.0) - np.floor(a)
     r = np.where(a < b, r, -r)
-    lane_factor = np.stack([np.ones(4), np.full(4, 2.0), np.full(4, 3.0), b[3::4]], 1).ravel()
-    expected = r + a[0] * lane_factor
+    lane_factor = np.arange(1.0, lanes + 1.0)[None, :].repeat(4, 0)
+    lane_factor[:, -1] = b[lanes - 1 :: lanes]
+    expected = r + a[0] * lane_factor.ravel()
     np.testing.assert_allclose(out, expected, rtol=1e-14, atol=1e-14)
+    assert reductions(np.zeros(lanes)) == (True, True)
+    for lane in range(lanes):
+        one = np.zeros(lanes)
+        one[lane] = np.nan if lane % 2 else -1.0
+        assert reductions(one) == (False, False)
+    assert reductions(np.full(lanes, 2.5)) == (False, True)
+    assert reductions(np.full(lanes, np.nan)) == (False, False)
 
 
 def test_brake_model_option_kernel():
@@ -247,3 +267,16 @@ def test_rodas4_sample_is_independent_of_its_block(brake):
         np.testing.assert_array_equal(packed.outputs[name], alone.outputs[name][order])
     np.testing.assert_array_equal(packed.step_counts, alone.step_counts[order])
     assert len(set(alone.step_counts[:, 0].tolist())) > 2
+
+
+def test_lane_count_is_four_unless_set(monkeypatch):
+    # 4 lanes; FUZZYMBS_LANES=8 for AVX-512 (bit for bit the same results)
+    monkeypatch.delenv("FUZZYMBS_LANES", raising=False)
+    assert simd.choose_lanes() == 4
+    for value in ("4", "8"):
+        monkeypatch.setenv("FUZZYMBS_LANES", value)
+        assert simd.choose_lanes() == int(value)
+    monkeypatch.setenv("FUZZYMBS_LANES", "16")
+    with pytest.raises(ValueError, match="FUZZYMBS_LANES must be 4 or 8"):
+        simd.choose_lanes()
+    simd.check_cache()  # this process's cached kernels are of its width

@@ -21,6 +21,7 @@ from fuzzymbs.mbs.kernels.rosenbrock import (
     ros34pw2,
     tableau,
 )
+from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.lumped import lumped_modal_body
 from fuzzymbs.mbs.system import Coordinate, System
 from fuzzymbs.models.brake import DiscBrake
@@ -143,30 +144,30 @@ def test_order_on_a_stiff_linear_mode(integrator, order):
     assert np.all(np.abs(observed - order) < 0.35), observed
 
 
-def test_lane_lu_solves_four_systems_against_numpy():
-    # four different 12 x 12 systems in the lanes, one needing row swaps (zero leading
+def test_lane_lu_solves_a_system_per_lane_against_numpy():
+    # a different 12 x 12 system in each lane, one needing row swaps (zero leading
     # entry) and one ill-conditioned: each lane pivots on its own; numpy.linalg.solve is
     # the reference (rtol 1e-10, cond < 1e4)
     rng = np.random.default_rng(3)
     n = 12
-    mats = rng.normal(size=(4, n, n))
+    mats = rng.normal(size=(LANES, n, n))
     mats[1, 0, 0] = 0.0
     mats[2] += np.diag(np.logspace(0, 3, n))
-    rhs = rng.normal(size=(4, n))
+    rhs = rng.normal(size=(LANES, n))
     lanes = np.ascontiguousarray(np.moveaxis(mats, 0, -1)).ravel()
     b = np.ascontiguousarray(rhs.T).ravel()
-    piv = np.empty(n * 4, dtype=np.int64)
+    piv = np.empty(n * LANES, dtype=np.int64)
     lu_factor_lanes(lanes, n, piv)
     lu_solve_lanes(lanes, n, piv, b)
-    for lane in range(4):
+    for lane in range(LANES):
         expected = np.linalg.solve(mats[lane], rhs[lane])
-        np.testing.assert_allclose(b[lane::4], expected, rtol=1e-10, atol=1e-12)
-    assert (piv.reshape(n, 4)[0] != 0).any()  # some lane swapped rows
+        np.testing.assert_allclose(b[lane::LANES], expected, rtol=1e-10, atol=1e-12)
+    assert (piv.reshape(n, LANES)[0] != 0).any()  # some lane swapped rows
     # the pivots are LAPACK's (getrf: the first largest magnitude of the column), also
     # where the vector test lets a lane keep its diagonal without the scalar search
-    for lane in range(4):
+    for lane in range(LANES):
         expected_rows = scipy.linalg.lu_factor(mats[lane])[1]
-        np.testing.assert_array_equal(piv.reshape(n, 4)[:, lane], expected_rows)
+        np.testing.assert_array_equal(piv.reshape(n, LANES)[:, lane], expected_rows)
 
 
 def oscillator(zeta: float) -> System:

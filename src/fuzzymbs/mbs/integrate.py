@@ -1,7 +1,7 @@
 """Public time-integration API: batched fixed-step RK4 and a DOP853 reference.
 
 :func:`simulate` integrates a batch of samples with the compiled RK4 kernel
-(chunks of samples, one parallel call per chunk over blocks of four samples in
+(chunks of samples, one parallel call per chunk over blocks of LANES samples in
 lockstep, :func:`fuzzymbs.mbs.kernels.rk4.rk4`).
 :class:`SimulationModel` wraps a compiled system as a fuzzymbs model,
 ``model({name: (B,)}) -> {output: (B, T)}`` with ``model.coords = {"time": t}``.
@@ -152,10 +152,10 @@ def simulate(
         Samples per compiled call.
     kernel : {"auto", "lanes", "samples"}
         How samples share the lanes of the lockstep kernel (one SIMD vector of
-        four samples per quantity, :mod:`fuzzymbs.mbs.kernels`). ``"auto"`` and
-        ``"lanes"``: blocks of four samples, a last, partial block padded with
-        copies of its last sample. ``"samples"``: a block per sample, its four
-        lanes repeating it (about 1.4 times the cost per sample,
+        :data:`~fuzzymbs.mbs.kernels.simd.LANES` samples, 4 by default, per quantity).
+        ``"auto"`` and ``"lanes"``: blocks of LANES samples, a last, partial block
+        padded with copies of its last sample. ``"samples"``: a block per sample,
+        its lanes repeating it (about 1.4 times the cost per sample,
         docs/benchmarks.md). Both give every sample the same arithmetic, so its
         outputs are bit for bit the same whichever samples share its block.
     integrator : {"rk4", "ros34pw2", "rodas4"}
@@ -363,7 +363,7 @@ def evaluate_rhs(
 ) -> NDArray[np.float64]:
     """Time derivatives of many states at once (row i uses parameter row ``rows[i]``).
 
-    Four states with equal times share a block of lanes
+    LANES states with equal times share a block of lanes
     (:func:`fuzzymbs.mbs.kernels.rhs.rhs_batch`).
     """
     states = np.ascontiguousarray(states, dtype=float)

@@ -1,7 +1,7 @@
-"""Four samples per kernel call, one per SIMD lane: a sample's run must not depend on its
+"""LANES samples per kernel call, one per SIMD lane: a sample's run must not depend on its
 block, its lane or its lane mates.
 
-``simulate(kernel="lanes")`` (the default) packs samples 4k .. 4k + 3 into block k;
+``simulate(kernel="lanes")`` (the default) packs samples L k .. L k + L - 1 into block k;
 ``kernel="samples"`` runs one sample per call. Each lane keeps its own clock (step size,
 acceptance, output times, projection, failure), and every lane does the one-sample
 kernel's arithmetic in its order, so the two kernels agree bit for bit, and so do runs of

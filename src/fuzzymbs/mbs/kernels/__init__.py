@@ -1,8 +1,9 @@
-"""The compiled physics of the elastic multibody engine, written once for four lanes.
+"""The compiled physics of the elastic multibody engine, written once for all lanes.
 
-Each function here runs four samples (lanes) per SIMD vector
-(:mod:`~fuzzymbs.mbs.kernels.simd`); a single sample runs as a block whose
-lanes repeat it. The modules follow the right-hand side's data flow:
+Each function here runs :data:`~fuzzymbs.mbs.kernels.simd.LANES` samples (lanes: 4, or 8
+with ``FUZZYMBS_LANES=8``) per SIMD vector (:mod:`~fuzzymbs.mbs.kernels.simd`); a single
+sample runs as a block whose lanes repeat it. The modules follow the right-hand
+side's data flow:
 
 * :mod:`~fuzzymbs.mbs.kernels.layout`: the compiled system's table columns,
   work-array rows and status codes;

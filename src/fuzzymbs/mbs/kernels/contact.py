@@ -1,4 +1,4 @@
-"""Master-slave penalty contact with regularised Coulomb friction, four lanes per vector.
+"""Master-slave penalty contact with regularised Coulomb friction, LANES per vector.
 
 One contact pass: every slave node of one body against the master surface of
 another, given as a structured grid of master nodes over a chart (plane or
@@ -162,7 +162,7 @@ def record_force_law(jrec, at, normal, slide, direction, friction, stiffness, da
 
 @nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
 def contact_pass(c, x, p, sysdata, work):
-    """Penalty normal force and regularised Coulomb friction of pass c, four lanes.
+    """Penalty normal force and regularised Coulomb friction of pass c, all lanes.
 
     Reads the lanes' node positions and velocities from ``work`` (filled by the
     node kinematics) and adds the contact forces to its node forces.
@@ -280,10 +280,9 @@ def contact_pass(c, x, p, sysdata, work):
             j_f = V.where_lt(V.splat(v_cells - 1.0), j_f, V.splat(v_cells - 1.0), j_f)
             j_f = V.where_lt(j_f, zero, zero, j_f)
             cell_f = i_f * float(nv) + j_f
-            c0 = V.get(cell_f, 0)
-            fast = c0 == V.get(cell_f, 1) and c0 == V.get(cell_f, 2) and c0 == V.get(cell_f, 3)
+            fast = V.same_lanes(cell_f)
         if fast:
-            if V.get(on, 0) + V.get(on, 1) + V.get(on, 2) + V.get(on, 3) == 0.0:
+            if V.all_zero(on):  # on is 0 or 1 per lane
                 continue
             xi = cell_offset(fu, i_f)
             eta = cell_offset(fv, j_f)

@@ -1,4 +1,4 @@
-"""Jacobian of the right-hand side, four samples (lanes) per call: the linearly implicit
+"""Jacobian of the right-hand side, LANES samples (lanes) per call: the linearly implicit
 integrators' matrix, assembled from the physics' own derivatives.
 
 For the state ``x = [q, v]`` the right-hand side is ``[v, a(t, q, v)]``, so its
@@ -118,7 +118,7 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
     """
     jrec, jnodes = work[10], work[11]
     w_rows, kq_rows, kv_rows = work[13], work[14], work[15]
-    wl = np.zeros(3 * n * L)  # a point's W, four lanes per vector: [L (n r + col) + lane]
+    wl = np.zeros(3 * n * L)  # a point's W, all lanes per vector: [L (n r + col) + lane]
     wql = np.zeros(3 * n * L)
     # one point's gathered rows (the per-lane path), layout of the pass's with stride 3
     point_w = np.zeros(3 * n * L)
@@ -264,7 +264,7 @@ def _add_pair(jq, jv, n, i, j, value_q, value_v):
 
 @nb.njit(cache=True)
 def _shared_nodes(jnodes, row):
-    """True if the four lanes of contact point ``row`` have the same master nodes."""
+    """True if the lanes of contact point ``row`` have the same master nodes."""
     at = L * 4 * row
     for q in range(4):
         node = jnodes[at + L * q]
@@ -289,7 +289,7 @@ def _contact_point_lanes(
     cols, ncol, stride, rows, w_rows, kq_rows, kv_rows,
 ):  # fmt: skip
     """One contact point's ``W``, ``K W + C W_q`` and ``C W`` (3 x n, on the two bodies'
-    columns ``cols``) for four lanes at once (the lanes share the slave and master
+    columns ``cols``) for all lanes at once (the lanes share the slave and master
     nodes; weights, frames and K, C differ), written to the gathered rows ``rows ..
     rows + 2`` (layout ``[L (stride ic + row) + lane]``)."""
     zero = V.splat(0.0)
@@ -381,7 +381,7 @@ def _node_map_lanes(bi, bf, fpool, rot, rot_a, b, node, sigma, n, wl, wql):
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def _master_map_lanes(bi, bf, fpool, rot, rot_a, b, masters, jrec, base, n, wl, wql):
-    """The four master nodes' maps, ``sum_q sigma_q dx_q/dq``, for four lanes: the
+    """The four master nodes' maps, ``sum_q sigma_q dx_q/dq``, for all lanes: the
     weighted mode shapes are summed in the body frame first, then rotated once (a
     quarter of the rotations of four :func:`_node_map_lanes` calls; the same sum)."""
     kind, dof0, ntr, nm, n0, _ = body_row(bi, b)
@@ -448,7 +448,7 @@ def _body_columns(bi, b):
 def _mass_inverse_rows(n, bi, fpool, jac):
     """Generalised forces -> accelerations on the rows of every translating body
     (Schur complement of ``[[m P P^T, B], [B^T, I]]``, as in the right-hand side),
-    column by column (each column is a generalised force), four lanes per vector."""
+    column by column (each column is a generalised force), all lanes per vector."""
     r = np.empty(3 * L)  # ntr <= 3
     acc_s = np.empty(3 * L)
     for b in range(bi.shape[0]):

@@ -1,7 +1,7 @@
 """Kinematics of the bodies' tracked nodes and the generalised forces of node forces.
 
-Four samples (lanes) per :mod:`~fuzzymbs.mbs.kernels.simd` vector, arrays
-lane-minor (element ``i`` of lane ``l`` at ``4 i + l``):
+LANES samples (lanes) per :mod:`~fuzzymbs.mbs.kernels.simd` vector, arrays
+lane-minor (element ``i`` of lane ``l`` at ``L i + l``):
 
 * :func:`frame_rotations`: angle, speed, acceleration and rotation matrix A(t)
   of every rotating body (prescribed speed profile times the speed parameter);
@@ -74,11 +74,13 @@ def _profile_lanes(fpool, ptab, k, t):
     if isinstance(t, types.Array):
 
         def lane_times(fpool, ptab, k, t):
-            v0, i0, s0 = profile_value(fpool, ptab, k, t[0])
-            v1, i1, s1 = profile_value(fpool, ptab, k, t[1])
-            v2, i2, s2 = profile_value(fpool, ptab, k, t[2])
-            v3, i3, s3 = profile_value(fpool, ptab, k, t[3])
-            return V.make(v0, v1, v2, v3), V.make(i0, i1, i2, i3), V.make(s0, s1, s2, s3)
+            value, integral, slope = V.splat(0.0), V.splat(0.0), V.splat(0.0)
+            for lane in range(L):
+                v, i, s = profile_value(fpool, ptab, k, t[lane])
+                value = V.insert(value, lane, v)
+                integral = V.insert(integral, lane, i)
+                slope = V.insert(slope, lane, s)
+            return value, integral, slope
 
         return lane_times
     return None
@@ -282,17 +284,12 @@ def node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_
 def _loaded(f0, f1, f2):
     """True if the force (f0, f1, f2) is not zero in some lane (NaN counts as loaded)."""
     size = V.vabs(f0) + V.vabs(f1) + V.vabs(f2)
-    return (
-        V.get(size, 0) != 0.0
-        or V.get(size, 1) != 0.0
-        or V.get(size, 2) != 0.0
-        or V.get(size, 3) != 0.0
-    )
+    return not V.all_zero(size)
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
-    """Generalised forces of the tracked nodes' forces, four lanes per vector.
+    """Generalised forces of the tracked nodes' forces, all lanes per vector.
 
     ``node_f`` (tracked 3 L) is rotated to the body frames in place; the results
     are added to ``q_gen`` (n L): one axpy over the modes per node loaded in some

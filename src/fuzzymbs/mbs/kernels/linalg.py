@@ -1,9 +1,9 @@
-"""Dense LU factorisation and solves of four matrices at once, one per SIMD lane.
+"""Dense LU factorisation and solves of LANES matrices at once, one per SIMD lane.
 
 The linearly implicit integrator (:mod:`fuzzymbs.mbs.kernels.rosenbrock`)
-factorises one n x n matrix per lane and step. The four matrices are stored
+factorises one n x n matrix per lane and step. The lanes' matrices are stored
 lane-minor like every block array (element ``(i, j)`` of lane ``l`` at
-``L (n i + j) + l``), so that elimination and substitution run four lanes per
+``L (n i + j) + l``), so that elimination and substitution run all lanes per
 vector instruction. Each lane pivots on its own (partial pivoting by rows): the
 pivot search and the row swaps are scalar, O(n^2) per factorisation, and run
 only in a lane whose diagonal is beaten (a vector comparison finds those); the
@@ -22,13 +22,13 @@ L = V.LANES
 
 @nb.njit(cache=True, fastmath=V.FAST)
 def lu_factor_lanes(a, n, piv):
-    """LU with partial pivoting of the four lane matrices in ``a`` (n n L,), in place.
+    """LU with partial pivoting of the L lane matrices in ``a`` (n n L,), in place.
 
     ``piv`` (n L,) receives each lane's row swaps: at elimination step k, lane l
     swapped rows k and ``piv[L k + l]``.
     """
     for k in range(n):
-        # the largest magnitude below the diagonal, four lanes per vector: a lane whose
+        # the largest magnitude below the diagonal, all lanes per vector: a lane whose
         # diagonal is not beaten keeps row k, exactly as the search below would (it
         # takes only a strictly larger value; NaN never), without its scalar loads
         below = V.splat(0.0)
@@ -57,8 +57,7 @@ def lu_factor_lanes(a, n, piv):
         for i in range(k + 1, n):
             factor = V.load(a, L * (n * i + k)) * inverse
             V.store(a, L * (n * i + k), factor)
-            f = L * (n * i + k)
-            if a[f] == 0.0 and a[f + 1] == 0.0 and a[f + 2] == 0.0 and a[f + 3] == 0.0:
+            if V.all_zero(factor):
                 continue  # row i does not couple to k in any lane (bodies that do not touch)
             for j in range(k + 1, n):
                 at = L * (n * i + j)
@@ -69,7 +68,7 @@ def lu_factor_lanes(a, n, piv):
 def lu_solve_lanes(lu, n, piv, b):
     """Solve in place, per lane: ``b <- A^-1 b`` for the factors of :func:`lu_factor_lanes`.
 
-    ``b`` (n L,) holds the four right-hand sides lane-minor.
+    ``b`` (n L,) holds the L right-hand sides lane-minor.
     """
     for k in range(n):
         for lane in range(L):

@@ -1,9 +1,9 @@
-"""The right-hand side of the equations of motion, four samples (lanes) per vector.
+"""The right-hand side of the equations of motion, LANES samples (lanes) per vector.
 
 Every sample of a study integrates the same equations with other parameter
-values, so four of them share each instruction: every per-sample quantity is a
+values, so LANES of them share each instruction: every per-sample quantity is a
 :mod:`~fuzzymbs.mbs.kernels.simd` vector, stored lane-minor (element ``i`` of
-lane ``l`` at ``4 i + l``). A single sample runs as a block whose four lanes
+lane ``l`` at ``L i + l``, ``L = LANES``). A single sample runs as a block whose lanes
 repeat it (docs/benchmarks.md measures what that costs).
 
 All system data arrive as one tuple of flat arrays (built by
@@ -271,7 +271,7 @@ def rhs(t, x, dx, p, sysdata, work):
 @nb.njit(cache=True)
 def rhs_sample(t, x, p, sysdata, work):
     """Time derivative ``(2n,)`` of one sample's state ``x (2n,)`` with parameter row
-    ``p (slots,)``, on the calling thread: all four lanes repeat the sample.
+    ``p (slots,)``, on the calling thread: all lanes repeat the sample.
 
     For callers that evaluate one state at a time (SciPy's integrators); a
     batch of states goes through :func:`rhs_batch`.
@@ -292,7 +292,7 @@ def rhs_sample(t, x, p, sysdata, work):
 def rhs_batch(sysdata, params, rows, times, states, out) -> None:
     """``out[i] = f(times[i], states[i])`` with parameter row ``params[rows[i]]``.
 
-    ``states``, ``out``: (m, 2n). Four consecutive states with equal times share a
+    ``states``, ``out``: (m, 2n). L consecutive states with equal times share a
     block; a block whose times differ evaluates each state in lanes of its own.
     The blocks are split into one contiguous range per thread.
     """

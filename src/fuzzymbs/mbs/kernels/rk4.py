@@ -1,8 +1,8 @@
-"""Classic fixed-step RK4 for a batch of samples, four per block in lockstep.
+"""Classic fixed-step RK4 for a batch of samples, LANES per block in lockstep.
 
 The paper's integrator (dt = 1 us for the brake; stable only for
 ``|lambda dt| < 2.785`` on the real axis, docs/theory.md). :func:`rk4` hands
-the blocks to threads; each block integrates up to four samples in the lanes
+the blocks to threads; each block integrates up to LANES samples in the lanes
 of one vector (:func:`start_block`, :func:`advance_block`), padding lanes
 repeating the block's last sample.
 
@@ -122,7 +122,7 @@ def start_block(sysdata, params, x0, recording, first, count):
 
 @nb.njit(cache=True)
 def output_value(x, out_w, o):
-    """Output o of the four lane states ``x``: ``sum_i w_oi x_i`` as a lane vector."""
+    """Output o of the lane states ``x``: ``sum_i w_oi x_i`` as a lane vector."""
     y = V.splat(0.0)
     for i in range(x.shape[0] // L):
         w = out_w[o, i]

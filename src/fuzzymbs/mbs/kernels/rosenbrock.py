@@ -1,4 +1,4 @@
-"""A linearly implicit integrator with error control for a block of four samples: ROS34PW2,
+"""A linearly implicit integrator with error control for a block of LANES samples: ROS34PW2,
 or RODAS4 (:func:`rodas4_coefficients`; the method is an argument of the kernel, whose
 stage loop runs over the tableau's stages).
 
@@ -21,7 +21,7 @@ r_v + gamma h A_q r_q``, ``u_q = gamma h (r_q + u_v)``: one n x n LU per lane an
 (docs/theory.md). ``f_t`` is a forward difference in time (the prescribed rotations
 and force profiles).
 
-Each of the four lanes is a sample with its own clock: its own step, error
+Each lane is a sample with its own clock: its own step, error
 norm ``RMS(e_i / (atol + rtol max(|y_i|, |y_new,i|)))``, acceptance, Jacobian
 age and records, so that a sample's outputs are bit for bit the same whatever
 samples share its block (a shared step would make every sample's error depend
@@ -341,18 +341,11 @@ def advance_block_ros(
     out, status, fail_t = recording[2], recording[3], recording[4]
     rtols, atols, h_min = tolerances
     # each lane's tolerances (a padded lane: its block's last sample's)
-    rtol = V.make(
-        rtols[first + min(0, count - 1)],
-        rtols[first + min(1, count - 1)],
-        rtols[first + min(2, count - 1)],
-        rtols[first + min(3, count - 1)],
-    )
-    atol = V.make(
-        atols[first + min(0, count - 1)],
-        atols[first + min(1, count - 1)],
-        atols[first + min(2, count - 1)],
-        atols[first + min(3, count - 1)],
-    )
+    rtol = V.splat(0.0)
+    atol = V.splat(0.0)
+    for lane in range(L):
+        rtol = V.insert(rtol, lane, rtols[first + min(lane, count - 1)])
+        atol = V.insert(atol, lane, atols[first + min(lane, count - 1)])
     at, cc, m, me, alpha, gsum, settings = coefficients
     stages = m.shape[0]
     gamma, exponent, jacobian_age = settings[0], settings[1], settings[2]

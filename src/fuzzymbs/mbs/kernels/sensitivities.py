@@ -1,5 +1,5 @@
 """Forward sensitivities ``S_k = dx/dp_k`` integrated with the state by the Rosenbrock
-kernel (:mod:`fuzzymbs.mbs.kernels.rosenbrock`), four samples per block as the state.
+kernel (:mod:`fuzzymbs.mbs.kernels.rosenbrock`), LANES samples per block as the state.
 
 The sensitivities satisfy ``S_k' = f_x(x, p) S_k + f_p_k(x, p)``, ``S_k(0) = 0`` (the
 initial state does not depend on the parameters). They are integrated by the state's

@@ -1,21 +1,29 @@
-"""Four-lane float64 vectors for Numba kernels: one LLVM ``<4 x double>`` per value.
+"""Float64 vectors of LANES lanes for Numba kernels: one LLVM ``<LANES x double>`` per value.
 
 Numba gives no SIMD type, and LLVM's loop vectoriser leaves the lockstep
 kernels (:mod:`fuzzymbs.mbs.kernels`) scalar: their arrays may alias and Numba
 cannot say otherwise (docs/embs.md, "Samples in lockstep"). This module
 declares the vector type directly, so that every operation on it *is* one
-AVX2 instruction, whatever the aliasing:
+vector instruction (AVX2 at 4 lanes, AVX-512 at 8), whatever the aliasing:
 
-* :func:`load` / :func:`store`: four consecutive float64 of a C-contiguous
-  1-d array (lane-minor layout: element ``i`` of lane ``l`` at ``4 i + l``), or
-  of a C-ordered array of any dimension at a flat index (an (N, 4) array's row
-  ``i`` at ``4 i``);
-* :func:`splat`, :func:`broadcast`, :func:`make`, :func:`get`: build and read
-  vectors;
+* :func:`load` / :func:`store`: :data:`LANES` consecutive float64 of a C-contiguous
+  1-d array (lane-minor layout: element ``i`` of lane ``l`` at ``LANES i + l``), or
+  of a C-ordered array of any dimension at a flat index (an (N, LANES) array's row
+  ``i`` at ``LANES i``);
+* :func:`splat`, :func:`broadcast`, :func:`insert`, :func:`get`: build and read
+  vectors; :func:`all_zero`, :func:`same_lanes`: tests over the lanes;
 * ``+ - * /`` and unary ``-`` between vectors and with scalars, :func:`fma`,
   :func:`sqrt`, :func:`floor`, :func:`vabs`;
 * selects ``where_lt(a, b, x, y) = a < b ? x : y`` (per lane) and friends, so
   that branches become masks.
+
+:data:`LANES` is fixed at import: 4, or ``FUZZYMBS_LANES=8`` (AVX-512). Every lane
+does the same per-element operations at either width, so a sample's results are bit
+for bit the same; 8 lanes make large RK4 batches cheaper but single-sample blocks
+(a shared-step study's modal and reference runs) dearer, and a default study slower
+(docs/benchmarks.md, "Lane width"). Numba's on-disk caches hold one width:
+:func:`check_cache` (run at import) stops a process whose cached kernels were
+compiled for the other one.
 
 Inside ``@njit(fastmath=...)`` functions Numba's fast-math pass flags these
 operations like scalar ones. Inputs outside the array are not checked: the
@@ -25,20 +33,34 @@ callers index within their own work arrays.
 from __future__ import annotations
 
 import operator
+import os
 
+import numba as nb
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic, models, overload, register_model
 
-LANES = 4
+
+def choose_lanes() -> int:
+    """``FUZZYMBS_LANES`` (4 or 8) if set, else 4."""
+    value = os.environ.get("FUZZYMBS_LANES", "").strip()
+    if value in ("4", "8"):
+        return int(value)
+    if value:
+        raise ValueError(f"FUZZYMBS_LANES must be 4 or 8, not {value!r}")
+    return 4
+
+
+#: samples per vector, fixed at import (:func:`choose_lanes`)
+LANES = choose_lanes()
 # Fast-math flags of the kernels: reassociation and FMA contraction; NaN/inf semantics
 # are kept (no 'nnan'/'ninf') so that blown-up samples are still detected.
 FAST = {"reassoc", "contract", "arcp"}
 
 
 class Vec4Type(types.Type):
-    """Numba type of a 4-lane float64 vector."""
+    """Numba type of a float64 vector of :data:`LANES` lanes (named for the first width)."""
 
     def __init__(self) -> None:
         super().__init__(name="Vec4")
@@ -68,7 +90,7 @@ def _is_float_array(arr) -> bool:
 
 @intrinsic
 def load(typingctx, arr, index):
-    """``arr[index : index + 4]`` as a vector (1-d C-contiguous float64 array)."""
+    """``arr[index : index + LANES]`` as a vector (1-d C-contiguous float64 array)."""
     if not (_is_float_array(arr) and isinstance(index, types.Integer)):
         return None
 
@@ -80,7 +102,7 @@ def load(typingctx, arr, index):
 
 @intrinsic
 def store(typingctx, arr, index, value):
-    """``arr[index : index + 4] = value``."""
+    """``arr[index : index + LANES] = value``."""
     if not (_is_float_array(arr) and isinstance(index, types.Integer) and value == vec4):
         return None
 
@@ -94,7 +116,7 @@ def store(typingctx, arr, index, value):
 
 @intrinsic
 def splat(typingctx, x):
-    """All four lanes equal to the scalar x."""
+    """Every lane equal to the scalar x."""
     if not isinstance(x, (types.Float, types.Integer)):
         return None
 
@@ -110,7 +132,7 @@ def splat(typingctx, x):
 
 @intrinsic
 def broadcast(typingctx, arr, index):
-    """All four lanes equal to ``arr[index]`` (no negative-index wrap-around: index >= 0)."""
+    """Every lane equal to ``arr[index]`` (no negative-index wrap-around: index >= 0)."""
     if not (_is_float_array(arr) and isinstance(index, types.Integer)):
         return None
 
@@ -126,17 +148,51 @@ def broadcast(typingctx, arr, index):
 
 
 @intrinsic
-def make(typingctx, a, b, c, d):
-    """The vector (a, b, c, d)."""
+def insert(typingctx, v, lane, x):
+    """v with lane ``lane`` set to the scalar x."""
+    if not (v == vec4 and isinstance(lane, types.Integer)):
+        return None
+    if not isinstance(x, (types.Float, types.Integer)):
+        return None
 
     def codegen(context, builder, sig, args):
-        vector = ir.Constant(_VECTOR, ir.Undefined)
-        for k in range(LANES):
-            value = context.cast(builder, args[k], sig.args[k], types.float64)
-            vector = builder.insert_element(vector, value, ir.Constant(_I32, k))
-        return vector
+        value = context.cast(builder, args[2], sig.args[2], types.float64)
+        return builder.insert_element(args[0], value, args[1])
 
-    return vec4(a, b, c, d), codegen
+    return vec4(v, lane, x), codegen
+
+
+def _all_set(builder, mask):
+    # the L-bit mask as one integer: every lane true
+    bits = builder.bitcast(mask, ir.IntType(LANES))
+    return builder.icmp_unsigned("==", bits, ir.Constant(ir.IntType(LANES), (1 << LANES) - 1))
+
+
+@intrinsic
+def all_zero(typingctx, v):
+    """True if every lane of v equals 0.0 (a NaN lane does not)."""
+    if v != vec4:
+        return None
+
+    def codegen(context, builder, sig, args):
+        zero = ir.Constant(_VECTOR, [ir.Constant(ir.DoubleType(), 0.0)] * LANES)
+        return _all_set(builder, builder.fcmp_ordered("==", args[0], zero))
+
+    return types.boolean(v), codegen
+
+
+@intrinsic
+def same_lanes(typingctx, v):
+    """True if every lane of v equals lane 0 (none if lane 0 is NaN)."""
+    if v != vec4:
+        return None
+
+    def codegen(context, builder, sig, args):
+        first = ir.Constant(ir.VectorType(_I32, LANES), [ir.Constant(_I32, 0)] * LANES)
+        spread = builder.shuffle_vector(args[0], ir.Constant(_VECTOR, ir.Undefined), first)
+        return _all_set(builder, builder.fcmp_ordered("==", args[0], spread))
+
+    return types.boolean(v), codegen
 
 
 @intrinsic
@@ -185,7 +241,7 @@ def fma(typingctx, a, b, c):
     """a * b + c with one rounding."""
     if not (a == vec4 and b == vec4 and c == vec4):
         return None
-    return vec4(a, b, c), _llvm_call("llvm.fma.v4f64", 3)
+    return vec4(a, b, c), _llvm_call(f"llvm.fma.v{LANES}f64", 3)
 
 
 @intrinsic
@@ -193,7 +249,7 @@ def sqrt(typingctx, a):
     """Square root per lane."""
     if a != vec4:
         return None
-    return vec4(a), _llvm_call("llvm.sqrt.v4f64", 1)
+    return vec4(a), _llvm_call(f"llvm.sqrt.v{LANES}f64", 1)
 
 
 @intrinsic
@@ -201,7 +257,7 @@ def floor(typingctx, a):
     """Largest integer <= a, per lane (as float64)."""
     if a != vec4:
         return None
-    return vec4(a), _llvm_call("llvm.floor.v4f64", 1)
+    return vec4(a), _llvm_call(f"llvm.floor.v{LANES}f64", 1)
 
 
 @intrinsic
@@ -209,7 +265,7 @@ def vabs(typingctx, a):
     """Absolute value per lane."""
     if a != vec4:
         return None
-    return vec4(a), _llvm_call("llvm.fabs.v4f64", 1)
+    return vec4(a), _llvm_call(f"llvm.fabs.v{LANES}f64", 1)
 
 
 def _select(predicate: str):
@@ -267,3 +323,33 @@ def _neg(a):
     if isinstance(a, Vec4Type):
         return lambda a: _sub(splat(0.0), a)
     return None
+
+
+@nb.njit(cache=True)
+def _cached_lanes():
+    return LANES  # frozen into the cached machine code with the kernels
+
+
+def check_cache() -> None:
+    """Raise if Numba's on-disk cache holds code of the other lane count.
+
+    The cache is keyed by the source files and the CPU, not by :data:`LANES`, so
+    kernels cached at one width would be loaded at the other (and write past their
+    arrays). The check reads this module's own cached function: it catches a switch
+    of ``FUZZYMBS_LANES``, not an edit of this file (delete the caches then too).
+
+    Raises
+    ------
+    RuntimeError
+        With the command that deletes the caches.
+    """
+    cached = _cached_lanes()
+    if cached != LANES:
+        raise RuntimeError(
+            f"Numba's cache holds the kernels for {cached} lanes, this process runs "
+            f"{LANES} (FUZZYMBS_LANES): delete the caches (find <checkout> -name "
+            "'*.nb[ic]' -delete) or give each width its own NUMBA_CACHE_DIR"
+        )
+
+
+check_cache()

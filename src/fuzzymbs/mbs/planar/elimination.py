@@ -154,7 +154,7 @@ def solve_constrained(mass, jac, quadratic, acceleration, system, solution):
 
 @nb.njit(cache=True)
 def solve_lanes(a, b, size, ok):
-    """:func:`solve_in_place` of four systems at once, one per SIMD lane: a x = b into ``b``.
+    """:func:`solve_in_place` of LANES systems at once, one per SIMD lane: a x = b into ``b``.
 
     ``a`` (size size L,) and ``b`` (size L,) are lane-minor (element (i, j) of lane l
     at ``L (size i + j) + l``); ``ok[lane]`` is set False where a pivot of that lane is
@@ -206,15 +206,14 @@ def solve_lanes(a, b, size, ok):
         count = 0
         for j in range(k + 1, size):
             at = L * (size * k + j)
-            if a[at] != 0.0 or a[at + 1] != 0.0 or a[at + 2] != 0.0 or a[at + 3] != 0.0:
+            if not V.all_zero(V.load(a, at)):
                 columns[count] = j
                 count += 1
         inverse = 1.0 / V.load(a, L * (size * k + k))
         bk = V.load(b, L * k)
         for i in range(k + 1, size):
             factor = V.load(a, L * (size * i + k)) * inverse
-            f = L * (size * i + k)
-            if a[f] == 0.0 and a[f + 1] == 0.0 and a[f + 2] == 0.0 and a[f + 3] == 0.0:
+            if V.all_zero(V.load(a, L * (size * i + k))):
                 continue
             for index in range(count):
                 j = columns[index]

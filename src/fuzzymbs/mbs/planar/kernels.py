@@ -578,8 +578,8 @@ def joint_terms(t, layout, data, z, v, jac, residual, quadratic, rate, accelerat
 
 
 def drive_profile(code, data, off, t):
-    """:func:`profile` of a sample at time t, or of four lanes (``data`` (D, 4), ``t``
-    (4,)) one lane at a time: (f, f', f'') as floats or vectors."""
+    """:func:`profile` of a sample at time t, or of the lanes (``data`` (D, LANES), ``t``
+    (LANES,)) one lane at a time: (f, f', f'') as floats or vectors."""
     raise NotImplementedError("compiled only")
 
 

@@ -1,11 +1,11 @@
-"""Time integration of planar mechanisms four samples at a time, one per SIMD lane.
+"""Time integration of planar mechanisms LANES samples at a time, one per SIMD lane.
 
-The samples of a fuzzy study share a mechanism's structure, so four of them run
+The samples of a fuzzy study share a mechanism's structure, so LANES of them run
 through the same arithmetic: each lane of a block holds a sample, the physics
 compiles for lane arrays (:mod:`fuzzymbs.mbs.planar.lanewise`) and the
-constrained system is solved four at a time
+constrained system is solved LANES at a time
 (:func:`fuzzymbs.mbs.planar.elimination.solve_lanes`); the Runge-Kutta stages
-combine vectors of four.
+combine vectors of LANES.
 
 Every lane keeps its own clock, as :func:`fuzzymbs.mbs.planar.integrator.run_sample`
 does for a sample alone: its own step size, error norm, acceptance, output
@@ -52,7 +52,7 @@ L = V.LANES
 
 @nb.njit(cache=True)
 def lane_scratch(layout):
-    """Scratch arrays of :func:`derivative_lanes` and :func:`project_lanes`: the four
+    """Scratch arrays of :func:`derivative_lanes` and :func:`project_lanes`: the
     lanes' mass matrices, Jacobians, four joint rows and forces, the saddle-point system
     and its right-hand side, and one lane's rows (3, max(n, c)) and Jacobian (c, n)
     where a lane is handled alone."""
@@ -77,7 +77,7 @@ def derivative_lanes(
 ):
     """out = (v, z'') of every lane at (t[lane], x); ``ok[lane]`` False where the
     equations are singular or their solution not finite. ``lanes`` holds the lanes'
-    data rows (D, 4)."""
+    data rows (D, LANES)."""
     mass, jac, rows, forces, system, rhs, lone, _ = scratch
     size = n + c
     state = x.reshape((2 * n, L))
@@ -196,11 +196,11 @@ def lane_error(x, trial, k, lane, step, rtol, atol, e, e_low, lone):
 
 @nb.njit(cache=True)
 def integrate_block(times, initial, layout, data, user_force, control, states, report, block):
-    """Integrate the samples ``block = (first, count)`` (count <= 4), one per lane, as
+    """Integrate the samples ``block = (first, count)`` (count <= LANES), one per lane, as
     :func:`fuzzymbs.mbs.planar.integrator.run_sample` integrates one (``control``
     as there); each sample's report goes to its row of ``report`` (B, 4).
 
-    A block of fewer than four samples repeats its last sample in the lanes left
+    A block of fewer than LANES samples repeats its last sample in the lanes left
     (masked from the start: their arithmetic is never read).
     """
     first, count = block
@@ -349,13 +349,13 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
 def integrate_blocks(
     start, stop, times, initial, layout, data, user_force, control, states, report
 ):
-    """:func:`integrate_block` for the blocks ``start:stop`` of four consecutive samples
+    """:func:`integrate_block` for the blocks ``start:stop`` of LANES consecutive samples
     (the GIL released, so :func:`fuzzymbs.mbs.kernels.threads.for_each_range` runs
     ranges side by side). ``report`` (B, 4) as for
     :func:`fuzzymbs.mbs.planar.integrator.integrate_range`.
 
     A block of one sample runs the one-sample kernel: the same numbers, bit for bit,
-    in three quarters of the time (a block of four lanes costs 1.3 times one sample
+    in three quarters of the time (a block of 4 lanes costs 1.3 times one sample
     alone: 52 against 39 ms CPU on the slider-crank).
     """
     samples = initial.shape[0]
@@ -376,7 +376,7 @@ def integrate_blocks(
 @nb.njit(cache=True, nogil=True)
 def solve_blocks(start, stop, times, states, layout, data, user_force, out):
     """:func:`fuzzymbs.mbs.planar.integrator.solve_range` for the blocks ``start:stop`` of
-    four samples: z'' and lambda at every stored state into ``out`` (B, T, n + c), bit for
+    LANES samples: z'' and lambda at every stored state into ``out`` (B, T, n + c), bit for
     bit the one-sample solve (NaN where a sample had failed; a block of one sample runs
     it)."""
     n = layout[4][0]

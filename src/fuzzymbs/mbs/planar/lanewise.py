@@ -1,12 +1,12 @@
-"""One source for a sample and for four: element access that compiles per array shape.
+"""One source for a sample and for a vector of them: element access that compiles per array shape.
 
 The planar physics (:mod:`fuzzymbs.mbs.planar.kernels`) reads and writes its
 arrays through the functions here. For one sample's arrays (data, z, v as 1-d,
 the mass matrix 2-d) they are plain indexing, and the kernels compile to the
-scalar code they always were; for four samples' arrays, one more trailing axis
-of :data:`LANES` (data (D, 4), z (n, 4), the mass matrix (n, n, 4), all
-C-ordered), every read is one vector of the four lanes'
-values (:mod:`fuzzymbs.mbs.kernels.simd`) and the same expressions run the four
+scalar code they always were; for LANES samples' arrays, one more trailing axis
+of :data:`LANES` (data (D, L), z (n, L), the mass matrix (n, n, L), all
+C-ordered), every read is one vector of the lanes'
+values (:mod:`fuzzymbs.mbs.kernels.simd`) and the same expressions run the
 samples in each vector instruction. Every lane then does exactly the scalar
 arithmetic (no fast-math: no contraction into FMA, no reassociation), so a
 sample's numbers do not depend on its lane or its lane mates; a negation of a
@@ -170,12 +170,14 @@ def _lanewise(function):
 
     def typer(x):
         if x == V.vec4:
-            return lambda x: V.make(
-                function(V.get(x, 0)),
-                function(V.get(x, 1)),
-                function(V.get(x, 2)),
-                function(V.get(x, 3)),
-            )
+
+            def lanes(x):
+                out = V.splat(0.0)
+                for lane in range(LANES):
+                    out = V.insert(out, lane, function(V.get(x, lane)))
+                return out
+
+            return lanes
         return lambda x: function(x)
 
     return typer

@@ -5,7 +5,7 @@ with its own step size per sample (so a
 sample's trajectory is the same whatever batch it runs in), every output time
 hit exactly, and the joints projected after every accepted step
 (:mod:`fuzzymbs.mbs.planar.kernels`). The error control covers every
-coordinate, the constrained ones included. Samples run four at a time, one per
+coordinate, the constrained ones included. Samples run LANES (4; 8 by choice) at a time, one per
 SIMD lane (:mod:`fuzzymbs.mbs.planar.lanes`), bit for bit as the one-sample
 kernel runs them (:mod:`fuzzymbs.mbs.planar.integrator`, ``kernel="samples"``).
 """
@@ -39,7 +39,7 @@ INTEGRATOR_NAMES = {
     "dop853": "DOP853 (Dormand-Prince 8(5,3))",
     "dopri5": "Dormand-Prince 5(4)",
 }
-#: The integration kernels: four samples per call in SIMD lanes, or one (the same
+#: The integration kernels: LANES samples per call in SIMD lanes, or one (the same
 #: numbers, bit for bit; the lanes take about a third of the time).
 KERNELS = ("lanes", "samples")
 
@@ -195,7 +195,7 @@ class PlanarResult:
                 out,
             )
 
-        # four samples per call, one per SIMD lane (bit for bit integrator.solve_range)
+        # LANES samples per call, one per SIMD lane (bit for bit integrator.solve_range)
         for_each_range(-(-self.states.shape[0] // lanes.L), run)
         out.flags.writeable = False
         return out
@@ -266,7 +266,7 @@ def simulate(
         The explicit Runge-Kutta pair: "auto" takes DOP853 if a body has modes, else
         Dormand-Prince 5(4) (docs/mechanisms.md, "Integrator").
     kernel : {"lanes", "samples"}
-        Four samples per kernel call, one per SIMD lane, or one sample per call: the
+        LANES samples per kernel call, one per SIMD lane, or one sample per call: the
         same trajectories bit for bit (:data:`KERNELS`).
     """
     batch = pack_batch(mechanisms if isinstance(mechanisms, list) else [mechanisms])
@@ -295,7 +295,7 @@ def simulate(
             start, stop, t, initial, arrays, batch.data, batch.user_force, control, states, report
         )
 
-    # the lanes kernel takes blocks of four samples (the last one possibly short)
+    # the lanes kernel takes blocks of LANES samples (the last one possibly short)
     for_each_range(-(-samples // lanes.L) if kernel == "lanes" else samples, run)
     return PlanarResult(
         t,
