@@ -43,10 +43,10 @@ __all__ = [
 #: most this many runs without (``1 + n gradient_cost``). The break-even is the harmonic
 #: mean of the measured savings ``runs without / runs with`` (at that run cost the cases
 #: take on average as much CPU with gradients as without): 1.88 on the nine closed-form
-#: cases of docs/fuzzy.md (0.97 for ringing3 to 3.48 for bump3), 1.75 with the brake's
-#: study 1 (76 runs without, 71 with: 1.07; docs/benchmarks.md, "The brake's studies with
-#: gradients")
-AUTO_MAX_RUN_COST = 1.75
+#: cases of docs/fuzzy.md (0.97 for ringing3 to 3.48 for bump3), 1.41 with the brake's
+#: studies 1 (76 runs without, 71 with: 1.07) and 2 (89 and 187: 0.48; docs/benchmarks.md,
+#: "The brake's studies with gradients")
+AUTO_MAX_RUN_COST = 1.4
 
 
 def declared_differentiable(model: Any, model_name: str) -> tuple[str, ...]:
