@@ -62,15 +62,25 @@ def with_integrator(path: Path, integrator: str, folder: Path) -> Path:
     return copy
 
 
-def run_file(path: Path, out: Path) -> dict[str, Any]:
-    """One ``fuzzymbs run`` of ``path`` in a child process: wall, CPU, the study's figures."""
+def run_file(
+    path: Path, out: Path, arguments: tuple[str, ...] = (), log: list[str] | None = None
+) -> dict[str, Any]:
+    """One ``fuzzymbs run`` of ``path`` (with ``arguments``) in a child process: wall, CPU
+    (the child's and its own children's), the study's figures; the child's log lines are
+    appended to ``log`` when given."""
     import xarray
 
     command = [sys.executable, "-m", "fuzzymbs.cli", "run", str(path), "--out", str(out), "--fresh"]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     load = load_average()
     start = time.perf_counter()
-    subprocess.run(command, capture_output=True, text=True, check=True, env=dict(os.environ))
+    # a wide terminal keeps the log's lines whole (the CLI logs through rich)
+    env = {**os.environ, "COLUMNS": "400"}
+    done = subprocess.run(command + list(arguments), capture_output=True, text=True, env=env)
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr[-3000:]}")
+    if log is not None:
+        log.extend((done.stdout + done.stderr).splitlines())
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)

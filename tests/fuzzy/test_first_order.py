@@ -5,7 +5,7 @@ import pytest
 
 from fuzzymbs.fuzzy.adaptive import AdaptiveTransformation
 from fuzzymbs.fuzzy.band_scale import band_miss
-from fuzzymbs.fuzzy.first_order import first_order_check, first_order_steps
+from fuzzymbs.fuzzy.first_order import first_order_check, first_order_steps, open_gap
 from fuzzymbs.fuzzy.numbers import triangular_numbers
 from fuzzymbs.models.closed_form.hard_cases import bump3, dense_truth
 from fuzzymbs.models.closed_form.resonance import (
@@ -74,6 +74,22 @@ def test_a_kkt_point_has_no_gap_and_a_far_run_confirms_nothing():
         limit=4,
     )
     np.testing.assert_allclose(steps[-1], [0.3, 1.0], atol=1e-6)
+
+
+def test_a_step_that_ends_on_a_run_closes_its_gap():
+    # from the run at (0, 1) the maximum's step ends at (0.3, 1), the minimum's elsewhere;
+    # a gap stays open until a run lies at its step's end (that run's value is within the
+    # reported bounds, widened to every run, so the predicted gain did not occur)
+    check = _check((0.0, 1.0), (0.6, 1.0), (0.0, 1.0), scale=0.5)
+    run, (to_minimum, to_maximum) = np.array([[0.0, 1.0]]), check.step
+    assert open_gap(check, run, MOVING, 0.02) == np.nanmax(check.gap)
+    near_maximum = np.concatenate((run, [to_maximum + 0.01]))
+    assert open_gap(check, near_maximum, MOVING, 0.02) == check.gap[0]
+    assert open_gap(check, np.concatenate((run, [to_minimum])), MOVING, 0.02) == check.gap[1]
+    both = np.concatenate((run, [to_minimum, to_maximum]))
+    assert open_gap(check, both, MOVING, 0.02) == 0.0
+    far = np.concatenate((run, [to_maximum + 0.05]))  # beyond near: not taken
+    assert open_gap(check, far, MOVING, 0.02) == np.nanmax(check.gap)
 
 
 def _rounds(case, levels):

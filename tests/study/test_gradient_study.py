@@ -225,13 +225,16 @@ class _PricedCase:
             self.gradient_cost = cost
 
 
-def test_auto_asks_for_gradients_only_where_they_cost_at_most_a_second_run():
-    # the rule of fuzzymbs.study.gradients: 1 + n x gradient_cost <= AUTO_MAX_RUN_COST (2)
-    from fuzzymbs.study.gradients import gradient_parameters
+def test_auto_asks_for_gradients_only_where_they_cost_less_than_the_runs_they_save():
+    # the rule of fuzzymbs.study.gradients: 1 + n x gradient_cost <= AUTO_MAX_RUN_COST, the
+    # harmonic mean of the measured savings (1.41)
+    from fuzzymbs.study.gradients import AUTO_MAX_RUN_COST, gradient_parameters
 
     names = ("a", "b", "c")
+    assert AUTO_MAX_RUN_COST == 1.4
     assert gradient_parameters(_PricedCase(None), names, "auto", "m") == names  # free
-    assert gradient_parameters(_PricedCase(0.33), names, "auto", "m") == names  # 1.99 runs
+    assert gradient_parameters(_PricedCase(0.13), names, "auto", "m") == names  # 1.39 runs
+    assert gradient_parameters(_PricedCase(0.14), names, "auto", "m") == ()  # 1.42 runs
     assert gradient_parameters(_PricedCase(0.72), names, "auto", "m") == ()  # the brake: 3.16
     assert gradient_parameters(_PricedCase(0.72), names, True, "m") == names  # asked for
 
@@ -246,7 +249,8 @@ def test_the_brake_studies_run_without_gradients_by_default():
     names = ("pad_spring_stiffness", "caliper_spring_stiffness", "nodal_force")
     assert set(names) <= set(brake.differentiable)
     assert gradient_parameters(brake, names, "auto", "brake") == ()
-    assert gradient_parameters(brake, names[:1], "auto", "brake") == names[:1]  # 1.72 runs
+    assert gradient_parameters(brake, names[:1], "auto", "brake") == ()  # one: 1.72 runs
+    assert gradient_parameters(brake, names, True, "brake") == names  # asked for
 
 
 def test_command_line_option_reaches_the_method(tmp_path):

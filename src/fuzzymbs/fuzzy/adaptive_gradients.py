@@ -26,7 +26,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from fuzzymbs.fuzzy.first_order import first_order_check, first_order_steps
+from fuzzymbs.fuzzy.first_order import first_order_check, first_order_steps, open_gap
 
 __all__ = ["GradientRounds"]
 
@@ -91,7 +91,9 @@ class GradientRounds:
         """With the model's gradients, each extremum's first-order conditions checked at its
         confirming run (:mod:`fuzzymbs.fuzzy.first_order`): the steps (P, n) of those whose
         gap (beyond the reported bounds) exceeds the tolerance, the largest gap first, and
-        the largest gap, which the reported error includes. None and 0 without gradients."""
+        the largest gap of the extrema whose step no run has taken yet
+        (:func:`~fuzzymbs.fuzzy.first_order.open_gap`), which the reported error includes.
+        None and 0 without gradients."""
         dimension = len(self.names)
         if self._slopes is None or not self._sloped.any():
             return np.empty((0, dimension)), 0.0
@@ -105,4 +107,4 @@ class GradientRounds:
         steps = first_order_steps(
             check, self._units, moving, tolerance=self.tolerance, near=near, limit=limit
         )
-        return steps, float(np.nanmax(check.gap, initial=0.0))
+        return steps, open_gap(check, self._units, moving, near)

@@ -13,11 +13,12 @@ option ``gradients``) asks for the gradients with respect to its fuzzy parameter
 Gradients are not free everywhere: a model may also declare ``gradient_cost``, the
 CPU a run takes for each parameter differentiated, as a fraction of the run without
 (the brake's forward sensitivities: about 0.72 with ROS34PW2, 0.40 with RODAS4,
-docs/benchmarks.md, "Forward sensitivities"). ``"auto"`` asks for gradients only
-where a run with them costs at most :data:`AUTO_MAX_RUN_COST` times one without: on
-the closed-form hard cases gradients save at most 2.2 times the runs
-(docs/fuzzy.md), so a dearer run does not pay for them. A model that declares no
-cost is taken to give them for free (its own closed form).
+docs/benchmarks.md, "Forward sensitivities"). Gradients pay where the runs they save,
+``runs without / runs with``, exceed what a run with them costs. ``"auto"`` decides
+before the runs, so it asks for gradients only where a run with them costs at most
+:data:`AUTO_MAX_RUN_COST` times one without: the run cost at which the measured cases
+take on average as much CPU with gradients as without. A model that declares no cost
+is taken to give them for free (its own closed form).
 """
 
 from __future__ import annotations
@@ -39,9 +40,13 @@ __all__ = [
 ]
 
 #: ``gradients = "auto"`` asks for a model's gradients only where a run with them costs at
-#: most this many runs without (``1 + n gradient_cost``): the hard cases' runs fall at most
-#: 2.2 times with gradients (bump3, docs/fuzzy.md), so the break-even lies near 2
-AUTO_MAX_RUN_COST = 2.0
+#: most this many runs without (``1 + n gradient_cost``). The break-even is the harmonic
+#: mean of the measured savings ``runs without / runs with`` (at that run cost the cases
+#: take on average as much CPU with gradients as without): 1.88 on the nine closed-form
+#: cases of docs/fuzzy.md (0.97 for ringing3 to 3.48 for bump3), 1.41 with the brake's
+#: studies 1 (76 runs without, 71 with: 1.07) and 2 (89 and 187: 0.48; docs/benchmarks.md,
+#: "The brake's studies with gradients")
+AUTO_MAX_RUN_COST = 1.4
 
 
 def declared_differentiable(model: Any, model_name: str) -> tuple[str, ...]:

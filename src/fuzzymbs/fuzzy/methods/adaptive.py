@@ -87,7 +87,7 @@ class Adaptive(Method):
         the fuzzy parameters and hands them to the surrogate
         (:mod:`fuzzymbs.fuzzy.hermite_correction`): ``"auto"`` (default) where the model
         declares every fuzzy parameter in ``model.differentiable`` and a run with them
-        costs at most twice a run without (``model.gradient_cost``;
+        costs at most 1.4 runs without (``model.gradient_cost``;
         :func:`fuzzymbs.study.gradients.gradient_parameters`), ``True`` always (an
         error for a model that cannot), ``False`` never (the value-only rounds).
     """
