@@ -82,6 +82,18 @@ def test_a_sample_on_shared_steps_does_not_depend_on_its_batch(scheme, shared):
         np.testing.assert_array_equal(alone[name][0], mixed[name][2])
 
 
+def test_an_empty_modal_sample_is_the_models_defaults(scheme, shared):
+    # the plan's nominal row is the brake's defaults (200 kN/m, 1 kN/m, 16 kN), so the
+    # model shared on {} runs every sample on the fixture's sequence, bit for bit
+    brake = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-3)
+    defaults = brake.simulation.compiled.parameters.defaults()
+    assert all(defaults[name] == PARAMETERS[name].modal for name in PARAMETERS)
+    on_defaults = brake.share_steps({})(_columns(scheme, [5]))
+    expected = shared(_columns(scheme, [5]))
+    for name in OUTPUTS:
+        np.testing.assert_array_equal(on_defaults[name], expected[name])
+
+
 def test_the_modal_sample_becomes_the_reference(scheme, shared):
     # the modal sample takes the logging run, which the correction also comes from:
     # logging + (reference - logging), the reference to the rounding of one addition

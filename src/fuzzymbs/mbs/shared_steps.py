@@ -429,7 +429,12 @@ def share_steps(
         raise InvalidParameterError("shared steps need integrator='ros34pw2' or 'rodas4'")
     plain = copy.copy(model)
     plain.shared = None
-    modal = {name: float(value) for name, value in modal.items()}
+    # every bound parameter named (the unnamed at their defaults): the reference block
+    # runs the modal sample twice, which needs columns to repeat
+    modal = {
+        **plain.compiled.parameters.defaults(),
+        **{name: float(value) for name, value in modal.items()},
+    }
     tolerance = plain.settings["tolerance"]
     logged = None
     if references is None:
