@@ -11,7 +11,7 @@ import re
 import signal
 import sys
 import threading
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
@@ -86,6 +86,26 @@ class ChunkResult:
         """The chunk's extent, failures and coordinates, without its outputs and gradients
         (what a streaming runner keeps once the outputs were reduced)."""
         return ChunkResult(self.start, self.stop, {}, self.failed, self.reasons, self.coords)
+
+
+def rows_in_order(
+    chunks: Sequence[ChunkResult],
+    count: int,
+    shapes: Mapping[str, tuple[int, ...]],
+    arrays: Callable[[ChunkResult], Mapping[str, np.ndarray]],
+) -> dict[str, np.ndarray]:
+    """Every array named in ``shapes``, ``(count, *shape)`` in sample order, gathered
+    from the chunks' ``arrays(chunk)`` (their outputs or gradients); NaN rows where no
+    chunk holds that array."""
+    gathered = {}
+    for name, shape in shapes.items():
+        merged = np.full((count, *shape), np.nan)
+        for chunk in chunks:
+            values = arrays(chunk)
+            if name in values:
+                merged[chunk.start : chunk.stop] = values[name]
+        gathered[name] = merged
+    return gathered
 
 
 def _checked_coords(raw: Mapping[str, Any]) -> dict[str, np.ndarray]:

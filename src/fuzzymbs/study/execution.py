@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.errors import IncompleteResultError, InvalidParameterError
-from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, evaluate_chunk
+from fuzzymbs.study.evaluation import ChunkResult, OutputCheck, evaluate_chunk, rows_in_order
 from fuzzymbs.study.executors import resolve_executor
 
 __all__ = [
@@ -289,13 +289,7 @@ def assemble_chunks(
     for chunk in used:
         for name, values in chunk.outputs.items():
             shapes.setdefault(name, values.shape[1:])
-    outputs = {}
-    for name, shape in shapes.items():
-        merged = np.full((count, *shape), np.nan)
-        for chunk in used:
-            if name in chunk.outputs:
-                merged[chunk.start : chunk.stop] = chunk.outputs[name]
-        outputs[name] = merged
+    outputs = rows_in_order(used, count, shapes, lambda chunk: chunk.outputs)
     return outputs, failed, reasons
 
 

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from fuzzymbs.errors import InvalidParameterError, ModelOutputError
-from fuzzymbs.study.evaluation import ChunkResult
+from fuzzymbs.study.evaluation import ChunkResult, rows_in_order
 
 __all__ = [
     "AUTO_MAX_RUN_COST",
@@ -149,11 +149,4 @@ def assemble_gradients(
                     "did not return it"
                 )
             shapes.setdefault(name, chunk.gradients[name].shape[1:])
-    gathered = {}
-    for name, shape in shapes.items():
-        merged = np.full((count, *shape), np.nan)
-        for chunk in chunks:
-            if name in chunk.gradients:
-                merged[chunk.start : chunk.stop] = chunk.gradients[name]
-        gathered[name] = merged
-    return gathered
+    return rows_in_order(chunks, count, shapes, lambda chunk: chunk.gradients)
