@@ -80,6 +80,22 @@ def _columns(rows: dict[str, list[float]] | dict[str, float]) -> dict[str, np.nd
     return {name: np.atleast_1d(np.asarray(values, dtype=float)) for name, values in rows.items()}
 
 
+def run_brake(compiled, samples, t_end: float, rtol: float, integrator: str = "ros34pw2", **extra):
+    """``simulate`` of the brake with this benchmark's settings (records every 10 us, the
+    three outputs, ``integrator`` at ``rtol``), ``extra`` its further arguments."""
+    return simulate(
+        compiled,
+        samples,
+        t_end=t_end,
+        dt=1e-6,
+        record_interval=RECORD,
+        outputs=OUTPUTS,
+        integrator=integrator,
+        tolerance=Tolerance(rtol),
+        **extra,
+    )
+
+
 def _central_differences(compiled, t_end, rtol, sequence, renewals, step):
     """{output: (T, 4)} central differences of runs on ``sequence`` at ``rtol``."""
     rows: dict[str, list[float]] = {name: [] for name in NAMES}
@@ -88,15 +104,11 @@ def _central_differences(compiled, t_end, rtol, sequence, renewals, step):
             for other in NAMES:
                 factor = 1.0 + sign * step if other == name else 1.0
                 rows[other].append(NOMINAL[other] * factor)
-    runs = simulate(
+    runs = run_brake(
         compiled,
         _columns(rows),
-        t_end=t_end,
-        dt=1e-6,
-        record_interval=RECORD,
-        outputs=OUTPUTS,
-        integrator="ros34pw2",
-        tolerance=Tolerance(rtol),
+        t_end,
+        rtol,
         step_sequence=sequence,
         jacobian_renewals=renewals,
     )
@@ -115,17 +127,7 @@ def _central_differences(compiled, t_end, rtol, sequence, renewals, step):
 def logged_sequence(compiled, t_end: float, rtol: float) -> tuple[np.ndarray, np.ndarray]:
     """The nominal sample's accepted steps at ``rtol`` with ROS34PW2 and where each took a
     fresh Jacobian (the shared sequence the central differences replay)."""
-    log = simulate(
-        compiled,
-        _columns(NOMINAL),
-        t_end=t_end,
-        dt=1e-6,
-        record_interval=RECORD,
-        outputs=OUTPUTS,
-        integrator="ros34pw2",
-        tolerance=Tolerance(rtol),
-        log_steps=True,
-    )
+    log = run_brake(compiled, _columns(NOMINAL), t_end, rtol, log_steps=True)
     return log.step_times, log.step_renewals
 
 
@@ -189,15 +191,12 @@ def accuracy(t_end: float, rtols: list[float]) -> dict:
     for integrator in ("ros34pw2", "rodas4"):
         for rtol in rtols:
             start = time.process_time()
-            run = simulate(
+            run = run_brake(
                 compiled,
                 _columns(NOMINAL),
-                t_end=t_end,
-                dt=1e-6,
-                record_interval=RECORD,
-                outputs=OUTPUTS,
-                integrator=integrator,
-                tolerance=Tolerance(rtol),
+                t_end,
+                rtol,
+                integrator,
                 sensitivities=NAMES,
                 kernel="samples",
             )
@@ -214,15 +213,11 @@ def accuracy(t_end: float, rtols: list[float]) -> dict:
     rtol = 1e-3
     seq, ren = logged_sequence(compiled, t_end, rtol)
     discrete, counts = _central_differences(compiled, t_end, rtol, seq, ren, FD_STEP)
-    run = simulate(
+    run = run_brake(
         compiled,
         _columns(NOMINAL),
-        t_end=t_end,
-        dt=1e-6,
-        record_interval=RECORD,
-        outputs=OUTPUTS,
-        integrator="ros34pw2",
-        tolerance=Tolerance(rtol),
+        t_end,
+        rtol,
         step_sequence=seq,
         jacobian_renewals=ren,
         sensitivities=NAMES,
@@ -251,21 +246,14 @@ def cost(t_end: float, rtols: list[float], repeats: int) -> dict:
     result: dict = {"t_end_s": t_end, "block": "nominal + 3 corners of study 1's mu = 0 box"}
     for integrator in ("ros34pw2", "rodas4"):
         for rtol in rtols:
-            common = {
-                "t_end": t_end,
-                "dt": 1e-6,
-                "record_interval": RECORD,
-                "outputs": OUTPUTS,
-                "integrator": integrator,
-                "tolerance": Tolerance(rtol),
-            }
-            simulate(compiled, samples, sensitivities=study1, **common)  # warm
+            common = (compiled, samples, t_end, rtol, integrator)
+            run_brake(*common, sensitivities=study1)  # warm
             cpu = {label: [] for label in cases}
             counts = {}
             for _ in range(repeats):
                 for label, names in cases.items():
                     start = time.process_time()
-                    run = simulate(compiled, samples, sensitivities=names, **common)
+                    run = run_brake(*common, sensitivities=names)
                     cpu[label].append(time.process_time() - start)
                     sens = 0 if run.sensitivity_rhs is None else int(run.sensitivity_rhs.max())
                     counts[label] = [*run.work_counts.max(axis=0).tolist(), sens]
