@@ -1,7 +1,8 @@
 """The brake's outputs' derivatives from forward sensitivities: accuracy and cost.
 
     python benchmarks/brake_sensitivities.py [--parts accuracy cost] [--t-end S]
-        [--cost-t-end S] [--rtol ...] [--cost-rtol ...] [--repeats N] [--delta D]
+        [--cost-t-end S] [--rtol ...] [--cost-rtol ...] [--shared-rtol R] [--repeats N]
+        [--delta D]
 
 Prints readable tables to stderr and one JSON line to stdout.
 
@@ -16,8 +17,9 @@ peak, and on the scale a fuzzy surrogate reads them (``band``): the change a der
 predicts over a parameter's half-width w_k, summed over a study's parameters,
 ``max_t sum_k |error_k(t)| w_k`` divided by the linear estimate of the mu = 0 half-width
 ``max(sum_k |dy/dp_k(t)| w_k, 0.1 of its largest)`` (study 1: k, k_c +-10 %, F_n +-1 %;
-study 2: k, k_c, omega +-10 %). Also ``shared``: on a step sequence logged at rtol 1e-3,
-the sensitivities against central differences of runs on the same sequence (the
+study 2: k, k_c, omega +-10 %). Also ``shared``: on a step sequence logged at
+``--shared-rtol`` (default 1e-3), the sensitivities against central differences of
+runs on the same sequence (the
 derivative of the discrete map a study on shared steps evaluates).
 
 **cost** (a block of four samples: the nominal and three corners of study 1's mu = 0 box,
@@ -171,7 +173,7 @@ def errors(gradients, truth) -> dict:
     return out
 
 
-def accuracy(t_end: float, rtols: list[float]) -> dict:
+def accuracy(t_end: float, rtols: list[float], shared_rtol: float = 1e-3) -> dict:
     compiled = DiscBrake(t_end=t_end, record_interval=RECORD).compiled
     truth = reference(compiled, t_end)
     result: dict = {"t_end_s": t_end, "reference": f"central differences, rtol {REFERENCE_RTOL}"}
@@ -210,7 +212,7 @@ def accuracy(t_end: float, rtols: list[float]) -> dict:
             )
     result["own_steps"] = rows
     # on a shared sequence: the derivative of the discrete map
-    rtol = 1e-3
+    rtol = shared_rtol
     seq, ren = logged_sequence(compiled, t_end, rtol)
     discrete, counts = _central_differences(compiled, t_end, rtol, seq, ren, FD_STEP)
     run = run_brake(
@@ -294,9 +296,12 @@ def _print_tables(report: dict) -> None:
         for key in ("against_the_discrete_map", "against_the_reference"):
             e = acc["shared"][key]
             cells = [
-                f"{o} " + " ".join(f"{v:.1e}" for v in e[o]["relative"].values()) for o in OUTPUTS
+                f"{o} "
+                + " ".join(f"{v:.1e}" for v in e[o]["relative"].values())
+                + f" | {e[o]['study 1']:.1e} {e[o]['study 2']:.1e}"
+                for o in OUTPUTS
             ]
-            say(f"shared rtol 1e-3, {key}: " + " || ".join(cells) + "\n")
+            say(f"shared rtol {acc['shared']['rtol']:g}, {key}: " + " || ".join(cells) + "\n")
     if "cost" in report:
         for key, rows in report["cost"].items():
             if not isinstance(rows, dict):
@@ -316,6 +321,7 @@ def main() -> None:
     parser.add_argument("--cost-t-end", type=float, default=2e-3)
     parser.add_argument("--rtol", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4])
     parser.add_argument("--cost-rtol", type=float, nargs="+", default=[1e-2, 1e-3])
+    parser.add_argument("--shared-rtol", type=float, default=1e-3)
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument(
         "--delta",
@@ -328,7 +334,7 @@ def main() -> None:
         integrate.SENS_DELTA = args.delta  # simulate reads it at every call
     report: dict = {"delta": integrate.SENS_DELTA}
     if "accuracy" in args.parts:
-        report["accuracy"] = accuracy(args.t_end, args.rtol)
+        report["accuracy"] = accuracy(args.t_end, args.rtol, args.shared_rtol)
     if "cost" in args.parts:
         report["cost"] = cost(args.cost_t_end, args.cost_rtol, args.repeats)
     _print_tables(report)
