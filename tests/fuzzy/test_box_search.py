@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
+import pytest
 
 from fuzzymbs.fuzzy import box_search
 from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, basis_matrix
+from fuzzymbs.fuzzy.hermite_correction import HermiteCorrection
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
 RNG = np.random.default_rng(7)
@@ -41,15 +44,24 @@ def _plain_polish(degrees, coefficients, starts, element, sign, low, high, corre
     return x, value
 
 
-def test_the_search_drops_only_starts_that_cannot_move():
-    # against the plain search that keeps every start for all its steps: bit for bit
-    # the same points and values, with a kernel correction, corner and interior starts
-    # and a box of zero width in one direction
+def test_the_compiled_search_against_the_array_search():
+    # second method: the same ascent written with arrays, every start kept for all its
+    # steps (_plain_polish); the compiled one sums the same terms in another order, so
+    # the two agree to round-off, not bit for bit. Tolerances: values to 1e-12 of their
+    # spread (round-off of sums of ~50 terms of order 1-50), points to 1e-4 (near a
+    # smooth extremum a 1e-13 change of value moves the best point by up to ~1e-6, and
+    # the step rule can end a few of its halvings apart); with the value-only and the
+    # gradient-enhanced correction, corner and interior starts and a box of zero width
+    # in one direction (a start whose slope points out of its box stops at once)
     elements = 30
     coefficients = RNG.normal(size=(len(DEGREES), elements))
     coefficients[1:4, :10] *= 50.0  # the first 10 elements nearly linear in x_2
     centres = RNG.uniform(-1, 1, size=(12, 2))
-    correction = KernelCorrection(centres, RNG.normal(size=(12, elements)), np.ones(2, bool))
+    residuals = RNG.normal(size=(12, elements))
+    correction = KernelCorrection(centres, residuals, np.ones(2, bool))
+    slopes = RNG.normal(size=(12, elements, 2))
+    sloped = np.arange(12) % 3 != 0
+    hermite = HermiteCorrection(centres, residuals, slopes, sloped, np.ones(2, bool))
     count = 400
     element = RNG.integers(0, elements, size=count)
     sign = RNG.choice([-1.0, 1.0], size=count)
@@ -58,15 +70,21 @@ def test_the_search_drops_only_starts_that_cannot_move():
     high[:50, 1] = low[:50, 1]  # no width in x_2
     starts = RNG.uniform(low, high)
     starts[::3] = np.where(RNG.random((len(starts[::3]), 2)) < 0.5, low[::3], high[::3])
-    for fix in (None, correction):
+    for fix in (None, correction, hermite):
         found, value = box_search.climb(
             DEGREES, coefficients, starts, element, sign, low, high, fix
         )
         plain_found, plain_value = _plain_polish(
             DEGREES, coefficients, starts, element, sign, low, high, fix
         )
-        np.testing.assert_array_equal(found, plain_found)
-        np.testing.assert_array_equal(value, plain_value)
+        spread = np.ptp(plain_value)
+        np.testing.assert_allclose(value, plain_value, rtol=0, atol=1e-12 * spread)
+        np.testing.assert_allclose(found, plain_found, rtol=0, atol=1e-4)
+        assert np.all(found[:50, 1] == low[:50, 1])  # never off a face of zero width
+        assert np.all((found >= low) & (found <= high))
+        # the value reported is the surrogate's at the point reported
+        own = box_search.values_at(DEGREES, coefficients, found, element, fix)
+        np.testing.assert_allclose(value, own, rtol=0, atol=1e-12 * spread)
 
 
 def test_box_extremes_against_a_dense_grid():
@@ -89,3 +107,30 @@ def test_box_extremes_against_a_dense_grid():
         at_lower = basis_matrix(DEGREES, arg_lower[j]) * coefficients.T
         np.testing.assert_allclose(at_lower.sum(axis=1), lower[j], rtol=0, atol=1e-12)
         assert np.all((arg_upper[j] >= low[j]) & (arg_upper[j] <= high[j]))
+
+
+def test_the_search_gives_the_same_numbers_on_any_number_of_threads(monkeypatch):
+    # each start climbs on its own: split over threads (every t-th start to a thread) the
+    # points and values are bit for bit those of one thread
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one thread only")
+    elements = 12
+    coefficients = RNG.normal(size=(len(DEGREES), elements))
+    centres = RNG.uniform(-1, 1, size=(9, 2))
+    correction = KernelCorrection(centres, RNG.normal(size=(9, elements)), np.ones(2, bool))
+    count = 301
+    element = RNG.integers(0, elements, size=count)
+    sign = RNG.choice([-1.0, 1.0], size=count)
+    low, high = np.tile([-1.0, -0.5], (count, 1)), np.tile([1.0, 0.5], (count, 1))
+    starts = RNG.uniform(low, high)
+    arguments = (DEGREES, coefficients, starts, element, sign, low, high, correction)
+    one = box_search.climb(*arguments)  # 301 starts: below one thread's share
+    monkeypatch.setattr(box_search, "_STARTS_PER_THREAD", 10)
+    previous = numba.get_num_threads()
+    numba.set_num_threads(2)
+    try:
+        two = box_search.climb(*arguments)
+    finally:
+        numba.set_num_threads(previous)
+    np.testing.assert_array_equal(two[0], one[0])
+    np.testing.assert_array_equal(two[1], one[1])
