@@ -51,8 +51,9 @@ def test_the_compiled_search_against_the_array_search():
     # spread (round-off of sums of ~50 terms of order 1-50), points to 1e-4 (near a
     # smooth extremum a 1e-13 change of value moves the best point by up to ~1e-6, and
     # the step rule can end a few of its halvings apart); with the value-only and the
-    # gradient-enhanced correction, corner and interior starts and a box of zero width
-    # in one direction (a start whose slope points out of its box stops at once)
+    # gradient-enhanced correction (and each without x_2), corner and interior starts and
+    # a box of zero width in one direction (a start whose slope points out of its box
+    # stops at once)
     elements = 30
     coefficients = RNG.normal(size=(len(DEGREES), elements))
     coefficients[1:4, :10] *= 50.0  # the first 10 elements nearly linear in x_2
@@ -70,7 +71,16 @@ def test_the_compiled_search_against_the_array_search():
     high[:50, 1] = low[:50, 1]  # no width in x_2
     starts = RNG.uniform(low, high)
     starts[::3] = np.where(RNG.random((len(starts[::3]), 2)) < 0.5, low[::3], high[::3])
-    for fix in (None, correction, hermite):
+    # a correction built without x_2 (a parameter of zero width: every box is flat in it),
+    # through runs spread along x_1 (random ones crowd there, and the interpolant's
+    # weights grow to 1e5, their round-off with them)
+    flat = np.array([True, False])
+    spread_centres = np.column_stack((np.linspace(-0.9, 0.9, 12), centres[:, 1]))
+    flat_correction = KernelCorrection(spread_centres, residuals, flat)
+    flat_hermite = HermiteCorrection(spread_centres, residuals, slopes, sloped, flat)
+    for fix in (None, correction, hermite, flat_correction, flat_hermite):
+        if fix is not None and not fix.moving.all():
+            low[:, 1] = high[:, 1] = starts[:, 1] = 0.1
         found, value = box_search.climb(
             DEGREES, coefficients, starts, element, sign, low, high, fix
         )

@@ -85,12 +85,11 @@ def _evaluate(
                     if q != i:
                         part *= table[q, degrees[d, q]]
                 gradient[i] += a * part
-    m = moving.shape[0]
     # the cubic correction: sum_p w_p r_p^3 + t_0 + t_l x_l over the moving coordinates
     if tail.shape[1] > 0:
         total += tail[e, 0]
         column = 1
-        for i in range(m):
+        for i in range(count):
             if moving[i]:
                 total += tail[e, column] * x[i]
                 if want_slope:
@@ -99,7 +98,7 @@ def _evaluate(
     for p in range(centres.shape[0]):
         squared = 0.0
         column = 0
-        for i in range(m):
+        for i in range(count):
             if moving[i]:
                 delta = x[i] - centres[p, column]
                 squared += delta * delta
@@ -109,7 +108,7 @@ def _evaluate(
         total += w * r * r * r
         if want_slope:
             column = 0
-            for i in range(m):
+            for i in range(count):
                 if moving[i]:
                     gradient[i] += 3.0 * r * w * (x[i] - centres[p, column])
                     column += 1
@@ -118,7 +117,7 @@ def _evaluate(
         squared = 0.0
         dot = 0.0
         column = 0
-        for i in range(m):
+        for i in range(count):
             if moving[i]:
                 delta = x[i] - slope_centres[g, column]
                 squared += delta * delta
@@ -129,7 +128,7 @@ def _evaluate(
         if want_slope:
             ratio = dot / r if r > 0.0 else 0.0
             column = 0
-            for i in range(m):
+            for i in range(count):
                 if moving[i]:
                     delta = x[i] - slope_centres[g, column]
                     gradient[i] -= 3.0 * (r * slope_weights[e, g, column] + ratio * delta)
