@@ -180,20 +180,17 @@ def climb(
             slope_centres = correction.slope_centres
             slope_weights = correction.slope_weights.transpose(2, 0, 1)
     c = np.ascontiguousarray
-    surrogate = (
-        c(degrees, dtype=np.int64), c(coefficients.T, dtype=float), moving,
-        c(centres, dtype=float), c(weights, dtype=float), c(tail, dtype=float),
+    series = (c(degrees, dtype=np.int64), c(coefficients.T, dtype=float))
+    kernel_correction = (
+        moving, c(centres, dtype=float), c(weights, dtype=float), c(tail, dtype=float),
         c(slope_centres, dtype=float), c(slope_weights, dtype=float),
     )  # fmt: skip
     starts, element, sign = c(starts, dtype=float), c(element, dtype=np.int64), c(sign, dtype=float)
     low, high = c(low, dtype=float), c(high, dtype=float)
 
     def part(rows: slice) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        degrees_, coefficients_, moving_, *rest = surrogate
-        return climb_starts(
-            degrees_, coefficients_, c(starts[rows]), c(element[rows]), c(sign[rows]),
-            c(low[rows]), c(high[rows]), moving_, *rest, _STEPS,
-        )  # fmt: skip
+        these = (starts[rows], element[rows], sign[rows], low[rows], high[rows])
+        return climb_starts(*series, *map(c, these), *kernel_correction, _STEPS)
 
     # each start climbs on its own, so ranges of starts on the threads Numba may use (the
     # kernel releases the GIL) give the same numbers whatever the split
