@@ -45,7 +45,8 @@ __all__ = [
 #: take on average as much CPU with gradients as without): 1.88 on the nine closed-form
 #: cases of docs/fuzzy.md (0.97 for ringing3 to 3.48 for bump3), 1.41 with the brake's
 #: studies 1 (76 runs without, 71 with: 1.07) and 2 (89 and 187: 0.48; docs/benchmarks.md,
-#: "The brake's studies with gradients")
+#: "The brake's studies with gradients"); 1.34 with study 1's 100 runs of another measured
+#: path (its rounds with gradients hang on round-off), which changes no model's choice
 AUTO_MAX_RUN_COST = 1.4
 
 
