@@ -190,7 +190,7 @@ def climb(
 
     def part(rows: slice) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         these = (starts[rows], element[rows], sign[rows], low[rows], high[rows])
-        return climb_starts(*series, *map(c, these), *kernel_correction, _STEPS)
+        return climb_starts(series, *map(c, these), kernel_correction, _STEPS)
 
     # each start climbs on its own, so ranges of starts on the threads Numba may use (the
     # kernel releases the GIL) give the same numbers whatever the split

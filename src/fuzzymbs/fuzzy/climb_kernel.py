@@ -50,21 +50,19 @@ def _evaluate(
     x: NDArray,
     e: int,
     want_slope: bool,
-    degrees: NDArray,
+    series: tuple,
     tops: NDArray,
-    coefficients: NDArray,
-    moving: NDArray,
-    centres: NDArray,
-    weights: NDArray,
-    tail: NDArray,
-    slope_centres: NDArray,
-    slope_weights: NDArray,
+    correction: tuple,
     table: NDArray,
     table_slope: NDArray,
     gradient: NDArray,
 ) -> float:
     """The surrogate of element ``e`` at ``x`` (and, with ``want_slope``, its gradient
-    into ``gradient``: zero along the directions that do not move)."""
+    into ``gradient``: zero along the directions that do not move); ``series`` and
+    ``correction`` as :func:`climb_starts` takes them, ``table`` and ``table_slope`` room
+    for the Chebyshev values."""
+    degrees, coefficients = series
+    moving, centres, weights, tail, slope_centres, slope_weights = correction
     count = x.shape[0]
     for i in range(count):
         _chebyshev(x[i], tops[i], table[i], table_slope[i])
@@ -138,19 +136,13 @@ def _evaluate(
 
 @numba.njit(cache=True, nogil=True)
 def climb_starts(
-    degrees: NDArray,
-    coefficients: NDArray,
+    series: tuple,
     starts: NDArray,
     element: NDArray,
     sign: NDArray,
     low: NDArray,
     high: NDArray,
-    moving: NDArray,
-    centres: NDArray,
-    weights: NDArray,
-    tail: NDArray,
-    slope_centres: NDArray,
-    slope_weights: NDArray,
+    correction: tuple,
     steps: int,
 ) -> tuple[NDArray, NDArray]:
     """Projected gradient ascent of ``sign[k] * s_(element[k])`` from every start in its
@@ -161,20 +153,22 @@ def climb_starts(
 
     Parameters
     ----------
-    degrees : (D, n) the series' multi-degrees.
-    coefficients : (E, D) the series' coefficients, one row per element.
+    series : (degrees (D, n) int, coefficients (E, D)): the Chebyshev series, one row of
+        coefficients per element.
     starts, low, high : (K, n) unit coordinates.
     element : (K,) int; sign : (K,) +1 (maximum) or -1 (minimum).
-    moving : (n,) bool, the correction's directions.
-    centres : (P, m), weights : (E, P), tail : (E, 1 + m) or (E, 0): the cubic correction
-        (P = 0 and a tail of no columns: none).
-    slope_centres : (G, m), slope_weights : (E, G, m): the Hermite terms (G = 0: none).
+    correction : (moving, centres, weights, tail, slope_centres, slope_weights):
+        ``moving`` (n,) bool, the correction's directions (m of them); the cubic
+        correction's ``centres`` (P, m), ``weights`` (E, P) and ``tail`` (E, 1 + m), or
+        (E, 0) for none; the Hermite terms' ``slope_centres`` (G, m) and
+        ``slope_weights`` (E, G, m) (G = 0: none).
     steps : the most steps a start takes.
 
     Returns
     -------
     points : (K, n) where each search ended; values : (K,) the surrogate there.
     """
+    degrees = series[0]
     count, n = starts.shape
     tops = np.zeros(n, dtype=np.int64)
     for d in range(degrees.shape[0]):
@@ -199,10 +193,7 @@ def climb_starts(
             width = max(width, high[k, i] - low[k, i])
         step = 0.05 * max(width, 1e-300)
         # value and gradient in one pass over the centres; a rejected trial leaves both
-        value = _evaluate(
-            x, e, True, degrees, tops, coefficients, moving, centres, weights, tail,
-            slope_centres, slope_weights, table, table_slope, gradient,
-        )  # fmt: skip
+        value = _evaluate(x, e, True, series, tops, correction, table, table_slope, gradient)
         for _ in range(steps):
             norm = 0.0
             inward = False
@@ -218,9 +209,8 @@ def climb_starts(
             for i in range(n):
                 trial[i] = min(max(x[i] + step * direction[i] / norm, low[k, i]), high[k, i])
             trial_value = _evaluate(
-                trial, e, True, degrees, tops, coefficients, moving, centres, weights, tail,
-                slope_centres, slope_weights, table, table_slope, trial_gradient,
-            )  # fmt: skip
+                trial, e, True, series, tops, correction, table, table_slope, trial_gradient
+            )
             if sign[k] * trial_value > sign[k] * value:
                 x[:] = trial
                 gradient[:] = trial_gradient
