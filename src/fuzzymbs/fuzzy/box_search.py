@@ -18,12 +18,10 @@ from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.fuzzy.chebyshev_grid import basis_matrix
-from fuzzymbs.fuzzy.climb_kernel import climb_starts
 from fuzzymbs.fuzzy.grids import cartesian
 from fuzzymbs.fuzzy.hermite_correction import HermiteCorrection
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
@@ -167,6 +165,11 @@ def climb(
     values : (K,) the series (plus correction) there.
 
     """
+    # imported here: the fuzzy engine loads Numba (0.18 s) only when it climbs
+    import numba
+
+    from fuzzymbs.fuzzy.climb_kernel import climb_starts
+
     dimension = starts.shape[1]
     elements = coefficients.shape[1]
     moving = np.ones(dimension, dtype=bool)
