@@ -4,13 +4,12 @@
 adaptive method's surrogate from the best point of a search grid. The surrogate is a
 Chebyshev series plus a kernel correction through the runs
 (:mod:`fuzzymbs.fuzzy.residual_correction`, and with the model's gradients
-:mod:`fuzzymbs.fuzzy.hermite_correction`), and a brake study climbs it from 60,000
-starts per box search (six levels, two bounds, 5,000 signal elements). Written with
-arrays, every step evaluated the series' basis and the kernel at every start still
-moving, and gathered each start's element's coefficients and weights: 1 to 2.3 s a
-search, about 8 s of study 1's 10 s between its rounds. Here each start reads only its
-element's numbers and stops on its own; the arithmetic is the same formulas in another
-order, so the values agree to round-off, not bit for bit.
+:mod:`fuzzymbs.fuzzy.hermite_correction`), and a brake study climbs it from 60,030
+starts per box search (six levels, two bounds, three signals of 2,001 points), most
+of which stop at their first step. Compiled, each start reads only its element's
+coefficients and weights and stops on its own; with arrays, every step would gather
+every moving start's numbers and evaluate the basis and the kernel for all of them
+(4.7 times slower on a brake-sized search, ``benchmarks/box_search.py``).
 
 The surrogate of element ``e`` at ``x`` (the correction's coordinates: the moving
 directions ``m``, ``d_p = x_m - c_p``, ``r_p = |d_p|``)::
@@ -49,7 +48,6 @@ def _chebyshev(x: float, top: int, value: NDArray, slope: NDArray) -> None:
 def _evaluate(
     x: NDArray,
     e: int,
-    want_slope: bool,
     series: tuple,
     tops: NDArray,
     correction: tuple,
@@ -57,8 +55,8 @@ def _evaluate(
     table_slope: NDArray,
     gradient: NDArray,
 ) -> float:
-    """The surrogate of element ``e`` at ``x`` (and, with ``want_slope``, its gradient
-    into ``gradient``: zero along the directions that do not move); ``series`` and
+    """The surrogate of element ``e`` at ``x``, and its gradient into ``gradient`` (zero
+    along the directions that do not move); ``series`` and
     ``correction`` as :func:`climb_starts` takes them, ``table`` and ``table_slope`` room
     for the Chebyshev values."""
     degrees, coefficients = series
@@ -74,15 +72,14 @@ def _evaluate(
         for i in range(count):
             product *= table[i, degrees[d, i]]
         total += a * product
-        if want_slope:
-            for i in range(count):
-                if not moving[i]:
-                    continue
-                part = table_slope[i, degrees[d, i]]
-                for q in range(count):
-                    if q != i:
-                        part *= table[q, degrees[d, q]]
-                gradient[i] += a * part
+        for i in range(count):
+            if not moving[i]:
+                continue
+            part = table_slope[i, degrees[d, i]]
+            for q in range(count):
+                if q != i:
+                    part *= table[q, degrees[d, q]]
+            gradient[i] += a * part
     # the cubic correction: sum_p w_p r_p^3 + t_0 + t_l x_l over the moving coordinates
     if tail.shape[1] > 0:
         total += tail[e, 0]
@@ -90,8 +87,7 @@ def _evaluate(
         for i in range(count):
             if moving[i]:
                 total += tail[e, column] * x[i]
-                if want_slope:
-                    gradient[i] += tail[e, column]
+                gradient[i] += tail[e, column]
                 column += 1
     for p in range(centres.shape[0]):
         squared = 0.0
@@ -104,12 +100,11 @@ def _evaluate(
         r = np.sqrt(squared)
         w = weights[e, p]
         total += w * r * r * r
-        if want_slope:
-            column = 0
-            for i in range(count):
-                if moving[i]:
-                    gradient[i] += 3.0 * r * w * (x[i] - centres[p, column])
-                    column += 1
+        column = 0
+        for i in range(count):
+            if moving[i]:
+                gradient[i] += 3.0 * r * w * (x[i] - centres[p, column])
+                column += 1
     # the Hermite terms: -3 sum_g r_g (d_g . v_g), gradient -3 (r_g v_g + d_g (d_g . v_g) / r_g)
     for g in range(slope_centres.shape[0]):
         squared = 0.0
@@ -123,14 +118,13 @@ def _evaluate(
                 column += 1
         r = np.sqrt(squared)
         total -= 3.0 * r * dot
-        if want_slope:
-            ratio = dot / r if r > 0.0 else 0.0
-            column = 0
-            for i in range(count):
-                if moving[i]:
-                    delta = x[i] - slope_centres[g, column]
-                    gradient[i] -= 3.0 * (r * slope_weights[e, g, column] + ratio * delta)
-                    column += 1
+        ratio = dot / r if r > 0.0 else 0.0
+        column = 0
+        for i in range(count):
+            if moving[i]:
+                delta = x[i] - slope_centres[g, column]
+                gradient[i] -= 3.0 * (r * slope_weights[e, g, column] + ratio * delta)
+                column += 1
     return total
 
 
@@ -193,7 +187,7 @@ def climb_starts(
             width = max(width, high[k, i] - low[k, i])
         step = 0.05 * max(width, 1e-300)
         # value and gradient in one pass over the centres; a rejected trial leaves both
-        value = _evaluate(x, e, True, series, tops, correction, table, table_slope, gradient)
+        value = _evaluate(x, e, series, tops, correction, table, table_slope, gradient)
         for _ in range(steps):
             norm = 0.0
             inward = False
@@ -209,7 +203,7 @@ def climb_starts(
             for i in range(n):
                 trial[i] = min(max(x[i] + step * direction[i] / norm, low[k, i]), high[k, i])
             trial_value = _evaluate(
-                trial, e, True, series, tops, correction, table, table_slope, trial_gradient
+                trial, e, series, tops, correction, table, table_slope, trial_gradient
             )
             if sign[k] * trial_value > sign[k] * value:
                 x[:] = trial
