@@ -56,9 +56,9 @@ def _evaluate(
     gradient: NDArray,
 ) -> float:
     """The surrogate of element ``e`` at ``x``, and its gradient into ``gradient`` (zero
-    along the directions that do not move); ``series`` and
-    ``correction`` as :func:`climb_starts` takes them, ``table`` and ``table_slope`` room
-    for the Chebyshev values."""
+    along the directions that do not move); ``series`` and ``correction`` as
+    :func:`climb_starts` takes them, ``table`` and ``table_slope`` room for the
+    Chebyshev values."""
     degrees, coefficients = series
     moving, centres, weights, tail, slope_centres, slope_weights = correction
     count = x.shape[0]
