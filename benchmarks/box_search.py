@@ -29,13 +29,12 @@ import json
 import sys
 import time
 
+import gradient_adaptive
 import numpy as np
 from bench_common import load_average
 
 from fuzzymbs.fuzzy import box_search
-from fuzzymbs.fuzzy.adaptive import AdaptiveTransformation
 from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, basis_matrix
-from fuzzymbs.fuzzy.numbers import triangular_numbers
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 from fuzzymbs.models.closed_form.hard_cases import hard_cases
 from fuzzymbs.models.closed_form.resonance import resonance_cases
@@ -116,19 +115,8 @@ def run_case(climb, case, gradients: bool) -> dict:
 
     box_search.climb = climb
     confirmation.climb = climb
-    engine = AdaptiveTransformation(
-        triangular_numbers(case.triangles), np.linspace(0.0, 1.0, 6), 0.01, 2000, 20_000
-    )
     start = time.perf_counter()
-    while not engine.done:
-        points = engine.next_batch()
-        if len(points) == 0:
-            break
-        samples = dict(zip(engine.names, points.T, strict=True))
-        if gradients:
-            engine.add(points, *case.gradient(samples))
-        else:
-            engine.add(points, case.model(samples))
+    engine = gradient_adaptive.run(case, gradients)  # 6 levels, 1 %, budget 2,000
     seconds = time.perf_counter() - start
     outcome = engine.outcome()
     return {"seconds": seconds, "runs": outcome.runs, "error": outcome.error}
