@@ -361,3 +361,28 @@ def test_thousands_of_unknown_parameters_are_named_in_one_readable_line(tmp_path
         result.output.replace("\n", "")
     )
     assert "p4999" not in result.output
+
+
+def test_console_entry_freezes_the_heap_after_every_other_exit_handler():
+    # main() registers gc.freeze first, so it runs last (atexit is last in, first out):
+    # a handler registered before main() still runs after it and sees the heap frozen,
+    # and the command's own output (written before the exit handlers) is complete
+    import subprocess
+    import sys
+
+    code = (
+        "import atexit, gc, sys\n"
+        "atexit.register(lambda: print('frozen at exit:', gc.get_freeze_count() > 0))\n"
+        "from fuzzymbs import cli\n"
+        "sys.argv = ['fuzzymbs', 'info']\n"
+        "try:\n"
+        "    cli.main()\n"
+        "except SystemExit as end:\n"
+        "    assert end.code in (0, None), end.code\n"
+        "print('frozen before exit:', gc.get_freeze_count() > 0)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.strip().splitlines()
+    assert any(line.startswith("Executors: inline") for line in lines)  # info's output
+    assert lines[-2:] == ["frozen before exit: False", "frozen at exit: True"]

@@ -6,7 +6,9 @@ commands so that ``fuzzymbs --help`` and ``fuzzymbs info`` start quickly.
 
 from __future__ import annotations
 
+import atexit
 import functools
+import gc
 import logging
 import os
 import sys
@@ -515,7 +517,18 @@ def info(
     typer.echo("\n".join(lines))
 
 
-def main() -> None:  # pragma: no cover - console entry for `python -m fuzzymbs.cli`
+def main() -> None:
+    """The console entry (``fuzzymbs``, ``python -m fuzzymbs.cli``): :data:`app` with a
+    quick exit.
+
+    At exit, after every other exit handler (Dask's client, logging), the objects alive
+    are frozen out of the garbage collector: the interpreter's last collections then
+    skip the few hundred thousand objects NumPy, xarray, Numba and matplotlib leave
+    behind. A ``fuzzymbs run`` then exits in 0.04 s instead of 0.25-0.45 s
+    (docs/benchmarks.md); nothing is lost, because files are closed and flushed by
+    then and Python never promised to collect cycles at exit.
+    """
+    atexit.register(gc.freeze)  # registered first: runs last
     app()
 
 
