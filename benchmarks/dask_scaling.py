@@ -4,7 +4,8 @@
                                       [--no-diagnostics] [--only PREFIX,...]
                                       [--src CHECKOUT/src] [--json] [--out FILE]
     python benchmarks/dask_scaling.py --cli [--quick] [--repeat N] [--no-figures]
-                                      [--quiet-workers] [--src CHECKOUT/src] [--out FILE]
+                                      [--quiet-workers] [--ready-workers]
+                                      [--src CHECKOUT/src] [--out FILE]
 
 ``--cli``: end to end, as a user measures it, the same study as a study file through
 ``fuzzymbs run`` in a child process (fresh store, the default plots and report;
@@ -14,8 +15,10 @@ started and warmed up by the benchmark, alternating; ratios of the study's own w
 time (``wall_time_s`` in the result: plan, runs and method check; the dataset is
 assembled after it) and of the child's (with interpreter start and writing result.nc).
 ``--quiet-workers`` adds, in each round, a third run on a cluster whose workers
-run without Dask's statistical profiler (:data:`QUIET_WORKERS`, the setting
-docs/studies.md recommends).
+run without Dask's statistical profiler (:data:`QUIET_WORKERS`);
+``--ready-workers`` one on a cluster whose workers also import what the figure tasks
+need as they start (:data:`READY_WORKERS`: the preload
+:mod:`fuzzymbs.study.worker_preload`; the setting docs/studies.md recommends).
 
 Full run about 7 min on 2 cores (``--no-diagnostics``: 3.5 min); ``--src`` measures
 another checkout's ``src`` (a ``git archive`` of a commit), workers included.
@@ -329,6 +332,8 @@ QUIET_DASK = {
 #: The worker setting docs/studies.md recommends for a fuzzymbs cluster: no statistical
 #: profiler (it samples every thread's stack every 10 ms, for the dashboard only).
 QUIET_WORKERS = {"distributed.worker.profile.enabled": False}
+#: and the worker preload docs/studies.md recommends (imports at the worker's start)
+READY_WORKERS = {**QUIET_WORKERS, "distributed.worker.preload": ["fuzzymbs.study.worker_preload"]}
 #: name -> (workers, NUMBA_NUM_THREADS=1 in the workers, Dask configuration)
 CLUSTERS: dict[str, tuple[int, bool, dict[str, Any]]] = {
     "w1": (1, True, {}),
@@ -776,7 +781,11 @@ def _cli_run(
 
 
 def cli_main(
-    quick: bool = False, repeat: int | None = None, plots: bool = True, quiet_workers: bool = False
+    quick: bool = False,
+    repeat: int | None = None,
+    plots: bool = True,
+    quiet_workers: bool = False,
+    ready_workers: bool = False,
 ) -> dict[str, Any]:
     """``fuzzymbs run`` of the gear study: inline with one Numba thread against two
     single-thread Dask workers (a LocalCluster started here, warmed up before timing),
@@ -791,6 +800,8 @@ def cli_main(
     workers = {"dask": {}}
     if quiet_workers:
         workers["dask_quiet_workers"] = QUIET_WORKERS
+    if ready_workers:
+        workers["dask_ready_workers"] = READY_WORKERS
     figures: dict[str, Any] = {"load_average_at_start": load_average(), "inline": []}
     figures.update({key: [] for key in workers})
     with tempfile.TemporaryDirectory() as folder:
@@ -933,6 +944,11 @@ if __name__ == "__main__":
         action="store_true",
         help="with --cli: also a cluster whose workers run without Dask's profiler",
     )
+    parser.add_argument(
+        "--ready-workers",
+        action="store_true",
+        help="with --cli: also a cluster of quiet workers started with fuzzymbs's worker preload",
+    )
     args = parser.parse_args()
     if args.src:
         source = str(Path(args.src).resolve())
@@ -941,7 +957,9 @@ if __name__ == "__main__":
             p for p in (source, os.environ.get("PYTHONPATH", "")) if p
         )
     if args.cli:
-        figures = cli_main(args.quick, args.repeat, not args.no_figures, args.quiet_workers)
+        figures = cli_main(
+            args.quick, args.repeat, not args.no_figures, args.quiet_workers, args.ready_workers
+        )
         figures_line = json.dumps(figures, default=float)
         print(figures_line)
         if args.out:

@@ -147,3 +147,43 @@ def test_a_study_file_on_dask_draws_its_figures_on_the_workers(tmp_path):
     assert_identical(on_dask.result.dataset, inline.result.dataset)
     assert [p.name for p in on_dask.plots] == [p.name for p in inline.plots]
     assert [p.read_bytes() for p in on_dask.plots] == [p.read_bytes() for p in inline.plots]
+
+
+def test_the_worker_preload_imports_what_the_figure_tasks_need_at_the_workers_start():
+    # a worker process started with the preload holds the plotting stack before any task;
+    # the control: a process that imports distributed alone holds none of it
+    import subprocess
+    import sys
+
+    distributed = pytest.importorskip("distributed")
+    from fuzzymbs.study.worker_preload import MODULES
+
+    def loaded() -> list[str]:
+        import sys
+
+        return [name for name in MODULES if name in sys.modules]
+
+    control = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            f"import sys, distributed; print([m for m in {MODULES!r} "
+            "if m in sys.modules and m != 'numpy'])",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert control.stdout.strip() == "[]"
+    with (
+        distributed.LocalCluster(
+            n_workers=1,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            preload=["fuzzymbs.study.worker_preload"],
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        (modules,) = client.run(loaded).values()
+    assert modules == list(MODULES)
