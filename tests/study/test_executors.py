@@ -187,3 +187,60 @@ def test_the_worker_preload_imports_what_the_figure_tasks_need_at_the_workers_st
     ):
         (modules,) = client.run(loaded).values()
     assert modules == list(MODULES)
+
+
+def test_work_meanwhile_runs_once_in_a_thread_only_when_the_runs_go_elsewhere(caplog):
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    from fuzzymbs.study.execution import LazyExecutor
+
+    calls = []
+
+    def meanwhile():
+        calls.append(threading.current_thread().name)
+
+    inline = LazyExecutor(None, lambda resolved: None, None, meanwhile)
+    inline.get()
+    inline.waiting()
+    assert calls == []  # inline: this thread runs the samples, nothing waits
+    with ThreadPoolExecutor(1) as pool:
+        elsewhere = LazyExecutor(pool, lambda resolved: None, None, meanwhile)
+        elsewhere.waiting()  # before the executor started: nothing is out yet
+        elsewhere.get()
+        for _ in range(3):
+            elsewhere.waiting()
+        for thread in threading.enumerate():
+            if thread.name == "fuzzymbs-meanwhile":
+                thread.join(10)
+    assert calls == ["fuzzymbs-meanwhile"]
+
+    def failing():
+        raise RuntimeError("no such module")
+
+    with ThreadPoolExecutor(1) as pool, caplog.at_level("DEBUG", "fuzzymbs.study.execution"):
+        broken = LazyExecutor(pool, lambda resolved: None, None, failing)
+        broken.get()
+        broken.waiting()  # logged in its thread, never raised here
+        for thread in threading.enumerate():
+            if thread.name == "fuzzymbs-meanwhile":
+                thread.join(10)
+    assert "work meanwhile failed: no such module" in caplog.text
+
+
+def test_import_result_modules_loads_xarray_and_the_netcdf_engine():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from fuzzymbs.study import result\n"
+        "assert 'xarray' not in sys.modules\n"
+        "result.import_result_modules()\n"
+        "engine = result.netcdf_engine()\n"
+        "needed = {'h5netcdf': ['h5netcdf', 'h5py'], 'netcdf4': ['netCDF4']}.get(engine, [])\n"
+        "print(all(m in sys.modules for m in ['xarray', *needed]))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "True"

@@ -9,6 +9,7 @@ the next, and :func:`assemble_chunks` puts the chunks back in sample order.
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, wait
@@ -75,16 +76,26 @@ class LazyExecutor:
     timeout : float, optional
         Seconds a sample may take (see
         :func:`~fuzzymbs.study.evaluation.evaluate_chunk`); None: no limit.
+    meanwhile : callable, optional
+        Work this process does after the runs and can do before them: called once, in a
+        daemon thread, when the first chunks are out on other processes (an executor
+        other than inline), where this thread only waits for them (:meth:`waiting`).
+        Its errors are logged, not raised (what it prepares is done again when needed).
     """
 
     def __init__(
-        self, spec: Any, check: Callable[[Any], None], timeout: float | None = None
+        self,
+        spec: Any,
+        check: Callable[[Any], None],
+        timeout: float | None = None,
+        meanwhile: Callable[[], Any] | None = None,
     ) -> None:
         self.spec = spec
         self._check = check
         self.timeout = timeout
         self._resolved: Any = None
         self.label: str | None = None
+        self._meanwhile = meanwhile
 
     def get(self) -> Any:
         """The resolved executor (see :func:`fuzzymbs.study.executors.resolve_executor`)."""
@@ -95,6 +106,20 @@ class LazyExecutor:
             self._resolved = resolved
             self.label = resolved.label
         return self._resolved
+
+    def waiting(self) -> None:
+        """Say that chunks are out: starts ``meanwhile`` (once) if they run elsewhere."""
+        if self._meanwhile is None or self.label in (None, "inline"):
+            return
+        work, self._meanwhile = self._meanwhile, None
+
+        def run() -> None:
+            try:
+                work()
+            except Exception as exc:  # done again, and raised, where it is needed
+                logger.debug("work meanwhile failed: %s", exc)
+
+        threading.Thread(target=run, name="fuzzymbs-meanwhile", daemon=True).start()
 
     def close(self) -> None:
         """Shut the executor down if it was started."""
@@ -184,6 +209,7 @@ def evaluate_chunks(
                 except BrokenExecutor as exc:  # a worker died on an earlier chunk
                     raise _lost_worker(exc, start, stop, resolved.label) from exc
                 pending[future] = index
+            work.waiting()
             done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
             for future in done:
                 index = pending.pop(future)

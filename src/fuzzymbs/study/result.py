@@ -131,6 +131,25 @@ def netcdf_engine() -> str:
     return "scipy"
 
 
+def import_result_modules() -> None:
+    """Import what :func:`build_dataset` and :meth:`StudyResult.to_netcdf` need and load
+    lazily (xarray, through it ``dask.array`` where Dask is installed, the NetCDF engine).
+
+    A study whose runs go to other processes calls it in a thread while it waits for them
+    (:class:`~fuzzymbs.study.execution.LazyExecutor`): otherwise the imports, about 0.35 s
+    of a ``fuzzymbs run`` on Dask, come after the last run (docs/benchmarks.md, "Dask: two
+    workers against one core").
+    """
+    import importlib
+
+    import xarray
+
+    xarray.Variable(("x",), np.zeros(1))  # xarray imports its duck-array modules here
+    engine = netcdf_engine()
+    for name in {"h5netcdf": ("h5py", "h5netcdf"), "netcdf4": ("netCDF4",)}.get(engine, ()):
+        importlib.import_module(name)
+
+
 def package_versions() -> dict[str, str]:
     """Installed versions of fuzzymbs and the packages its results depend on."""
     versions = {"python": platform.python_version()}

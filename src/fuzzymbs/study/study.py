@@ -64,7 +64,12 @@ from fuzzymbs.study.planning import (
     split_parameters,
 )
 from fuzzymbs.study.registry import ParameterInfo
-from fuzzymbs.study.result import StudyResult, build_dataset, check_output_names
+from fuzzymbs.study.result import (
+    StudyResult,
+    build_dataset,
+    check_output_names,
+    import_result_modules,
+)
 from fuzzymbs.study.store import open_chunks
 from fuzzymbs.study.streaming import ChunkFeed, integration_inputs
 
@@ -409,7 +414,8 @@ class Study(StudyRuns):
         requested_size = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
         code = self.code_version()  # recorded by the store and in the provenance
         # one executor for the screening and the plan, started only if something is evaluated
-        work = LazyExecutor(executor, self._check_picklable, timeout)
+        # while the runs are out on other processes, this one imports what it needs after
+        work = LazyExecutor(executor, self._check_picklable, timeout, import_result_modules)
         try:
             if self._plan is None:
                 self._screen((work, requested_size, resume, progress, code), store, on_failure)
