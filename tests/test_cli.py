@@ -363,10 +363,10 @@ def test_thousands_of_unknown_parameters_are_named_in_one_readable_line(tmp_path
     assert "p4999" not in result.output
 
 
-def test_console_entry_freezes_the_heap_after_every_other_exit_handler():
-    # main() registers gc.freeze first, so it runs last (atexit is last in, first out):
-    # a handler registered before main() still runs after it and sees the heap frozen,
-    # and the command's own output (written before the exit handlers) is complete
+def test_console_entry_freezes_the_heap_at_exit():
+    # main() registers gc.freeze before the command runs, so it runs after the command's
+    # own exit handlers (atexit is last in, first out): a handler registered before
+    # main() runs after it and sees the heap frozen, and the command's output is complete
     import subprocess
     import sys
 

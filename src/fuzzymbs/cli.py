@@ -521,14 +521,15 @@ def main() -> None:
     """The console entry (``fuzzymbs``, ``python -m fuzzymbs.cli``): :data:`app` with a
     quick exit.
 
-    At exit, after every other exit handler (Dask's client, logging), the objects alive
-    are frozen out of the garbage collector: the interpreter's last collections then
-    skip the few hundred thousand objects NumPy, xarray, Numba and matplotlib leave
-    behind. A ``fuzzymbs run`` then exits in 0.04 s instead of 0.25-0.45 s
-    (docs/benchmarks.md); nothing is lost, because files are closed and flushed by
-    then and Python never promised to collect cycles at exit.
+    At exit, after the exit handlers registered while the command ran (Dask's client,
+    temporary folders), the objects alive are frozen out of the garbage collector: the
+    interpreter's last collections then skip the few hundred thousand objects NumPy,
+    xarray, Numba and matplotlib leave behind. A ``fuzzymbs run`` then exits in 0.04 s
+    instead of 0.25-0.45 s (docs/benchmarks.md). Every exit handler still runs and
+    every object still freed by its reference count is; only cycles are left to the
+    operating system, which Python never promised to collect at exit.
     """
-    atexit.register(gc.freeze)  # registered first: runs last
+    atexit.register(gc.freeze)  # before the command's own: runs after them
     app()
 
 
