@@ -81,14 +81,14 @@ def label_check_runs_ahead() -> None:
     """Record the models the check's re-runs are made ahead on (:data:`CHECK_MODELS`)."""
     run_ahead = integrate.SimulationModel.run_ahead
 
-    def recorded(self, samples, then=None):
+    def recorded(self, samples, then=None, wrt=None):
         frame = sys._getframe(1)
         while frame is not None:
             if frame.f_code.co_name == "_start_check":
                 CHECK_MODELS.add(id(self))
                 break
             frame = frame.f_back
-        return run_ahead(self, samples, then)
+        return run_ahead(self, samples, then, wrt)
 
     integrate.SimulationModel.run_ahead = recorded
 

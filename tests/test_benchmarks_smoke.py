@@ -344,3 +344,21 @@ def test_brake_targets_variant_is_the_demo_with_rodas4(tmp_path):
     assert changed["model"].pop("options") == {"integrator": "rodas4"}
     assert changed == original
     assert targets.FILES[1]["paper"].exists() and targets.FILES[2]["paper"].exists()
+
+
+def test_study_timeline_wrappers_take_what_the_wrapped_methods_take(monkeypatch):
+    # the timeline's wrapper of SimulationModel.run_ahead must pass on every argument the
+    # study gives it (a parameter added to run_ahead broke the whole benchmark once)
+    import inspect
+
+    from fuzzymbs.mbs import integrate
+
+    study_timeline = pytest.importorskip("study_timeline")
+    original = integrate.SimulationModel.run_ahead
+    monkeypatch.setattr(integrate.SimulationModel, "run_ahead", original)  # restored after
+    study_timeline.label_check_runs_ahead()
+    wrapper = integrate.SimulationModel.run_ahead
+    assert wrapper is not original
+    assert list(inspect.signature(wrapper).parameters) == list(
+        inspect.signature(original).parameters
+    )
