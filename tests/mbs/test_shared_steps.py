@@ -168,6 +168,16 @@ def test_tightened_keeps_the_reference_and_logs_its_own_sequence(shared):
     assert shared.shares_steps and not DiscBrake(t_end=T_END).shares_steps
 
 
+def test_logged_ahead_names_the_tightened_model_that_takes_the_sequence_logged_ahead(shared):
+    # the reference block logs the modal sample at rtol / 10 / 10 (the test below: that
+    # model takes the sequence without a logging run); a study's pilot asks before it
+    # measures its tighter model's error there (integration_check.choose_tolerance)
+    assert shared.tightened(10.0).logged_ahead(10.0)
+    assert not shared.logged_ahead(10.0)  # rtol / 10: a sequence of its own
+    assert not shared.tightened(10.0).logged_ahead(3.0)
+    assert not DiscBrake(t_end=T_END).logged_ahead(10.0)  # no shared steps
+
+
 @pytest.mark.slow
 def test_the_check_sequence_logged_beside_the_reference_is_its_own_logging_run(
     scheme, shared, monkeypatch

@@ -687,3 +687,115 @@ def test_a_fixed_plans_check_runs_beside_its_validation_runs(monkeypatch):
         assert ahead.attrs[name] == serial.attrs[name]
     for name, values in ahead.data_vars.items():
         np.testing.assert_array_equal(values.values, serial[name].values)
+
+
+class LoggedAheadDecay(SharedDecay):
+    """:class:`SharedDecay` whose error leaves the rtol^1.2 law at the coarse rtol 1e-2
+    (``COARSE`` times the law there, as the brake's coarse sequences do) and whose
+    tighter model's own tenfold tighter one takes a sequence logged ahead
+    (``logged_ahead``): the pilot then measures the tighter model's error."""
+
+    SLOPE, COARSE = 20.0, 100.0
+
+    def __init__(self, rtol: float, modal: float | None = None) -> None:
+        super().__init__(rtol, modal)
+        self.slope = self.SLOPE * (self.COARSE if rtol > 5e-3 else 1.0)
+
+    def logged_ahead(self, factor: float = 10.0) -> bool:
+        return self.modal is not None and factor == 10.0
+
+    def share_steps(self, modal) -> LoggedAheadDecay:
+        return type(self)(self.rtol, float(np.asarray(modal["a"])[0]))
+
+    def tightened(self, factor: float = 10.0) -> LoggedAheadDecay:
+        return type(self)(self.rtol / factor, self.modal)
+
+    def __call__(self, samples):
+        if self.modal is None:
+            return super().__call__(samples)
+        a = np.asarray(samples["a"], dtype=float)[:, None]
+        error = self.slope * self.rtol**1.2 * (a - self.modal) + self.REFERENCE
+        y = a * np.exp(-TIME) + error * np.sin(np.pi * TIME)
+        failed = np.zeros(a.shape[0], dtype=bool)
+        return {"y": y, "failed": failed, "failure_reason": np.where(failed, "", "")}
+
+
+class LoggedAheadOptimistic(LoggedAheadDecay):
+    """:class:`LoggedAheadDecay` whose coarse error is below the law (the brake's study 2)."""
+
+    SLOPE, COARSE = 300.0, 0.3
+
+
+class LoggedAheadLawful(LoggedAheadDecay):
+    """:class:`LoggedAheadDecay` that keeps the law at the coarse rtol too."""
+
+    SLOPE, COARSE = 100.0, 1.0
+
+
+def _ahead_figures(model: type[LoggedAheadDecay]) -> tuple[float, float, float, float]:
+    """Closed forms of the pilot on ``model`` (a = 2 +- 0.2, levels 0, 0.5, 1: corners a
+    = 1.9, 2.1): the error at rtol 1e-2 against 1e-3 over the corners' band scale at
+    1e-2, the error at 1e-3 measured against 1e-4 over the scale at 1e-4, the budget
+    (0.5 x 1 % less the reference's part) and the law's factor from 1e-2."""
+    from fuzzymbs.study.integration_check import SHARED_ORDER, TARGET_FRACTION
+
+    s = np.sin(np.pi * TIME)
+    slopes = [model.SLOPE * (model.COARSE if r > 5e-3 else 1.0) for r in (1e-2, 1e-3, 1e-4)]
+    terms = [c * r**1.2 for c, r in zip(slopes, (1e-2, 1e-3, 1e-4), strict=True)]
+
+    def scale(term: float) -> np.ndarray:
+        width = 2 * 0.1 * (np.exp(-TIME) + term * s)
+        return np.maximum(width, 0.1 * width.max())
+
+    pilot = np.max(0.1 * abs(terms[0] - terms[1]) * s / scale(terms[0]))
+    measured = np.max(0.1 * abs(terms[1] - terms[2]) * s / scale(terms[2]))
+    target = TARGET_FRACTION * 0.01
+    budget = max(target - np.max(model.REFERENCE * s / scale(terms[0])), 0.5 * target)
+    return pilot, measured, budget, (pilot / budget) ** (1 / SHARED_ORDER)
+
+
+@pytest.mark.parametrize(
+    ("model", "expected"),
+    [
+        # the law from 1e-2 asks for ~44; measured, 1e-3 meets the budget: the tenth
+        (LoggedAheadDecay, lambda measured, budget: 10.0),
+        # the law asks for ~26; measured, 1e-3 needs ~80, near enough to the hundredth,
+        # whose sequence was logged ahead
+        (LoggedAheadOptimistic, lambda measured, budget: 100.0),
+        # the law holds, but the coarse corners' spread holds their error: measured on
+        # the tighter corners' scale the factor is ~32 (the law's ~21 would miss)
+        (LoggedAheadLawful, lambda measured, budget: 10 * (measured / budget) ** (1 / 1.2)),
+    ],
+)
+def test_the_pilot_measures_its_tighter_models_error_where_the_law_asks_for_more(model, expected):
+    from fuzzymbs.study.integration_check import REUSE_DECADES, TARGET_FRACTION
+
+    pilot, measured, budget, law = _ahead_figures(model)
+    assert law > 10 ** (1 + REUSE_DECADES)  # the law alone would build another model
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TimeIntegrationWarning)
+        result = Study(model(1e-2), fuzzy, levels=2, integration_tolerance=0.01).run(progress=False)
+    attrs = result.dataset.attrs
+    assert attrs["integration_pilot_error"] == pytest.approx(pilot, rel=1e-9)
+    assert attrs["integration_measured_error"] == pytest.approx(measured, rel=1e-9)
+    factor = expected(measured, budget)
+    assert attrs["integration_tolerance_factor"] == pytest.approx(factor, rel=1e-9)
+    assert attrs["time_integration"] == f"closed form, rtol {1e-2 / factor:g}, shared"
+    # two corners at each of 1e-2, 1e-3 and 1e-4, two logging and two reference runs, and
+    # a logging run for a model built for the choice (neither the tenth nor the hundredth)
+    built = factor not in (10.0, 100.0)
+    assert attrs["integration_pilot_runs"] == 2 * 2 + 4 + 2 + built
+    # what the choice is for: the study's own check (the samples re-run at a tenth of the
+    # chosen rtol) finds the time-integration error within the target, 0.5 x 1 %
+    assert attrs["time_integration_error"] <= TARGET_FRACTION * 0.01 * (1 + 1e-3)
+    assert f"{100 * measured:.3g} % measured at a tenth of it" in summarize(result.dataset)
+
+
+def test_without_a_sequence_logged_ahead_the_pilot_keeps_the_law():
+    # SharedDecay offers no logged_ahead: no corners run at the hundredth, nothing measured
+    fuzzy = {"a": {"type": "triangular", "modal": 2.0, "spread": 0.1}}
+    result = Study(SharedDecay(1e-2), fuzzy, levels=2, integration_tolerance=0.01).run(
+        progress=False
+    )
+    assert np.isnan(result.dataset.attrs["integration_measured_error"])

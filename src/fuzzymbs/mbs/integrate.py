@@ -39,15 +39,15 @@ from fuzzymbs.mbs.shared_steps import (
     predicted_reference_error,
     share_steps,
 )
+from fuzzymbs.mbs.simulate_checks import (
+    check_integrator,
+    check_kernel,
+    check_timing,
+    per_sample,
+)
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
 from fuzzymbs.tolerance import DEFAULT_TOLERANCE, Tolerance
 
-#: Kernel choices of :func:`simulate`.
-KERNELS = ("auto", "lanes", "samples")
-#: Integrators of :func:`simulate`: the paper's fixed-step RK4, and the Rosenbrock methods
-#: with error control (:mod:`fuzzymbs.mbs.kernels.rosenbrock`; opt-in here): ROS34PW2 (the
-#: brake model's default) and RODAS4
-INTEGRATORS = ("rk4", "ros34pw2", "rodas4")
 #: the integrators with error control (a tolerance, shared steps, step logs, sensitivities)
 ROSENBROCK = ("ros34pw2", "rodas4")
 #: the key of the outputs' derivatives in a model's outputs when it is called with ``wrt``
@@ -91,23 +91,6 @@ class SimulationResult:
     gradient_parameters: tuple[str, ...] = ()
     #: (B,) right-hand sides the sensitivities took (besides ``work_counts``'), None without
     sensitivity_rhs: NDArray[np.int64] | None = None
-
-
-def _check_timing(t_end: float, dt: float, record_interval: float | None) -> tuple[int, int]:
-    if not (np.isfinite(dt) and dt > 0):
-        raise InvalidParameterError(f"time step dt must be > 0 s, got {dt!r}")
-    if not (np.isfinite(t_end) and t_end > 0):
-        raise InvalidParameterError(f"t_end must be > 0 s, got {t_end!r}")
-    n_steps = round(t_end / dt)
-    if abs(n_steps * dt - t_end) > 1e-9 * t_end:
-        raise InvalidParameterError(f"t_end = {t_end} s is not a whole number of steps dt = {dt} s")
-    interval = dt if record_interval is None else record_interval
-    every = round(interval / dt)
-    if every < 1 or abs(every * dt - interval) > 1e-9 * interval:
-        raise InvalidParameterError(
-            f"record_interval = {interval} s must be a positive multiple of dt = {dt} s"
-        )
-    return n_steps, every
 
 
 def simulate(
@@ -197,14 +180,14 @@ def simulate(
         outputs' derivatives, (B, T, P) per output in this order, in the output's unit
         per the parameter's (docs/theory.md, "Forward sensitivities").
     """
-    _check_kernel(kernel)
-    rtols, atols, h_min = _check_integrator(integrator, tolerance)
+    check_kernel(kernel)
+    rtols, atols, h_min = check_integrator(integrator, tolerance)
     if log_steps is not False and integrator not in ROSENBROCK:
         raise InvalidParameterError(f"log_steps needs an integrator of {ROSENBROCK}")
     compiled = system.compile() if isinstance(system, System) else system
     if not outputs:
         raise InvalidParameterError("simulate needs at least one output")
-    n_steps, every = _check_timing(t_end, dt, record_interval)
+    n_steps, every = check_timing(t_end, dt, record_interval)
     params = compiled.parameters.values(samples or {})
     batch = params.shape[0]
     directions = sensitivity_directions(
@@ -212,8 +195,8 @@ def simulate(
     )
     sens_settings = np.array([SENS_DELTA])
     nsens = directions.shape[0]
-    rtols = _per_sample(rtols, batch, "rtol")
-    atols = _per_sample(atols, batch, "atol")
+    rtols = per_sample(rtols, batch, "rtol")
+    atols = per_sample(atols, batch, "atol")
     x0 = _initial(compiled, initial_state, batch)
     out_w = np.array([compiled.output_functional(spec) for spec in outputs.values()])
     if not displacement_bound > 0:
@@ -304,37 +287,9 @@ def simulate(
     )
 
 
-def _check_integrator(
-    integrator: str, tolerance: Tolerance
-) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """``(rtol, atol, smallest step)`` for ROS34PW2 after checking the settings; rtol and
-    atol as 1-D arrays (one value, or one per sample; the tolerance checked its values)."""
-    if integrator not in INTEGRATORS:
-        raise InvalidParameterError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
-    if not isinstance(tolerance, Tolerance):
-        raise InvalidParameterError(
-            f"tolerance must be a fuzzymbs.tolerance.Tolerance, got {tolerance!r}"
-        )
-    return (*tolerance.arrays(), 1e-14)
-
-
-def _per_sample(values: NDArray[np.float64], batch: int, name: str) -> NDArray[np.float64]:
-    """A tolerance for every sample of the batch (one value for all, or one each)."""
-    if values.size not in (1, batch):
-        raise InvalidParameterError(
-            f"{name} must be one value or one per sample ({batch}), got {values.size}"
-        )
-    return np.array(np.broadcast_to(values, (batch,)))  # writable: one kernel signature
-
-
-def _check_kernel(kernel: str) -> None:
-    if kernel not in KERNELS:
-        raise InvalidParameterError(f"kernel must be one of {KERNELS}, got {kernel!r}")
-
-
 def samples_per_block(kernel: str) -> int:
     """Samples that share one block of lanes for the ``kernel`` option of :func:`simulate`."""
-    _check_kernel(kernel)
+    check_kernel(kernel)
     return 1 if kernel == "samples" else LANES
 
 
@@ -482,11 +437,11 @@ class SimulationModel:
     ) -> None:
         self.compiled = system.compile() if isinstance(system, System) else system
         self.settings = model_settings(settings)
-        n_steps, every = _check_timing(
+        n_steps, every = check_timing(
             self.settings["t_end"], self.settings["dt"], self.settings["record_interval"]
         )
-        _check_kernel(self.settings["kernel"])
-        _check_integrator(self.settings["integrator"], self.settings["tolerance"])
+        check_kernel(self.settings["kernel"])
+        check_integrator(self.settings["integrator"], self.settings["tolerance"])
         dt = self.settings["dt"]
         self.outputs = dict(outputs)
         for spec in self.outputs.values():
@@ -753,6 +708,17 @@ class SimulationModel:
             return tight
         # the tighter model's own sequence, corrected by the same reference
         return share_steps(tight, shared.modal, shared.references, shared.ahead)
+
+    def logged_ahead(self, factor: float | None = None) -> bool:
+        """On shared steps: True when :meth:`tightened` ``(factor)`` takes the sequence the
+        reference block logs ahead (no logging run of its own, unless that lane failed),
+        so that a study's pilot can measure this model's error against it cheaply
+        (:func:`fuzzymbs.study.integration_check.choose_tolerance`)."""
+        shared = self.shared
+        if shared is None or shared.ahead is None:
+            return False
+        tolerance = self.tolerance.tightened(factor)
+        return (tolerance.rtol, tolerance.atol) == (shared.ahead.rtol, shared.ahead.atol)
 
     def prepare_tightened(self, factor: float | None = None) -> None:
         """Start building ``tightened(factor)`` in a background thread (on shared steps,

@@ -390,6 +390,9 @@ class ToleranceChoice:
         the pilot's cut widths.
     reference_error_predicted : the same predicted from the modal logging runs before
         the reference had run (which model is built ahead); NaN without a prediction.
+    measured_error : with shared steps, the pilot's tighter model's error measured
+        against its corners on the sequence logged ahead beside the reference, where the
+        law asked for more than that model (NaN: not measured).
     """
 
     factor: float
@@ -400,9 +403,11 @@ class ToleranceChoice:
     shared_steps: bool = False
     reference_error: float = float("nan")
     reference_error_predicted: float = float("nan")
+    measured_error: float = float("nan")
 
     def to_attrs(self) -> dict[str, Any]:
         return {
+            "integration_measured_error": float(self.measured_error),
             "integration_reference_error_predicted": float(self.reference_error_predicted),
             "integration_pilot_error": float(self.pilot_error),
             "integration_pilot_runs": int(self.pilot_runs),
@@ -452,7 +457,13 @@ def choose_tolerance(
         at the model's tolerance with those at a tenth of it (the reference that corrects
         both drops out: the modal point has no error left to compare) and divides the
         tolerance by ``(E / (TARGET_FRACTION tolerance - E_ref))^(1 / SHARED_ORDER)``,
-        ``E_ref`` the reference's own estimated error.
+        ``E_ref`` the reference's own estimated error. Where that asks for more than the
+        tenth and the model's hundredth takes the sequence its reference block logs
+        (``logged_ahead``), the corners run once more on it: the tenth's own error
+        ``E_10`` is measured, and the factor is ``10 (E_10 / budget)^(1 / SHARED_ORDER)``
+        (at least 10; the hundredth's model is taken when near enough). From the coarse
+        tolerance the law misjudges the tenth's error sixfold either way on the brake
+        (docs/brake.md, "Cost").
     first : (k, n) the plan's first points (rows as ``modal``). On shared steps they
         run in the background on the model the choice is likely to take, while the
         reference finishes (``run_ahead``: kept for the plan's first call; lost if
@@ -623,10 +634,14 @@ def _choose_shared(
     prediction = predict(fine) if callable(predict) else None
     predicted = _relative_to(prediction or {}, scales)
     likely = factor_for(max(target - PREDICTION_MARGIN * predicted, 0.5 * target))
+    # where the tighter model's own tighter one takes the sequence the reference block
+    # logs, a factor above the tighter model's is measured there before it is taken
+    logged_ahead = getattr(fine, "logged_ahead", None)
+    measurable = callable(logged_ahead) and bool(logged_ahead(fine_factor))
     speculative = ahead_on = None  # the model built ahead; the one running ahead
     first_columns = None if first is None or not len(first) else dict(columns(first))
-    if _reuses_fine(likely, fine_factor):
-        ahead_on = fine  # the pilot's tighter model will do
+    if _reuses_fine(likely, fine_factor) or (measurable and likely > 1.0):
+        ahead_on = fine  # the pilot's tighter model will do, or is measured first
     elif likely > 1.0:
         speculative = Background(_prepared_model, shared, likely, first_columns)
     else:
@@ -643,9 +658,17 @@ def _choose_shared(
             "takes more than half the target"
         )
     factor = factor_for(budget)
+    tighter, measured = None, float("nan")
+    if measurable and factor > fine_factor and not _reuses_fine(factor, fine_factor):
+        tighter, measured = _measured_error(fine, fine_factor, columns(corners), fine_out, scales)
+        runs += len(corners)
+        if np.isfinite(measured):  # the law from the pilot's tighter model, a decade on
+            factor = fine_factor * max(1.0, measured / budget) ** (1.0 / SHARED_ORDER)
     built = int(speculative is not None)  # logging runs made for the choice
     if _reuses_fine(factor, fine_factor):
         factor, chosen = fine_factor, fine  # the pilot's tighter model: near enough
+    elif tighter is not None and _near(factor, fine_factor**2):
+        factor, chosen = fine_factor**2, tighter  # its sequence was logged ahead
     elif speculative is not None and _near(factor, likely):
         factor, chosen = likely, speculative.result()  # near enough as well
         ahead_on = chosen
@@ -663,4 +686,32 @@ def _choose_shared(
         shared_steps=True,
         reference_error=reference_part,
         reference_error_predicted=predicted if prediction is not None else float("nan"),
+        measured_error=measured,
     )
+
+
+def _measured_error(
+    fine: Any,
+    factor: float,
+    corners: Mapping[str, np.ndarray],
+    fine_out: Mapping[str, Any],
+    scales: Mapping[str, np.ndarray],
+) -> tuple[Any, float]:
+    """``(fine.tightened(factor), E)``: the pilot's corners on the tighter model (the
+    sequence its reference block logged ahead) and ``E``, the largest deviation of
+    ``fine``'s corners from them over the band scale of the tighter corners (the
+    coarse corners' spread holds the coarse error, a third of it on the brake's study
+    2); NaN if a run failed."""
+    tighter = fine.tightened(factor)
+    tight_out = tighter.deviations(dict(corners))
+    failed = np.asarray(tight_out.get("failed", np.zeros(1, bool)), dtype=bool)
+    if failed.any():
+        return tighter, float("nan")
+    measured, count = 0.0, len(next(iter(corners.values())))
+    for name in scales:
+        values = np.asarray(fine_out[name], dtype=float).reshape(count, -1)
+        tight = np.asarray(tight_out[name], dtype=float).reshape(count, -1)
+        scale = _band_scale(tight)
+        if scale is not None:
+            measured = max(measured, float(np.max(np.abs(values - tight) / scale)))
+    return tighter, measured

@@ -190,9 +190,12 @@ def summarize(dataset: xarray.Dataset) -> str:
             chosen = f"tightened {factor:.3g} times" if factor > 1 else "kept"
             if attrs.get("integration_choice_note"):
                 chosen += f" ({attrs['integration_choice_note']})"
+            measured = float(attrs.get("integration_measured_error", np.nan))
+            tenth = f", {100 * measured:.3g} % measured at a tenth of it"
+            tenth = tenth if np.isfinite(measured) else ""
             lines.append(
                 f"Integrator tolerance chosen by a pilot of {int(attrs['integration_pilot_runs'])}"
-                f" runs: {100 * pilot:.3g} % of the cut width expected at the model's own, "
+                f" runs: {100 * pilot:.3g} % of the cut width expected at the model's own{tenth}, "
                 f"so {chosen}"
             )
     if "method_error" in attrs:

@@ -364,6 +364,11 @@ class DiscBrake:
         :meth:`fuzzymbs.mbs.integrate.SimulationModel.prepare_tightened`)."""
         self.simulation.prepare_tightened(factor)
 
+    def logged_ahead(self, factor: float | None = None) -> bool:
+        """On shared steps: True when ``tightened(factor)`` takes the sequence its reference
+        block logs ahead (see :meth:`fuzzymbs.mbs.integrate.SimulationModel.logged_ahead`)."""
+        return self.simulation.logged_ahead(factor)
+
     @property
     def differentiable(self) -> tuple[str, ...]:
         """The parameters ``brake(samples, wrt=names)`` gives the outputs' derivatives for:
