@@ -525,9 +525,10 @@ def main() -> None:
     temporary folders), the objects alive are frozen out of the garbage collector: the
     interpreter's last collections then skip the few hundred thousand objects NumPy,
     xarray, Numba and matplotlib leave behind. A ``fuzzymbs run`` then exits in 0.04 s
-    instead of 0.25-0.45 s (docs/benchmarks.md). Every exit handler still runs and
-    every object still freed by its reference count is; only cycles are left to the
-    operating system, which Python never promised to collect at exit.
+    instead of 0.25-0.45 s (docs/benchmarks.md). Every exit handler still runs, and
+    every object whose reference count drops to zero is still freed; only reference
+    cycles are left to the operating system (Python never promised to collect them at
+    exit).
     """
     atexit.register(gc.freeze)  # before the command's own: runs after them
     app()
