@@ -262,11 +262,17 @@ class SharedDecay(ScalableDecay):
     def reference_error(self):
         return None if self.modal is None else {"y": self.REFERENCE * np.sin(np.pi * TIME)}
 
+    # subclasses change the error or add methods; these build the subclass itself
     def share_steps(self, modal) -> SharedDecay:
-        return SharedDecay(self.rtol, float(np.asarray(modal["a"])[0]))
+        return type(self)(self.rtol, float(np.asarray(modal["a"])[0]))
 
     def tightened(self, factor: float = 10.0) -> SharedDecay:
-        return SharedDecay(self.rtol / factor, self.modal)
+        return type(self)(self.rtol / factor, self.modal)
+
+    @property
+    def slope(self) -> float:
+        """c of the error c r^1.2 (a - a0) at this model's rtol."""
+        return self.SLOPE
 
     def deviations(self, samples):
         out = self(samples)
@@ -277,7 +283,7 @@ class SharedDecay(ScalableDecay):
         if self.modal is None:
             return super().__call__(samples)
         a = np.asarray(samples["a"], dtype=float)[:, None]
-        error = self.SLOPE * self.rtol**1.2 * (a - self.modal) + self.REFERENCE
+        error = self.slope * self.rtol**1.2 * (a - self.modal) + self.REFERENCE
         y = a * np.exp(-TIME) + error * np.sin(np.pi * TIME)
         failed = np.zeros(a.shape[0], dtype=bool)
         return {"y": y, "failed": failed, "failure_reason": np.where(failed, "", "")}
@@ -348,12 +354,6 @@ class GentleDecay(SharedDecay):
 
     SLOPE = 10.0
 
-    def share_steps(self, modal) -> GentleDecay:
-        return GentleDecay(self.rtol, float(np.asarray(modal["a"])[0]))
-
-    def tightened(self, factor: float = 10.0) -> GentleDecay:
-        return GentleDecay(self.rtol / factor, self.modal)
-
 
 def test_a_factor_between_the_pilots_tolerances_takes_the_tighter_one():
     # the law would divide rtol by (pilot / (target - R))^(1 / 1.2), between 1 and 10
@@ -384,12 +384,6 @@ class LargeReferenceError(SharedDecay):
     """:class:`SharedDecay` whose reference error takes a third of the pilot's target."""
 
     REFERENCE = 2e-4
-
-    def share_steps(self, modal) -> LargeReferenceError:
-        return LargeReferenceError(self.rtol, float(np.asarray(modal["a"])[0]))
-
-    def tightened(self, factor: float = 10.0) -> LargeReferenceError:
-        return LargeReferenceError(self.rtol / factor, self.modal)
 
 
 def _large_reference_pilot(rtol: float) -> tuple[float, float, float]:
@@ -432,12 +426,6 @@ class AheadDecay(SharedDecay):
 
     ahead: ClassVar[list] = []  # (rtol, the points' a) of every run_ahead
 
-    def share_steps(self, modal) -> AheadDecay:
-        return AheadDecay(self.rtol, float(np.asarray(modal["a"])[0]))
-
-    def tightened(self, factor: float = 10.0) -> AheadDecay:
-        return AheadDecay(self.rtol / factor, self.modal)
-
     def run_ahead(self, samples, then=None) -> None:
         AheadDecay.ahead.append((self.rtol, np.asarray(samples["a"], dtype=float).copy()))
         if then is not None:
@@ -472,12 +460,6 @@ class PredictedReference(LargeReferenceError):
     """:class:`LargeReferenceError` that predicts its reference's error before the
     reference runs, a factor PREDICTION_MARGIN short (as on the brake's study 2)."""
 
-    def share_steps(self, modal) -> PredictedReference:
-        return PredictedReference(self.rtol, float(np.asarray(modal["a"])[0]))
-
-    def tightened(self, factor: float = 10.0) -> PredictedReference:
-        return PredictedReference(self.rtol / factor, self.modal)
-
     def predicted_reference_error(self, tighter):
         from fuzzymbs.study.integration_check import PREDICTION_MARGIN
 
@@ -504,12 +486,6 @@ def test_the_model_built_ahead_is_the_one_for_the_predicted_reference_error():
 class FailingReference(SharedDecay):
     """:class:`SharedDecay` whose reference run (started in the background) failed: the
     failure is raised where the reference's error is first asked for."""
-
-    def share_steps(self, modal) -> FailingReference:
-        return FailingReference(self.rtol, float(np.asarray(modal["a"])[0]))
-
-    def tightened(self, factor: float = 10.0) -> FailingReference:
-        return FailingReference(self.rtol / factor, self.modal)
 
     @property
     def reference_error(self):
@@ -589,12 +565,6 @@ class KeptWavy(SharedDecay):
     def __init__(self, rtol: float, modal: float | None = None) -> None:
         super().__init__(rtol, modal)
         self.kept: dict[tuple[float, float], np.ndarray] = {}
-
-    def share_steps(self, modal) -> KeptWavy:
-        return KeptWavy(self.rtol, float(np.asarray(modal["a"])[0]))
-
-    def tightened(self, factor: float = 10.0) -> KeptWavy:
-        return KeptWavy(self.rtol / factor, self.modal)
 
     def _evaluate(self, a: np.ndarray, b: np.ndarray, ahead: bool) -> np.ndarray:
         for x, y in zip(a, b, strict=True):
@@ -697,27 +667,12 @@ class LoggedAheadDecay(SharedDecay):
 
     SLOPE, COARSE = 20.0, 100.0
 
-    def __init__(self, rtol: float, modal: float | None = None) -> None:
-        super().__init__(rtol, modal)
-        self.slope = self.SLOPE * (self.COARSE if rtol > 5e-3 else 1.0)
+    @property
+    def slope(self) -> float:
+        return self.SLOPE * (self.COARSE if self.rtol > 5e-3 else 1.0)
 
     def logged_ahead(self, factor: float = 10.0) -> bool:
         return self.modal is not None and factor == 10.0
-
-    def share_steps(self, modal) -> LoggedAheadDecay:
-        return type(self)(self.rtol, float(np.asarray(modal["a"])[0]))
-
-    def tightened(self, factor: float = 10.0) -> LoggedAheadDecay:
-        return type(self)(self.rtol / factor, self.modal)
-
-    def __call__(self, samples):
-        if self.modal is None:
-            return super().__call__(samples)
-        a = np.asarray(samples["a"], dtype=float)[:, None]
-        error = self.slope * self.rtol**1.2 * (a - self.modal) + self.REFERENCE
-        y = a * np.exp(-TIME) + error * np.sin(np.pi * TIME)
-        failed = np.zeros(a.shape[0], dtype=bool)
-        return {"y": y, "failed": failed, "failure_reason": np.where(failed, "", "")}
 
 
 class LoggedAheadOptimistic(LoggedAheadDecay):
