@@ -135,6 +135,10 @@ def test_the_pilots_runs_are_kept_for_the_plan(scheme, monkeypatch):
     assert shared.tightened(10.0).simulation.shared.kept.keys() == {
         shared.simulation.compiled.parameters.values(modal)[0].tobytes()
     }  # a tighter model keeps only its own logging run
+    shared.tightened(10.0).deviations(_columns(scheme, [5]))
+    ran.clear()
+    shared.tightened(10.0)(_columns(scheme, [5, 9]))
+    assert ran == [1]  # one tighter model per factor: the pilot's runs serve the check
 
 
 @pytest.mark.slow
@@ -383,8 +387,11 @@ def test_a_prepared_tightened_model_is_the_tightened_model(scheme, shared):
     simulation.prepare_tightened(10.0)
     prepared = simulation.tightened(10.0)
     assert simulation.tightened(10.0) is prepared  # built once
-    assert simulation.tightened(5.0) is not prepared  # another factor: on the spot
-    assert copy.copy(simulation)._prepared is None
+    other = simulation.tightened(5.0)
+    assert other is not prepared  # another factor: another model, kept as well
+    assert simulation.tightened(5.0) is other
+    assert simulation.tightened(10.0) is prepared
+    assert copy.copy(simulation)._prepared == {}
     for name in OUTPUTS:
         np.testing.assert_array_equal(prepared(samples)[name], direct.simulation(samples)[name])
 

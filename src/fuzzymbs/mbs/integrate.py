@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import inspect
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -387,6 +388,8 @@ MODEL_SETTINGS = (
 #: :func:`simulate`'s parameters, read once (a simulate patched later, in a test or a
 #: benchmark that times its calls, leaves the settings' defaults as they are)
 _SIMULATE_PARAMETERS = inspect.signature(simulate).parameters
+#: held while a model checks and sets the tightened model it builds (threads may ask at once)
+_PREPARING = threading.Lock()
 
 
 def model_settings(given: Mapping[str, Any]) -> dict[str, Any]:
@@ -452,8 +455,8 @@ class SimulationModel:
         self.output_dims.update({"failed": (), "failure_reason": ()})
         #: the step sequence and correction all samples share (:meth:`share_steps`)
         self.shared: SharedSteps | None = None
-        #: (factor, tightened model being built) of :meth:`prepare_tightened`
-        self._prepared: tuple[float, Background] | None = None
+        #: factor -> the tightened model, perhaps being built (:meth:`prepare_tightened`)
+        self._prepared: dict[float, Background] = {}
         #: runs started ahead of need (:meth:`run_ahead`)
         self._ahead: Background | None = None
 
@@ -689,10 +692,12 @@ class SimulationModel:
         factor = self.tolerance.tightening if factor is None else factor
         if not (np.isfinite(factor) and factor > 0):
             raise InvalidParameterError(f"factor must be > 0, got {factor!r}")
-        prepared = getattr(self, "_prepared", None)
-        if prepared is not None and prepared[0] == factor:
-            return prepared[1].result()
-        return self._tightened(factor)
+        if self.shared is None:
+            return self._tightened(factor)
+        # one model per factor, whichever thread asks first: the runs it keeps (a
+        # study's pilot corners) serve every later call (the study's check)
+        self.prepare_tightened(factor)
+        return self._prepared[factor].result()
 
     def _tightened(self, factor: float) -> SimulationModel:
         settings = dict(self.settings)
@@ -727,14 +732,14 @@ class SimulationModel:
         factor = self.tolerance.tightening if factor is None else factor
         if not (np.isfinite(factor) and factor > 0):
             raise InvalidParameterError(f"factor must be > 0, got {factor!r}")
-        prepared = getattr(self, "_prepared", None)
-        if self.shared is not None and (prepared is None or prepared[0] != factor):
-            self._prepared = (factor, Background(self._tightened, factor))
+        with _PREPARING:  # the check and the set at once: a model built once
+            if self.shared is not None and factor not in self._prepared:
+                self._prepared[factor] = Background(self._tightened, factor)
 
     def __getstate__(self) -> dict[str, Any]:
         # a copy or a pickled model builds its own tightened model
         self._wait_ahead()  # its runs kept before the model is copied
-        return {**self.__dict__, "_prepared": None, "_ahead": None}
+        return {**self.__dict__, "_prepared": {}, "_ahead": None}
 
     @property
     def shares_steps(self) -> bool:
