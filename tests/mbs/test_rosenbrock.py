@@ -50,7 +50,7 @@ def run(compiled, outputs, t_end, interval, rtol, x0=None, samples=None, bound=1
         counts,
         np.empty(0),
         np.empty(0),
-        np.empty(0),
+        np.empty((1, 1)),
     )
     assert (status == OK).all()
     return out, counts

@@ -192,8 +192,10 @@ def test_the_check_sequence_logged_beside_the_reference_is_its_own_logging_run(
     import fuzzymbs.mbs.shared_steps as shared_steps
 
     plain = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-3).simulation
-    ahead = shared.simulation.shared.ahead
-    assert (ahead.rtol, ahead.atol) == ((1e-3 / 10.0) / 10.0, None)
+    # a hundredth only: a thousandth would be tighter than the reference block's lanes
+    assert [(t.rtol, t.atol) for t in shared.simulation.shared.ahead] == [
+        ((1e-3 / 10.0) / 10.0, None)
+    ]
     modal = {name: float(v[0]) for name, v in _columns(scheme, [scheme.nominal_index]).items()}
     own = shared_steps._logged_run(plain.tightened(10.0).tightened(10.0), modal)
 
@@ -208,6 +210,54 @@ def test_the_check_sequence_logged_beside_the_reference_is_its_own_logging_run(
     for name in OUTPUTS:
         np.testing.assert_array_equal(twice.modal_outputs[name], own.outputs[name][0])
     assert twice.reference is shared.simulation.shared.reference
+
+
+@pytest.mark.slow
+def test_both_reference_lanes_log_the_sequences_a_study_and_its_check_take(scheme, monkeypatch):
+    # at rtol 1e-2 (the brake's) the models tightened twice and three times have the
+    # reference runs' tolerances, 1e-4 and 1e-5: both lanes log their steps, and each
+    # model takes its lane's run, bit for bit its own logging run (lanes are independent)
+    import fuzzymbs.mbs.shared_steps as shared_steps
+
+    model = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-2)
+    modal = {name: float(v[0]) for name, v in _columns(scheme, [scheme.nominal_index]).items()}
+    shared = model.share_steps(modal)
+    ahead = shared.simulation.shared.ahead
+    assert [t.rtol for t in ahead] == [1e-2 / 10 / 10, 1e-2 / 10 / 10 / 10]
+    assert ahead[1].rtol == shared_steps.REFERENCE_RTOL
+    tenth = shared.tightened(10.0)  # its own logging run
+    assert tenth.logged_ahead(10.0) and tenth.tightened(10.0).logged_ahead(10.0)
+    assert not tenth.tightened(10.0).tightened(10.0).logged_ahead(10.0)  # 1e-6
+    plain = model.simulation
+    own = [
+        shared_steps._logged_run(plain.tightened(10.0).tightened(10.0), modal),
+        shared_steps._logged_run(plain.tightened(10.0).tightened(10.0).tightened(10.0), modal),
+    ]
+
+    def no_logging_run(*args):
+        raise AssertionError("the sequence logged ahead should have been taken")
+
+    monkeypatch.setattr(shared_steps, "_logged_run", no_logging_run)
+    hundredth = tenth.tightened(10.0)
+    for taken, alone in zip((hundredth, hundredth.tightened(10.0)), own, strict=True):
+        steps = taken.simulation.shared
+        np.testing.assert_array_equal(steps.sequence, alone.step_times)
+        np.testing.assert_array_equal(steps.renewals, alone.step_renewals)
+        for name in OUTPUTS:
+            np.testing.assert_array_equal(steps.modal_outputs[name], alone.outputs[name][0])
+        assert steps.reference is shared.simulation.shared.reference
+
+
+def test_log_samples_is_checked():
+    model = DiscBrake(t_end=1e-5, record_interval=1e-5, rtol=1e-2)
+    samples = {"nodal_force": np.full(2, 16e3)}
+    with pytest.raises(InvalidParameterError, match="log_samples must be 1 to 2"):
+        model.simulation.simulate(samples, log_steps=True, log_samples=3)
+    with pytest.raises(InvalidParameterError, match="log_samples must be a whole number"):
+        model.simulation.simulate(samples, log_steps=True, log_samples=1.5)
+    logs = model.simulation.simulate(samples, log_steps=True, log_samples=2).step_logs
+    assert len(logs) == 2  # the same sample twice: the same steps
+    np.testing.assert_array_equal(logs[0][0], logs[1][0])
 
 
 @pytest.mark.parametrize(

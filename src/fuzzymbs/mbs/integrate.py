@@ -29,7 +29,6 @@ from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import METHODS, ros34pw2
 from fuzzymbs.mbs.kernels.sensitivities import SENS_DELTA, no_sensitivity
-from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.sensitivities import checked_wrt, gradient_cost, sensitivity_directions
 from fuzzymbs.mbs.shared_steps import (
     SharedSteps,
@@ -44,7 +43,9 @@ from fuzzymbs.mbs.simulate_checks import (
     check_integrator,
     check_kernel,
     check_timing,
+    checked_log_samples,
     per_sample,
+    samples_per_block,
 )
 from fuzzymbs.mbs.system import CompiledSystem, Output, System
 from fuzzymbs.tolerance import DEFAULT_TOLERANCE, Tolerance
@@ -71,6 +72,8 @@ class SimulationResult:
         ``log_steps``), else None.
     step_renewals : with ``step_times``, True for each step whose Jacobian was
         evaluated at its start (the ``jacobian_renewals`` of a replay), else None.
+    step_logs : with ``log_steps``, ``(step_times, step_renewals)`` of each of the first
+        ``log_samples`` samples (the first is the attributes above), else None.
     """
 
     time: NDArray[np.float64]
@@ -81,6 +84,7 @@ class SimulationResult:
     step_counts: NDArray[np.int64] | None = None
     step_times: NDArray[np.float64] | None = None
     step_renewals: NDArray[np.bool_] | None = None
+    step_logs: list[tuple[NDArray[np.float64], NDArray[np.bool_]]] | None = None
     #: (B, 3) right-hand sides, Jacobians and LU factorisations of each sample's runs
     #: (ROS34PW2, RODAS4: the block calls it took part in), None for RK4
     work_counts: NDArray[np.int64] | None = None
@@ -111,6 +115,7 @@ def simulate(
     step_sequence: NDArray[np.float64] | None = None,
     jacobian_renewals: NDArray[np.bool_] | None = None,
     log_steps: bool | int = False,
+    log_samples: int = 1,
     sensitivities: Sequence[str] = (),
 ) -> SimulationResult:
     """Integrate a batch of samples with classic RK4 (fixed step) or ROS34PW2.
@@ -173,6 +178,10 @@ def simulate(
         ROS34PW2 only: return the ends of the first sample's accepted steps as
         ``step_times`` (and ``step_renewals``); a number: at most that many (default
         20 per dt, at least 10^6), more raise :class:`~fuzzymbs.errors.InvalidParameterError`.
+    log_samples : int
+        With ``log_steps``: the first ``log_samples`` samples log their steps
+        (``step_logs``), at most one block of lanes (:func:`samples_per_block`); each
+        sample's steps are its own, as without the log.
     sensitivities : sequence of str
         ROS34PW2 and RODAS4 only: names of bound parameters (``compiled.parameters.names``)
         whose forward sensitivities ``dx/dp`` are integrated with the state, on the
@@ -221,10 +230,12 @@ def simulate(
     fail_t = np.full(batch, np.nan)
     counts = np.zeros((batch, 6), dtype=np.int64)
     derivatives = np.empty((batch, out_w.shape[0], n_rec, nsens))
-    step_log = np.zeros(1)
+    no_log = np.zeros((1, 1))
+    step_log = no_log
     if log_steps is not False:
         capacity = max(20 * n_steps, 10**6) if log_steps is True else int(log_steps)
-        step_log = np.zeros(1 + 2 * capacity)  # (time, renewed) pairs
+        rows = checked_log_samples(log_samples, batch, samples_per_block(kernel))
+        step_log = np.zeros((rows, 1 + 2 * capacity))  # per row: count, (time, renewed) pairs
     for start in range(0, batch, max(int(chunk_size), 1)):
         sl = slice(start, min(start + chunk_size, batch))
         o = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec))
@@ -257,7 +268,7 @@ def simulate(
                 counts[sl],
                 sequence,
                 renewals,
-                step_log if start == 0 else np.zeros(1),
+                step_log if start == 0 else no_log,
                 METHODS[integrator],
                 sensitivity,
             )
@@ -266,7 +277,7 @@ def simulate(
         status[sl] = st
         fail_t[sl] = ft
     time = np.arange(n_rec) * every * dt
-    logged = logged_steps(step_log) if log_steps is not False else None
+    logs = [logged_steps(row) for row in step_log] if log_steps is not False else None
     reasons = np.array([FAILURE_REASONS[int(s)] for s in status], dtype=str)
     gradients = None
     if nsens:
@@ -279,19 +290,14 @@ def simulate(
         failure_reason=reasons,
         failure_time=fail_t,
         step_counts=None if integrator == "rk4" else counts[:, :2].copy(),
-        step_times=None if logged is None else logged[:, 0].copy(),
-        step_renewals=None if logged is None else logged[:, 1] != 0.0,
+        step_times=None if logs is None else logs[0][:, 0].copy(),
+        step_renewals=None if logs is None else logs[0][:, 1] != 0.0,
+        step_logs=None if logs is None else [(log[:, 0].copy(), log[:, 1] != 0.0) for log in logs],
         work_counts=None if integrator == "rk4" else counts[:, 2:5].copy(),
         gradients=gradients,
         gradient_parameters=tuple(sensitivities) if nsens else (),
         sensitivity_rhs=counts[:, 5].copy() if nsens else None,
     )
-
-
-def samples_per_block(kernel: str) -> int:
-    """Samples that share one block of lanes for the ``kernel`` option of :func:`simulate`."""
-    check_kernel(kernel)
-    return 1 if kernel == "samples" else LANES
 
 
 def _initial(compiled: CompiledSystem, initial_state, batch: int) -> NDArray[np.float64]:
@@ -720,10 +726,10 @@ class SimulationModel:
         so that a study's pilot can measure this model's error against it cheaply
         (:func:`fuzzymbs.study.integration_check.choose_tolerance`)."""
         shared = self.shared
-        if shared is None or shared.ahead is None:
+        if shared is None:
             return False
         tolerance = self.tolerance.tightened(factor)
-        return (tolerance.rtol, tolerance.atol) == (shared.ahead.rtol, shared.ahead.atol)
+        return any((tolerance.rtol, tolerance.atol) == (t.rtol, t.atol) for t in shared.ahead)
 
     def prepare_tightened(self, factor: float | None = None) -> None:
         """Start building ``tightened(factor)`` in a background thread (on shared steps,

@@ -62,13 +62,15 @@ modal sample's on the same steps, all a study's choice of tolerance compares)
 and further step sequences (:meth:`SimulationModel.tightened`). The correction,
 the reference and its error wait for them when first asked for.
 
-The block's first lane logs the modal sample at the model's tolerance tightened
-twice (:func:`ahead_tolerance`; a lane costs nothing beside the reference's; at the brake's
-rtol 1e-2 it is the run at ten times the reference tolerance): the logging run
-of the step sequence a study's check most likely takes. A sequence asked for at
-exactly that tolerance (the same settings, :meth:`SimulationModel.tightened`)
-takes it instead of a logging run of its own; its outputs are bit for bit those
-of that run (each lane on its own steps).
+The block's first lanes log the modal sample at the model's tolerance tightened
+twice and three times (:func:`ahead_tolerances`; a lane costs nothing beside the
+reference's; at the brake's rtol 1e-2 they are the two reference runs themselves):
+the logging runs of the step sequences a study's choice and its check most likely
+take (its pilot's model at a tenth, tightened once more; a choice of a hundredth,
+tightened once more). A sequence asked for at exactly one of those tolerances (the
+same settings, :meth:`SimulationModel.tightened`) takes it instead of a logging run
+of its own; its outputs are bit for bit those of that run (each lane on its own
+steps).
 """
 
 from __future__ import annotations
@@ -83,6 +85,7 @@ from numpy.typing import NDArray
 
 from fuzzymbs.background import Background
 from fuzzymbs.errors import InvalidParameterError, SimulationDivergedError
+from fuzzymbs.mbs.simulate_checks import samples_per_block
 from fuzzymbs.tolerance import Tolerance, tolerance_of
 
 
@@ -105,6 +108,7 @@ __all__ = [
     "KeptRun",
     "SharedSteps",
     "ahead_tolerance",
+    "ahead_tolerances",
     "checked_renewals",
     "checked_sequence",
     "kept_run",
@@ -138,15 +142,16 @@ class SharedSteps:
         start (every sample renews there too).
     modal_outputs : output -> (T,) the modal sample on these steps (the logging run).
     references : the reference runs' ``(reference, reference_error, logged_ahead)``,
-        perhaps still running (:class:`Background`); ``logged_ahead`` the logging run
-        of the block's first lane (a ``SimulationResult``, its first sample) or None.
+        perhaps still running (:class:`Background`); ``logged_ahead`` maps ``(rtol,
+        atol)`` of each lane logged ahead (one that failed left out) to its logging
+        run (a one-sample ``SimulationResult``).
     reference_rtol : the tighter reference run's tolerance (the other at the tolerance's
         tightening times it).
     kept : runs on these steps at the model's settings, kept for reuse: the parameter
         row's bytes -> :class:`KeptRun` (the logging run for the modal sample; the runs
         of :meth:`~fuzzymbs.mbs.integrate.SimulationModel.deviations`, a study's pilot).
-    ahead : the tolerance of the run logged ahead in the references' block (None:
-        none); a tightened model at exactly that tolerance takes it.
+    ahead : the tolerances of the runs logged ahead in the references' block (empty:
+        none); a tightened model at exactly one of them takes its run.
     """
 
     modal: dict[str, float]
@@ -156,7 +161,7 @@ class SharedSteps:
     references: Background[tuple[dict, dict, Any]]
     reference_rtol: float
     kept: dict[bytes, KeptRun] = field(default_factory=dict, repr=False)
-    ahead: Tolerance | None = None
+    ahead: tuple[Tolerance, ...] = ()
 
     @property
     def reference(self) -> dict[str, NDArray[np.float64]]:
@@ -317,31 +322,41 @@ def ahead_tolerance(tolerance: Tolerance) -> Tolerance:
     return tolerance.tightened().tightened()
 
 
+def ahead_tolerances(tolerance: Tolerance) -> tuple[Tolerance, ...]:
+    """The tolerances logged ahead beside the reference runs: :func:`ahead_tolerance`
+    and, unless tighter than :data:`REFERENCE_RTOL` (a lane the block would wait for),
+    that tightened once more (divided as
+    :meth:`~fuzzymbs.mbs.integrate.SimulationModel.tightened` divides it)."""
+    twice = ahead_tolerance(tolerance)
+    thrice = twice.tightened()
+    return (twice,) if thrice.rtol < REFERENCE_RTOL else (twice, thrice)
+
+
 def _reference_runs(
     model: SimulationModel,
     modal: Mapping[str, float],
-    ahead: Tolerance | None = None,
-) -> tuple[dict, dict, Any]:
+    ahead: tuple[Tolerance, ...] = (),
+) -> tuple[dict, dict, dict]:
     """The reference (the modal sample's runs at :data:`REFERENCE_RTOL` and the
     tolerance's tightening times it, extrapolated), its estimated error, output -> (T,),
-    and with ``ahead`` the modal sample's logging run at that tolerance (None if it failed
-    or its log overflowed).
+    and the modal sample's logging runs at the tolerances ``ahead``, ``(rtol, atol)`` ->
+    a one-sample result (left out: a run that failed; all: a log that overflowed).
 
     The runs are lanes of one block, each with its own tolerance and steps (its outputs
     bit for bit those of the run alone): the block costs about as much as the tightest
-    run alone. The run logged ahead is the looser reference run when their tolerances
-    agree (the brake's rtol 1e-2: both at 1e-4).
+    run alone. A run logged ahead is a reference run when their tolerances agree (the
+    brake's rtol 1e-2: both, at 1e-4 and 1e-5).
     """
     tolerance = model.settings["tolerance"]
     rtol, atol = tolerance.rtol, tolerance.atol  # atol None: a fraction
     tolerances = (REFERENCE_RTOL, tolerance.tightening * REFERENCE_RTOL)
     references = [(r, None if atol is None else atol * r / rtol) for r in tolerances]
-    lanes = list(references)
-    logged_ahead = None if ahead is None else (ahead.rtol, ahead.atol)
-    if logged_ahead is not None and (logged_ahead[1] is None) != (atol is None):
-        logged_ahead = None  # not a tolerance of this model's kind
-    if logged_ahead is not None:  # first: the kernel logs the first sample's steps
-        lanes = [logged_ahead] + [lane for lane in lanes if lane != logged_ahead]
+    logged = [
+        (t.rtol, t.atol) for t in ahead if (t.atol is None) == (atol is None)
+    ]  # of this model's kind
+    logged = logged[: samples_per_block(model.settings.get("kernel", "auto"))]
+    # first: the kernel logs the first samples' steps
+    lanes = logged + [lane for lane in references if lane not in logged]
     rows = tuple(lanes.index(lane) for lane in references)
     rtols = np.array([lane[0] for lane in lanes])
     atols = None if atol is None else np.array([lane[1] for lane in lanes])
@@ -349,14 +364,36 @@ def _reference_runs(
         runs = model.simulate(
             _copies(modal, len(lanes)),
             tolerance=replace(tolerance, rtol=rtols, atol=atols),
-            log_steps=_AHEAD_CAPACITY if logged_ahead is not None else False,
+            log_steps=_AHEAD_CAPACITY if logged else False,
+            log_samples=max(len(logged), 1),
         )
-    except InvalidParameterError:  # the log overflowed: the references alone
-        if logged_ahead is None:
+    except InvalidParameterError:  # a log overflowed: the references alone
+        if not logged:
             raise
         return _reference_runs(model, modal)
-    logged = None if logged_ahead is None or runs.failed[0] else runs
-    return (*_extrapolated(model, modal, runs, rows), logged)
+    runs_ahead = {
+        lane: _logged_lane(runs, row) for row, lane in enumerate(logged) if not runs.failed[row]
+    }
+    return (*_extrapolated(model, modal, runs, rows), runs_ahead)
+
+
+def _logged_lane(runs, row: int):
+    """Sample ``row`` of a run with ``log_samples`` above it, as a one-sample run whose
+    ``step_times`` and ``step_renewals`` are its own."""
+    times, renewals = runs.step_logs[row]
+    one = slice(row, row + 1)
+    return replace(
+        runs,
+        outputs={name: values[one] for name, values in runs.outputs.items()},
+        failed=runs.failed[one],
+        failure_reason=runs.failure_reason[one],
+        failure_time=runs.failure_time[one],
+        step_counts=runs.step_counts[one],
+        step_times=times,
+        step_renewals=renewals,
+        step_logs=[(times, renewals)],
+        work_counts=None if runs.work_counts is None else runs.work_counts[one],
+    )
 
 
 def _copies(modal: Mapping[str, float], count: int) -> dict[str, NDArray[np.float64]]:
@@ -399,7 +436,7 @@ def share_steps(
     model: SimulationModel,
     modal: Mapping[str, float],
     references: Background[tuple[dict, dict, Any]] | None = None,
-    ahead: Tolerance | None = None,
+    ahead: tuple[Tolerance, ...] = (),
 ) -> SimulationModel:
     """``model`` with every sample on the modal sample's step sequence, corrected.
 
@@ -410,9 +447,9 @@ def share_steps(
     references : the reference runs of an earlier call (a tightened model keeps its
         reference); default: started here in the background, at
         :data:`REFERENCE_RTOL` and the tolerance's tightening times it, with the modal
-        sample logged at :func:`ahead_tolerance` in the same block.
-    ahead : with ``references``: the tolerance they log ahead at; a model at exactly
-        that tolerance takes that run (waiting for the block) instead of its own.
+        sample logged at :func:`ahead_tolerances` in the same block.
+    ahead : with ``references``: the tolerances they log ahead at; a model at exactly
+        one of them takes that run (waiting for the block) instead of its own.
 
     Returns
     -------
@@ -438,10 +475,11 @@ def share_steps(
     tolerance = plain.settings["tolerance"]
     logged = None
     if references is None:
-        ahead = ahead_tolerance(tolerance)
+        ahead = ahead_tolerances(tolerance)
         references = Background(_reference_runs, plain, modal, ahead)
-    elif ahead is not None and (tolerance.rtol, tolerance.atol) == (ahead.rtol, ahead.atol):
-        logged = references.result()[2]  # None: the lane failed; run it here
+    elif any((tolerance.rtol, tolerance.atol) == (t.rtol, t.atol) for t in ahead):
+        # none: the lane failed or the log overflowed; run it here
+        logged = references.result()[2].get((tolerance.rtol, tolerance.atol))
     if logged is None:
         logged = _logged_run(plain, modal)
     # the logging run stands for the modal sample's replay: with the logged Jacobian

@@ -7,6 +7,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.tolerance import Tolerance
 
 #: Kernel choices of :func:`~fuzzymbs.mbs.integrate.simulate`.
@@ -63,3 +64,24 @@ def check_kernel(kernel: str) -> None:
     """``kernel`` is one of :data:`KERNELS`."""
     if kernel not in KERNELS:
         raise InvalidParameterError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+
+
+def checked_log_samples(log_samples: int, batch: int, per_block: int) -> int:
+    """The rows of the step log: ``log_samples`` of the batch's first samples, which
+    must lie in its first block of ``per_block`` lanes (the kernel logs there)."""
+    limit = min(batch, per_block)
+    if isinstance(log_samples, bool) or not isinstance(log_samples, (int, np.integer)):
+        raise InvalidParameterError(f"log_samples must be a whole number, got {log_samples!r}")
+    if not 1 <= log_samples <= limit:
+        raise InvalidParameterError(
+            f"log_samples must be 1 to {limit} (the batch's first block of lanes), "
+            f"got {log_samples}"
+        )
+    return int(log_samples)
+
+
+def samples_per_block(kernel: str) -> int:
+    """Samples that share one block of lanes for the ``kernel`` option of
+    :func:`~fuzzymbs.mbs.integrate.simulate`."""
+    check_kernel(kernel)
+    return 1 if kernel == "samples" else LANES

@@ -320,10 +320,10 @@ def advance_block_ros(
     :func:`fuzzymbs.mbs.kernels.rk4.rk4`; ``tolerances = (rtol, atol, h_min)``, rtol
     and atol one per sample of the batch;
     ``coefficients``: :data:`COEFFICIENTS`; ``state`` from :func:`start_block_ros`.
-    ``step_log`` (length > 1) receives the ends of the accepted steps of sample 0
-    of the batch and whether each one's Jacobian was evaluated at its start, in
-    pairs from ``step_log[1]`` (``step_log[0]``: their number; -1 when the log is
-    full).
+    ``step_log`` (R, C), C > 1: row r receives the ends of the accepted steps of
+    sample r of the batch (r < R, in its first block) and whether each one's Jacobian
+    was evaluated at its start, in pairs from ``step_log[r, 1]`` (``step_log[r, 0]``:
+    their number; -1 when the row is full); C = 1: nothing is logged.
 
     ``sensitivity = (directions, sens_settings, out_s)``: forward sensitivities
     ``S_k = dx/dp_k`` to P parameters integrated with the state by the same method on
@@ -370,7 +370,7 @@ def advance_block_ros(
     tiny = 1e-12 * interval
     shared = sequence.shape[0] > 0
     forced = shared and renewals.shape[0] == sequence.shape[0]
-    logging = step_log.shape[0] > 1 and first == 0
+    logging = step_log.shape[1] > 1 and first == 0
     h = control[_H]
     err_prev = control[_ERR_PREV]
     lu_step = control[_LU_STEP]
@@ -574,14 +574,14 @@ def advance_block_ros(
                     theta[lane] = sequence[int(control[_GRID, lane])] if shared else t_final
                 else:
                     theta[lane] = t[lane] + steps[lane]
-                if logging and lane == 0:
-                    logged = int(step_log[0])
-                    if 0 <= logged < (step_log.shape[0] - 1) // 2:
-                        step_log[1 + 2 * logged] = theta[lane]
-                        step_log[2 + 2 * logged] = 1.0 if jac_age[lane] == 0.0 else 0.0
-                        step_log[0] = logged + 1
+                if logging and lane < step_log.shape[0]:
+                    logged = int(step_log[lane, 0])
+                    if 0 <= logged < (step_log.shape[1] - 1) // 2:
+                        step_log[lane, 1 + 2 * logged] = theta[lane]
+                        step_log[lane, 2 + 2 * logged] = 1.0 if jac_age[lane] == 0.0 else 0.0
+                        step_log[lane, 0] = logged + 1
                     else:
-                        step_log[0] = -1.0
+                        step_log[lane, 0] = -1.0
                 accepted[lane] += 1.0
                 jac_age[lane] += 1.0
                 need_jac[lane] = 1.0 if jac_age[lane] >= jacobian_age else 0.0
