@@ -248,6 +248,39 @@ def test_both_reference_lanes_log_the_sequences_a_study_and_its_check_take(schem
         assert steps.reference is shared.simulation.shared.reference
 
 
+def test_a_later_lane_whose_log_overflows_is_left_out_and_the_first_kept():
+    # the first logged sample's overflow raises (as with one logged sample); a later
+    # one's leaves its log out, and the reference block keeps the first lane's sequence
+    import fuzzymbs.mbs.shared_steps as shared_steps
+
+    model = DiscBrake(t_end=1e-4, record_interval=1e-5, rtol=1e-2).simulation
+    samples = {"nodal_force": np.full(2, 16e3)}
+    loose_tight = Tolerance(np.array([1e-2, 1e-5]))
+    full = model.simulate(samples, tolerance=loose_tight, log_steps=True, log_samples=2)
+    loose, tight = (len(times) for times, _ in full.step_logs)
+    assert loose < tight  # 464 against 3,356 steps over 0.1 ms
+    short = model.simulate(samples, tolerance=loose_tight, log_steps=loose, log_samples=2)
+    assert short.step_logs[1] is None
+    np.testing.assert_array_equal(short.step_times, full.step_times)
+    with pytest.raises(InvalidParameterError, match="more than the log holds"):
+        model.simulate(
+            samples, tolerance=Tolerance(np.array([1e-5, 1e-2])), log_steps=loose, log_samples=2
+        )
+    ahead = shared_steps.ahead_tolerances(model.tolerance)
+    lanes = Tolerance(np.array([t.rtol for t in ahead]))  # 1e-4 and 1e-5
+    counts = model.simulate(samples, tolerance=lanes, log_steps=True, log_samples=2).step_logs
+    real = model.simulate
+
+    def small_log(samples, **settings):  # the reference block's log holds the 1e-4 lane only
+        if settings.get("log_steps"):
+            settings["log_steps"] = len(counts[0][0])
+        return real(samples, **settings)
+
+    model.simulate = small_log
+    *_, logged = shared_steps._reference_runs(model, {"nodal_force": 16e3}, ahead)
+    assert list(logged) == [(1e-4, None)]
+
+
 def test_log_samples_is_checked():
     model = DiscBrake(t_end=1e-5, record_interval=1e-5, rtol=1e-2)
     samples = {"nodal_force": np.full(2, 16e3)}

@@ -73,7 +73,8 @@ class SimulationResult:
     step_renewals : with ``step_times``, True for each step whose Jacobian was
         evaluated at its start (the ``jacobian_renewals`` of a replay), else None.
     step_logs : with ``log_steps``, ``(step_times, step_renewals)`` of each of the first
-        ``log_samples`` samples (the first is the attributes above), else None.
+        ``log_samples`` samples (the first is the attributes above; None for a later
+        sample whose steps overflowed the log), else None.
     """
 
     time: NDArray[np.float64]
@@ -176,8 +177,9 @@ def simulate(
         rules.
     log_steps : bool or int
         ROS34PW2 only: return the ends of the first sample's accepted steps as
-        ``step_times`` (and ``step_renewals``); a number: at most that many (default
-        20 per dt, at least 10^6), more raise :class:`~fuzzymbs.errors.InvalidParameterError`.
+        ``step_times`` (and ``step_renewals``); a number: at most that many per logged
+        sample (default 20 per dt, at least 10^6); more in the first sample raise
+        :class:`~fuzzymbs.errors.InvalidParameterError`.
     log_samples : int
         With ``log_steps``: the first ``log_samples`` samples log their steps
         (``step_logs``), at most one block of lanes (:func:`samples_per_block`); each
@@ -277,7 +279,11 @@ def simulate(
         status[sl] = st
         fail_t[sl] = ft
     time = np.arange(n_rec) * every * dt
-    logs = [logged_steps(row) for row in step_log] if log_steps is not False else None
+    logs = None
+    if log_steps is not False:  # the first sample's overflow raises; another's is None
+        logs = [
+            logged_steps(row) if r == 0 or row[0] >= 0 else None for r, row in enumerate(step_log)
+        ]
     reasons = np.array([FAILURE_REASONS[int(s)] for s in status], dtype=str)
     gradients = None
     if nsens:
@@ -292,7 +298,9 @@ def simulate(
         step_counts=None if integrator == "rk4" else counts[:, :2].copy(),
         step_times=None if logs is None else logs[0][:, 0].copy(),
         step_renewals=None if logs is None else logs[0][:, 1] != 0.0,
-        step_logs=None if logs is None else [(log[:, 0].copy(), log[:, 1] != 0.0) for log in logs],
+        step_logs=None
+        if logs is None
+        else [None if log is None else (log[:, 0].copy(), log[:, 1] != 0.0) for log in logs],
         work_counts=None if integrator == "rk4" else counts[:, 2:5].copy(),
         gradients=gradients,
         gradient_parameters=tuple(sensitivities) if nsens else (),

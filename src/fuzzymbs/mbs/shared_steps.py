@@ -340,7 +340,8 @@ def _reference_runs(
     """The reference (the modal sample's runs at :data:`REFERENCE_RTOL` and the
     tolerance's tightening times it, extrapolated), its estimated error, output -> (T,),
     and the modal sample's logging runs at the tolerances ``ahead``, ``(rtol, atol)`` ->
-    a one-sample result (left out: a run that failed; all: a log that overflowed).
+    a one-sample result (left out: a run that failed or whose log overflowed; all, and
+    the block run again without logs: the first lane's log overflowed).
 
     The runs are lanes of one block, each with its own tolerance and steps (its outputs
     bit for bit those of the run alone): the block costs about as much as the tightest
@@ -367,12 +368,14 @@ def _reference_runs(
             log_steps=_AHEAD_CAPACITY if logged else False,
             log_samples=max(len(logged), 1),
         )
-    except InvalidParameterError:  # a log overflowed: the references alone
+    except InvalidParameterError:  # the first lane's log overflowed: the references alone
         if not logged:
             raise
         return _reference_runs(model, modal)
     runs_ahead = {
-        lane: _logged_lane(runs, row) for row, lane in enumerate(logged) if not runs.failed[row]
+        lane: _logged_lane(runs, row)
+        for row, lane in enumerate(logged)
+        if not runs.failed[row] and runs.step_logs[row] is not None
     }
     return (*_extrapolated(model, modal, runs, rows), runs_ahead)
 
