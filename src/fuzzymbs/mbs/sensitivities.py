@@ -19,7 +19,8 @@ __all__ = ["GRADIENT_COSTS", "checked_wrt", "gradient_cost", "sensitivity_direct
 
 #: CPU of a run per parameter differentiated, as a fraction of the run without: one
 #: right-hand side per parameter and stage besides the state's. The brake over 2 ms,
-#: study 1's three parameters: 3.0-3.2 times the run with ROS34PW2 and 2.2 with RODAS4,
+#: study 1's three parameters: 3.0-3.2 times the run with ROS34PW2 (3.0 on shared steps
+#: too) and 2.2 with RODAS4,
 #: whose Jacobian every step they do not need (docs/benchmarks.md, "Forward
 #: sensitivities"); a study's ``gradients = "auto"`` weighs it
 GRADIENT_COSTS = {"ros34pw2": 0.72, "rodas4": 0.40}
