@@ -212,6 +212,28 @@ def test_ros_accuracy_table_runs():
         assert figures[sample]["rk4_1us"]["steps"] == 50
 
 
+def test_jacobian_age_runs_each_age_and_restores_the_default(tmp_path):
+    # the script behind the Jacobian age's figures (docs/benchmarks.md), over 0.1 ms:
+    # its default-age coefficients are the kernel's, every age runs and is judged
+    # against the rtol 1e-6 truth, and the kernel's coefficients are put back
+    import jacobian_age
+
+    import fuzzymbs.mbs.integrate as integrate
+    from fuzzymbs.mbs.kernels import rosenbrock
+
+    for ours, kernels in zip(
+        jacobian_age.with_age(rosenbrock.JACOBIAN_AGE), rosenbrock.COEFFICIENTS, strict=True
+    ):
+        np.testing.assert_array_equal(ours, kernels)
+    ages = jacobian_age.measure(1e-4, 1e-3, (5, 10), rounds=1, cache=tmp_path)
+    assert set(ages) == {"5", "10"}
+    for entry in ages.values():
+        assert entry["steps"] > 0
+        assert 0.0 < entry["band_error_percent"] < 50.0  # a 0.1 ms window at rtol 1e-3
+    assert integrate.METHODS["ros34pw2"] is rosenbrock.COEFFICIENTS
+    assert (tmp_path / "jacobian_age_truth_0.0001.npz").exists()
+
+
 @pytest.mark.slow
 def test_compare_checkouts_runs_both_sides():
     # the script behind the before/after tables of docs/benchmarks.md, this checkout

@@ -113,7 +113,9 @@ def transformed(tableau_a, tableau_gamma, b, bhat, jacobian_age, embedded_order)
 #: accepted steps a Jacobian (and f_t) is used for before it is evaluated again (a
 #: W-method keeps its order with an aged Jacobian). On the brake over 10 ms, 10 steps
 #: gave 0.27 % of the peak in 3.1 s at rtol 1e-2, against 0.42 % in 5.8 s at rtol 3e-3
-#: with a fresh Jacobian every step (benchmarks/ros_accuracy.py)
+#: with a fresh Jacobian every step (benchmarks/ros_accuracy.py); on study 1's shared
+#: steps at rtol 1e-3 ages 5 to 30 cost the same CPU within 7 %, the older ones more
+#: steps (benchmarks/jacobian_age.py, docs/benchmarks.md)
 JACOBIAN_AGE = 10
 #: ROS34PW2 as the kernel takes it (:func:`transformed`)
 COEFFICIENTS = transformed(
