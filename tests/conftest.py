@@ -1,6 +1,8 @@
 """Shared pytest configuration."""
 
 import os
+import subprocess
+import sys
 
 import pytest
 
@@ -42,6 +44,21 @@ KERNELS_FIRST = (
         "tests/mbs/test_reference.py::test_rk4_matches_dop853_on_rotating_elastic_contact[samples]",
     ),
 )
+
+
+@pytest.fixture
+def fresh_python():
+    """``run(code) -> stdout``: ``code`` in a new interpreter (what a process imports, what
+    it does at exit); a non-zero exit fails the test with the interpreter's stderr."""
+
+    def run(code: str) -> str:
+        done = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
+        )
+        assert done.returncode == 0, done.stderr
+        return done.stdout
+
+    return run
 
 
 @pytest.hookimpl(optionalhook=True)  # without pytest-xdist (-p no:xdist) it is never called

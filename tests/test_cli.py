@@ -339,16 +339,11 @@ def test_max_runs_option_overrides_the_study_file(tmp_path):
     assert result.exit_code == 2 and "--max-runs" in result.output
 
 
-def test_cli_needs_no_click():
+def test_cli_needs_no_click(fresh_python):
     # typer >= 0.2x ships without click: the README's install (no test extras, which
     # pull click in through dask) must still start the CLI
-    import subprocess
-    import sys
-
     code = "import sys; sys.modules['click'] = None; import fuzzymbs.cli; print('ok')"
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "ok"
+    assert fresh_python(code).strip() == "ok"
 
 
 def test_thousands_of_unknown_parameters_are_named_in_one_readable_line(tmp_path):
@@ -363,13 +358,10 @@ def test_thousands_of_unknown_parameters_are_named_in_one_readable_line(tmp_path
     assert "p4999" not in result.output
 
 
-def test_console_entry_freezes_the_heap_at_exit():
+def test_console_entry_freezes_the_heap_at_exit(fresh_python):
     # main() registers gc.freeze before the command runs, so it runs after the command's
     # own exit handlers (atexit is last in, first out): a handler registered before
     # main() runs after it and sees the heap frozen, and the command's output is complete
-    import subprocess
-    import sys
-
     code = (
         "import atexit, gc, sys\n"
         "atexit.register(lambda: print('frozen at exit:', gc.get_freeze_count() > 0))\n"
@@ -381,8 +373,6 @@ def test_console_entry_freezes_the_heap_at_exit():
         "    assert end.code in (0, None), end.code\n"
         "print('frozen before exit:', gc.get_freeze_count() > 0)\n"
     )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    lines = done.stdout.strip().splitlines()
+    lines = fresh_python(code).strip().splitlines()
     assert any(line.startswith("Executors: inline") for line in lines)  # info's output
     assert lines[-2:] == ["frozen before exit: False", "frozen at exit: True"]

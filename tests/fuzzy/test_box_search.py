@@ -146,14 +146,8 @@ def test_the_search_gives_the_same_numbers_on_any_number_of_threads(monkeypatch)
     np.testing.assert_array_equal(two[1], one[1])
 
 
-def test_importing_the_fuzzy_engine_does_not_load_numba():
+def test_importing_the_fuzzy_engine_does_not_load_numba(fresh_python):
     # the compiled climb is imported when a search first climbs: a user of the fuzzy
     # engine alone (plans, arithmetic) does not pay Numba's import (0.18 s measured)
-    import subprocess
-    import sys
-
     code = "import sys, fuzzymbs.fuzzy; print('numba' in sys.modules)"
-    completed = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
-    )
-    assert completed.stdout.strip() == "False"
+    assert fresh_python(code).strip() == "False"

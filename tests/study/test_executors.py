@@ -149,12 +149,11 @@ def test_a_study_file_on_dask_draws_its_figures_on_the_workers(tmp_path):
     assert [p.read_bytes() for p in on_dask.plots] == [p.read_bytes() for p in inline.plots]
 
 
-def test_the_worker_preload_imports_what_the_figure_tasks_need_at_the_workers_start():
+def test_the_worker_preload_imports_what_the_figure_tasks_need_at_the_workers_start(
+    fresh_python,
+):
     # a worker process started with the preload holds the plotting stack before any task;
     # the control: a process that imports distributed alone holds none of it
-    import subprocess
-    import sys
-
     distributed = pytest.importorskip("distributed")
     from fuzzymbs.study.worker_preload import MODULES
 
@@ -163,18 +162,11 @@ def test_the_worker_preload_imports_what_the_figure_tasks_need_at_the_workers_st
 
         return [name for name in MODULES if name in sys.modules]
 
-    control = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            f"import sys, distributed; print([m for m in {MODULES!r} "
-            "if m in sys.modules and m != 'numpy'])",
-        ],
-        capture_output=True,
-        text=True,
-        check=True,
+    control = fresh_python(
+        f"import sys, distributed; print([m for m in {MODULES!r} "
+        "if m in sys.modules and m != 'numpy'])"
     )
-    assert control.stdout.strip() == "[]"
+    assert control.strip() == "[]"
     with (
         distributed.LocalCluster(
             n_workers=1,
@@ -228,10 +220,7 @@ def test_work_meanwhile_runs_once_in_a_thread_only_when_the_runs_go_elsewhere(ca
     assert "work meanwhile failed: no such module" in caplog.text
 
 
-def test_import_result_modules_loads_xarray_and_the_netcdf_engine():
-    import subprocess
-    import sys
-
+def test_import_result_modules_loads_xarray_and_the_netcdf_engine(fresh_python):
     code = (
         "import sys\n"
         "from fuzzymbs.study import result\n"
@@ -241,6 +230,4 @@ def test_import_result_modules_loads_xarray_and_the_netcdf_engine():
         "needed = {'h5netcdf': ['h5netcdf', 'h5py'], 'netcdf4': ['netCDF4']}.get(engine, [])\n"
         "print(all(m in sys.modules for m in ['xarray', *needed]))\n"
     )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "True"
+    assert fresh_python(code).strip() == "True"

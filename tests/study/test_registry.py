@@ -74,15 +74,10 @@ def test_broken_builtin_package_is_reported_not_fatal(monkeypatch, caplog):
         get_model("nope")
 
 
-def test_closed_form_study_does_not_import_gear_or_brake_packages():
-    import subprocess
-
+def test_closed_form_study_does_not_import_gear_or_brake_packages(fresh_python):
     code = (
         "import sys; from fuzzymbs.study.registry import get_model; get_model('product'); "
         "print(any(m.startswith(('fuzzymbs.models.gears', 'fuzzymbs.models.brake')) "
         "for m in sys.modules))"
     )
-    completed = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
-    )
-    assert completed.stdout.strip() == "False"
+    assert fresh_python(code).strip() == "False"
