@@ -26,7 +26,9 @@ derivative of the discrete map a study on shared steps evaluates).
 over ``--cost-t-end``, default 2 ms, at each ``--rtol``): process CPU time of the call
 (the smallest of ``--repeats``, the variants alternating) and the kernel's counts, for no
 sensitivities and for 1 (each of study 1's parameters), study 1's three, study 2's three
-and all four; the ratios against the run without, in the same process.
+and all four; the ratios against the run without, in the same process. ``shared steps``:
+ROS34PW2 with every lane on the nominal sample's sequence logged at that rtol (a study's
+runs, whose lanes step together), without sensitivities and with study 1's three.
 
 ``--delta``: the differences' relative perturbation instead of the kernel's
 (:data:`fuzzymbs.mbs.kernels.sensitivities.SENS_DELTA`), for its choice.
@@ -250,29 +252,42 @@ def cost(t_end: float, rtols: list[float], repeats: int) -> dict:
         for rtol in rtols:
             common = (compiled, samples, t_end, rtol, integrator)
             run_brake(*common, sensitivities=study1)  # warm
-            cpu = {label: [] for label in cases}
-            counts = {}
-            for _ in range(repeats):
-                for label, names in cases.items():
-                    start = time.process_time()
-                    run = run_brake(*common, sensitivities=names)
-                    cpu[label].append(time.process_time() - start)
-                    sens = 0 if run.sensitivity_rhs is None else int(run.sensitivity_rhs.max())
-                    counts[label] = [*run.work_counts.max(axis=0).tolist(), sens]
-            base = min(cpu["none"])
-            rows = {}
-            for label in cases:
-                best = min(cpu[label])
-                rows[label] = {
-                    "cpu_s": round(best, 3),
-                    "cpu_ratio": round(best / base, 3),
-                    "rhs_jac_lu_sens_rhs": counts[label],
-                    "rhs_ratio": round(
-                        (counts[label][0] + counts[label][3]) / counts["none"][0], 3
-                    ),
-                }
-            result[f"{integrator} rtol {rtol:g}"] = rows
+            result[f"{integrator} rtol {rtol:g}"] = _cost_rows(common, cases, repeats)
+    for rtol in rtols:  # a study's runs: every lane on the nominal sample's sequence
+        sequence, renewals = logged_sequence(compiled, t_end, rtol)
+        result[f"ros34pw2 rtol {rtol:g} shared steps"] = _cost_rows(
+            (compiled, samples, t_end, rtol, "ros34pw2"),
+            {label: cases[label] for label in ("none", "study 1 (3)")},
+            repeats,
+            step_sequence=sequence,
+            jacobian_renewals=renewals,
+        )
     return result
+
+
+def _cost_rows(common: tuple, cases: dict, repeats: int, **extra) -> dict:
+    """Per case (label -> the parameters differentiated): the smallest CPU of ``repeats``
+    runs of ``run_brake(*common, **extra)`` (the cases alternating), its ratio to the case
+    ``"none"``, the kernel's counts and the right-hand sides' ratio."""
+    cpu: dict[str, list[float]] = {label: [] for label in cases}
+    counts = {}
+    for _ in range(repeats):
+        for label, names in cases.items():
+            start = time.process_time()
+            run = run_brake(*common, sensitivities=names, **extra)
+            cpu[label].append(time.process_time() - start)
+            sens = 0 if run.sensitivity_rhs is None else int(run.sensitivity_rhs.max())
+            counts[label] = [*run.work_counts.max(axis=0).tolist(), sens]
+    base = min(cpu["none"])
+    return {
+        label: {
+            "cpu_s": round(min(cpu[label]), 3),
+            "cpu_ratio": round(min(cpu[label]) / base, 3),
+            "rhs_jac_lu_sens_rhs": counts[label],
+            "rhs_ratio": round((counts[label][0] + counts[label][3]) / counts["none"][0], 3),
+        }
+        for label in cases
+    }
 
 
 def _print_tables(report: dict) -> None:

@@ -212,6 +212,31 @@ def test_ros_accuracy_table_runs():
         assert figures[sample]["rk4_1us"]["steps"] == 50
 
 
+def test_box_search_times_the_correction_against_the_three_terms_it_replaced():
+    # the script behind the correction's speed-up (CHANGELOG): both ways give the same
+    # values, to round-off (the same sums in another order)
+    import box_search
+
+    figures = box_search.correction_values(repeats=1)
+    assert figures["largest_difference_relative"] < 1e-12
+    assert figures["three_terms_ms"] > 0 and figures["one_product_ms"] > 0
+
+
+def test_brake_sensitivities_cost_times_shared_steps_too():
+    # the script behind the sensitivities' cost on shared steps (docs/brake.md), over
+    # 20 us: the block on the nominal sample's logged sequence, without and with study 1's
+    # three parameters, the ratio against the run without in the same call
+    import brake_sensitivities
+
+    report = brake_sensitivities.cost(2e-5, [1e-2], repeats=1)
+    shared = report["ros34pw2 rtol 0.01 shared steps"]
+    assert set(shared) == {"none", "study 1 (3)"}
+    assert shared["none"]["cpu_ratio"] == 1.0
+    assert shared["none"]["rhs_jac_lu_sens_rhs"][3] == 0  # no sensitivity right-hand sides
+    assert shared["study 1 (3)"]["rhs_jac_lu_sens_rhs"][3] > 0
+    assert shared["study 1 (3)"]["rhs_ratio"] > 1.0
+
+
 def test_jacobian_age_runs_each_age_and_restores_the_default(tmp_path):
     # the script behind the Jacobian age's figures (docs/benchmarks.md), over 0.1 ms:
     # its default-age coefficients are the kernel's, every age runs and is judged
