@@ -409,3 +409,23 @@ def test_study_timeline_wrappers_take_what_the_wrapped_methods_take(monkeypatch)
     assert list(inspect.signature(wrapper).parameters) == list(
         inspect.signature(original).parameters
     )
+
+
+@pytest.mark.slow
+def test_mechanism_gradients_reports_every_parameter():
+    # the script behind the mechanisms' derivative figures (docs/mechanisms.md,
+    # "Derivatives"), on two slider-crank samples and two steps: every parameter gets its
+    # step change, its distance from own-step differences and from a tighter run, and
+    # the cost ratio counts the replayed runs (two per parameter)
+    import mechanism_gradients
+
+    report = mechanism_gradients.measure("slider-crank", 2, [1e-3, 1e-4], repeats=1)
+    assert set(report["parameters"]) == {
+        "crank_speed", "spin_up_time", "youngs_modulus", "rod_width", "rod_height",
+        "slider_mass",
+    }  # fmt: skip
+    for entry in report["parameters"].values():
+        assert set(entry["step_change"]) == {"0.001->0.0001"}
+        assert entry["size"] > 0 and entry["replayed_vs_tighter"] >= 0
+    assert report["failed_samples"] == {"0.001": 0, "0.0001": 0}
+    assert report["cost_ratio"] > 1.0

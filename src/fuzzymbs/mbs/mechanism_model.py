@@ -23,12 +23,17 @@ and reads the outputs from the result::
 Failed runs (diverged, a step-size underflow, a joint locking) are flagged
 in ``failed`` with the reason and the time of failure; their outputs keep
 the history up to the failure (NaN after it), and a study leaves them out.
+
+``model(samples, wrt=names)`` also returns the outputs' derivatives with respect to
+the parameters ``names`` (any of them: :attr:`MechanismModel.differentiable`), as
+central differences of runs replaying each sample's own steps
+(:mod:`fuzzymbs.mbs.mechanism_gradients`): two runs per parameter.
 """
 
 from __future__ import annotations
 
 import copy
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -37,6 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs import planar, spatial
 from fuzzymbs.mbs.assembly import Assembly
+from fuzzymbs.mbs.mechanism_gradients import GRADIENT_COST, checked_wrt, gradients_and_failures
 from fuzzymbs.mbs.planar.simulation import (
     DEFAULT_ATOL,
     DEFAULT_METHOD,
@@ -142,9 +148,22 @@ class MechanismModel:
             {**self.defaults, **{n: float(c[i]) for n, c in columns.items()}} for i in range(count)
         ]
 
-    def run(self, samples: Mapping[str, Any]) -> Any:
-        """Simulate every sample; the engine's raw result (``PlanarResult``, ``SpatialResult``)."""
-        mechanisms = [self.build(p) for p in self.sample_parameters(samples)]
+    @property
+    def differentiable(self) -> tuple[str, ...]:
+        """Parameters ``model(samples, wrt=...)`` differentiates with respect to: all."""
+        return self.parameters
+
+    #: runs per parameter differentiated, as a fraction of the run without (a study's
+    #: ``gradients = "auto"`` weighs it): the central difference's two replayed runs
+    gradient_cost = GRADIENT_COST
+
+    def run(self, samples: Mapping[str, Any], **options: Any) -> Any:
+        """Simulate every sample; the engine's raw result (``PlanarResult``, ``SpatialResult``).
+        ``options`` go to the engine's ``simulate`` (``log_steps``, ``step_sequences``)."""
+        return self._simulate(self.sample_parameters(samples), **options)
+
+    def _simulate(self, parameters: list[dict[str, float]], **options: Any) -> Any:
+        mechanisms = [self.build(p) for p in parameters]
         engines = {getattr(m, "engine", None) for m in mechanisms}
         if engines == {"planar"}:
             simulate = planar.simulate
@@ -157,17 +176,43 @@ class MechanismModel:
             )
         tolerance = self.tolerance
         return simulate(
-            mechanisms, self.times, rtol=tolerance.rtol, atol=tolerance.atol, method=self.method
+            mechanisms,
+            self.times,
+            rtol=tolerance.rtol,
+            atol=tolerance.atol,
+            method=self.method,
+            **options,
         )
 
-    def __call__(self, samples: Mapping[str, Any]) -> dict[str, NDArray]:
-        """Outputs ``{name: (B, T)}``, with ``failed`` and ``failure_reason`` per sample."""
-        result = self.run(samples)
+    def __call__(
+        self, samples: Mapping[str, Any], wrt: Sequence[str] | None = None
+    ) -> dict[str, NDArray]:
+        """Outputs ``{name: (B, T)}``, with ``failed`` and ``failure_reason`` per sample; with
+        ``wrt`` (parameter names) also ``"gradients": {name: (B, T, len(wrt))}``, in the
+        output's unit per the parameter's. The outputs are bit for bit the same with or
+        without ``wrt``; a sample whose perturbed runs fail is flagged failed, saying which."""
+        names = checked_wrt(wrt, self.parameters) if wrt else ()
+        parameters = self.sample_parameters(samples)
+        result = self._simulate(parameters, log_steps=bool(names))
         outputs: dict[str, Any] = {}
         for name, (reader, _) in self.readers.items():
             outputs[name] = np.asarray(reader(result), dtype=float)
-        outputs["failed"] = result.failed
-        outputs["failure_reason"] = np.array(
-            [result.failure(i) or "" for i in range(result.failed.size)], dtype=object
-        )
+        failed = np.array(result.failed, dtype=bool)
+        reasons = [result.failure(i) or "" for i in range(failed.size)]
+        if names:
+            readers = {name: reader for name, (reader, _) in self.readers.items()}
+
+            def replayed(perturbed: list[dict[str, float]], sequences: list) -> Any:
+                return self._simulate(perturbed, step_sequences=sequences)
+
+            gradients, failures = gradients_and_failures(
+                readers, result, replayed, parameters, names
+            )
+            for i, why in enumerate(failures):
+                if why is not None:
+                    failed[i] = True
+                    reasons[i] = f"derivatives failed: {why}"
+            outputs["gradients"] = gradients
+        outputs["failed"] = failed
+        outputs["failure_reason"] = np.array(reasons, dtype=object)
         return outputs

@@ -16,7 +16,7 @@ GUIDE = Path(__file__).resolve().parents[3] / "docs" / "mechanisms.md"
 @pytest.mark.slow  # its spatial example compiles the spatial kernels (about 25 s)
 def test_mechanisms_guide_examples_run():
     blocks = re.findall(r"```python\n(.*?)```", GUIDE.read_text(), flags=re.S)
-    assert len(blocks) == 6
+    assert len(blocks) == 7
     namespace: dict = {}
     for block in blocks:
         exec(compile(block, str(GUIDE), "exec"), namespace)
@@ -39,3 +39,9 @@ def test_mechanisms_guide_examples_run():
     assert np.abs(flexible.modal_coordinates("strip")).max() > 1e-5
     out = namespace["out"]
     assert out["tip_x"].shape == (2, 201) and not out["failed"].any()
+    # the derivatives' example: at t = 0 the tip is at x = sin(angle) (a 1 m rod), and a
+    # rigid pendulum's motion does not depend on its mass (the inertia scales with it)
+    gradients = out["gradients"]["tip_x"]
+    assert gradients.shape == (2, 201, 2)
+    np.testing.assert_allclose(gradients[:, 0, 1], np.cos([0.5, 0.6]), rtol=1e-8)
+    assert np.abs(gradients[..., 0]).max() < 1e-6

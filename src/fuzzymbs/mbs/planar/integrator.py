@@ -22,6 +22,7 @@ from fuzzymbs.mbs.planar.kernels import (
     FINISHED,
     NOT_FINITE,
     PROJECTION_FAILED,
+    REPLAY_ENDED,
     STEP_TOO_SMALL,
     TOO_MANY_STEPS,
     accelerations_in,
@@ -222,6 +223,31 @@ def conclude_step(x, trial, k, t, step, last, h, target, control, pair):
 
 
 @nb.njit(cache=True)
+def replayed_step(sequence, accepted, t, target):
+    """(end, last) of the replayed step from t: the sequence's next end time, and whether
+    it is the output time ``target``; end is NaN where the sequence has no next step or
+    it would pass ``target`` (the sequence is not this run's: REPLAY_ENDED)."""
+    if accepted >= sequence.size:
+        return np.nan, False
+    end = sequence[accepted]
+    if not (t < end <= target):
+        return np.nan, False
+    return end, end == target
+
+
+@nb.njit(cache=True)
+def conclude_replayed(x, trial, k, step, control, pair):
+    """A replayed step's outcome once its stages are evaluated: always taken (``x`` takes
+    the solution ``trial``) unless its error estimate, computed as the step control
+    computes it, is not finite (returns False)."""
+    _, _, _, e, e_low, _ = pair
+    if not math.isfinite(error_norm(x, trial, k, step, control[1], control[2], e, e_low)):
+        return False
+    x[:] = trial
+    return True
+
+
+@nb.njit(cache=True)
 def evaluation_arrays(layout):
     """(n, c, system, solution, work): the coordinates and joint equations of ``layout``
     and the arrays :func:`accelerations_in` takes, allocated once per run."""
@@ -232,8 +258,9 @@ def evaluation_arrays(layout):
 
 @nb.njit(inline="always")
 def run_sample(
-    rates, project, first_stage, times, x0, layout, data, user_force, scratch, control, states
-):
+    rates, project, first_stage, times, x0, layout, data, user_force, scratch, control, states,
+    steps,
+):  # fmt: skip
     """Integrate one sample from ``times[0]``, storing its state at every time: the explicit
     Runge-Kutta loop of both engines, their own parts supplied as jitted functions.
 
@@ -260,6 +287,11 @@ def run_sample(
         after each step may leave.
     states
         (T, size) output rows; those after a failure stay as they are (NaN).
+    steps
+        (sequence, log): the end times of the steps to take, replayed without the step
+        control (empty: the step control chooses them; a replay that runs out of steps
+        before the last output time ends with REPLAY_ENDED), and the array that receives
+        each accepted step's end time (as many as it holds).
 
     Returns
     -------
@@ -272,6 +304,8 @@ def run_sample(
     as a value by its address, which makes the calling kernel impossible to cache.
     """
     _, _, _, first_step, max_steps, tolerance = control
+    sequence, log = steps
+    replay = sequence.size > 0
     pair, x, k, trial = start_run(control, x0)
     stages = k.shape[0] - 1
     t = times[0]
@@ -287,18 +321,32 @@ def run_sample(
     for out in range(1, times.size):
         target = times[out]
         while t < target:
-            last, step = next_step(h, t, target)
+            end = t
+            if replay:
+                end, last = replayed_step(sequence, accepted, t, target)
+                if not end == end:  # NaN: no step of the sequence fits
+                    return REPLAY_ENDED, accepted, rejected, worst
+                step = end - t
+            else:
+                last, step = next_step(h, t, target)
             for stage in range(1, stages + 1):
                 time = stage_input(x, k, pair, stage, t, step, trial)
                 if not rates(time, trial, layout, data, user_force, scratch, k[stage]):
                     return NOT_FINITE, accepted, rejected, worst
-            finite, success, t, h = conclude_step(
-                x, trial, k, t, step, last, h, target, control, pair
-            )
+            if replay:
+                finite = conclude_replayed(x, trial, k, step, control, pair)
+                success = True
+                t = end
+            else:
+                finite, success, t, h = conclude_step(
+                    x, trial, k, t, step, last, h, target, control, pair
+                )
             if not finite:
                 return NOT_FINITE, accepted, rejected, worst
             if success:
                 accepted += 1
+                if accepted <= log.size:
+                    log[accepted - 1] = t
                 residual = project(t, x, layout, data, scratch, tolerance)
                 if not residual <= tolerance:
                     return PROJECTION_FAILED, accepted, rejected, residual
@@ -318,8 +366,11 @@ def run_range(arrays, rates, project, first_stage, start, stop, run):
     """:func:`run_sample` for sample rows ``start:stop``, an engine's ``arrays(layout)``
     allocating each sample's ``scratch``; ``run`` = (times, initial, layout, data,
     user_force, control, states, report), ``report`` (B, 4) receiving each sample's
-    outcome (:func:`record`). Inlined for the reason :func:`run_sample` is."""
-    times, initial, layout, data, user_force, control, states, report = run
+    outcome (:func:`record`), and ``steps`` = (sequences (B, K), lengths (B,), logs (B, C)):
+    sample s replays ``sequences[s, :lengths[s]]`` (none where 0) and logs into ``logs[s]``
+    (:func:`run_sample`'s ``steps``). Inlined for the reason :func:`run_sample` is."""
+    times, initial, layout, data, user_force, control, states, report, steps = run
+    sequences, lengths, logs = steps
     for s in range(start, stop):
         scratch = arrays(layout)
         outcome = run_sample(
@@ -334,6 +385,7 @@ def run_range(arrays, rates, project, first_stage, start, stop, run):
             scratch,
             control,
             states[s],
+            (sequences[s, : lengths[s]], logs[s]),
         )
         record(report, s, outcome)
 
@@ -370,10 +422,11 @@ def integrate_range(start, stop, *run):
     the planar engine's rates, projection and first stage), the GIL released, so
     :func:`fuzzymbs.mbs.kernels.threads.for_each_range` runs ranges side by side.
 
-    ``run`` = (times, initial, layout, data, user_force, control, states, report):
+    ``run`` = (times, initial, layout, data, user_force, control, states, report, steps):
     ``control`` as :func:`run_sample` takes it; ``states`` (B, T, 2n) NaN, filled up to
     a sample's failure; ``report`` (B, 4) receives status, accepted and rejected steps
-    and the largest joint residual of each sample.
+    and the largest joint residual of each sample; ``steps`` the replayed and logged
+    step sequences (:func:`run_range`).
     """
     run_range(evaluation_arrays, _rates, _project, _first_stage, start, stop, run)
 

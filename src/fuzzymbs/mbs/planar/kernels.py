@@ -67,6 +67,8 @@ NOT_FINITE = 2
 STEP_TOO_SMALL = 3
 TOO_MANY_STEPS = 4
 PROJECTION_FAILED = 5
+#: a replayed step sequence ended, or passed an output time, before the run's end
+REPLAY_ENDED = 6
 
 
 @nb.cfunc(USER_FORCE_SIGNATURE, cache=True)

@@ -31,6 +31,7 @@ from fuzzymbs.mbs.planar.integrator import (
     error_norm,
     integrate_range,
     record,
+    replayed_step,
     solve_range,
     step_outcome,
     tableau,
@@ -39,6 +40,7 @@ from fuzzymbs.mbs.planar.kernels import (
     FINISHED,
     NOT_FINITE,
     PROJECTION_FAILED,
+    REPLAY_ENDED,
     RUNNING,
     body_terms,
     failed_before,
@@ -195,10 +197,14 @@ def lane_error(x, trial, k, lane, step, rtol, atol, e, e_low, lone):
 
 
 @nb.njit(cache=True)
-def integrate_block(times, initial, layout, data, user_force, control, states, report, block):
+def integrate_block(
+    times, initial, layout, data, user_force, control, states, report, steps, block
+):  # fmt: skip
     """Integrate the samples ``block = (first, count)`` (count <= LANES), one per lane, as
     :func:`fuzzymbs.mbs.planar.integrator.run_sample` integrates one (``control``
-    as there); each sample's report goes to its row of ``report`` (B, 4).
+    as there); each sample's report goes to its row of ``report`` (B, 4). ``steps`` =
+    (sequences, lengths, logs): the step sequences a lane replays and the logs of its
+    accepted steps' end times (:func:`fuzzymbs.mbs.planar.integrator.run_range`).
 
     A block of fewer than LANES samples repeats its last sample in the lanes left
     (masked from the start: their arithmetic is never read).
@@ -209,14 +215,17 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
     size = 2 * n
     scratch = lane_scratch(layout)
     method, rtol, atol, first_step, max_steps, tolerance = control
+    sequences, lengths, logs = steps
     nodes, a, b, e, e_low, exponent = tableau(method)
     stages = b.size
     samples = np.empty(L, dtype=np.int64)
     lanes = np.empty((data.shape[1], L))
     x = np.empty(size * L)
+    replay = np.zeros(L, dtype=np.bool_)
     for lane in range(L):
         samples[lane] = first + min(lane, count - 1)
         lanes[:, lane] = data[samples[lane]]
+        replay[lane] = lengths[samples[lane]] > 0
         for i in range(size):
             x[L * i + lane] = initial[samples[lane], i]
     k = np.empty((stages + 1, size * L))
@@ -230,6 +239,7 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
     t = np.full(L, times[0])
     h = np.full(L, first_step)
     step = np.zeros(L)
+    ends = np.zeros(L)  # a replaying lane's step end time
     stage_t = np.empty(L)
     last = np.zeros(L, dtype=np.bool_)
     moved = np.ones(L, dtype=np.bool_)  # the lanes whose state a step (or the start) moved
@@ -255,7 +265,19 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
         going = False
         for lane in range(L):
             moved[lane] = False
-            if active[lane]:
+            if active[lane] and replay[lane]:
+                s = samples[lane]
+                sequence = sequences[s, : lengths[s]]
+                ends[lane], last[lane] = replayed_step(
+                    sequence, accepted[lane], t[lane], times[target[lane]]
+                )
+                if not ends[lane] == ends[lane]:  # NaN: no step of the sequence fits
+                    status[lane] = REPLAY_ENDED
+                    active[lane] = False
+                    continue
+                going = True
+                step[lane] = ends[lane] - t[lane]
+            elif active[lane]:
                 going = True
                 end = times[target[lane]] - t[lane]
                 last[lane] = h[lane] >= end
@@ -296,10 +318,17 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
                 status[lane] = NOT_FINITE
                 active[lane] = False
                 continue
-            success, h[lane] = step_outcome(err, exponent, step[lane], last[lane], h[lane])
+            if replay[lane]:  # taken unless not finite (integrator.conclude_replayed)
+                success = True
+                t[lane] = ends[lane]
+            else:
+                success, h[lane] = step_outcome(err, exponent, step[lane], last[lane], h[lane])
+                if success:
+                    t[lane] = times[target[lane]] if last[lane] else t[lane] + step[lane]
             if success:
-                t[lane] = times[target[lane]] if last[lane] else t[lane] + step[lane]
                 accepted[lane] += 1
+                if accepted[lane] <= logs.shape[1]:
+                    logs[samples[lane], accepted[lane] - 1] = t[lane]
                 moved[lane] = True
                 for i in range(size):
                     x[L * i + lane] = trial[L * i + lane]
@@ -347,11 +376,11 @@ def integrate_block(times, initial, layout, data, user_force, control, states, r
 
 @nb.njit(cache=True, nogil=True)
 def integrate_blocks(
-    start, stop, times, initial, layout, data, user_force, control, states, report
+    start, stop, times, initial, layout, data, user_force, control, states, report, steps
 ):
     """:func:`integrate_block` for the blocks ``start:stop`` of LANES consecutive samples
     (the GIL released, so :func:`fuzzymbs.mbs.kernels.threads.for_each_range` runs
-    ranges side by side). ``report`` (B, 4) as for
+    ranges side by side). ``report`` (B, 4) and ``steps`` as for
     :func:`fuzzymbs.mbs.planar.integrator.integrate_range`.
 
     A block of one sample runs the one-sample kernel: the same numbers, bit for bit,
@@ -364,12 +393,13 @@ def integrate_blocks(
         count = min(L, samples - first)
         if count == 1:
             integrate_range(
-                first, first + 1, times, initial, layout, data, user_force, control, states, report
-            )
+                first, first + 1, times, initial, layout, data, user_force, control, states,
+                report, steps,
+            )  # fmt: skip
         else:
             block = (first, count)
             integrate_block(
-                times, initial, layout, data, user_force, control, states, report, block
+                times, initial, layout, data, user_force, control, states, report, steps, block
             )
 
 

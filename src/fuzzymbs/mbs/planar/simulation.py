@@ -12,6 +12,7 @@ kernel runs them (:mod:`fuzzymbs.mbs.planar.integrator`, ``kernel="samples"``).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -22,6 +23,7 @@ from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.assembly import PROJECTION_TOLERANCE
 from fuzzymbs.mbs.kernels.threads import for_each_range
 from fuzzymbs.mbs.planar import integrator, kernels, lanes, readout
+from fuzzymbs.mbs.planar.step_sequences import replay_arrays, run_logging
 from fuzzymbs.mbs.planar.system import Mechanism, PackedBatch, pack_batch
 
 #: Default relative and absolute tolerances of the step control (docs/embs.md
@@ -49,6 +51,7 @@ STATUS_TEXT = {
     kernels.STEP_TOO_SMALL: "step size underflow",
     kernels.TOO_MANY_STEPS: "step budget exhausted",
     kernels.PROJECTION_FAILED: "joint projection did not converge (a locked or singular position)",
+    kernels.REPLAY_ENDED: "the replayed step sequence does not reach the last output time",
 }
 
 
@@ -94,6 +97,8 @@ class PlanarResult:
     accepted, rejected : (B,) step counts.
     joint_residual : (B,) largest joint residual after projection [m or rad].
     batch : the packed mechanisms.
+    step_logs : with ``simulate(..., log_steps=True)``, each sample's accepted steps'
+        end times [s] (up to its failure), which ``step_sequences`` replays; else None.
     """
 
     times: NDArray[np.float64]
@@ -103,6 +108,7 @@ class PlanarResult:
     rejected: NDArray[np.int64]
     joint_residual: NDArray[np.float64]
     batch: PackedBatch
+    step_logs: tuple[NDArray[np.float64], ...] | None = None
 
     @property
     def failed(self) -> NDArray[np.bool_]:
@@ -247,6 +253,8 @@ def simulate(
     max_steps: int = 10_000_000,
     method: str = DEFAULT_METHOD,
     kernel: str = "lanes",
+    log_steps: bool = False,
+    step_sequences: Sequence[ArrayLike] | None = None,
 ) -> PlanarResult:
     """Integrate one mechanism or a batch of one structure over ``times``.
 
@@ -268,6 +276,13 @@ def simulate(
     kernel : {"lanes", "samples"}
         LANES samples per kernel call, one per SIMD lane, or one sample per call: the
         same trajectories bit for bit (:data:`KERNELS`).
+    log_steps : bool
+        Log each sample's accepted steps (``result.step_logs``).
+    step_sequences : sequence of array_like, optional
+        One per sample: the end times of the steps to take (a run's ``step_logs``),
+        replayed without the step control (rtol and atol then only judge whether a
+        step is finite); an empty one leaves that sample to the step control
+        (:mod:`fuzzymbs.mbs.planar.step_sequences`).
     """
     batch = pack_batch(mechanisms if isinstance(mechanisms, list) else [mechanisms])
     code = integrator_method(method, bool(np.any(batch.layout.bodies[:, 1] > 0)))
@@ -282,21 +297,28 @@ def simulate(
         raise InvalidParameterError(f"rtol and atol must be > 0, got {rtol!r} and {atol!r}")
     step = (t[-1] - t[0]) * 1e-3 if first_step is None else float(first_step)
     samples = batch.data.shape[0]
+    replay = replay_arrays(step_sequences, samples, t)
     states = np.full((samples, t.size, batch.initial.shape[1]), np.nan)
-    report = np.zeros((samples, 4))
     initial = batch.initial.copy()
     arrays = batch.layout.arrays()
 
     integrate = lanes.integrate_blocks if kernel == "lanes" else integrator.integrate_range
     control = (code, float(rtol), float(atol), step, int(max_steps), PROJECTION_TOLERANCE)
 
-    def run(start: int, stop: int) -> None:
-        integrate(
-            start, stop, t, initial, arrays, batch.data, batch.user_force, control, states, report
-        )
+    def run_batch(steps):
+        report = np.zeros((samples, 4))
 
-    # the lanes kernel takes blocks of LANES samples (the last one possibly short)
-    for_each_range(-(-samples // lanes.L) if kernel == "lanes" else samples, run)
+        def run(start: int, stop: int) -> None:
+            integrate(
+                start, stop, t, initial, arrays, batch.data, batch.user_force, control, states,
+                report, steps,
+            )  # fmt: skip
+
+        # the lanes kernel takes blocks of LANES samples (the last one possibly short)
+        for_each_range(-(-samples // lanes.L) if kernel == "lanes" else samples, run)
+        return report
+
+    report, logs = run_logging(run_batch, replay, samples, log_steps)
     return PlanarResult(
         t,
         states,
@@ -305,4 +327,5 @@ def simulate(
         report[:, 2].astype(np.int64),
         report[:, 3],
         batch,
+        logs,
     )

@@ -77,7 +77,7 @@ def integrate_range(start, stop, *run):
     """The planar engine's Runge-Kutta loop
     (:func:`fuzzymbs.mbs.planar.integrator.run_range`) on (q, v) with the Euler parameters'
     kinematics, for sample rows ``start:stop`` (GIL released); ``run`` = (times, initial,
-    layout, data, user_force, control, states, report), as the planar engine's
+    layout, data, user_force, control, states, report, steps), as the planar engine's
     :func:`fuzzymbs.mbs.planar.integrator.integrate_range` takes it."""
     run_range(_arrays, _rates, _project, _first_stage, start, stop, run)
 

@@ -12,6 +12,7 @@ Build it as the planar one (:mod:`fuzzymbs.mbs.planar.system`)::
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -29,6 +30,7 @@ from fuzzymbs.mbs.planar.linearization import (
     reduced_rate_function,
 )
 from fuzzymbs.mbs.planar.simulation import DEFAULT_METHOD, describe_failure, integrator_method
+from fuzzymbs.mbs.planar.step_sequences import replay_arrays, run_logging
 from fuzzymbs.mbs.spatial import elements, integrator, kernels, kinematics, readout
 from fuzzymbs.mbs.spatial.bodies import Body, Marker
 from fuzzymbs.mbs.spatial.forces import ForceElement
@@ -210,7 +212,8 @@ class Mechanism(Assembly):
 
 @dataclass(frozen=True)
 class SpatialResult:
-    """States (B, T, 7 nb + 6 nb) at the output times, and how each run ended."""
+    """States (B, T, 7 nb + 6 nb) at the output times, and how each run ended
+    (``step_logs`` as :class:`fuzzymbs.mbs.planar.PlanarResult` holds them)."""
 
     times: NDArray[np.float64]
     states: NDArray[np.float64]
@@ -221,6 +224,7 @@ class SpatialResult:
     data: NDArray[np.float64]
     template: Mechanism
     user_force: object
+    step_logs: tuple[NDArray[np.float64], ...] | None = None
 
     @property
     def failed(self) -> NDArray[np.bool_]:
@@ -352,9 +356,12 @@ def simulate(
     atol: float = DEFAULT_ATOL,
     max_steps: int = 10_000_000,
     method: str = DEFAULT_METHOD,
+    log_steps: bool = False,
+    step_sequences: Sequence[ArrayLike] | None = None,
 ) -> SpatialResult:
     """Integrate one spatial mechanism or a batch of one structure over ``times``
-    (``method``: the explicit Runge-Kutta pair, as :func:`fuzzymbs.mbs.planar.simulate`)."""
+    (``method``, ``log_steps`` and ``step_sequences`` as :func:`fuzzymbs.mbs.planar.simulate`
+    takes them)."""
     batch = mechanisms if isinstance(mechanisms, list) else [mechanisms]
     rows, states, layout = [], [], None
     for i, mechanism in enumerate(batch):
@@ -384,25 +391,23 @@ def simulate(
     data = np.stack(rows)
     initial = np.stack(states)
     out = np.full((len(batch), t.size, initial.shape[1]), np.nan)
-    report = np.zeros((len(batch), 4))
+    replay = replay_arrays(step_sequences, len(batch), t)
     step = (t[-1] - t[0]) * 1e-3
     code = integrator_method(method, bool(np.any(layout[0][:, 3] > 0)))
+    control = (code, float(rtol), float(atol), step, int(max_steps), PROJECTION_TOLERANCE)
 
-    def run(start: int, stop: int) -> None:
-        integrator.integrate_range(
-            start,
-            stop,
-            t,
-            initial,
-            layout,
-            data,
-            user,
-            (code, float(rtol), float(atol), step, int(max_steps), PROJECTION_TOLERANCE),
-            out,
-            report,
-        )
+    def run_batch(steps):
+        report = np.zeros((len(batch), 4))
 
-    for_each_range(len(batch), run)
+        def run(start: int, stop: int) -> None:
+            integrator.integrate_range(
+                start, stop, t, initial, layout, data, user, control, out, report, steps
+            )
+
+        for_each_range(len(batch), run)
+        return report
+
+    report, logs = run_logging(run_batch, replay, len(batch), log_steps)
     return SpatialResult(
         t,
         out,
@@ -413,4 +418,5 @@ def simulate(
         data,
         batch[0],
         user,
+        logs,
     )
