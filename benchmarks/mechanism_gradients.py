@@ -9,7 +9,7 @@ For each registered mechanism (``flexible-pendulum``, ``spin-up-beam``,
 the same draw in every run):
 
 * **step**: the derivatives ``model(samples, wrt=all)["gradients"]`` at each relative
-  step ``delta`` of :data:`fuzzymbs.mbs.mechanism_gradients.GRADIENT_STEP`; per
+  step ``delta`` of :data:`fuzzymbs.mbs.central_differences.GRADIENT_STEP`; per
   parameter the largest change to the next smaller step over every output, sample and
   time, on the scale of that derivative's largest value (a central difference's
   truncation falls as delta^2 until round-off and the inputs' own noise take over);
@@ -23,7 +23,7 @@ the same draw in every run):
   parameter the outputs hardly depend on has derivatives of round-off, whose changes
   above are relative to that;
 * **failed**: samples whose derivatives failed at each step (a pair that left the
-  sample's trajectory, :data:`fuzzymbs.mbs.mechanism_gradients.LEFT_TRAJECTORY`);
+  sample's trajectory, :data:`fuzzymbs.mbs.central_differences.LEFT_TRAJECTORY`);
 * **cost**: CPU of the call with every parameter's derivatives over the call without,
   the smaller of ``--repeats`` rounds (the runs per parameter: two replays).
 """
@@ -38,7 +38,7 @@ import time
 import numpy as np
 from bench_common import load_average
 
-import fuzzymbs.mbs.mechanism_gradients as mechanism_gradients
+import fuzzymbs.mbs.central_differences as central_differences
 from fuzzymbs.models.mechanisms.pendulum import flexible_pendulum
 from fuzzymbs.models.mechanisms.slider_crank import slider_crank
 from fuzzymbs.models.mechanisms.spin_up_beam import spin_up_beam
@@ -61,12 +61,12 @@ def samples_of(model, count: int) -> dict[str, np.ndarray]:
 def derivatives(model, samples, step: float) -> tuple[dict[str, np.ndarray], int]:
     """The derivatives at relative step ``step`` and the samples whose derivatives failed
     (NaN in the derivatives)."""
-    saved = mechanism_gradients.GRADIENT_STEP
-    mechanism_gradients.GRADIENT_STEP = step
+    saved = central_differences.GRADIENT_STEP
+    central_differences.GRADIENT_STEP = step
     try:
         out = model(samples, wrt=model.parameters)
     finally:
-        mechanism_gradients.GRADIENT_STEP = saved
+        central_differences.GRADIENT_STEP = saved
     gradients = out["gradients"]
     for output in gradients:
         gradients[output][out["failed"]] = np.nan
@@ -122,7 +122,7 @@ def measure(name: str, count: int, steps: list[float], repeats: int, **options) 
     model(samples, wrt=model.parameters)  # compile and warm up
     runs = {step: derivatives(model, samples, step) for step in steps}
     found = {step: gradients for step, (gradients, _) in runs.items()}
-    default = mechanism_gradients.GRADIENT_STEP
+    default = central_differences.GRADIENT_STEP
     base = found[default] if default in found else derivatives(model, samples, default)[0]
     own = own_steps(model, samples, default)
     tight = model.tightened(100.0)
@@ -162,7 +162,7 @@ def main() -> None:
     args = parser.parse_args()
     report = {
         "load_average_start": load_average(),
-        "default_step": mechanism_gradients.GRADIENT_STEP,
+        "default_step": central_differences.GRADIENT_STEP,
     }
     for name in args.models:
         report[name] = measure(name, args.samples, args.steps, args.repeats)

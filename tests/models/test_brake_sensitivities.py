@@ -28,7 +28,8 @@ def test_brake_declares_and_returns_gradients(brake):
     # every brake parameter is a column of the kernel's parameter rows (the disc speed
     # through the prescribed rotation), so all six are differentiable
     assert set(brake.differentiable) == set(DEFAULTS)
-    assert DiscBrake(t_end=1e-4, integrator="rk4").differentiable == ()
+    rk4 = DiscBrake(t_end=1e-4, integrator="rk4")  # central differences on its steps
+    assert set(rk4.differentiable) == set(DEFAULTS) and rk4.gradient_cost == 2.0
     samples = {"nodal_force": np.array([16e3, 16.16e3]), "disc_speed": np.array([1.0, 1.1])}
     plain = brake(samples)
     wrt = ["disc_speed", "pad_spring_stiffness", "nodal_force"]

@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from fuzzymbs.background import Background
 from fuzzymbs.errors import InvalidParameterError
+from fuzzymbs.mbs.central_differences import on_fixed_steps
 from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
@@ -486,9 +487,8 @@ class SimulationModel:
     @property
     def differentiable(self) -> tuple[str, ...]:
         """Parameters ``model(samples, wrt=...)`` differentiates with respect to: every
-        bound one with a Rosenbrock integrator (forward sensitivities), none with RK4."""
-        if self.settings["integrator"] not in ROSENBROCK:
-            return ()
+        bound one (a Rosenbrock integrator: forward sensitivities; RK4: central differences
+        on its fixed steps, :func:`~fuzzymbs.mbs.central_differences.on_fixed_steps`)."""
         return self.compiled.parameters.names
 
     @property
@@ -518,6 +518,8 @@ class SimulationModel:
         ``"gradients": {output: (B, T, len(wrt))}``. The outputs are bit for bit the same
         with or without ``wrt``."""
         names = self._wrt(wrt)
+        if names and self.settings["integrator"] not in ROSENBROCK:
+            return on_fixed_steps(self, samples, names)
         if self.shared is None:
             return self._outputs(self.simulate(samples, sensitivities=names or ()), {}, names)
         # the modal sample's error removed from every sample (a constant to the gradients)

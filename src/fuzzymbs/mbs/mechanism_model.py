@@ -27,7 +27,7 @@ the history up to the failure (NaN after it), and a study leaves them out.
 ``model(samples, wrt=names)`` also returns the outputs' derivatives with respect to
 the parameters ``names`` (any of them: :attr:`MechanismModel.differentiable`), as
 central differences of runs replaying each sample's own steps
-(:mod:`fuzzymbs.mbs.mechanism_gradients`): two runs per parameter.
+(:mod:`fuzzymbs.mbs.central_differences`): two runs per parameter.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs import planar, spatial
 from fuzzymbs.mbs.assembly import Assembly
-from fuzzymbs.mbs.mechanism_gradients import GRADIENT_COST, checked_wrt, gradients_and_failures
+from fuzzymbs.mbs.central_differences import GRADIENT_COST, central_differences
 from fuzzymbs.mbs.planar.simulation import (
     DEFAULT_ATOL,
     DEFAULT_METHOD,
@@ -50,6 +50,7 @@ from fuzzymbs.mbs.planar.simulation import (
     INTEGRATOR_NAMES,
     checked_method,
 )
+from fuzzymbs.mbs.sensitivities import checked_wrt
 from fuzzymbs.tolerance import Tolerance
 
 #: the mechanism engines' own default tolerance (:func:`fuzzymbs.mbs.planar.simulate`
@@ -191,7 +192,7 @@ class MechanismModel:
         ``wrt`` (parameter names) also ``"gradients": {name: (B, T, len(wrt))}``, in the
         output's unit per the parameter's. The outputs are bit for bit the same with or
         without ``wrt``; a sample whose perturbed runs fail is flagged failed, saying which."""
-        names = checked_wrt(wrt, self.parameters) if wrt else ()
+        names = checked_wrt(wrt, self.parameters, self.method) or ()
         parameters = self.sample_parameters(samples)
         result = self._simulate(parameters, log_steps=bool(names))
         outputs: dict[str, Any] = {}
@@ -200,14 +201,15 @@ class MechanismModel:
         failed = np.array(result.failed, dtype=bool)
         reasons = [result.failure(i) or "" for i in range(failed.size)]
         if names:
-            readers = {name: reader for name, (reader, _) in self.readers.items()}
+            logs = result.step_logs
 
-            def replayed(perturbed: list[dict[str, float]], sequences: list) -> Any:
-                return self._simulate(perturbed, step_sequences=sequences)
+            def replayed(perturbed: list[dict[str, float]], owners: list[int]) -> tuple:
+                runs = self._simulate(perturbed, step_sequences=[logs[s] for s in owners])
+                values = {name: reader(runs) for name, (reader, _) in self.readers.items()}
+                return values, runs.failed, [runs.failure(i) for i in range(len(perturbed))]
 
-            gradients, failures = gradients_and_failures(
-                readers, result, replayed, parameters, names
-            )
+            own = {name: outputs[name] for name in self.readers}
+            gradients, failures = central_differences(own, failed, parameters, names, replayed)
             for i, why in enumerate(failures):
                 if why is not None:
                     failed[i] = True

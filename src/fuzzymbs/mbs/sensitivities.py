@@ -23,12 +23,14 @@ __all__ = ["GRADIENT_COSTS", "checked_wrt", "gradient_cost", "sensitivity_direct
 #: too) and 2.2 with RODAS4,
 #: whose Jacobian every step they do not need (docs/benchmarks.md, "Forward
 #: sensitivities"); a study's ``gradients = "auto"`` weighs it
-GRADIENT_COSTS = {"ros34pw2": 0.72, "rodas4": 0.40}
+#: RK4 integrates none: its gradients are central differences of two runs per parameter
+#: on its fixed steps (:mod:`fuzzymbs.mbs.central_differences`)
+GRADIENT_COSTS = {"ros34pw2": 0.72, "rodas4": 0.40, "rk4": 2.0}
 
 
 def gradient_cost(integrator: str) -> float:
-    """:data:`GRADIENT_COSTS` of ``integrator`` (RK4, which has none: infinite)."""
-    return GRADIENT_COSTS.get(integrator, float("inf"))
+    """:data:`GRADIENT_COSTS` of ``integrator``."""
+    return GRADIENT_COSTS[integrator]
 
 
 def _names(names: Sequence[str], what: str) -> tuple[str, ...]:
@@ -93,7 +95,7 @@ def checked_wrt(
         how = (
             f"it differentiates with respect to {list(differentiable)}"
             if differentiable
-            else f"integrator {integrator!r} gives no gradients (ROS34PW2 and RODAS4 do)"
+            else f"integrator {integrator!r} gives none"
         )
         raise InvalidParameterError(f"wrt: cannot differentiate with respect to {unknown}; {how}")
     return names

@@ -4,7 +4,7 @@ differentiation, against closed forms."""
 import numpy as np
 import pytest
 
-import fuzzymbs.mbs.mechanism_gradients as mechanism_gradients
+import fuzzymbs.mbs.central_differences as central_differences
 import fuzzymbs.mbs.planar.step_sequences as step_sequences
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs import spatial
@@ -168,7 +168,7 @@ def test_replayed_differences_converge_as_the_step_falls(monkeypatch):
     samples = {"stiffness": np.linspace(700.0, 900.0, 9)}
     found = {}
     for step in (1e-3, 1e-4, 1e-6):
-        monkeypatch.setattr(mechanism_gradients, "GRADIENT_STEP", step)
+        monkeypatch.setattr(central_differences, "GRADIENT_STEP", step)
         found[step] = model(samples, wrt=("stiffness",))["gradients"]["x"][..., 0]
     scale = np.abs(found[1e-6]).max()
     coarse = np.abs(found[1e-3] - found[1e-6]).max() / scale
@@ -194,11 +194,11 @@ def test_a_pair_that_leaves_the_trajectory_fails_the_sample(monkeypatch):
 
     model = spin_up_beam()
     samples = {"length": np.array([8.0])}
-    monkeypatch.setattr(mechanism_gradients, "GRADIENT_STEP", 1e-2)
+    monkeypatch.setattr(central_differences, "GRADIENT_STEP", 1e-2)
     out = model(samples, wrt=("length",))
     assert out["failed"][0]
     assert "length +- 0.08 are too far from its own on 'tip_deflection'" in out["failure_reason"][0]
-    monkeypatch.setattr(mechanism_gradients, "GRADIENT_STEP", 1e-4)  # the default: smooth
+    monkeypatch.setattr(central_differences, "GRADIENT_STEP", 1e-4)  # the default: smooth
     out = model(samples, wrt=("length",))
     assert not out["failed"][0] and np.isfinite(out["gradients"]["tip_deflection"]).all()
 

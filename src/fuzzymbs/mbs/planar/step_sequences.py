@@ -10,7 +10,7 @@ round-off (the step lengths are the differences of the logged times), and runs
 with nearby parameters replayed on one sequence differ by a smooth function of
 the parameters: no step is accepted or rejected differently, so their difference
 quotients are derivatives of one discretisation (internal numerical
-differentiation; :mod:`fuzzymbs.mbs.mechanism_gradients`).
+differentiation; :mod:`fuzzymbs.mbs.central_differences`).
 """
 
 from __future__ import annotations
