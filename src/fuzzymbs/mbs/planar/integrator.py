@@ -365,8 +365,8 @@ def run_sample(
 def run_range(arrays, rates, project, first_stage, start, stop, run):
     """:func:`run_sample` for sample rows ``start:stop``, an engine's ``arrays(layout)``
     allocating each sample's ``scratch``; ``run`` = (times, initial, layout, data,
-    user_force, control, states, report), ``report`` (B, 4) receiving each sample's
-    outcome (:func:`record`), and ``steps`` = (sequences (B, K), lengths (B,), logs (B, C)):
+    user_force, control, states, report, steps), ``report`` (B, 4) receiving each sample's
+    outcome (:func:`record`), ``steps`` = (sequences (B, K), lengths (B,), logs (B, C)):
     sample s replays ``sequences[s, :lengths[s]]`` (none where 0) and logs into ``logs[s]``
     (:func:`run_sample`'s ``steps``). Inlined for the reason :func:`run_sample` is."""
     times, initial, layout, data, user_force, control, states, report, steps = run
