@@ -14,7 +14,9 @@ trajectory to ``O(delta^2)``. Differences of runs that each chose their own step
 would carry the step control's jumps divided by ``2 delta`` (docs/mechanisms.md).
 
 The step is relative, ``delta_k = GRADIENT_STEP |p_k|`` (``GRADIENT_STEP`` where
-``p_k = 0``, in the parameter's SI unit). Cost: two runs per parameter besides
+``p_k = 0``, in the parameter's SI unit), unless the model names an absolute one (a
+mechanism model's ``gradient_steps``: a misalignment whose default is 0 m wants
+micrometres, not 1e-4 m). Cost: two runs per parameter besides
 the sample's own (:data:`GRADIENT_COST`), all of them one batch of the engine;
 docs/mechanisms.md ("Derivatives of the outputs") has the convergence in the
 step and the checks against closed forms.
@@ -35,6 +37,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from fuzzymbs.errors import InvalidParameterError
 
 #: relative step of the central differences (docs/mechanisms.md, "Derivatives of the
 #: outputs": on the registered mechanisms the truncation at 1e-4 is 1e-6 to 1e-8 of a
@@ -59,12 +63,36 @@ PerturbedRuns = Callable[
 ]
 
 
+def checked_steps(steps: Mapping[str, float] | None, parameters: Sequence[str]) -> dict[str, float]:
+    """``steps`` (absolute steps of named parameters) as a dict, or a clear error naming an
+    unknown parameter or a step that is not a positive finite number."""
+    checked: dict[str, float] = {}
+    for name, step in (steps or {}).items():
+        if name not in parameters:
+            raise InvalidParameterError(
+                f"gradient_steps names {name!r}, not a parameter of this model "
+                f"({sorted(parameters)})"
+            )
+        value = float(step)
+        if not (np.isfinite(value) and value > 0.0):
+            raise InvalidParameterError(
+                f"gradient_steps[{name!r}] must be a positive finite step, got {step!r}"
+            )
+        checked[name] = value
+    return checked
+
+
 def perturbed_samples(
-    parameters: list[dict[str, float]], names: tuple[str, ...], live: NDArray[np.bool_]
+    parameters: list[dict[str, float]],
+    names: tuple[str, ...],
+    live: NDArray[np.bool_],
+    steps: Mapping[str, float] | None = None,
 ) -> tuple[list[dict[str, float]], list[int], NDArray[np.float64]]:
     """The perturbed samples of the central differences: for each live sample s and each
-    name k, ``p_k + delta`` then ``p_k - delta``. Returns (their parameters, the sample
+    name k, ``p_k + delta`` then ``p_k - delta`` (``delta`` the step ``steps`` gives the
+    name, else relative: :data:`GRADIENT_STEP`). Returns (their parameters, the sample
     each belongs to, deltas (B, P); NaN for a sample not live)."""
+    steps = steps or {}
     deltas = np.full((len(parameters), len(names)), np.nan)
     perturbed: list[dict[str, float]] = []
     owners: list[int] = []
@@ -73,7 +101,7 @@ def perturbed_samples(
             continue
         for k, name in enumerate(names):
             value = p[name]
-            delta = GRADIENT_STEP * (abs(value) if value != 0.0 else 1.0)
+            delta = steps.get(name, GRADIENT_STEP * (abs(value) if value != 0.0 else 1.0))
             deltas[s, k] = delta
             for sign in (1.0, -1.0):
                 perturbed.append({**p, name: value + sign * delta})
@@ -87,18 +115,20 @@ def central_differences(
     parameters: list[dict[str, float]],
     names: tuple[str, ...],
     run: PerturbedRuns,
+    steps: Mapping[str, float] | None = None,
 ) -> tuple[dict[str, NDArray[np.float64]], list[str | None]]:
     """The outputs' derivatives ``{output: (B, ..., P)}`` and per sample why they failed
     (None: they did not).
 
     ``nominal`` holds the samples' own outputs (B, ...), ``failed`` which of them failed,
     ``parameters`` each sample's parameters; ``run`` runs the perturbed samples
-    (:data:`PerturbedRuns`). A sample that failed itself gets NaN derivatives and no
-    perturbed runs.
+    (:data:`PerturbedRuns`); ``steps`` the absolute steps of some names (the others'
+    are relative, :data:`GRADIENT_STEP`). A sample that failed itself gets NaN
+    derivatives and no perturbed runs.
     """
     samples = len(parameters)
     live = ~np.asarray(failed, dtype=bool)
-    perturbed, owners, deltas = perturbed_samples(parameters, names, live)
+    perturbed, owners, deltas = perturbed_samples(parameters, names, live, steps)
     reasons: list[str | None] = [None] * samples
     gradients: dict[str, NDArray[np.float64]] = {}
     if not perturbed:

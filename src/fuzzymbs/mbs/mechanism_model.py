@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs import planar, spatial
 from fuzzymbs.mbs.assembly import Assembly
-from fuzzymbs.mbs.central_differences import GRADIENT_COST, central_differences
+from fuzzymbs.mbs.central_differences import GRADIENT_COST, central_differences, checked_steps
 from fuzzymbs.mbs.planar.simulation import (
     DEFAULT_ATOL,
     DEFAULT_METHOD,
@@ -81,6 +81,13 @@ class MechanismModel:
         own) and its checks' tightening.
     method : {"auto", "dop853", "dopri5"}
         The explicit Runge-Kutta pair (:func:`fuzzymbs.mbs.planar.simulate`).
+    gradient_steps : mapping of str to float, optional
+        Absolute steps [the parameter's unit] of the central differences behind
+        ``model(samples, wrt=...)`` for some parameters; the others take a relative
+        step, :data:`fuzzymbs.mbs.central_differences.GRADIENT_STEP` times their value
+        (that times one unit where the value is 0). Give one for a parameter whose
+        value may be 0 or whose relevant scale is not its value (an offset, a
+        misalignment).
     """
 
     def __init__(
@@ -91,6 +98,7 @@ class MechanismModel:
         times: ArrayLike,
         tolerance: Tolerance = ENGINE_TOLERANCE,
         method: str = DEFAULT_METHOD,
+        gradient_steps: Mapping[str, float] | None = None,
     ) -> None:
         self.build = build
         self.defaults = {name: float(value) for name, value in parameters.items()}
@@ -105,6 +113,7 @@ class MechanismModel:
         self.tolerance = tolerance
         self.method = checked_method(method)
         self.parameters = tuple(self.defaults)
+        self.gradient_steps = checked_steps(gradient_steps, self.parameters)
         self.outputs = {name: unit for name, (_, unit) in self.readers.items()}
         self.coords = {"time": self.times}
         self.coord_units = {"time": "s"}
@@ -164,6 +173,7 @@ class MechanismModel:
         return self._simulate(self.sample_parameters(samples), **options)
 
     def _simulate(self, parameters: list[dict[str, float]], **options: Any) -> Any:
+        """The engine's result for one parameter dict per sample."""
         mechanisms = [self.build(p) for p in parameters]
         engines = {getattr(m, "engine", None) for m in mechanisms}
         if engines == {"planar"}:
@@ -209,7 +219,9 @@ class MechanismModel:
                 return values, runs.failed, [runs.failure(i) for i in range(len(perturbed))]
 
             own = {name: outputs[name] for name in self.readers}
-            gradients, failures = central_differences(own, failed, parameters, names, replayed)
+            gradients, failures = central_differences(
+                own, failed, parameters, names, replayed, self.gradient_steps
+            )
             for i, why in enumerate(failures):
                 if why is not None:
                     failed[i] = True

@@ -56,13 +56,14 @@ def closed_form(stiffness, damping, mass, t):
     return FREE_LENGTH + RELEASE * decay * (np.cos(wd * t) + zeta * w / wd * np.sin(wd * t))
 
 
-def oscillator_model(rtol=1e-10):
+def oscillator_model(rtol=1e-10, **options):
     return MechanismModel(
         oscillator,
         parameters={"stiffness": 800.0, "damping": 4.0, "mass": 2.0},
         outputs={"x": (lambda result: result.coordinates("block")[..., 0], "m")},
         times=TIMES,
         tolerance=Tolerance(rtol=rtol, atol=rtol * 1e-2),
+        **options,
     )
 
 
@@ -231,3 +232,21 @@ def test_an_adaptive_study_takes_the_mechanism_gradients():
         np.array(truth_lower), np.array(truth_upper),
     )  # fmt: skip
     assert miss <= 0.011
+
+
+def test_named_steps_replace_the_relative_one():
+    # an absolute step for the mass (2 % of it) against the default relative one (1e-4):
+    # the central difference's truncation grows as the step squared, so the named step is
+    # visibly the one taken (against the closed form's complex step, as above)
+    samples = {"mass": np.array([2.0])}
+    exact = closed_form(800.0, 4.0, 2.0 + 1e-30j, TIMES).imag / 1e-30
+    errors = {}
+    for steps in (None, {"mass": 0.04}):
+        model = oscillator_model(gradient_steps=steps)
+        found = model(samples, wrt=("mass",))["gradients"]["x"][0, :, 0]
+        errors[steps is None] = np.abs(found - exact).max() / np.abs(exact).max()
+    assert errors[True] < 1e-6 < 1e-4 < errors[False]
+    with pytest.raises(InvalidParameterError, match="not a parameter of this model"):
+        oscillator_model(gradient_steps={"spring": 1.0})
+    with pytest.raises(InvalidParameterError, match="positive finite"):
+        oscillator_model(gradient_steps={"mass": 0.0})
