@@ -151,6 +151,18 @@ def test_the_spatial_engine_replays_its_log_and_differentiates():
         np.testing.assert_allclose(gradients[:, k], exact, rtol=0, atol=1e-6 * np.abs(exact).max())
 
 
+def test_a_step_an_ulp_past_an_output_time_records_it():
+    # the step control's t + h may round past an output time, as a log then holds it: the
+    # replay takes that step and records the output there, as the logged run did
+    run = simulate([pendulum(0.5)], TIMES, rtol=1e-8, atol=1e-10, log_steps=True)
+    log = run.step_logs[0].copy()
+    at = np.flatnonzero(log == TIMES[2])[0]
+    log[at] = np.nextafter(TIMES[2], np.inf)
+    replay = simulate([pendulum(0.5)], TIMES, rtol=1e-8, atol=1e-10, step_sequences=[log])
+    assert not replay.failed.any()
+    np.testing.assert_allclose(replay.states, run.states, rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize(
     "sequences, match",
     [

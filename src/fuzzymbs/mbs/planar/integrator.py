@@ -225,14 +225,15 @@ def conclude_step(x, trial, k, t, step, last, h, target, control, pair):
 @nb.njit(cache=True)
 def replayed_step(sequence, accepted, t, target):
     """(end, last) of the replayed step from t: the sequence's next end time, and whether
-    it is the output time ``target``; end is NaN where the sequence has no next step or
-    it would pass ``target`` (the sequence is not this run's: REPLAY_ENDED)."""
+    it reaches the output time ``target`` (a logged step may end an ulp past it, as the
+    step control's sum t + h can; the output then takes that state, as it did); end is
+    NaN where the sequence has no next step after t (REPLAY_ENDED)."""
     if accepted >= sequence.size:
         return np.nan, False
     end = sequence[accepted]
-    if not (t < end <= target):
+    if not t < end:
         return np.nan, False
-    return end, end == target
+    return end, end >= target
 
 
 @nb.njit(cache=True)
