@@ -196,15 +196,24 @@ def on_fixed_steps(model: Any, samples: Mapping[str, Any], names: tuple[str, ...
     gradients, reasons = central_differences(
         result.outputs, result.failed, parameters, names, perturbed
     )
-    failed = np.array(result.failed, dtype=bool)
-    why = list(result.failure_reason)
-    for i, reason in enumerate(reasons):
-        if reason is not None:
-            failed[i] = True
-            why[i] = f"derivatives failed: {reason}"
+    failed, why = with_failures(result.failed, result.failure_reason, reasons)
     return {
         **result.outputs,
         "failed": failed,
         "failure_reason": np.array(why, dtype=str),
         "gradients": gradients,
     }
+
+
+def with_failures(
+    failed: NDArray[np.bool_], why: Sequence[str], reasons: Sequence[str | None]
+) -> tuple[NDArray[np.bool_], list[str]]:
+    """A model's ``failed`` and failure texts with the samples whose differences failed
+    (``reasons``, from :func:`central_differences`) failed too, saying why."""
+    failed = np.array(failed, dtype=bool)
+    why = list(why)
+    for i, reason in enumerate(reasons):
+        if reason is not None:
+            failed[i] = True
+            why[i] = f"derivatives failed: {reason}"
+    return failed, why

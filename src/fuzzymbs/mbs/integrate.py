@@ -497,7 +497,7 @@ class SimulationModel:
         return gradient_cost(self.settings["integrator"])
 
     def _wrt(self, wrt: Sequence[str] | None) -> tuple[str, ...] | None:
-        return checked_wrt(wrt, self.differentiable, self.settings["integrator"])
+        return checked_wrt(wrt, self.differentiable)
 
     def simulate(self, samples: Mapping[str, NDArray[np.float64]], **overrides) -> SimulationResult:
         """:func:`simulate` of ``samples`` with this model's settings, ``overrides`` replacing

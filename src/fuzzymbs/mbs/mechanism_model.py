@@ -42,7 +42,12 @@ from numpy.typing import ArrayLike, NDArray
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs import planar, spatial
 from fuzzymbs.mbs.assembly import Assembly
-from fuzzymbs.mbs.central_differences import GRADIENT_COST, central_differences, checked_steps
+from fuzzymbs.mbs.central_differences import (
+    GRADIENT_COST,
+    central_differences,
+    checked_steps,
+    with_failures,
+)
 from fuzzymbs.mbs.planar.simulation import (
     DEFAULT_ATOL,
     DEFAULT_METHOD,
@@ -202,7 +207,7 @@ class MechanismModel:
         ``wrt`` (parameter names) also ``"gradients": {name: (B, T, len(wrt))}``, in the
         output's unit per the parameter's. The outputs are bit for bit the same with or
         without ``wrt``; a sample whose perturbed runs fail is flagged failed, saying which."""
-        names = checked_wrt(wrt, self.parameters, self.method) or ()
+        names = checked_wrt(wrt, self.parameters) or ()
         parameters = self.sample_parameters(samples)
         result = self._simulate(parameters, log_steps=bool(names))
         outputs: dict[str, Any] = {}
@@ -222,10 +227,7 @@ class MechanismModel:
             gradients, failures = central_differences(
                 own, failed, parameters, names, replayed, self.gradient_steps
             )
-            for i, why in enumerate(failures):
-                if why is not None:
-                    failed[i] = True
-                    reasons[i] = f"derivatives failed: {why}"
+            failed, reasons = with_failures(failed, reasons, failures)
             outputs["gradients"] = gradients
         outputs["failed"] = failed
         outputs["failure_reason"] = np.array(reasons, dtype=object)

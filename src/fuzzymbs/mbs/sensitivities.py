@@ -77,7 +77,7 @@ def sensitivity_directions(
 
 
 def checked_wrt(
-    wrt: Sequence[str] | None, differentiable: tuple[str, ...], integrator: str
+    wrt: Sequence[str] | None, differentiable: tuple[str, ...]
 ) -> tuple[str, ...] | None:
     """A model's ``wrt`` as a tuple (None: no gradients asked).
 
@@ -92,10 +92,8 @@ def checked_wrt(
     names = _names(wrt, "wrt")
     unknown = [name for name in names if name not in differentiable]
     if unknown:
-        how = (
-            f"it differentiates with respect to {list(differentiable)}"
-            if differentiable
-            else f"integrator {integrator!r} gives none"
+        raise InvalidParameterError(
+            f"wrt: cannot differentiate with respect to {unknown}; it differentiates with "
+            f"respect to {list(differentiable)}"
         )
-        raise InvalidParameterError(f"wrt: cannot differentiate with respect to {unknown}; {how}")
     return names
