@@ -1,6 +1,6 @@
 """The brake's outputs' derivatives from forward sensitivities: accuracy and cost.
 
-    python benchmarks/brake_sensitivities.py [--parts accuracy cost] [--t-end S]
+    python benchmarks/brake_sensitivities.py [--parts accuracy cost rk4] [--t-end S]
         [--cost-t-end S] [--rtol ...] [--cost-rtol ...] [--shared-rtol R] [--repeats N]
         [--delta D]
 
@@ -30,6 +30,13 @@ and all four; the ratios against the run without, in the same process. ``shared 
 ROS34PW2 with every lane on the nominal sample's sequence logged at that rtol (a study's
 runs, whose lanes step together), without sensitivities and with study 1's three.
 
+**rk4** (RK4 at 1 us, whose model gives its gradients as central differences on its
+fixed steps, :func:`fuzzymbs.mbs.central_differences.on_fixed_steps`): the nominal
+brake's derivatives over ``--t-end`` against the accuracy's reference (errors as
+there), their change from relative step 1e-4 to 1e-5 on each derivative's peak, and
+the cost block above over ``--cost-t-end`` with study 1's three parameters against
+none (CPU, the smallest of ``--repeats``).
+
 ``--delta``: the differences' relative perturbation instead of the kernel's
 (:data:`fuzzymbs.mbs.kernels.sensitivities.SENS_DELTA`), for its choice.
 """
@@ -45,6 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
+import fuzzymbs.mbs.central_differences as central_differences
 from fuzzymbs.mbs import integrate
 from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.mbs.system import Coordinate
@@ -236,13 +244,56 @@ def accuracy(t_end: float, rtols: list[float], shared_rtol: float = 1e-3) -> dic
     return result
 
 
+#: the cost block: the nominal sample and three corners of study 1's mu = 0 box
+COST_BLOCK = {
+    "pad_spring_stiffness": 200e3 * np.array([1.0, 0.9, 1.1, 0.9]),
+    "caliper_spring_stiffness": 1e3 * np.array([1.0, 1.1, 0.9, 0.9]),
+    "nodal_force": 16e3 * np.array([1.0, 1.01, 0.99, 0.99]),
+}
+
+
+def rk4(t_end: float, cost_t_end: float, repeats: int) -> dict:
+    """RK4's central-difference gradients: accuracy against the reference, the change
+    from step 1e-4 to 1e-5, and their cost with study 1's parameters."""
+    truth = reference(DiscBrake(t_end=t_end, record_interval=RECORD).compiled, t_end)
+    model = DiscBrake(t_end=t_end, record_interval=RECORD, integrator="rk4")
+    found = {}
+    saved = central_differences.GRADIENT_STEP
+    try:
+        for step in (1e-4, 1e-5):
+            central_differences.GRADIENT_STEP = step
+            found[step] = model(_columns(NOMINAL), wrt=NAMES)["gradients"]
+    finally:
+        central_differences.GRADIENT_STEP = saved
+    change = {}
+    for output in OUTPUTS:
+        fine, finer = found[1e-4][output][0], found[1e-5][output][0]
+        ratio = np.abs(fine - finer).max(axis=0) / np.abs(finer).max(axis=0)
+        change[output] = {SHORT[n]: float(f"{v:.2e}") for n, v in zip(NAMES, ratio, strict=True)}
+    timed = DiscBrake(t_end=cost_t_end, record_interval=RECORD, integrator="rk4")
+    study1 = NAMES[:3]
+    timed(COST_BLOCK, wrt=study1)  # warm
+    cpu: dict[str, list[float]] = {"none": [], "study 1 (3)": []}
+    for _ in range(repeats):
+        for label, names in (("none", None), ("study 1 (3)", study1)):
+            start = time.process_time()
+            timed(COST_BLOCK, wrt=names)
+            cpu[label].append(time.process_time() - start)
+    return {
+        "t_end_s": t_end,
+        "errors": errors({o: g[0] for o, g in found[1e-4].items()}, truth),
+        "step_change_1e-4_to_1e-5": change,
+        "cost": {
+            "t_end_s": cost_t_end,
+            "cpu_s": {label: round(min(values), 3) for label, values in cpu.items()},
+            "cpu_ratio": round(min(cpu["study 1 (3)"]) / min(cpu["none"]), 3),
+        },
+    }
+
+
 def cost(t_end: float, rtols: list[float], repeats: int) -> dict:
     compiled = DiscBrake(t_end=t_end, record_interval=RECORD).compiled
-    samples = {
-        "pad_spring_stiffness": 200e3 * np.array([1.0, 0.9, 1.1, 0.9]),
-        "caliper_spring_stiffness": 1e3 * np.array([1.0, 1.1, 0.9, 0.9]),
-        "nodal_force": 16e3 * np.array([1.0, 1.01, 0.99, 0.99]),
-    }
+    samples = COST_BLOCK
     study1 = NAMES[:3]
     study2 = (NAMES[0], NAMES[1], NAMES[3])
     cases = {"none": (), **{SHORT[n]: (n,) for n in study1}}
@@ -317,6 +368,13 @@ def _print_tables(report: dict) -> None:
                 for o in OUTPUTS
             ]
             say(f"shared rtol {acc['shared']['rtol']:g}, {key}: " + " || ".join(cells) + "\n")
+    if "rk4" in report:
+        r = report["rk4"]
+        for output in OUTPUTS:
+            rel = " ".join(f"{v:.1e}" for v in r["errors"][output]["relative"].values())
+            step = " ".join(f"{v:.1e}" for v in r["step_change_1e-4_to_1e-5"][output].values())
+            say(f"rk4 {output} (k k_c F_n omega): error / peak {rel} | step change {step}\n")
+        say(f"rk4 cost with study 1's three: x{r['cost']['cpu_ratio']:.2f}\n")
     if "cost" in report:
         for key, rows in report["cost"].items():
             if not isinstance(rows, dict):
@@ -352,6 +410,8 @@ def main() -> None:
         report["accuracy"] = accuracy(args.t_end, args.rtol, args.shared_rtol)
     if "cost" in args.parts:
         report["cost"] = cost(args.cost_t_end, args.cost_rtol, args.repeats)
+    if "rk4" in args.parts:
+        report["rk4"] = rk4(args.t_end, args.cost_t_end, args.repeats)
     _print_tables(report)
     print(json.dumps(report))
 

@@ -22,6 +22,11 @@ the same draw in every run):
   the output for a 100 % change of the parameter, to first order), over the outputs: a
   parameter the outputs hardly depend on has derivatives of round-off, whose changes
   above are relative to that;
+* **second difference**: at steps 1e-2, 1e-3 and the default, the largest ``|y+ + y- - 2 y|``
+  of any parameter's pair over the output's largest ``|y|``, for pairs on the replayed
+  steps and on their own (what the check of a pair,
+  :data:`fuzzymbs.mbs.central_differences.LEFT_TRAJECTORY`, bounds; a replay that grows
+  shows on the replayed side only);
 * **failed**: samples whose derivatives failed at each step (a pair that left the
   sample's trajectory, :data:`fuzzymbs.mbs.central_differences.LEFT_TRAJECTORY`);
 * **cost**: CPU of the call with every parameter's derivatives over the call without,
@@ -86,7 +91,7 @@ def size(model, samples, gradients: dict, k: int) -> float:
 def relative_change(a: dict, b: dict, k: int) -> float:
     """Largest |a - b| of parameter k over the outputs, on the scale of b's largest value
     (NaN where either failed everywhere)."""
-    if all(np.isnan(x[o][..., k]).all() for x in (a, b) for o in b):
+    if any(all(np.isnan(x[o][..., k]).all() for o in b) for x in (a, b)):
         return float("nan")
     worst = 0.0
     for output in b:
@@ -108,6 +113,29 @@ def own_steps(model, samples, step: float) -> dict[str, np.ndarray]:
         for o in model.outputs:
             out[o].append((up[o] - down[o]) / (2 * delta[:, None]))
     return {o: np.stack(v, axis=-1) for o, v in out.items()}
+
+
+def second_differences(model, samples, step: float) -> dict[str, float]:
+    """The largest second difference ``|y+ + y- - 2 y|`` of any parameter's pair at relative
+    ``step``, over the outputs' largest ``|y|`` (the quantity
+    :data:`fuzzymbs.mbs.central_differences.LEFT_TRAJECTORY` bounds), for pairs replaying
+    each sample's steps and pairs on their own steps."""
+    nominal = model.run(samples, log_steps=True)
+    values = {o: np.asarray(r(nominal)) for o, (r, _) in model.readers.items()}
+    worst = {"replayed": 0.0, "own_steps": 0.0}
+    for name in model.parameters:
+        delta = step * np.where(samples[name] != 0, np.abs(samples[name]), 1.0)
+        for label, options in (
+            ("replayed", {"step_sequences": nominal.step_logs}),
+            ("own_steps", {}),
+        ):
+            up = model.run({**samples, name: samples[name] + delta}, **options)
+            down = model.run({**samples, name: samples[name] - delta}, **options)
+            for o, (reader, _) in model.readers.items():
+                second = np.abs(reader(up) + reader(down) - 2.0 * values[o])
+                scale = np.abs(values[o]).max()
+                worst[label] = max(worst[label], float(np.nanmax(second)) / scale)
+    return worst
 
 
 def cpu(call) -> float:
@@ -140,9 +168,13 @@ def measure(name: str, count: int, steps: list[float], repeats: int, **options) 
             "replayed_vs_tighter": relative_change(base, tighter, k),
             "size": size(model, samples, base, k),
         }
+    seconds = {
+        f"{step:g}": second_differences(model, samples, step) for step in (1e-2, 1e-3, default)
+    }
     return {
         "samples": count,
         "parameters": parameters,
+        "largest_second_difference": seconds,
         "failed_samples": {f"{step:g}": failed for step, (_, failed) in runs.items()},
         "cpu_plain_s": plain,
         "cpu_with_all_s": with_all,
@@ -170,7 +202,8 @@ def main() -> None:
         print(
             f"{name}: cost {row['cost_ratio']:.2f} "
             f"({row['runs_per_parameter']:.2f} runs per parameter); failed samples per step "
-            f"{row['failed_samples']}"
+            f"{row['failed_samples']}; largest second differences "
+            f"{row['largest_second_difference']}"
         )
         for parameter, entry in row["parameters"].items():
             changes = " ".join(f"{v:.1e}" for v in entry["step_change"].values())

@@ -237,6 +237,23 @@ def test_brake_sensitivities_cost_times_shared_steps_too():
     assert shared["study 1 (3)"]["rhs_ratio"] > 1.0
 
 
+def test_brake_sensitivities_rk4_part_reports_errors_steps_and_cost(tmp_path, monkeypatch):
+    # the script behind the RK4 derivatives' figures (docs/brake.md), over 20 us: errors
+    # against the reference, the change between two steps and the cost, the step restored
+    import brake_sensitivities
+
+    import fuzzymbs.mbs.central_differences as central_differences
+
+    monkeypatch.setattr(brake_sensitivities, "CACHE", tmp_path)
+    report = brake_sensitivities.rk4(2e-5, 2e-5, repeats=1)
+    assert set(report["errors"]) == set(report["step_change_1e-4_to_1e-5"]) == {
+        "y_lpad", "y_upad", "y_cali",
+    }  # fmt: skip
+    assert set(report["errors"]["y_lpad"]["relative"]) == {"k", "k_c", "F_n", "omega"}
+    assert report["cost"]["cpu_ratio"] > 1.0
+    assert central_differences.GRADIENT_STEP == 1e-4
+
+
 def test_jacobian_age_runs_each_age_and_restores_the_default(tmp_path):
     # the script behind the Jacobian age's figures (docs/benchmarks.md), over 0.1 ms:
     # its default-age coefficients are the kernel's, every age runs and is judged

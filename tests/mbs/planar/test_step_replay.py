@@ -244,7 +244,8 @@ def test_a_pair_that_leaves_the_trajectory_fails_the_sample(monkeypatch):
 def test_an_adaptive_study_takes_the_mechanism_gradients():
     # the oscillator through a study with gradients: the runs carry them, the bands
     # against the closed form's dense-grid truth miss at most the tolerance (1 %) plus
-    # the truth's resolution (a 41 x 41 grid over each cut's box)
+    # the truth's resolution (a 41 x 41 grid over each cut's box), and the study takes
+    # fewer runs than without them (measured: 39 against 54; both miss by 3e-8)
     from fuzzymbs import Study
     from fuzzymbs.fuzzy.band_scale import band_miss
     from fuzzymbs.fuzzy.numbers import triangular_numbers
@@ -269,6 +270,10 @@ def test_an_adaptive_study_takes_the_mechanism_gradients():
         np.array(truth_lower), np.array(truth_upper),
     )  # fmt: skip
     assert miss <= 0.011
+    without = Study(
+        oscillator_model(rtol=1e-9), numbers, method="adaptive", levels=2, gradients=False
+    ).run(progress=False)
+    assert attrs["adaptive_runs"] < without.dataset.attrs["adaptive_runs"]
 
 
 def test_named_steps_replace_the_relative_one():
