@@ -446,3 +446,20 @@ def test_mechanism_gradients_reports_every_parameter():
         assert entry["size"] > 0 and entry["replayed_vs_tighter"] >= 0
     assert report["failed_samples"] == {"0.001": 0, "0.0001": 0}
     assert report["cost_ratio"] > 1.0
+
+
+@pytest.mark.slow
+def test_gear_dynamic_reports_cost_and_each_laws_smoothness():
+    # the script behind docs/gears.md's cost and smoothness of the dynamic DTE, this
+    # checkout against itself: the same DTE to the bit, every damping law measured
+    import gear_dynamic
+    from bench_common import REPO
+
+    report = gear_dynamic.measure(REPO, rounds=1, quick=True)
+    assert report["dte_difference_of_peak"] == 0.0
+    assert report["cost_this"][0]["cpu_s"] > 0 and report["cpu_ratio_this_over_other"] > 0
+    assert set(report["smoothness"]) == {"viscous (default)", "undamped", "Hunt-Crossley"}
+    for law in report["smoothness"].values():
+        assert law["jitter_in_steps"] >= 0 and set(law["difference_change"]) == {
+            "0.0001", "0.0002", "0.0005", "0.001",
+        }  # fmt: skip
