@@ -11,12 +11,12 @@ from fuzzymbs.models.gears.dynamics import (
     penetration_rate,
 )
 from fuzzymbs.models.gears.flank_contact import (
-    CENTER,
     PHI_REF2,
     PITCH1,
     PITCH2,
     THETA_REF1,
     pair_contact,
+    sample_geometry,
 )
 
 
@@ -153,12 +153,22 @@ def test_a_sample_does_not_depend_on_its_batch(pair):
     assert np.ptp(together[:, 0]) > 0  # premise: the samples differ
 
 
-def test_penetration_rate_is_the_derivative_of_the_penetration(pair):
-    # The damping term's delta' (n . (v1 - v2) at the contact point) against central
-    # differences (h = 1e-9 s) of the penetration along random gear and hinge rates,
-    # over a mesh period of pinion angles, flank and corner contacts both; measured
-    # 1.2e-7 relative (the differences' round-off). Bound 1e-6.
-    g = MubocoPR(pair, torque=100.0, mode="dynamic").geometry
+@pytest.mark.parametrize(
+    "deviation, relief, bound",
+    [
+        (0.0, 0.0, 1e-6),  # exact: measured 1.2e-7 (the differences' round-off)
+        (5e-5, 0.0, 1e-6),  # a wider centre distance: measured 6.5e-8
+        (0.0, 2e-5, 1e-6),  # tip relief (a 1 ns forward difference): measured 1.4e-7
+    ],
+)
+def test_penetration_rate_is_the_derivative_of_the_penetration(pair, deviation, relief, bound):
+    # The damping term's delta' against central differences (h = 1e-9 s) of the
+    # penetration along random gear and hinge rates, over a mesh period of pinion angles,
+    # conjugate and tip-corner contacts both. Without relief it is n . (v1 - v2) at the
+    # contact point; with relief the relief's depth moves with the roll lengths too.
+    nominal = MubocoPR(pair, torque=100.0, mode="dynamic").geometry
+    g = np.empty_like(nominal)
+    assert sample_geometry(nominal, deviation, relief, g) == 0
     z1, z2 = pair.pinion.teeth, pair.wheel.teeth
     rng = np.random.default_rng(7)
     kinds, worst = set(), 0.0
@@ -172,7 +182,7 @@ def test_penetration_rate_is_the_derivative_of_the_penetration(pair):
                     break
             else:
                 continue
-            kind, _, qx, qy, nx, ny, h1x, h1y, h2x, h2y = contact
+            kind, delta = contact[0], contact[1]
             w1, w2, r1, r2 = rng.normal(size=4) * (100.0, 80.0, 5.0, 5.0)
             h = 1e-9
             moved = [
@@ -183,11 +193,13 @@ def test_penetration_rate_is_the_derivative_of_the_penetration(pair):
                 for s in (1.0, -1.0)
             ]  # fmt: skip
             numeric = (moved[0] - moved[1]) / (2 * h)
-            exact = penetration_rate(qx, qy, nx, ny, h1x, h1y, h2x, h2y, g[CENTER], w1, r1, w2, r2)
+            rate = penetration_rate(
+                th, 2e-4, kinematic + lag, -1e-4, delta, contact[2:], g, w1, r1, w2, r2
+            )
             kinds.add(int(kind))
-            worst = max(worst, abs(exact - numeric) / abs(numeric))
-    assert kinds == {1, 2}  # flank and corner contact
-    assert worst <= 1e-6
+            worst = max(worst, abs(rate - numeric) / abs(numeric))
+    assert {1, 2} <= kinds  # conjugate and pinion tip-corner contact
+    assert worst <= bound
 
 
 def test_hunt_crossley_damping_takes_the_step_of_its_viscous_equivalent(pair):
