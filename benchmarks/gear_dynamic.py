@@ -16,7 +16,11 @@ a parameter; one JSON line.
   fit in k over ``1e-4`` times the largest slope (the DTE's jitter in the parameter, in
   units of a central difference's step), and the largest change of the central
   differences at steps 1e-4, 2e-4, 5e-4, 1e-3 from the fit's slope, relative to the
-  largest slope (what a derivative by central differences would be off).
+  largest slope (what a derivative by central differences would be off);
+* **convergence**: at 1000 and 3000 rpm, three samples (torque 80, 100, 120 N m with
+  the contact stiffness at 0.8, 1, 1.2 times its default), the DTE at the default step
+  against a sixteenth of it, and the difference to half the step (what a study's
+  time-integration check reports), both over the width of the band the samples span.
 """
 
 from __future__ import annotations
@@ -43,6 +47,31 @@ for _ in range(3):
     cpu = min(cpu, time.process_time() - c)
 np.save({path!r}, out["dte"])
 print(json.dumps({{"wall_s": round(wall, 3), "cpu_s": round(cpu, 3)}}))
+"""
+
+_CONVERGENCE = """
+import json
+import numpy as np
+from fuzzymbs.models.gears import gear_pair_dynamic_model
+def dte(scale, speed):
+    model = gear_pair_dynamic_model(dynamic={{"step_scale": scale, "speed_rpm": speed,
+                                             "mesh_periods": {periods},
+                                             "output_periods": {recorded}}})
+    samples = {{"torque": np.array([80.0, 100.0, 120.0]),
+               "contact_stiffness": model.defaults["contact_stiffness"] * np.array([0.8, 1, 1.2])}}
+    return model.dynamic_plan.dt, model(samples)["dte"]
+report = {{}}
+for speed in (1000.0, 3000.0):
+    _, reference = dte(1 / 16, speed)
+    band = np.max(reference.max(axis=0) - reference.min(axis=0))
+    dt, default = dte(1.0, speed)
+    _, half = dte(0.5, speed)
+    error = float(np.max(np.abs(default - reference)) / band)
+    difference = float(np.max(np.abs(default - half)) / band)
+    report[f"{{speed:g}} rpm"] = {{"dt_s": dt, "error_of_band": error,
+                                  "half_step_difference_of_band": difference,
+                                  "difference_over_error": difference / error}}
+print(json.dumps(report))
 """
 
 _SMOOTHNESS = """
@@ -101,6 +130,10 @@ def measure(checkout: Path | None = None, rounds: int = 3, quick: bool = False) 
         report["cpu_ratio_this_over_other"] = round(cpu["this"] / cpu["other"], 3)
     periods = 5 if quick else 12
     report["smoothness"] = run_json_subprocess(_SMOOTHNESS.format(periods=periods))
+    periods, recorded = (3, 1) if quick else (40, 8)  # quick: 3 mesh periods, the last recorded
+    report["convergence"] = run_json_subprocess(
+        _CONVERGENCE.format(periods=periods, recorded=recorded)
+    )
     report["load_average_after"] = load_average()
     return report
 

@@ -459,6 +459,8 @@ def test_gear_dynamic_reports_cost_and_each_laws_smoothness():
     assert report["dte_difference_of_peak"] == 0.0
     assert report["cost_this"][0]["cpu_s"] > 0 and report["cpu_ratio_this_over_other"] > 0
     assert set(report["smoothness"]) == {"viscous (default)", "undamped", "Hunt-Crossley"}
+    for speed in report["convergence"].values():
+        assert speed["error_of_band"] > 0 and speed["half_step_difference_of_band"] > 0
     for law in report["smoothness"].values():
         assert law["jitter_in_steps"] >= 0 and set(law["difference_change"]) == {
             "0.0001", "0.0002", "0.0005", "0.001",
