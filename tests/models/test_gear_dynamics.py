@@ -205,8 +205,8 @@ def test_penetration_rate_is_the_derivative_of_the_penetration(pair, deviation, 
 def test_hunt_crossley_damping_takes_the_step_of_its_viscous_equivalent(pair):
     # c delta'^m2 delta^m3 with m3 = 1 and c = c_v / (margin delta_design) damps like
     # the viscous c_v at the margin times the design penetration, so RK4's step is that
-    # of c_v (read as N s/m, this c would ask a 2e5 times smaller step: 200 GB of torque
-    # history)
+    # of c_v (read as N s/m, this c would ask a 2e5 times smaller step: hundreds of GB of
+    # torque history)
     viscous = MubocoPR(pair, torque=100.0, mode="dynamic", damping=3000.0)
     kc = viscous.defaults["contact_stiffness"]
     depth = 2.0 * 100.0 / pair.pinion.base_radius / kc  # stiffness_margin 2, m1 = 1
