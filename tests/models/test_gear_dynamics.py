@@ -14,6 +14,7 @@ from fuzzymbs.models.gears.flank_contact import (
     PHI_REF2,
     PITCH1,
     PITCH2,
+    RELIEF,
     THETA_REF1,
     pair_contact,
     sample_geometry,
@@ -171,7 +172,9 @@ def test_penetration_rate_is_the_derivative_of_the_penetration(pair, deviation, 
     assert sample_geometry(nominal, deviation, relief, g) == 0
     z1, z2 = pair.pinion.teeth, pair.wheel.teeth
     rng = np.random.default_rng(7)
-    kinds, worst = set(), 0.0
+    unrelieved = g.copy()  # the same contact, its rate as n . (v1 - v2)
+    unrelieved[RELIEF] = 0.0
+    kinds, worst, rigid_worst = set(), 0.0, 0.0
     for theta1 in np.linspace(0.0, g[PITCH1], 60, endpoint=False):
         for index in (0, 1):
             th = theta1 + g[THETA_REF1] + index * g[PITCH1]
@@ -198,8 +201,16 @@ def test_penetration_rate_is_the_derivative_of_the_penetration(pair, deviation, 
             )
             kinds.add(int(kind))
             worst = max(worst, abs(rate - numeric) / abs(numeric))
+            rigid = penetration_rate(
+                th, 2e-4, kinematic + lag, -1e-4, delta, contact[2:], unrelieved, w1, r1, w2, r2
+            )
+            rigid_worst = max(rigid_worst, abs(rigid - numeric) / abs(numeric))
     assert {1, 2} <= kinds  # conjugate and pinion tip-corner contact
     assert worst <= bound
+    if relief > 0.0:
+        # why relieved flanks keep the difference: n . (v1 - v2) alone misses the relief's
+        # depth moving with the roll lengths (measured 2.4e-2 of the rate here)
+        assert rigid_worst > 100 * bound
 
 
 def test_hunt_crossley_damping_takes_the_step_of_its_viscous_equivalent(pair):
