@@ -465,3 +465,43 @@ def test_gear_dynamic_reports_cost_and_each_laws_smoothness():
         assert law["jitter_in_steps"] >= 0 and set(law["difference_change"]) == {
             "0.0001", "0.0002", "0.0005", "0.001",
         }  # fmt: skip
+
+
+def test_first_order_slopes_recover_a_linear_error_field():
+    # benchmarks/first_order_correction.py's two slope estimates on a field linear in
+    # p (plus a curvature the central differences cancel and the corners' main effects
+    # leave out: an even term): both recover the slope to round-off
+    from first_order_correction import OUTPUTS, slopes_central, slopes_corners
+
+    rng = np.random.default_rng(3)
+    p0, h = np.array([2e5, 1e3, 1.6e4]), np.array([5e3, 25.0, 40.0])
+    slope = {name: rng.normal(size=(7, 3)) for name in OUTPUTS}  # (T, n)
+
+    def field(rows):  # coarse - fine at rows (k, n)
+        d = (rows - p0) / h
+        return {k: (rows - p0) @ slope[k].T + (d**2).sum(1)[:, None] for k in OUTPUTS}
+
+    central = np.repeat(p0[None, :], 6, axis=0)
+    for i in range(3):
+        central[2 * i, i] += h[i]
+        central[2 * i + 1, i] -= h[i]
+    signs = np.array([[1 if (k >> i) & 1 else -1 for i in range(3)] for k in range(8)])
+    corners = p0 + signs * h
+    zero = {k: 0.0 for k in OUTPUTS}
+    found_central = slopes_central(field(central), zero, h)
+    found_corners = slopes_corners(field(corners), zero, signs, h)
+    for k in OUTPUTS:
+        np.testing.assert_allclose(found_central[k], slope[k], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(found_corners[k], slope[k], rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.slow
+def test_first_order_correction_quick_removes_the_slope_it_measured():
+    # 1 ms, study 1, rtol 1e-2: the central-difference correction leaves the model's
+    # slope relative to its tenfold tighter model at round-off (its sign and scale)
+    import first_order_correction
+
+    report = first_order_correction.main(["--quick"])["study1"]["rtol 0.01"]
+    assert report["central_slope_left"] < 1e-9
+    for label in ("constant", "central", "corners"):
+        assert all(np.isfinite(v).all() and min(v) >= 0 for v in report[label].values())
