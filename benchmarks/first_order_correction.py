@@ -22,7 +22,8 @@ each rtol, corrected by the constant alone (today's) and by the constant and eit
 first-order part; their bands against the same plan at rtol 1e-6 on each sample's
 own steps (cached in benchmarks/.cache by brake_bands.py), per output and level, as a
 fraction of max(local cut width, 0.1 x the level's widest cut). CPU seconds: the plan's
-runs, and the runs each estimate of the slope adds.
+runs (with the modal sample's logging run and its reference pair), the tighter model's
+logging run, and the runs each estimate of the slope adds.
 
 ``--quick``: 1 ms, study 1, rtol 1e-2, no reference cache (the smoke test's mode).
 """
@@ -62,6 +63,14 @@ def slopes_corners(coarse: dict, fine: dict, signs: np.ndarray, h: np.ndarray) -
     return found
 
 
+def corrected(values: dict, rows: np.ndarray, p0: np.ndarray, slope: dict | None) -> dict:
+    """output -> (k, T): ``values`` at ``rows`` (k, n) less ``slope (row - p0)``; as they are
+    where ``slope`` is None (the modal part alone)."""
+    if slope is None:
+        return {name: np.asarray(values[name]) for name in OUTPUTS}
+    return {name: np.asarray(values[name]) - (rows - p0) @ slope[name].T for name in OUTPUTS}
+
+
 def measure(study: int, rtol: float, t_end: float, fraction: float, reference: dict) -> dict:
     """Band deviations of the constant and the two first-order corrections at ``rtol``."""
     parameters = study_parameters(study)
@@ -96,7 +105,9 @@ def measure(study: int, rtol: float, t_end: float, fraction: float, reference: d
     coarse_central = coarse.deviations(columns(central))
     cpu_central_coarse = time.process_time() - cpu
     cpu = time.process_time()
-    fine = coarse.tightened(10.0)  # a study's tighter model: the same reference
+    fine = coarse.tightened(10.0)  # a study's tighter model (the same reference): logs
+    fine_logging_cpu = time.process_time() - cpu
+    cpu = time.process_time()
     fine_central = fine.deviations(columns(central))
     cpu_central_fine = time.process_time() - cpu
     cpu = time.process_time()
@@ -110,19 +121,17 @@ def measure(study: int, rtol: float, t_end: float, fraction: float, reference: d
     }
     found: dict = {
         "plan_cpu_s": round(plan_cpu, 2),
+        "fine_logging_cpu_s": round(fine_logging_cpu, 2),
         "slope_cpu_s": {
             "central": round(cpu_central_coarse + cpu_central_fine, 2),
             "corners": round(cpu_corners_fine, 2),
-            "corners_at_the_study_s_pilot": 0.0,
         },
     }
+    before = slopes_central(coarse_central, fine_central, h)
     for label, slope in slopes.items():
-        outputs = {}
+        outputs = corrected(plan_out, samples, p0, slope)
         for name in OUTPUTS:
-            values = reference_modal[name][None, :] + np.asarray(plan_out[name])
-            if slope is not None:
-                values = values - (samples - p0) @ slope[name].T
-            outputs[name] = values
+            outputs[name] = reference_modal[name][None, :] + outputs[name]
         result = plan.retransform(outputs, check_monotonic=False)
         bands = {k: (result[k].lower, result[k].upper) for k in OUTPUTS}
         found[label] = band_deviation(bands, reference)
@@ -131,12 +140,7 @@ def measure(study: int, rtol: float, t_end: float, fraction: float, reference: d
             # relative to it before, each slope times its step (a change in m): 0 to
             # round-off for "central" (the correction's sign and scale), the two
             # estimates' disagreement for "corners"
-            before = slopes_central(coarse_central, fine_central, h)
-            corrected = {
-                name: np.asarray(coarse_central[name]) - (central - p0) @ slope[name].T
-                for name in OUTPUTS
-            }
-            after = slopes_central(corrected, fine_central, h)
+            after = slopes_central(corrected(coarse_central, central, p0, slope), fine_central, h)
             found[f"{label}_slope_left"] = max(
                 float(np.abs(after[k] * h).max() / np.abs(before[k] * h).max()) for k in OUTPUTS
             )

@@ -470,8 +470,9 @@ def test_gear_dynamic_reports_cost_and_each_laws_smoothness():
 def test_first_order_slopes_recover_a_linear_error_field():
     # benchmarks/first_order_correction.py's two slope estimates on a field linear in
     # p (plus a curvature the central differences cancel and the corners' main effects
-    # leave out: an even term): both recover the slope to round-off
-    from first_order_correction import OUTPUTS, slopes_central, slopes_corners
+    # leave out: an even term): both recover the slope to round-off, and the correction
+    # with it leaves the even term alone (3 at every corner: sum of (+-1)^2)
+    from first_order_correction import OUTPUTS, corrected, slopes_central, slopes_corners
 
     rng = np.random.default_rng(3)
     p0, h = np.array([2e5, 1e3, 1.6e4]), np.array([5e3, 25.0, 40.0])
@@ -490,9 +491,11 @@ def test_first_order_slopes_recover_a_linear_error_field():
     zero = {k: 0.0 for k in OUTPUTS}
     found_central = slopes_central(field(central), zero, h)
     found_corners = slopes_corners(field(corners), zero, signs, h)
+    rest = corrected(field(corners), corners, p0, found_corners)  # the even term is left
     for k in OUTPUTS:
         np.testing.assert_allclose(found_central[k], slope[k], rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(found_corners[k], slope[k], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(rest[k], 3.0, rtol=1e-9)
 
 
 @pytest.mark.slow
