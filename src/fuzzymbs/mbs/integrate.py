@@ -98,6 +98,11 @@ class SimulationResult:
     gradient_parameters: tuple[str, ...] = ()
     #: (B,) right-hand sides the sensitivities took (besides ``work_counts``'), None without
     sensitivity_rhs: NDArray[np.int64] | None = None
+    #: with ``log_jacobians``: ``(rows, step_rows)``, the first sample's Jacobians as it
+    #: evaluated them, (J, 2 n^2 + 2 n) rows of da/dq, da/dv and f_t, and for each logged
+    #: step the row it took (-1: past the log's end); the ``logged_jacobians`` of a run
+    #: on its steps. None without
+    jacobian_log: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
 
 def simulate(
@@ -119,6 +124,8 @@ def simulate(
     log_steps: bool | int = False,
     log_samples: int = 1,
     sensitivities: Sequence[str] = (),
+    log_jacobians: bool = False,
+    logged_jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> SimulationResult:
     """Integrate a batch of samples with classic RK4 (fixed step) or ROS34PW2.
 
@@ -192,6 +199,16 @@ def simulate(
         bit for bit those of the run without); the result's ``gradients`` then hold the
         outputs' derivatives, (B, T, P) per output in this order, in the output's unit
         per the parameter's (docs/theory.md, "Forward sensitivities").
+    log_jacobians : bool
+        ROS34PW2 with ``log_steps``: the first sample's Jacobians are kept too, as the
+        result's ``jacobian_log`` (about 2 n^2 doubles per renewal: the brake over 10 ms
+        at rtol 1e-3, 3,914 of them, 108 MB).
+    logged_jacobians : (rows, step_rows), optional
+        ROS34PW2 with ``step_sequence``: a logging run's ``jacobian_log``. A sample that
+        renews its Jacobian at a point of the sequence takes the one the logged step
+        took instead of evaluating its own (ROS34PW2 is a W-method: its order holds
+        with any Jacobian, docs/theory.md "Shared steps"); elsewhere, and where the log
+        has no row, it evaluates its own.
     """
     check_kernel(kernel)
     rtols, atols, h_min = check_integrator(integrator, tolerance)
@@ -228,6 +245,9 @@ def simulate(
         step_sequence, integrator in ROSENBROCK, 0.0 + (n_rec - 1) * float(every * dt)
     )
     renewals = checked_renewals(jacobian_renewals, sequence)
+    jacobians = jacobian_arrays(
+        compiled, integrator, log_jacobians, log_steps, logged_jacobians, sequence, n_steps
+    )
     out = np.empty((batch, out_w.shape[0], n_rec))
     status = np.zeros(batch, dtype=np.int64)
     fail_t = np.full(batch, np.nan)
@@ -274,6 +294,7 @@ def simulate(
                 step_log if start == 0 else no_log,
                 METHODS[integrator],
                 sensitivity,
+                jacobians if start == 0 or jacobians[2][0] == 2.0 else NO_JACOBIANS,
             )
             derivatives[sl] = d
         out[sl] = o
@@ -306,7 +327,48 @@ def simulate(
         gradients=gradients,
         gradient_parameters=tuple(sensitivities) if nsens else (),
         sensitivity_rhs=counts[:, 5].copy() if nsens else None,
+        jacobian_log=logged_rows(jacobians, logs) if log_jacobians else None,
     )
+
+
+#: no Jacobians logged or read (the kernel's ``jacobians``)
+NO_JACOBIANS = (np.zeros((0, 0)), np.zeros(0), np.zeros(2))
+
+
+def jacobian_arrays(compiled, integrator, log, log_steps, logged, sequence, n_steps) -> tuple:
+    """The kernel's ``jacobians``: ``(rows, step_rows, (mode, count))``, mode 1 writing the
+    first sample's Jacobians (``log_jacobians``), 2 reading a log (``logged_jacobians``)."""
+    width = 2 * compiled.n_dofs * compiled.n_dofs + compiled.n_state
+    if log:
+        if integrator != "ros34pw2" or log_steps is False:
+            raise InvalidParameterError("log_jacobians needs integrator='ros34pw2' and log_steps")
+        # rows are touched only as they are written (np.empty): a generous log costs no
+        # memory it does not use
+        steps = max(20 * n_steps, 10**6) if log_steps is True else int(log_steps)
+        return np.empty((2 * n_steps + 4096, width)), np.full(steps, -1.0), np.array([1.0, 0.0])
+    if logged is None:
+        return NO_JACOBIANS
+    if integrator != "ros34pw2" or sequence.size == 0:
+        raise InvalidParameterError(
+            "logged_jacobians need integrator='ros34pw2' and a step_sequence"
+        )
+    rows, step_rows = (np.ascontiguousarray(a, dtype=np.float64) for a in logged)
+    if rows.ndim != 2 or rows.shape[1] != width or step_rows.shape != sequence.shape:
+        raise InvalidParameterError(
+            f"logged_jacobians: rows must be (J, {width}) and step_rows one per step of the "
+            f"sequence ({sequence.size}), got {rows.shape} and {step_rows.shape}"
+        )
+    if step_rows.size and step_rows.max() >= rows.shape[0]:
+        raise InvalidParameterError("logged_jacobians: a step names a row past the log")
+    return rows, step_rows, np.array([2.0, 0.0])
+
+
+def logged_rows(jacobians: tuple, logs) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A written log trimmed to its rows and the first sample's logged steps."""
+    rows, step_rows, control = jacobians
+    count = min(int(control[1]), rows.shape[0])
+    steps = 0 if logs is None or logs[0] is None else logs[0].shape[0]
+    return rows[:count].copy(), step_rows[:steps].copy()
 
 
 def _initial(compiled: CompiledSystem, initial_state, batch: int) -> NDArray[np.float64]:
@@ -613,6 +675,7 @@ class SimulationModel:
                 samples,
                 step_sequence=shared.sequence,
                 jacobian_renewals=shared.renewals,
+                logged_jacobians=shared.jacobians,
                 sensitivities=names,
             )
             renewed = any(keys[i] in shared.kept for i in missing)

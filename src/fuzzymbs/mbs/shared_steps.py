@@ -152,6 +152,10 @@ class SharedSteps:
         of :meth:`~fuzzymbs.mbs.integrate.SimulationModel.deviations`, a study's pilot).
     ahead : the tolerances of the runs logged ahead in the references' block (empty:
         none); a tightened model at exactly one of them takes its run.
+    jacobians : the logging run's Jacobians (``jacobian_log`` of
+        :func:`~fuzzymbs.mbs.integrate.simulate`), which every sample takes where it
+        renews its own at a point of the sequence (ROS34PW2; None: a sequence logged
+        ahead in the references' block, or RODAS4, whose order needs its own).
     """
 
     modal: dict[str, float]
@@ -162,6 +166,9 @@ class SharedSteps:
     reference_rtol: float
     kept: dict[bytes, KeptRun] = field(default_factory=dict, repr=False)
     ahead: tuple[Tolerance, ...] = ()
+    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = field(
+        default=None, repr=False
+    )
 
     @property
     def reference(self) -> dict[str, NDArray[np.float64]]:
@@ -428,7 +435,8 @@ def _logged_run(model: SimulationModel, modal: Mapping[str, float]):
     capacity = 10**6
     while True:  # a log as long as the modal sample's steps need
         try:
-            return _run(model, modal, log_steps=capacity)
+            log_jacobians = model.settings["integrator"] == "ros34pw2"
+            return _run(model, modal, log_steps=capacity, log_jacobians=log_jacobians)
         except InvalidParameterError:
             if capacity >= 10**9:
                 raise
@@ -497,6 +505,7 @@ def share_steps(
         references,
         REFERENCE_RTOL,
         ahead=ahead,
+        jacobians=logged.jacobian_log,
     )
     # and a study's modal sample takes it (its outputs become the reference's)
     modal_row = model.compiled.parameters.values(_single(modal))[0]

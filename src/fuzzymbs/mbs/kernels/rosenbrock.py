@@ -269,6 +269,30 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages, ns
     return x, p, alive, work, vectors, matrices, piv, sens, sens_work, control
 
 
+@nb.njit(cache=True)
+def log_jacobian(jq, jv, ft, n, nstate, jac_log, jac_ctl):
+    """Lane 0's Jacobian (da/dq, da/dv, f_t) into row ``jac_ctl[1]`` of ``jac_log``, and
+    the count up by one (rows past the log's end are counted, not written)."""
+    row = int(jac_ctl[1])
+    if row < jac_log.shape[0]:
+        for e in range(n * n):
+            jac_log[row, e] = jq[L * e]
+            jac_log[row, n * n + e] = jv[L * e]
+        for k in range(nstate):
+            jac_log[row, 2 * n * n + k] = ft[L * k]
+    jac_ctl[1] = row + 1
+
+
+@nb.njit(cache=True)
+def logged_jacobian(jac_log, row, lane, n, nstate, jq, jv, ft):
+    """Row ``row`` of ``jac_log`` into lane ``lane`` of the Jacobian and f_t."""
+    for e in range(n * n):
+        jq[L * e + lane] = jac_log[row, e]
+        jv[L * e + lane] = jac_log[row, n * n + e]
+    for k in range(nstate):
+        ft[L * k + lane] = jac_log[row, 2 * n * n + k]
+
+
 @nb.njit(cache=True, nogil=True, fastmath=V.FAST)
 def advance_block_ros(
     sysdata,
@@ -285,6 +309,7 @@ def advance_block_ros(
     renewals,
     step_log,
     sensitivity,
+    jacobians,
 ):
     """Advances a block until records ``.. rec_end - 1`` are written (a step that passes
     ``rec_end`` also writes the records it covers). Returns False when the block is
@@ -373,6 +398,13 @@ def advance_block_ros(
     shared = sequence.shape[0] > 0
     forced = shared and renewals.shape[0] == sequence.shape[0]
     logging = step_log.shape[1] > 1 and first == 0
+    # the Jacobians of a logged run (``jacobian_log``): lane 0 of a logging block writes
+    # every one it evaluates; a run on the logged sequence reads them
+    jac_log, jac_rows, jac_ctl = jacobians
+    writing = jac_ctl[0] == 1.0 and logging
+    reading = jac_ctl[0] == 2.0 and shared
+    from_log = np.zeros(L, dtype=np.bool_)
+    own = np.zeros(L, dtype=np.bool_)
     h = control[_H]
     err_prev = control[_ERR_PREV]
     lu_step = control[_LU_STEP]
@@ -462,10 +494,24 @@ def advance_block_ros(
                 stepping[lane] = False
                 renew[lane] = False
             any_renew = any_renew or renew[lane]
-        if any_renew:
+        # a lane at a point of a sequence whose logging run logged its Jacobians takes the
+        # one the logged step took (ROS34PW2 is a W-method: its order holds with any
+        # Jacobian); the others evaluate their own, as a block
+        any_own = False
+        any_logged = False
+        for lane in range(L):
+            from_log[lane] = False
+            grid = int(control[_GRID, lane])
+            at_point = h[lane] == _OPEN or (grid == 0 and t[lane] == t0)
+            if renew[lane] and reading and at_point:
+                from_log[lane] = jac_rows[grid] >= 0.0
+            own[lane] = renew[lane] and not from_log[lane]
+            any_own = any_own or own[lane]
+            any_logged = any_logged or from_log[lane]
+        if any_own:
             jacobian(t_lane, x, p, sysdata, work, f_fresh, jq_fresh, jv_fresh)
             for lane in range(L):
-                if renew[lane]:
+                if own[lane]:
                     control[_N_JAC, lane] += 1.0
                     control[_N_RHS, lane] += 1.0
             # explicit time dependence (prescribed rotations, force profiles)
@@ -474,7 +520,7 @@ def advance_block_ros(
                 theta[lane] = t[lane] + delta[lane]
             rhs(theta, x, ft_fresh, p, sysdata, work)
             for lane in range(L):
-                if renew[lane]:
+                if own[lane]:
                     for k in range(nstate):
                         e = L * k + lane
                         ft[e] = (ft_fresh[e] - f_fresh[e]) / delta[lane]
@@ -483,8 +529,18 @@ def advance_block_ros(
                     jac_age[lane] = 0.0
                     f_known[lane] = 1.0
                     lu_step[lane] = -1.0
-            copy_lanes(jq_fresh, jq, renew)
-            copy_lanes(jv_fresh, jv, renew)
+            copy_lanes(jq_fresh, jq, own)
+            copy_lanes(jv_fresh, jv, own)
+            if writing and own[0]:
+                log_jacobian(jq, jv, ft, n, nstate, jac_log, jac_ctl)
+        if any_logged:
+            for lane in range(L):
+                if from_log[lane]:
+                    row = int(jac_rows[int(control[_GRID, lane])])
+                    logged_jacobian(jac_log, row, lane, n, nstate, jq, jv, ft)
+                    need_jac[lane] = 0.0
+                    jac_age[lane] = 0.0
+                    lu_step[lane] = -1.0
         any_renew = False
         for lane in range(L):
             renew[lane] = stepping[lane] and f_known[lane] == 0.0
@@ -582,6 +638,10 @@ def advance_block_ros(
                         step_log[lane, 1 + 2 * logged] = theta[lane]
                         step_log[lane, 2 + 2 * logged] = 1.0 if jac_age[lane] == 0.0 else 0.0
                         step_log[lane, 0] = logged + 1
+                        if writing and lane == 0 and logged < jac_rows.shape[0]:
+                            # the row of the Jacobian this step took (-1: none logged)
+                            kept = jac_ctl[1] <= jac_log.shape[0]
+                            jac_rows[logged] = jac_ctl[1] - 1.0 if kept else -1.0
                     else:
                         step_log[lane, 0] = -1.0
                 accepted[lane] += 1.0
@@ -698,6 +758,7 @@ def ros34pw2(
     step_log,
     coefficients=COEFFICIENTS,
     sensitivity=None,
+    jacobians=None,
 ) -> None:
     """ROS34PW2 (or the Rosenbrock method of ``coefficients``, e.g. RODAS4) of a batch in
     blocks of ``per_block`` (1 to 4) samples over the threads.
@@ -717,6 +778,8 @@ def ros34pw2(
     if sensitivity is None:
         sensitivity = no_sensitivity(params.shape[1], nsamples, recording[0].shape[0], n_records)
     nsens = sensitivity[0].shape[0]
+    if jacobians is None:
+        jacobians = (np.zeros((0, 0)), np.zeros(0), np.zeros(2))
 
     def start(block: int):
         first = block * per_block
@@ -746,6 +809,7 @@ def ros34pw2(
             renewals,
             step_log,
             sensitivity,
+            jacobians,
         )
         if not going or end >= n_records:
             control = state[-1]
