@@ -139,3 +139,18 @@ def test_bad_jacobian_logs_are_refused(brake, logged, overrides, message):
     settings = {**brake.settings, **overrides}
     with pytest.raises(InvalidParameterError, match=message):
         simulate(brake.compiled, {}, outputs=brake.outputs, **settings)
+
+
+def test_the_sequence_logged_ahead_first_brings_its_jacobians():
+    # the references' block logs the modal sample ahead at rtol / 10 / 10 and once more
+    # a tenth of that (rtol 1e-2: its two lanes); its first lane keeps its Jacobians, so
+    # the model that takes that sequence takes them too, and the model on the other
+    # lane's evaluates its own
+    shared = DiscBrake(t_end=T_END, record_interval=1e-5, rtol=1e-2).share_steps({})
+    tenth = shared.tightened(10.0)
+    assert tenth.logged_ahead(10.0) and tenth.tightened(10.0).logged_ahead(10.0)
+    first = tenth.tightened(10.0).simulation.shared
+    second = tenth.tightened(10.0).tightened(10.0).simulation.shared
+    assert first.sequence.size < second.sequence.size  # each lane's own steps
+    assert first.jacobians is not None and first.jacobians[1].shape == first.sequence.shape
+    assert second.jacobians is None

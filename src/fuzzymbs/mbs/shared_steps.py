@@ -374,6 +374,8 @@ def _reference_runs(
             tolerance=replace(tolerance, rtol=rtols, atol=atols),
             log_steps=_AHEAD_CAPACITY if logged else False,
             log_samples=max(len(logged), 1),
+            # the first lane's Jacobians too, for the model that takes its sequence
+            log_jacobians=bool(logged) and model.settings["integrator"] == "ros34pw2",
         )
     except InvalidParameterError:  # the first lane's log overflowed: the references alone
         if not logged:
@@ -403,6 +405,7 @@ def _logged_lane(runs, row: int):
         step_renewals=renewals,
         step_logs=[(times, renewals)],
         work_counts=None if runs.work_counts is None else runs.work_counts[one],
+        jacobian_log=runs.jacobian_log if row == 0 else None,  # the first lane's alone
     )
 
 
