@@ -508,3 +508,15 @@ def test_first_order_correction_quick_removes_the_slope_it_measured():
     assert report["central_slope_left"] < 1e-9
     for label in ("constant", "central", "corners"):
         assert all(np.isfinite(v).all() and min(v) >= 0 for v in report[label].values())
+
+
+@pytest.mark.slow
+def test_logged_jacobians_quick_compares_both_ways():
+    # 1 ms, study 1: the log's samples evaluate almost no Jacobian of their own and stay
+    # within a small fraction of the samples' spread of their own-Jacobian runs
+    import logged_jacobians
+
+    report = logged_jacobians.main(["--quick"])["study1"]
+    assert report["logged"]["jacobians"] < 0.2 * report["own"]["jacobians"]
+    assert report["difference_of_spread"] < 2e-3
+    assert report["log_rows"] > 0 and report["cpu_ratio_logged_over_own"] > 0

@@ -1,0 +1,111 @@
+"""Samples on shared steps with the logging run's Jacobians or their own; prints one JSON line.
+
+    python benchmarks/logged_jacobians.py [--studies 1 2] [--quick]
+
+A study's samples on the modal sample's step sequence renew their Jacobian where the
+logging run did. They can take the logging run's (``simulate(logged_jacobians=...)``,
+the default of :mod:`fuzzymbs.mbs.shared_steps`) or evaluate their own at their own
+state (before). For the 33 samples of the brake's reduced plan (study 1 at rtol 1e-3,
+study 2 at 1e-4: the tolerances their pilots choose, 10 ms, levels 0, 0.25, 0.5,
+0.75, 1), both ways in one process, alternating, the smaller CPU time of two calls:
+CPU seconds, accepted and rejected steps, Jacobians evaluated, the outputs' largest
+difference over the samples' spread, and each way's band error against the same plan at
+rtol 1e-6 on each sample's own steps (cached in benchmarks/.cache by brake_bands.py),
+the modal sample's reference added to both. Also the log's rows and size.
+
+``--quick``: 1 ms, study 1 only, no reference cache (the smoke test's mode).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+from bench_common import load_average
+from brake_bands import LEVELS, OUTPUTS, band_deviation, reference_bands, study_parameters
+
+import fuzzymbs
+from fuzzymbs.mbs.integrate import simulate
+from fuzzymbs.models.brake import DiscBrake
+
+#: the tolerance each study's pilot chooses (docs/benchmarks.md, "The runs that judge a
+#: brake study")
+STUDY_RTOL = {1: 1e-3, 2: 1e-4}
+
+
+def measure(study: int, t_end: float, reference: dict, rounds: int = 2) -> dict:
+    """Both ways of one study's plan on its modal sample's sequence (module docstring)."""
+    parameters = study_parameters(study)
+    names = list(parameters)
+    plan = fuzzymbs.plan(parameters, method="reduced", levels=LEVELS)
+    samples = {k: plan.samples[:, i] for i, k in enumerate(names)}
+    modal = {k: float(plan.samples[plan.nominal_index, i]) for i, k in enumerate(names)}
+    model = DiscBrake(t_end=t_end, rtol=STUDY_RTOL[study])
+    shared = model.share_steps(modal).simulation
+    steps = shared.shared
+    sim = model.simulation
+    common = {
+        "outputs": sim.outputs,
+        "initial_state": sim.initial_state,
+        "step_sequence": steps.sequence,
+        "jacobian_renewals": steps.renewals,
+        **sim.settings,
+    }
+    found: dict = {"rtol": STUDY_RTOL[study], "sequence_steps": int(steps.sequence.size)}
+    rows = steps.jacobians[0]
+    found["log_rows"] = int(rows.shape[0])
+    found["log_mb"] = round(rows.nbytes / 1e6, 1)
+    results, cpu = {}, {"own": [], "logged": []}
+    for _ in range(rounds):
+        for way, jacobians in (("own", None), ("logged", steps.jacobians)):
+            start = time.process_time()
+            results[way] = simulate(sim.compiled, samples, logged_jacobians=jacobians, **common)
+            cpu[way].append(time.process_time() - start)
+    correction = steps.reference
+    for way, result in results.items():
+        if result.failed.any():
+            raise RuntimeError(f"study {study}, {way}: samples failed")
+        outputs = {
+            k: correction[k][None, :] + result.outputs[k] - steps.modal_outputs[k][None, :]
+            for k in OUTPUTS
+        }
+        bands = plan.retransform(outputs, check_monotonic=False)
+        deviation = band_deviation(
+            {k: (bands[k].lower, bands[k].upper) for k in OUTPUTS}, reference
+        )
+        found[way] = {
+            "cpu_s": round(min(cpu[way]), 2),
+            "accepted": int(result.step_counts[:, 0].sum()),
+            "rejected": int(result.step_counts[:, 1].sum()),
+            "jacobians": int(result.work_counts[:, 1].sum()),
+            "band_error": {k: max(v) for k, v in deviation.items()},
+        }
+    found["cpu_ratio_logged_over_own"] = round(found["logged"]["cpu_s"] / found["own"]["cpu_s"], 3)
+    found["difference_of_spread"] = max(
+        float(np.abs(results["logged"].outputs[k] - results["own"].outputs[k]).max())
+        / float(np.ptp(results["own"].outputs[k], axis=0).max())
+        for k in OUTPUTS
+    )
+    return found
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--studies", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args(argv)
+    t_end = 1e-3 if args.quick else 1e-2
+    studies = (1,) if args.quick else tuple(args.studies)
+    figures: dict = {"load_average_start": load_average(), "t_end_s": t_end}
+    for study in studies:
+        reference = reference_bands(study, t_end, cache=not args.quick)
+        figures[f"study{study}"] = measure(study, t_end, reference, rounds=1 if args.quick else 2)
+    figures["load_average_end"] = load_average()
+    print(json.dumps(figures))
+    return figures
+
+
+if __name__ == "__main__":
+    main()
