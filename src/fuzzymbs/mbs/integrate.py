@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from fuzzymbs.background import Background
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.central_differences import on_fixed_steps
+from fuzzymbs.mbs.kernels.jacobian_log import NO_JACOBIANS, jacobian_arrays, logged_rows
 from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
@@ -44,6 +45,7 @@ from fuzzymbs.mbs.simulate_checks import (
     check_integrator,
     check_kernel,
     check_timing,
+    checked_initial_state,
     checked_log_samples,
     per_sample,
     samples_per_block,
@@ -98,10 +100,8 @@ class SimulationResult:
     gradient_parameters: tuple[str, ...] = ()
     #: (B,) right-hand sides the sensitivities took (besides ``work_counts``'), None without
     sensitivity_rhs: NDArray[np.int64] | None = None
-    #: with ``log_jacobians``: ``(rows, step_rows)``, the first sample's Jacobians as it
-    #: evaluated them, (J, 2 n^2 + 2 n) rows of da/dq, da/dv and f_t, and for each logged
-    #: step the row it took (-1: past the log's end); the ``logged_jacobians`` of a run
-    #: on its steps. None without
+    #: with ``log_jacobians``: ``(rows, step_rows)``, the first sample's Jacobians and the
+    #: row each logged step took (:mod:`fuzzymbs.mbs.kernels.jacobian_log`), else None
     jacobian_log: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
 
@@ -200,15 +200,11 @@ def simulate(
         outputs' derivatives, (B, T, P) per output in this order, in the output's unit
         per the parameter's (docs/theory.md, "Forward sensitivities").
     log_jacobians : bool
-        ROS34PW2 with ``log_steps``: the first sample's Jacobians are kept too, as the
-        result's ``jacobian_log`` (about 2 n^2 doubles per renewal: the brake over 10 ms
-        at rtol 1e-3, 3,914 of them, 108 MB).
+        ROS34PW2 with ``log_steps``: keep the first sample's Jacobians too, as
+        ``jacobian_log`` (:mod:`fuzzymbs.mbs.kernels.jacobian_log`; 27.5 kB each, brake).
     logged_jacobians : (rows, step_rows), optional
-        ROS34PW2 with ``step_sequence``: a logging run's ``jacobian_log``. A sample that
-        renews its Jacobian at a point of the sequence takes the one the logged step
-        took instead of evaluating its own (ROS34PW2 is a W-method: its order holds
-        with any Jacobian, docs/theory.md "Shared steps"); elsewhere, and where the log
-        has no row, it evaluates its own.
+        ROS34PW2 with ``step_sequence``: a logging run's ``jacobian_log``, whose Jacobians
+        the samples take where they renew theirs at a point of the sequence.
     """
     check_kernel(kernel)
     rtols, atols, h_min = check_integrator(integrator, tolerance)
@@ -227,7 +223,7 @@ def simulate(
     nsens = directions.shape[0]
     rtols = per_sample(rtols, batch, "rtol")
     atols = per_sample(atols, batch, "atol")
-    x0 = _initial(compiled, initial_state, batch)
+    x0 = checked_initial_state(compiled, initial_state, batch)
     out_w = np.array([compiled.output_functional(spec) for spec in outputs.values()])
     if not displacement_bound > 0:
         raise InvalidParameterError(f"displacement_bound must be > 0 m, got {displacement_bound!r}")
@@ -331,62 +327,6 @@ def simulate(
     )
 
 
-#: no Jacobians logged or read (the kernel's ``jacobians``)
-NO_JACOBIANS = (np.zeros((0, 0)), np.zeros(0), np.zeros(2))
-
-
-def jacobian_arrays(compiled, integrator, log, log_steps, logged, sequence, n_steps) -> tuple:
-    """The kernel's ``jacobians``: ``(rows, step_rows, (mode, count))``, mode 1 writing the
-    first sample's Jacobians (``log_jacobians``), 2 reading a log (``logged_jacobians``)."""
-    width = 2 * compiled.n_dofs * compiled.n_dofs + compiled.n_state
-    if log:
-        if integrator != "ros34pw2" or log_steps is False:
-            raise InvalidParameterError("log_jacobians needs integrator='ros34pw2' and log_steps")
-        # rows are touched only as they are written (np.empty): a generous log costs no
-        # memory it does not use
-        steps = max(20 * n_steps, 10**6) if log_steps is True else int(log_steps)
-        return np.empty((2 * n_steps + 4096, width)), np.full(steps, -1.0), np.array([1.0, 0.0])
-    if logged is None:
-        return NO_JACOBIANS
-    if integrator != "ros34pw2" or sequence.size == 0:
-        raise InvalidParameterError(
-            "logged_jacobians need integrator='ros34pw2' and a step_sequence"
-        )
-    rows, step_rows = (np.ascontiguousarray(a, dtype=np.float64) for a in logged)
-    if rows.ndim != 2 or rows.shape[1] != width or step_rows.shape != sequence.shape:
-        raise InvalidParameterError(
-            f"logged_jacobians: rows must be (J, {width}) and step_rows one per step of the "
-            f"sequence ({sequence.size}), got {rows.shape} and {step_rows.shape}"
-        )
-    if step_rows.size and step_rows.max() >= rows.shape[0]:
-        raise InvalidParameterError("logged_jacobians: a step names a row past the log")
-    return rows, step_rows, np.array([2.0, 0.0])
-
-
-def logged_rows(jacobians: tuple, logs) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """A written log trimmed to its rows and the first sample's logged steps."""
-    rows, step_rows, control = jacobians
-    count = min(int(control[1]), rows.shape[0])
-    steps = 0 if logs is None or logs[0] is None else logs[0].shape[0]
-    return rows[:count].copy(), step_rows[:steps].copy()
-
-
-def _initial(compiled: CompiledSystem, initial_state, batch: int) -> NDArray[np.float64]:
-    if initial_state is None:
-        return compiled.initial_state(batch)
-    x0 = np.asarray(initial_state, dtype=float)
-    if x0.ndim == 1:
-        x0 = np.broadcast_to(x0, (batch, x0.size))
-    if x0.shape != (batch, compiled.n_state) or not np.isfinite(x0).all():
-        raise InvalidParameterError(
-            f"initial_state must be finite of shape ({compiled.n_state},) or "
-            f"({batch}, {compiled.n_state}), got {np.shape(initial_state)}"
-        )
-    # a writable copy: a read-only array (a broadcast row) is another kernel signature,
-    # compiled again at the full cost
-    return np.array(x0, dtype=np.float64, order="C")
-
-
 def evaluate_rhs(
     compiled: CompiledSystem,
     params: NDArray[np.float64],
@@ -433,7 +373,7 @@ def simulate_reference(
     params = compiled.parameters.values({k: np.atleast_1d(v) for k, v in (sample or {}).items()})
     if params.shape[0] != 1:
         raise InvalidParameterError("simulate_reference integrates exactly one sample")
-    x0 = _initial(compiled, initial_state, 1)[0]
+    x0 = checked_initial_state(compiled, initial_state, 1)[0]
     work = make_work(compiled.data)
     p = params[0]
 

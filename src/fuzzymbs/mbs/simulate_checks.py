@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -85,3 +87,21 @@ def samples_per_block(kernel: str) -> int:
     :func:`~fuzzymbs.mbs.integrate.simulate`."""
     check_kernel(kernel)
     return 1 if kernel == "samples" else LANES
+
+
+def checked_initial_state(compiled: Any, initial_state: Any, batch: int) -> NDArray[np.float64]:
+    """The (batch, 2n) initial states of ``simulate``: the system's own (None), or
+    ``initial_state`` of one row or ``batch`` rows, finite, as a writable copy."""
+    if initial_state is None:
+        return compiled.initial_state(batch)
+    x0 = np.asarray(initial_state, dtype=float)
+    if x0.ndim == 1:
+        x0 = np.broadcast_to(x0, (batch, x0.size))
+    if x0.shape != (batch, compiled.n_state) or not np.isfinite(x0).all():
+        raise InvalidParameterError(
+            f"initial_state must be finite of shape ({compiled.n_state},) or "
+            f"({batch}, {compiled.n_state}), got {np.shape(initial_state)}"
+        )
+    # a writable copy: a read-only array (a broadcast row) is another kernel signature,
+    # compiled again at the full cost
+    return np.array(x0, dtype=np.float64, order="C")

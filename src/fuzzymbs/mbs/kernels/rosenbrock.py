@@ -50,6 +50,12 @@ import numpy as np
 from fuzzymbs.mbs.kernels import simd as V
 from fuzzymbs.mbs.kernels.dense_output import hermite, record_lanes
 from fuzzymbs.mbs.kernels.jacobian import jacobian
+from fuzzymbs.mbs.kernels.jacobian_log import (
+    NO_JACOBIANS,
+    lanes_from_log,
+    log_jacobian,
+    take_logged,
+)
 from fuzzymbs.mbs.kernels.layout import NONFINITE, STEP_TOO_SMALL
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, reduced_stage_solve
 from fuzzymbs.mbs.kernels.rhs import copy_lanes, rhs
@@ -269,30 +275,6 @@ def start_block_ros(sysdata, params, x0, recording, first, count, h0, stages, ns
     return x, p, alive, work, vectors, matrices, piv, sens, sens_work, control
 
 
-@nb.njit(cache=True)
-def log_jacobian(jq, jv, ft, n, nstate, jac_log, jac_ctl):
-    """Lane 0's Jacobian (da/dq, da/dv, f_t) into row ``jac_ctl[1]`` of ``jac_log``, and
-    the count up by one (rows past the log's end are counted, not written)."""
-    row = int(jac_ctl[1])
-    if row < jac_log.shape[0]:
-        for e in range(n * n):
-            jac_log[row, e] = jq[L * e]
-            jac_log[row, n * n + e] = jv[L * e]
-        for k in range(nstate):
-            jac_log[row, 2 * n * n + k] = ft[L * k]
-    jac_ctl[1] = row + 1
-
-
-@nb.njit(cache=True)
-def logged_jacobian(jac_log, row, lane, n, nstate, jq, jv, ft):
-    """Row ``row`` of ``jac_log`` into lane ``lane`` of the Jacobian and f_t."""
-    for e in range(n * n):
-        jq[L * e + lane] = jac_log[row, e]
-        jv[L * e + lane] = jac_log[row, n * n + e]
-    for k in range(nstate):
-        ft[L * k + lane] = jac_log[row, 2 * n * n + k]
-
-
 @nb.njit(cache=True, nogil=True, fastmath=V.FAST)
 def advance_block_ros(
     sysdata,
@@ -398,9 +380,9 @@ def advance_block_ros(
     shared = sequence.shape[0] > 0
     forced = shared and renewals.shape[0] == sequence.shape[0]
     logging = step_log.shape[1] > 1 and first == 0
-    # the Jacobians of a logged run (``jacobian_log``): lane 0 of a logging block writes
-    # every one it evaluates; a run on the logged sequence reads them
+    # a logging block's lane 0 writes its Jacobians, a run on its sequence reads them
     jac_log, jac_rows, jac_ctl = jacobians
+    jac_state = (control[_NEED_JAC], control[_JAC_AGE], control[_LU_STEP])
     writing = jac_ctl[0] == 1.0 and logging
     reading = jac_ctl[0] == 2.0 and shared
     from_log = np.zeros(L, dtype=np.bool_)
@@ -494,20 +476,10 @@ def advance_block_ros(
                 stepping[lane] = False
                 renew[lane] = False
             any_renew = any_renew or renew[lane]
-        # a lane at a point of a sequence whose logging run logged its Jacobians takes the
-        # one the logged step took (ROS34PW2 is a W-method: its order holds with any
-        # Jacobian); the others evaluate their own, as a block
-        any_own = False
-        any_logged = False
-        for lane in range(L):
-            from_log[lane] = False
-            grid = int(control[_GRID, lane])
-            at_point = h[lane] == _OPEN or (grid == 0 and t[lane] == t0)
-            if renew[lane] and reading and at_point:
-                from_log[lane] = jac_rows[grid] >= 0.0
-            own[lane] = renew[lane] and not from_log[lane]
-            any_own = any_own or own[lane]
-            any_logged = any_logged or from_log[lane]
+        # a lane at a point of a logged sequence takes the logged step's Jacobian; the
+        # others evaluate their own, as a block
+        place = (h, control[_GRID], t, t0)
+        any_own, any_logged = lanes_from_log(renew, reading, place, jac_rows, from_log, own)
         if any_own:
             jacobian(t_lane, x, p, sysdata, work, f_fresh, jq_fresh, jv_fresh)
             for lane in range(L):
@@ -534,13 +506,7 @@ def advance_block_ros(
             if writing and own[0]:
                 log_jacobian(jq, jv, ft, n, nstate, jac_log, jac_ctl)
         if any_logged:
-            for lane in range(L):
-                if from_log[lane]:
-                    row = int(jac_rows[int(control[_GRID, lane])])
-                    logged_jacobian(jac_log, row, lane, n, nstate, jq, jv, ft)
-                    need_jac[lane] = 0.0
-                    jac_age[lane] = 0.0
-                    lu_step[lane] = -1.0
+            take_logged(from_log, control[_GRID], jacobians, n, nstate, jq, jv, ft, jac_state)
         any_renew = False
         for lane in range(L):
             renew[lane] = stepping[lane] and f_known[lane] == 0.0
@@ -779,7 +745,7 @@ def ros34pw2(
         sensitivity = no_sensitivity(params.shape[1], nsamples, recording[0].shape[0], n_records)
     nsens = sensitivity[0].shape[0]
     if jacobians is None:
-        jacobians = (np.zeros((0, 0)), np.zeros(0), np.zeros(2))
+        jacobians = NO_JACOBIANS
 
     def start(block: int):
         first = block * per_block
