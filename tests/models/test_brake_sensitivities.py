@@ -139,7 +139,8 @@ def test_brake_gradients_do_not_depend_on_the_block():
 def test_brake_gradients_on_shared_steps():
     # on shared steps the outputs are those of the plain call bit for bit (the modal
     # sample's kept logging run included), the gradients those of simulate on the
-    # sequence, and a run kept by deviations without gradients is run again for them
+    # sequence with the logging run's Jacobians, and a run kept by deviations without
+    # gradients is run again for them
     brake = DiscBrake(t_end=1e-4, record_interval=1e-5, rtol=1e-3)
     shared = brake.share_steps({"nodal_force": 16e3, "pad_spring_stiffness": 2e5})
     samples = {"nodal_force": np.array([16e3, 16.16e3]), "pad_spring_stiffness": [2e5, 1.8e5]}
@@ -151,6 +152,7 @@ def test_brake_gradients_on_shared_steps():
         samples,
         step_sequence=simulation.shared.sequence,
         jacobian_renewals=simulation.shared.renewals,
+        logged_jacobians=simulation.shared.jacobians,
         sensitivities=("nodal_force",),
     )
     for name in SIGNALS:
