@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from fuzzymbs.background import Background
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.mbs.central_differences import on_fixed_steps
-from fuzzymbs.mbs.kernels.jacobian_log import NO_JACOBIANS, jacobian_arrays, logged_rows
+from fuzzymbs.mbs.kernels.jacobian_log import jacobian_arrays, logged_rows
 from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
@@ -290,7 +290,7 @@ def simulate(
                 step_log if start == 0 else no_log,
                 METHODS[integrator],
                 sensitivity,
-                jacobians if start == 0 or jacobians[2][0] == 2.0 else NO_JACOBIANS,
+                jacobians,  # written only where step_log is: the first chunk's
             )
             derivatives[sl] = d
         out[sl] = o

@@ -155,7 +155,8 @@ class SharedSteps:
     jacobians : the logging run's Jacobians (``jacobian_log`` of
         :func:`~fuzzymbs.mbs.integrate.simulate`), which every sample takes where it
         renews its own at a point of the sequence (ROS34PW2; None: a sequence logged
-        ahead in the references' block, or RODAS4, whose order needs its own).
+        ahead in a later lane of the references' block than the first, or RODAS4, whose
+        order needs its own).
     """
 
     modal: dict[str, float]
@@ -436,9 +437,9 @@ def _extrapolated(
 def _logged_run(model: SimulationModel, modal: Mapping[str, float]):
     """The modal sample at the model's own tolerance, its accepted steps logged."""
     capacity = 10**6
+    log_jacobians = model.settings["integrator"] == "ros34pw2"  # a W-method
     while True:  # a log as long as the modal sample's steps need
         try:
-            log_jacobians = model.settings["integrator"] == "ros34pw2"
             return _run(model, modal, log_steps=capacity, log_jacobians=log_jacobians)
         except InvalidParameterError:
             if capacity >= 10**9:

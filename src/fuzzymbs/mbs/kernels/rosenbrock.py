@@ -410,6 +410,7 @@ def advance_block_ros(
     theta = np.empty(L)
     records = np.zeros(L, dtype=np.int64)
     rec_times = np.empty(L)
+    place = (h, control[_GRID], t, t0)  # where each lane stands (lanes_from_log)
     going = True
     if next_rec[0] == 0.0:  # the block's first call: record the initial state
         for lane in range(L):
@@ -478,7 +479,6 @@ def advance_block_ros(
             any_renew = any_renew or renew[lane]
         # a lane at a point of a logged sequence takes the logged step's Jacobian; the
         # others evaluate their own, as a block
-        place = (h, control[_GRID], t, t0)
         any_own, any_logged = lanes_from_log(renew, reading, place, jac_rows, from_log, own)
         if any_own:
             jacobian(t_lane, x, p, sysdata, work, f_fresh, jq_fresh, jv_fresh)
