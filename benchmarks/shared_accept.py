@@ -1,11 +1,14 @@
 """The acceptance threshold of a step along a shared step sequence (``SHARED_ACCEPT``).
 
-The brake's study-1 corners (k, k_c +-10 %, F_n +-1 %) over 10 ms in one block on
-the modal sample's sequence at rtol 2e-3 (the tolerance study 1 chooses), for
-thresholds 1 (a step of its own), 2, 4 and 10: the block's time, each corner's
-rejected steps, and the band error of the four corners against the same corners at
-rtol 1e-6 on their own steps (corrected by the modal sample at rtol 1e-6; deviation
-divided by max(the corners' spread, 0.1 x its widest), as a study measures it).
+For each threshold, the 33 samples of brake study 1's and study 2's reduced plans
+(levels 0, 0.25, 0.5, 0.75, 1; 10 ms) on their modal sample's step sequence as a
+study runs them (``DiscBrake.share_steps``: the logged renewals and Jacobians), at
+the tolerances the studies' pilots try (study 1 rtol 1e-2 and 1e-3, study 2 1e-3 and
+1e-4): the runs' CPU seconds (the smaller of ``--rounds`` calls; the logging and
+reference runs not counted), rejected steps, the Jacobians the samples evaluated
+themselves, and the band error against the same plan at rtol 1e-6 on each sample's
+own steps (cached in benchmarks/.cache by brake_bands.py), the modal sample's
+reference added, largest over the levels, on the cut-width scale.
 
 The threshold is a compile-time constant of the kernel, so each value runs in a
 fresh interpreter with the kernel file patched in a temporary copy of ``src``.
@@ -17,7 +20,8 @@ renewals against its logging run (largest deviation over the peak, rejected
 steps), and the reference pair (rtol 1e-6 and 1e-5) as two lanes of one block
 against each run alone (seconds, and whether the outputs are bit for bit equal).
 
-    python benchmarks/shared_accept.py [--thresholds 1 2 4 10] [--replay]   (JSON rows)
+    python benchmarks/shared_accept.py [--thresholds 1 2 4 10] [--cases 1:1e-3 2:1e-4]
+        [--rounds 2] [--replay]   (JSON rows)
 """
 
 from __future__ import annotations
@@ -34,38 +38,60 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 KERNEL = Path("fuzzymbs/mbs/kernels/rosenbrock.py")
+#: (study, rtol) pairs: the tolerances the studies' pilots try
+CASES = ("1:1e-2", "1:1e-3", "2:1e-3", "2:1e-4")
 
 CHILD = r"""
 import json, sys, time
 import numpy as np
-from fuzzymbs.tolerance import Tolerance
+from brake_bands import LEVELS, OUTPUTS, band_deviation, reference_bands, study_parameters
+import fuzzymbs
 from fuzzymbs.models.brake import DiscBrake
 
-model = DiscBrake(rtol=2e-3).simulation
-modal = {"pad_spring_stiffness": [200e3], "caliper_spring_stiffness": [1e3], "nodal_force": [16e3]}
-modal = {k: np.array(v) for k, v in modal.items()}
-corners = {
-    "pad_spring_stiffness": np.array([180e3, 220e3, 180e3, 220e3]),
-    "caliper_spring_stiffness": np.array([900.0, 1100.0, 1100.0, 900.0]),
-    "nodal_force": np.array([15840.0, 15840.0, 16160.0, 16160.0]),
-}
-log = model.simulate(modal, log_steps=True)
-start = time.perf_counter()
-run = model.simulate(corners, step_sequence=log.step_times, jacobian_renewals=log.step_renewals)
-seconds = time.perf_counter() - start
-tight = model.simulate(corners, tolerance=Tolerance(1e-6))
-tight_modal = model.simulate(modal, tolerance=Tolerance(1e-6))
-row = {"seconds": seconds, "rejected": run.step_counts[:, 1].tolist()}
-for name in model.outputs:
-    corrected = run.outputs[name] + tight_modal.outputs[name][0] - log.outputs[name][0]
-    width = tight.outputs[name].max(axis=0) - tight.outputs[name].min(axis=0)
-    scale = np.maximum(width, 0.1 * width.max())
-    row[name] = float(np.max(np.abs(corrected - tight.outputs[name]) / scale))
-print(json.dumps(row))
+cases, rounds = json.loads(sys.argv[1]), int(sys.argv[2])
+for case in cases:
+    study, rtol = int(case.split(":")[0]), float(case.split(":")[1])
+    reference = reference_bands(study, 1e-2, cache=True)
+    parameters = study_parameters(study)
+    names = list(parameters)
+    plan = fuzzymbs.plan(parameters, method="reduced", levels=LEVELS)
+    samples = {k: plan.samples[:, i] for i, k in enumerate(names)}
+    modal = {k: float(plan.samples[plan.nominal_index, i]) for i, k in enumerate(names)}
+    shared = DiscBrake(t_end=1e-2, rtol=rtol).share_steps(modal).simulation
+    steps, cpu = shared.shared, []
+    correction = steps.reference  # waits for the reference pair: its CPU is not the runs'
+    for _ in range(rounds):
+        start = time.process_time()
+        result = shared.simulate(
+            samples,
+            step_sequence=steps.sequence,
+            jacobian_renewals=steps.renewals,
+            logged_jacobians=steps.jacobians,
+        )
+        cpu.append(time.process_time() - start)
+    if result.failed.any():
+        raise RuntimeError(f"study {study} at rtol {rtol:g}: samples failed")
+    outputs = {
+        k: correction[k][None, :] + result.outputs[k] - steps.modal_outputs[k][None, :]
+        for k in OUTPUTS
+    }
+    bands = plan.retransform(outputs, check_monotonic=False)
+    deviation = band_deviation({k: (bands[k].lower, bands[k].upper) for k in OUTPUTS}, reference)
+    row = {
+        "study": study,
+        "rtol": rtol,
+        "cpu_s": round(min(cpu), 2),
+        "accepted": int(result.step_counts[:, 0].sum()),
+        "rejected": int(result.step_counts[:, 1].sum()),
+        "jacobians": int(result.work_counts[:, 1].sum()),
+        "band_error": {k: max(v) for k, v in deviation.items()},
+    }
+    print(json.dumps(row), flush=True)
 """
 
 
-def measure(threshold: float) -> dict:
+def measure(threshold: float, cases: list[str], rounds: int) -> list[dict]:
+    """The child's rows for one threshold (module docstring)."""
     with tempfile.TemporaryDirectory() as tmp:
         src = Path(tmp) / "src"
         shutil.copytree(ROOT / "src", src, ignore=shutil.ignore_patterns("*.nbi", "*.nbc"))
@@ -74,15 +100,16 @@ def measure(threshold: float) -> dict:
         text, count = re.subn(r"^SHARED_ACCEPT = .*$", line, kernel.read_text(), flags=re.M)
         assert count == 1, "SHARED_ACCEPT not found in the kernel"
         kernel.write_text(text)
-        env = {"PYTHONPATH": str(src), "NUMBA_CACHE_DIR": str(Path(tmp) / "cache")}
+        path = os.pathsep.join((str(src), str(ROOT / "benchmarks")))
+        env = {"PYTHONPATH": path, "NUMBA_CACHE_DIR": str(Path(tmp) / "cache")}
         out = subprocess.run(
-            [sys.executable, "-c", CHILD],
+            [sys.executable, "-c", CHILD, json.dumps(cases), str(rounds)],
             env={**os.environ, **env},
             check=True,
             capture_output=True,
             text=True,
         ).stdout
-    return {"threshold": threshold, **json.loads(out.strip().splitlines()[-1])}
+    return [{"threshold": threshold, **json.loads(line)} for line in out.strip().splitlines()]
 
 
 def replay_and_pair() -> dict:
@@ -129,16 +156,22 @@ def replay_and_pair() -> dict:
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--thresholds", type=float, nargs="*", default=[1.0, 2.0, 4.0, 10.0])
+    parser.add_argument("--cases", nargs="*", default=list(CASES), help="study:rtol pairs")
+    parser.add_argument("--rounds", type=int, default=2, help="calls per case (the smaller CPU)")
     parser.add_argument("--replay", action="store_true", help="also the replay and the pair")
     args = parser.parse_args(argv)
+    from brake_bands import reference_bands
+
+    for study in sorted({int(case.split(":")[0]) for case in args.cases}):
+        reference_bands(study, 1e-2, cache=True)  # computed once here, read by the children
     rows = []
     if args.replay:
         rows.append({"replay_and_pair": replay_and_pair()})
         print(json.dumps(rows[-1]), flush=True)
     for threshold in args.thresholds:
-        row = measure(threshold)
-        print(json.dumps(row), flush=True)
-        rows.append(row)
+        for row in measure(threshold, args.cases, args.rounds):
+            print(json.dumps(row), flush=True)
+            rows.append(row)
     return rows
 
 

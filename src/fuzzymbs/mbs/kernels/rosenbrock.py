@@ -212,15 +212,14 @@ def tableau(coefficients: tuple) -> tuple:
 
 #: a step along a shared sequence (from one point to the next) is accepted up to this
 #: error norm (its own steps: 1). The sequence suits the modal sample; its neighbours'
-#: errors there scatter about 1, and a rejection takes a lane off the sequence (its
-#: error no longer smooth in the parameters) and out of step with its block. On the
-#: brake's study-1 corners at rtol 2e-3 over 10 ms (benchmarks/shared_accept.py),
-#: threshold 1 / 2 / 4 / 10: the block in 5.31 / 4.48 / 4.31 / 4.28 s, 311-1038 /
-#: 55-214 / 6-69 / 12-24 rejected steps per sample, band error against rtol 1e-6 of
-#: the pads 0.31 / 0.30 / 0.30 / 0.30 % of the cut width and of the caliper 0.046 /
-#: 0.080 / 0.047 / 1.0 %: 2 keeps most of the gain five times below the threshold
-#: where the caliper's error jumps
-SHARED_ACCEPT = 2.0
+#: errors there scatter about 1, and a rejection takes a lane off the sequence and out
+#: of step with its block, and makes it evaluate Jacobians of its own between the
+#: points. Brake studies 1 and 2's 33-sample plans over 10 ms on their modal sample's
+#: sequence with its logged Jacobians (benchmarks/shared_accept.py, docs/theory.md,
+#: "Shared steps"): from 2 to 4 the rejected steps halve and study 2's runs at rtol
+#: 1e-4 take 0.88 of the CPU, study 1's at 1e-3 0.98; above 4 nothing more is gained,
+#: and the band errors at the pilots' tolerances stay as they are from 2 to 10
+SHARED_ACCEPT = 4.0
 #: after a rejected step the Jacobian is renewed if it is at least this many accepted
 #: steps old (a younger one is not the likely cause). On the brake over 10 ms at rtol
 #: 1e-2: 2.0 s against 2.1-2.2 s when every rejection renews it (thresholds 2 and 5
