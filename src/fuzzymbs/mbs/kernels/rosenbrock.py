@@ -216,9 +216,9 @@ def tableau(coefficients: tuple) -> tuple:
 #: of step with its block, and makes it evaluate Jacobians of its own between the
 #: points. Brake studies 1 and 2's 33-sample plans over 10 ms on their modal sample's
 #: sequence with its logged Jacobians (benchmarks/shared_accept.py, docs/theory.md,
-#: "Shared steps"): from 2 to 4 the rejected steps halve and study 2's runs at rtol
-#: 1e-4 take 0.88 of the CPU, study 1's at 1e-3 0.98; above 4 nothing more is gained,
-#: and the band errors at the pilots' tolerances stay as they are from 2 to 10
+#: "Shared steps"): from 2 to 4 the rejected steps fall two- to threefold and the runs
+#: take 0.92-0.97 of the CPU; above 4 they gain at most 8 % more, within the machine's
+#: noise, and the band errors at the pilots' tolerances stay as they are from 2 to 10
 SHARED_ACCEPT = 4.0
 #: after a rejected step the Jacobian is renewed if it is at least this many accepted
 #: steps old (a younger one is not the likely cause). On the brake over 10 ms at rtol
