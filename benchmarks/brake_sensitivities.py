@@ -27,8 +27,9 @@ over ``--cost-t-end``, default 2 ms, at each ``--rtol``): process CPU time of th
 (the smallest of ``--repeats``, the variants alternating) and the kernel's counts, for no
 sensitivities and for 1 (each of study 1's parameters), study 1's three, study 2's three
 and all four; the ratios against the run without, in the same process. ``shared steps``:
-ROS34PW2 with every lane on the nominal sample's sequence logged at that rtol (a study's
-runs, whose lanes step together), without sensitivities and with study 1's three.
+ROS34PW2 with every lane on the nominal sample's sequence logged at that rtol, taking its
+logged Jacobians (a study's runs, whose lanes step together), without sensitivities and
+with study 1's three.
 
 **rk4** (RK4 at 1 us, whose model gives its gradients as central differences on its
 fixed steps, :func:`fuzzymbs.mbs.central_differences.on_fixed_steps`): the nominal
@@ -305,13 +306,16 @@ def cost(t_end: float, rtols: list[float], repeats: int) -> dict:
             run_brake(*common, sensitivities=study1)  # warm
             result[f"{integrator} rtol {rtol:g}"] = _cost_rows(common, cases, repeats)
     for rtol in rtols:  # a study's runs: every lane on the nominal sample's sequence
-        sequence, renewals = logged_sequence(compiled, t_end, rtol)
+        log = run_brake(
+            compiled, _columns(NOMINAL), t_end, rtol, log_steps=True, log_jacobians=True
+        )
         result[f"ros34pw2 rtol {rtol:g} shared steps"] = _cost_rows(
             (compiled, samples, t_end, rtol, "ros34pw2"),
             {label: cases[label] for label in ("none", "study 1 (3)")},
             repeats,
-            step_sequence=sequence,
-            jacobian_renewals=renewals,
+            step_sequence=log.step_times,
+            jacobian_renewals=log.step_renewals,
+            logged_jacobians=log.jacobian_log,
         )
     return result
 

@@ -224,8 +224,8 @@ def test_box_search_times_the_correction_against_the_three_terms_it_replaced():
 
 def test_brake_sensitivities_cost_times_shared_steps_too():
     # the script behind the sensitivities' cost on shared steps (docs/brake.md), over
-    # 20 us: the block on the nominal sample's logged sequence, without and with study 1's
-    # three parameters, the ratio against the run without in the same call
+    # 20 us: the block on the nominal sample's logged sequence and Jacobians, without and
+    # with study 1's three parameters, the ratio against the run without in the same call
     import brake_sensitivities
 
     report = brake_sensitivities.cost(2e-5, [1e-2], repeats=1)
@@ -235,6 +235,9 @@ def test_brake_sensitivities_cost_times_shared_steps_too():
     assert shared["none"]["rhs_jac_lu_sens_rhs"][3] == 0  # no sensitivity right-hand sides
     assert shared["study 1 (3)"]["rhs_jac_lu_sens_rhs"][3] > 0
     assert shared["study 1 (3)"]["rhs_ratio"] > 1.0
+    # as a study's runs: the lanes take the logging run's Jacobians, none of their own
+    assert shared["none"]["rhs_jac_lu_sens_rhs"][1] == 0
+    assert report["ros34pw2 rtol 0.01"]["none"]["rhs_jac_lu_sens_rhs"][1] >= 1
 
 
 def test_brake_sensitivities_rk4_part_reports_errors_steps_and_cost(tmp_path, monkeypatch):
