@@ -16,6 +16,7 @@ import pytest
 from fuzzymbs.errors import InvalidParameterError
 from fuzzymbs.fuzzy import Triangular, plan
 from fuzzymbs.mbs.integrate import simulate
+from fuzzymbs.mbs.kernels import jacobian_log
 from fuzzymbs.models.brake import DiscBrake
 
 from .test_jacobian import analytic
@@ -104,6 +105,36 @@ def test_the_modal_sample_on_its_log_repeats_the_logging_run(brake, logged):
     )  # fmt: skip
     assert replay.step_counts[0].tolist() == [len(logged.step_times), 0]
     assert replay.work_counts[0, 1] == 0
+    for name in brake.outputs:
+        peak = np.abs(logged.outputs[name]).max()
+        np.testing.assert_allclose(replay.outputs[name], logged.outputs[name], atol=1e-8 * peak)
+
+
+def test_a_full_log_leaves_the_later_renewals_to_the_samples(brake, logged, monkeypatch):
+    # a log's rows take at most LOG_BYTES: past them the logging run keeps no row (its
+    # later steps name none, -1) and a run on the sequence evaluates its own Jacobians
+    # there. The modal sample replayed on a five-row log then evaluates every other
+    # Jacobian of the logging run itself, at the same states, and still repeats the run
+    compiled = brake.compiled
+    width = 2 * compiled.n_dofs**2 + compiled.n_state
+    monkeypatch.setattr(jacobian_log, "LOG_BYTES", 5 * 8 * width)
+    short = simulate(
+        compiled, {}, outputs=brake.outputs, log_steps=True, log_jacobians=True,
+        **brake.settings,
+    )  # fmt: skip
+    rows, step_rows = short.jacobian_log
+    assert rows.shape[0] == 5 and logged.jacobian_log[0].shape[0] > 5
+    np.testing.assert_array_equal(rows, logged.jacobian_log[0][:5])
+    past = int(np.argmax(step_rows < 0))
+    assert past > 0 and np.all(step_rows[past:] < 0) and step_rows[:past].max() == 4
+    np.testing.assert_array_equal(short.step_times, logged.step_times)  # logging never steers
+    replay = simulate(
+        compiled, {}, outputs=brake.outputs, step_sequence=short.step_times,
+        jacobian_renewals=short.step_renewals, logged_jacobians=short.jacobian_log,
+        **brake.settings,
+    )  # fmt: skip
+    assert replay.step_counts[0].tolist() == [len(short.step_times), 0]
+    assert replay.work_counts[0, 1] == logged.work_counts[0, 1] - 5
     for name in brake.outputs:
         peak = np.abs(logged.outputs[name]).max()
         np.testing.assert_allclose(replay.outputs[name], logged.outputs[name], atol=1e-8 * peak)

@@ -27,6 +27,12 @@ L = V.LANES
 
 #: no Jacobians logged or read (the kernel's ``jacobians``)
 NO_JACOBIANS = (np.zeros((0, 0)), np.zeros(0), np.zeros(2))
+#: the most memory one log's rows may take, in bytes (1 GiB: about 39,000 of the brake's
+#: 27.5 kB rows, more than its 24,096-row bound). A row grows as the square of the
+#: degrees of freedom, so a model ten times the brake's size would otherwise hold 2.7 MB
+#: per renewal; past the bound the logging run keeps no more rows and the samples on its
+#: sequence evaluate their own Jacobians there
+LOG_BYTES = 2**30
 
 
 @nb.njit(cache=True)
@@ -95,7 +101,8 @@ def jacobian_arrays(compiled, integrator, log, log_steps, logged, sequence, n_st
         # rows are touched only as they are written (np.empty): a generous log costs no
         # memory it does not use
         steps = max(20 * n_steps, 10**6) if log_steps is True else int(log_steps)
-        return np.empty((2 * n_steps + 4096, width)), np.full(steps, -1.0), np.array([1.0, 0.0])
+        rows = max(1, min(2 * n_steps + 4096, LOG_BYTES // (8 * width)))
+        return np.empty((rows, width)), np.full(steps, -1.0), np.array([1.0, 0.0])
     if logged is None:
         return NO_JACOBIANS
     if integrator != "ros34pw2" or sequence.size == 0:
