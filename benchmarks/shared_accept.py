@@ -1,4 +1,4 @@
-"""The acceptance threshold of a step along a shared step sequence (``SHARED_ACCEPT``).
+"""The acceptance threshold of a step along a shared step sequence (``SHARED_ACCEPT_LOGGED``).
 
 For each threshold, the 33 samples of brake study 1's and study 2's reduced plans
 (levels 0, 0.25, 0.5, 0.75, 1; 10 ms) on their modal sample's step sequence as a
@@ -96,9 +96,11 @@ def measure(threshold: float, cases: list[str], rounds: int) -> list[dict]:
         src = Path(tmp) / "src"
         shutil.copytree(ROOT / "src", src, ignore=shutil.ignore_patterns("*.nbi", "*.nbc"))
         kernel = src / KERNEL
-        line = f"SHARED_ACCEPT = {threshold!r}"
-        text, count = re.subn(r"^SHARED_ACCEPT = .*$", line, kernel.read_text(), flags=re.M)
-        assert count == 1, "SHARED_ACCEPT not found in the kernel"
+        # the threshold of lanes taking the logging run's Jacobians, as the plans' do
+        pattern = r"^(SHARED_ACCEPT, SHARED_ACCEPT_LOGGED = [^,]+), .*$"
+        line = rf"\1, {threshold!r}"
+        text, count = re.subn(pattern, line, kernel.read_text(), flags=re.M)
+        assert count == 1, "SHARED_ACCEPT_LOGGED not found in the kernel"
         kernel.write_text(text)
         path = os.pathsep.join((str(src), str(ROOT / "benchmarks")))
         env = {"PYTHONPATH": path, "NUMBA_CACHE_DIR": str(Path(tmp) / "cache")}

@@ -211,15 +211,14 @@ def tableau(coefficients: tuple) -> tuple:
 
 
 #: a step along a shared sequence (from one point to the next) is accepted up to this
-#: error norm (its own steps: 1). The sequence suits the modal sample; its neighbours'
-#: errors there scatter about 1, and a rejection takes a lane off the sequence and out
-#: of step with its block, and makes it evaluate Jacobians of its own between the
-#: points. Brake studies 1 and 2's 33-sample plans over 10 ms on their modal sample's
-#: sequence with its logged Jacobians (benchmarks/shared_accept.py, docs/theory.md,
-#: "Shared steps"): from 2 to 4 the rejected steps fall two- to threefold and the runs
-#: take 0.92-0.97 of the CPU; above 4 they gain at most 8 % more, within the machine's
-#: noise, and the band errors at the pilots' tolerances stay as they are from 2 to 10
-SHARED_ACCEPT = 4.0
+#: error norm (its own steps: 1): its neighbours' errors there scatter about 1, and a
+#: rejection takes a lane off the sequence and out of step with its block and makes it
+#: evaluate Jacobians of its own. With the logging run's Jacobians (``_LOGGED``) brake
+#: studies 1 and 2's plans (benchmarks/shared_accept.py, docs/theory.md "Shared steps")
+#: keep their band errors from 2 to 10 and take 0.92-0.97 of the CPU at 4 against 2
+#: (at most 8 % more above); with Jacobians of their own, study 1's caliper band error
+#: rose from 0.02 % at 2 to 0.54 % at 4 (benchmarks/logged_jacobians.py), so 2 there
+SHARED_ACCEPT, SHARED_ACCEPT_LOGGED = 2.0, 4.0
 #: after a rejected step the Jacobian is renewed if it is at least this many accepted
 #: steps old (a younger one is not the likely cause). On the brake over 10 ms at rtol
 #: 1e-2: 2.0 s against 2.1-2.2 s when every rejection renews it (thresholds 2 and 5
@@ -315,10 +314,11 @@ def advance_block_ros(
     With a shared step sequence (``sequence``: the ends of the steps, increasing,
     the last at the final time; empty: the lanes choose their own steps), every
     lane steps from point to point of the sequence. The error control still
-    guards each step (an error norm up to :data:`SHARED_ACCEPT` along the sequence):
-    a step it rejects is cut into the lane's own smaller steps up to the next point,
-    so a lane leaves the sequence only where the sequence is too coarse for it, and
-    its outputs stay its own. ``renewals`` (empty, or one
+    guards each step (an error norm up to :data:`SHARED_ACCEPT` along the sequence,
+    ``SHARED_ACCEPT_LOGGED`` with its Jacobians): a step it rejects is cut into the
+    lane's own smaller steps up to the next point, so a lane leaves the sequence only
+    where the sequence is too coarse for it, and its outputs stay its own.
+    ``renewals`` (empty, or one
     per point: 1.0 where the logged sample evaluated its Jacobian at the step's start,
     for instance after a rejected try) makes a lane that arrives at a point renew its
     Jacobian there too, so that the logged sample replayed on its sequence repeats
@@ -384,6 +384,7 @@ def advance_block_ros(
     jac_state = (control[_NEED_JAC], control[_JAC_AGE], control[_LU_STEP])
     writing = jac_ctl[0] == 1.0 and logging
     reading = jac_ctl[0] == 2.0 and shared
+    accept_shared = SHARED_ACCEPT_LOGGED if reading else SHARED_ACCEPT
     from_log = np.zeros(L, dtype=np.bool_)
     own = np.zeros(L, dtype=np.bool_)
     h = control[_H]
@@ -591,7 +592,7 @@ def advance_block_ros(
                 status[first + lane] = NONFINITE
                 fail_t[first + lane] = t[lane]
                 newly_failed = True
-            elif err <= (SHARED_ACCEPT if shared and last[lane] else 1.0):
+            elif err <= (accept_shared if shared and last[lane] else 1.0):
                 took[lane] = True
                 if last[lane]:
                     theta[lane] = sequence[int(control[_GRID, lane])] if shared else t_final
