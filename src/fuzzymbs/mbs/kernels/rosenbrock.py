@@ -315,7 +315,7 @@ def advance_block_ros(
     the last at the final time; empty: the lanes choose their own steps), every
     lane steps from point to point of the sequence. The error control still
     guards each step (an error norm up to :data:`SHARED_ACCEPT` along the sequence,
-    ``SHARED_ACCEPT_LOGGED`` with its Jacobians): a step it rejects is cut into the
+    ``SHARED_ACCEPT_LOGGED`` reading a log): a step it rejects is cut into the
     lane's own smaller steps up to the next point, so a lane leaves the sequence only
     where the sequence is too coarse for it, and its outputs stay its own.
     ``renewals`` (empty, or one
