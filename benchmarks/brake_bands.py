@@ -92,6 +92,24 @@ def band_deviation(bands: dict, reference: dict) -> dict[str, list[float]]:
     return found
 
 
+def plan_deviation(plan: Any, outputs: dict, reference: dict) -> dict[str, list[float]]:
+    """:func:`band_deviation` of the bands ``plan`` retransforms from its runs' ``outputs``."""
+    result = plan.retransform({k: outputs[k] for k in OUTPUTS}, check_monotonic=False)
+    return band_deviation({k: (result[k].lower, result[k].upper) for k in OUTPUTS}, reference)
+
+
+def shared_step_deviation(plan: Any, result: Any, steps: Any, reference: dict) -> dict:
+    """:func:`plan_deviation` of the plan's runs on a shared sequence (``result`` of
+    ``simulate``), corrected as a study corrects them: the modal sample's reference plus
+    each run's deviation from the modal sample on the same steps (``steps``: the model's
+    :class:`~fuzzymbs.mbs.shared_steps.SharedSteps`)."""
+    outputs = {
+        k: steps.reference[k][None, :] + result.outputs[k] - steps.modal_outputs[k][None, :]
+        for k in OUTPUTS
+    }
+    return plan_deviation(plan, outputs, reference)
+
+
 def evaluate_bands(
     study: int, t_end: float, settings: dict, shared: bool = False
 ) -> tuple[dict, float, float]:

@@ -36,7 +36,7 @@ import time
 
 import numpy as np
 from bench_common import load_average
-from brake_bands import LEVELS, OUTPUTS, band_deviation, reference_bands, study_parameters
+from brake_bands import LEVELS, OUTPUTS, plan_deviation, reference_bands, study_parameters
 
 import fuzzymbs
 from fuzzymbs.models.brake import DiscBrake
@@ -132,9 +132,7 @@ def measure(study: int, rtol: float, t_end: float, fraction: float, reference: d
         outputs = corrected(plan_out, samples, p0, slope)
         for name in OUTPUTS:
             outputs[name] = reference_modal[name][None, :] + outputs[name]
-        result = plan.retransform(outputs, check_monotonic=False)
-        bands = {k: (result[k].lower, result[k].upper) for k in OUTPUTS}
-        found[label] = band_deviation(bands, reference)
+        found[label] = plan_deviation(plan, outputs, reference)
         if slope is not None:
             # what is left of the slope of (model - finer model) at the central points,
             # relative to it before, each slope times its step (a change in m): 0 to

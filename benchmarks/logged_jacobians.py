@@ -24,7 +24,13 @@ import time
 
 import numpy as np
 from bench_common import load_average
-from brake_bands import LEVELS, OUTPUTS, band_deviation, reference_bands, study_parameters
+from brake_bands import (
+    LEVELS,
+    OUTPUTS,
+    reference_bands,
+    shared_step_deviation,
+    study_parameters,
+)
 
 import fuzzymbs
 from fuzzymbs.mbs.integrate import simulate
@@ -63,18 +69,10 @@ def measure(study: int, t_end: float, reference: dict, rounds: int = 2) -> dict:
             start = time.process_time()
             results[way] = simulate(sim.compiled, samples, logged_jacobians=jacobians, **common)
             cpu[way].append(time.process_time() - start)
-    correction = steps.reference
     for way, result in results.items():
         if result.failed.any():
             raise RuntimeError(f"study {study}, {way}: samples failed")
-        outputs = {
-            k: correction[k][None, :] + result.outputs[k] - steps.modal_outputs[k][None, :]
-            for k in OUTPUTS
-        }
-        bands = plan.retransform(outputs, check_monotonic=False)
-        deviation = band_deviation(
-            {k: (bands[k].lower, bands[k].upper) for k in OUTPUTS}, reference
-        )
+        deviation = shared_step_deviation(plan, result, steps, reference)
         found[way] = {
             "cpu_s": round(min(cpu[way]), 2),
             "accepted": int(result.step_counts[:, 0].sum()),

@@ -43,8 +43,7 @@ CASES = ("1:1e-2", "1:1e-3", "2:1e-3", "2:1e-4")
 
 CHILD = r"""
 import json, sys, time
-import numpy as np
-from brake_bands import LEVELS, OUTPUTS, band_deviation, reference_bands, study_parameters
+from brake_bands import LEVELS, reference_bands, shared_step_deviation, study_parameters
 import fuzzymbs
 from fuzzymbs.models.brake import DiscBrake
 
@@ -59,7 +58,7 @@ for case in cases:
     modal = {k: float(plan.samples[plan.nominal_index, i]) for i, k in enumerate(names)}
     shared = DiscBrake(t_end=1e-2, rtol=rtol).share_steps(modal).simulation
     steps, cpu = shared.shared, []
-    correction = steps.reference  # waits for the reference pair: its CPU is not the runs'
+    _ = steps.reference  # waits for the reference pair: its CPU is not the runs'
     for _ in range(rounds):
         start = time.process_time()
         result = shared.simulate(
@@ -71,12 +70,7 @@ for case in cases:
         cpu.append(time.process_time() - start)
     if result.failed.any():
         raise RuntimeError(f"study {study} at rtol {rtol:g}: samples failed")
-    outputs = {
-        k: correction[k][None, :] + result.outputs[k] - steps.modal_outputs[k][None, :]
-        for k in OUTPUTS
-    }
-    bands = plan.retransform(outputs, check_monotonic=False)
-    deviation = band_deviation({k: (bands[k].lower, bands[k].upper) for k in OUTPUTS}, reference)
+    deviation = shared_step_deviation(plan, result, steps, reference)
     row = {
         "study": study,
         "rtol": rtol,
