@@ -8,7 +8,7 @@ of the study's support box (k and k_c +-10 %, F_n +-1 %) on that sequence, as
 deviations from the modal sample on the same steps (what a study's bands are made
 of; the reference that corrects every sample alike drops out, so it is not run).
 The Jacobian age (accepted steps a Jacobian and f_t are used for,
-:data:`fuzzymbs.mbs.kernels.rosenbrock.JACOBIAN_AGE`) is a runtime coefficient of
+:data:`fuzzymbs.mbs.kernels.rosenbrock_methods.JACOBIAN_AGE`) is a runtime coefficient of
 the kernel, so every age runs in this process without compiling again.
 
 Truth: the 9 samples on their own steps at rtol 1e-6, their deviations from the
@@ -32,7 +32,7 @@ from bench_common import BENCH_DIR, load_average
 
 import fuzzymbs.mbs.integrate as integrate
 from fuzzymbs.background import Background
-from fuzzymbs.mbs.kernels import rosenbrock
+from fuzzymbs.mbs.kernels import rosenbrock_methods
 from fuzzymbs.mbs.shared_steps import share_steps
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.tolerance import Tolerance
@@ -77,7 +77,7 @@ def band_error(deviations: dict, exact: dict) -> float:
 
 def with_age(age: int) -> tuple:
     """ROS34PW2's kernel coefficients with the Jacobian renewed every ``age`` steps."""
-    r = rosenbrock
+    r = rosenbrock_methods
     return r.transformed(
         r.TABLEAU_A, r.TABLEAU_GAMMA, r.TABLEAU_B, r.TABLEAU_BHAT, age, embedded_order=2
     )
@@ -131,7 +131,7 @@ def main() -> None:
             {
                 "t_end_s": args.t_end,
                 "rtol": args.rtol,
-                "default_age": rosenbrock.JACOBIAN_AGE,
+                "default_age": rosenbrock_methods.JACOBIAN_AGE,
                 "ages": ages,
                 "load_average": [start_load, load_average()],
             }

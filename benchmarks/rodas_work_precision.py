@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 from bench_common import BRAKE_SAMPLES, brake_errors, brake_run
 
-from fuzzymbs.mbs.kernels import rosenbrock
+from fuzzymbs.mbs.kernels import rosenbrock_methods
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.tolerance import Tolerance
 
@@ -55,10 +55,10 @@ CACHE = Path(__file__).resolve().parent / ".cache"
 
 def run(compiled, sample: dict, t_end: float, integrator: str, rtol: float, age: int | None):
     """Outputs (3, T), CPU seconds and the result of one sample."""
-    methods = rosenbrock.METHODS
+    methods = rosenbrock_methods.METHODS
     kept = methods["rodas4"]
     if age is not None:
-        methods["rodas4"] = rosenbrock.rodas4_coefficients(age)
+        methods["rodas4"] = rosenbrock_methods.rodas4_coefficients(age)
     try:
         return brake_run(
             compiled,

@@ -49,7 +49,7 @@ from fuzzymbs.mbs.kernels.contact import JREC
 from fuzzymbs.mbs.kernels.jacobian import jacobian
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, reduced_stage_solve
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs
-from fuzzymbs.mbs.kernels.rosenbrock import GAMMA
+from fuzzymbs.mbs.kernels.rosenbrock_methods import GAMMA
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.tolerance import Tolerance

@@ -264,10 +264,10 @@ def test_jacobian_age_runs_each_age_and_restores_the_default(tmp_path):
     import jacobian_age
 
     import fuzzymbs.mbs.integrate as integrate
-    from fuzzymbs.mbs.kernels import rosenbrock
+    from fuzzymbs.mbs.kernels import rosenbrock_methods as methods
 
     for ours, kernels in zip(
-        jacobian_age.with_age(rosenbrock.JACOBIAN_AGE), rosenbrock.COEFFICIENTS, strict=True
+        jacobian_age.with_age(methods.JACOBIAN_AGE), methods.COEFFICIENTS, strict=True
     ):
         np.testing.assert_array_equal(ours, kernels)
     ages = jacobian_age.measure(1e-4, 1e-3, (5, 10), rounds=1, cache=tmp_path)
@@ -275,7 +275,7 @@ def test_jacobian_age_runs_each_age_and_restores_the_default(tmp_path):
     for entry in ages.values():
         assert entry["steps"] > 0
         assert 0.0 < entry["band_error_percent"] < 50.0  # a 0.1 ms window at rtol 1e-3
-    assert integrate.METHODS["ros34pw2"] is rosenbrock.COEFFICIENTS
+    assert integrate.METHODS["ros34pw2"] is methods.COEFFICIENTS
     assert (tmp_path / "jacobian_age_truth_0.0001.npz").exists()
 
 

@@ -10,7 +10,8 @@ from fuzzymbs.mbs.bodies import FixedBody
 from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.mbs.kernels.layout import OK
 from fuzzymbs.mbs.kernels.linalg import lu_factor_lanes, lu_solve_lanes
-from fuzzymbs.mbs.kernels.rosenbrock import (
+from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
+from fuzzymbs.mbs.kernels.rosenbrock_methods import (
     COEFFICIENTS,
     GAMMA,
     METHODS,
@@ -18,7 +19,6 @@ from fuzzymbs.mbs.kernels.rosenbrock import (
     TABLEAU_B,
     TABLEAU_BHAT,
     TABLEAU_GAMMA,
-    ros34pw2,
     tableau,
 )
 from fuzzymbs.mbs.kernels.simd import LANES

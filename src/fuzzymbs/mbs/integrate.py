@@ -29,7 +29,8 @@ from fuzzymbs.mbs.kernels.jacobian_log import jacobian_arrays, logged_rows
 from fuzzymbs.mbs.kernels.layout import FAILURE_REASONS, OK
 from fuzzymbs.mbs.kernels.rhs import make_work, rhs_batch, rhs_sample
 from fuzzymbs.mbs.kernels.rk4 import rk4
-from fuzzymbs.mbs.kernels.rosenbrock import METHODS, ros34pw2
+from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
+from fuzzymbs.mbs.kernels.rosenbrock_methods import METHODS
 from fuzzymbs.mbs.kernels.sensitivities import SENS_DELTA, no_sensitivity
 from fuzzymbs.mbs.sensitivities import checked_wrt, gradient_cost, sensitivity_directions
 from fuzzymbs.mbs.shared_steps import (
