@@ -1,6 +1,6 @@
 """A linearly implicit integrator with error control for a block of LANES samples: ROS34PW2,
-or RODAS4 (:func:`rodas4_coefficients`; the method is an argument of the kernel, whose
-stage loop runs over the tableau's stages; the methods' tableaux are in
+or RODAS4 (the method is an argument of the kernel, whose stage loop runs over the
+tableau's stages; the methods' tableaux are in
 :mod:`fuzzymbs.mbs.kernels.rosenbrock_methods`).
 
 ROS34PW2 (Rang & Angermann, BIT 45 (2005) 761) is a Rosenbrock-W method: 4 stages,
