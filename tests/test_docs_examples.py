@@ -2,7 +2,8 @@
 
 The blocks of one page run in order as one script, as a reader pastes them into one
 file (later blocks use names the earlier ones define), in a temporary folder (some
-write results and figures). A page whose examples run for long is in the slow suite.
+write results and figures). A page whose examples run for long is in the slow suite;
+the pages whose examples have tests of their own (``OWN_TESTS``) are left to those.
 """
 
 from __future__ import annotations
@@ -16,11 +17,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
-#: pages whose examples the default suite cannot spare: brake.md runs for 12 s with its
-#: kernels compiled, mechanisms.md compiles the planar kernels (about a minute, as the
-#: slow suite's mechanism tests do; 1.5 s once compiled); the others take 0.2-2.5 s
-SLOW_PAGES = {"brake.md", "mechanisms.md"}
+TESTS = Path(__file__).resolve().parent
+DOCS = TESTS.parent / "docs"
+#: pages whose examples have tests of their own, which also check what the text says
+OWN_TESTS = {
+    "fe.md": TESTS / "fe" / "test_docs.py",
+    "gears.md": TESTS / "models" / "test_gear_docs.py",
+    "mechanisms.md": TESTS / "mbs" / "planar" / "test_docs.py",
+}
+#: pages whose examples the default suite cannot spare (brake.md: 12 s with its kernels
+#: compiled; the others take 0.2-2.5 s)
+SLOW_PAGES = {"brake.md"}
 
 
 def python_blocks(page: Path) -> list[tuple[int, str]]:
@@ -51,14 +58,16 @@ def run_page(page: Path) -> dict:
 PAGES = [
     pytest.param(page, id=page.name, marks=[pytest.mark.slow] if page.name in SLOW_PAGES else [])
     for page in sorted(DOCS.glob("*.md"))
-    if python_blocks(page)
+    if python_blocks(page) and page.name not in OWN_TESTS
 ]
 
 
-def test_the_docs_have_examples():
+def test_every_page_with_examples_is_run():
     names = {param.values[0].name for param in PAGES}
     # the pages a reader starts from; a page losing its examples would drop out silently
-    assert {"fuzzy.md", "studies.md", "embs.md", "mechanisms.md", "brake.md"} <= names
+    assert {"fuzzy.md", "studies.md", "embs.md", "brake.md"} <= names
+    for page, test in OWN_TESTS.items():
+        assert python_blocks(DOCS / page) and test.is_file(), page
 
 
 @pytest.mark.parametrize("page", PAGES)
