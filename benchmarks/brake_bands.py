@@ -73,6 +73,16 @@ def study_parameters(study: int) -> dict[str, fuzzymbs.Triangular]:
     }
 
 
+def reduced_plan(study: int) -> tuple[Any, dict[str, np.ndarray], dict[str, float]]:
+    """The study's reduced plan on :data:`LEVELS`, its samples as columns and its modal
+    sample (the one whose step sequence the plan's runs share)."""
+    parameters = study_parameters(study)
+    plan = fuzzymbs.plan(parameters, method="reduced", levels=LEVELS)
+    samples = {k: plan.samples[:, i] for i, k in enumerate(parameters)}
+    modal = {k: float(plan.samples[plan.nominal_index, i]) for i, k in enumerate(parameters)}
+    return plan, samples, modal
+
+
 def band_deviation(bands: dict, reference: dict) -> dict[str, list[float]]:
     """Per output, per level with a cut of non-zero width: the largest deviation of either
     bound from the reference's, over max(reference width, 0.1 x its widest cut)."""

@@ -24,15 +24,8 @@ import time
 
 import numpy as np
 from bench_common import load_average
-from brake_bands import (
-    LEVELS,
-    OUTPUTS,
-    reference_bands,
-    shared_step_deviation,
-    study_parameters,
-)
+from brake_bands import OUTPUTS, reduced_plan, reference_bands, shared_step_deviation
 
-import fuzzymbs
 from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.models.brake import DiscBrake
 
@@ -43,11 +36,7 @@ STUDY_RTOL = {1: 1e-3, 2: 1e-4}
 
 def measure(study: int, t_end: float, reference: dict, rounds: int = 2) -> dict:
     """Both ways of one study's plan on its modal sample's sequence (module docstring)."""
-    parameters = study_parameters(study)
-    names = list(parameters)
-    plan = fuzzymbs.plan(parameters, method="reduced", levels=LEVELS)
-    samples = {k: plan.samples[:, i] for i, k in enumerate(names)}
-    modal = {k: float(plan.samples[plan.nominal_index, i]) for i, k in enumerate(names)}
+    plan, samples, modal = reduced_plan(study)
     model = DiscBrake(t_end=t_end, rtol=STUDY_RTOL[study])
     shared = model.share_steps(modal).simulation
     steps = shared.shared

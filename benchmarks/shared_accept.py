@@ -43,19 +43,14 @@ CASES = ("1:1e-2", "1:1e-3", "2:1e-3", "2:1e-4")
 
 CHILD = r"""
 import json, sys, time
-from brake_bands import LEVELS, reference_bands, shared_step_deviation, study_parameters
-import fuzzymbs
+from brake_bands import reduced_plan, reference_bands, shared_step_deviation
 from fuzzymbs.models.brake import DiscBrake
 
 cases, rounds = json.loads(sys.argv[1]), int(sys.argv[2])
 for case in cases:
     study, rtol = int(case.split(":")[0]), float(case.split(":")[1])
     reference = reference_bands(study, 1e-2, cache=True)
-    parameters = study_parameters(study)
-    names = list(parameters)
-    plan = fuzzymbs.plan(parameters, method="reduced", levels=LEVELS)
-    samples = {k: plan.samples[:, i] for i, k in enumerate(names)}
-    modal = {k: float(plan.samples[plan.nominal_index, i]) for i, k in enumerate(names)}
+    plan, samples, modal = reduced_plan(study)
     shared = DiscBrake(t_end=1e-2, rtol=rtol).share_steps(modal).simulation
     steps, cpu = shared.shared, []
     _ = steps.reference  # waits for the reference pair: its CPU is not the runs'
