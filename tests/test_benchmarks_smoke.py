@@ -523,3 +523,32 @@ def test_logged_jacobians_quick_compares_both_ways():
     assert report["logged"]["jacobians"] < 0.2 * report["own"]["jacobians"]
     assert report["difference_of_spread"] < 2e-3
     assert report["log_rows"] > 0 and report["cpu_ratio_logged_over_own"] > 0
+
+
+@pytest.mark.slow
+def test_round_padding_fills_each_refinement_round_to_the_multiple():
+    # the experiment behind "Idle lanes of the plan's rounds" in docs/benchmarks.md, on the
+    # gear demo's adaptive study (19 runs in 3 rounds): padding to 4 leaves the first round
+    # and the extremum confirmation as they are and fills every round between to whole
+    # blocks of 4 with points the method itself would certify
+    import round_padding
+
+    demo = round_padding.REPO / "src" / "fuzzymbs" / "demos" / "gear-ste" / "01-ste-adaptive.toml"
+    plain, padded = round_padding.main(["--file", str(demo), "--multiples", "1", "4"])["runs"]
+    assert sum(plain["round_sizes"]) == plain["runs"]
+    assert sum(padded["round_sizes"]) == padded["runs"]
+    assert padded["round_sizes"][0] == plain["round_sizes"][0]
+    middle = padded["round_sizes"][1:-1]
+    assert middle and all(size % 4 == 0 for size in middle)
+    assert padded["runs"] > plain["runs"]
+    assert padded["method_error"] <= 0.01 and plain["method_error"] <= 0.01
+
+
+@pytest.mark.slow
+def test_rk4_parts_reports_a_step_against_its_right_hand_sides():
+    # the script behind RK4's step against its four right-hand sides in docs/benchmarks.md
+    import rk4_parts
+
+    figures = rk4_parts.main(["--steps", "40", "--repeats", "1"])
+    assert figures["advance_ms"] > 0 and figures["four_rhs_ms"] > 0
+    assert set(figures["rk4_ms"]) == {"1 blocks", "2 blocks", "4 blocks"}

@@ -69,11 +69,13 @@ class NoiseRule:
         return min(errors[-_STALL_ROUNDS:]) >= min(errors[:-_STALL_ROUNDS])
 
     def _noise_limited(self) -> bool:
-        """The error has stalled, the noise is above the tolerance, and the smallest error
-        the rounds reached is at most ``_NOISE_FACTOR`` times the noise: refinement never
-        got below the noise (under noise the error rises again as the surrogate, through
-        ever more noisy runs, grows rougher), so it cannot reach the tolerance."""
-        if not self.noise > self.tolerance or not self._stalled():
+        """The noise, measured once the error stalled, is above the tolerance, and the
+        smallest error the rounds reached is at most ``_NOISE_FACTOR`` times the noise:
+        refinement never got below the noise (under noise the error rises again as the
+        surrogate, through ever more noisy runs, grows rougher), so it cannot reach the
+        tolerance. The stall need not last: a noisy error reaches a new smallest value
+        now and then by chance, and the noise does not go away with it."""
+        if not self.noise > self.tolerance:
             return False
         return min(self.errors) <= _NOISE_FACTOR * self.noise
 
