@@ -13,7 +13,7 @@ difference over the samples' spread, and each way's band error against the same 
 rtol 1e-6 on each sample's own steps (cached in benchmarks/.cache by brake_bands.py),
 the modal sample's reference added to both. Also the log's rows and size.
 
-``--quick``: 1 ms, study 1 only, no reference cache (the smoke test's mode).
+``--quick``: 1 ms, study 1 only (the smoke test's mode).
 """
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> dict:
     studies = (1,) if args.quick else tuple(args.studies)
     figures: dict = {"load_average_start": load_average(), "t_end_s": t_end}
     for study in studies:
-        reference = reference_bands(study, t_end, cache=not args.quick)
+        reference = reference_bands(study, t_end)
         figures[f"study{study}"] = measure(study, t_end, reference, rounds=1 if args.quick else 2)
     figures["load_average_end"] = load_average()
     print(json.dumps(figures))

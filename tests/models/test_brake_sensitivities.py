@@ -47,11 +47,12 @@ def test_brake_declares_and_returns_gradients(brake):
 
 
 #: bounds of the comparison with central differences: 3x the measured errors; 1e-4 (6x
-#: the largest of the others) else
+#: the largest of the others) else. The caliper's derivative to the disc speed is judged
+#: on the pads' derivative to it (see the test)
 BOUNDS = {
     ("y_lpad", "pad_spring_stiffness"): 5e-3,
     ("y_lpad", "disc_speed"): 1.5e-2,
-    ("y_cali", "disc_speed"): 4e-2,
+    ("y_cali", "disc_speed"): 1e-9,
 }
 
 
@@ -62,9 +63,12 @@ def test_brake_derivatives_against_central_differences():
     # first 0.3 ms (contact closing, the first slip reversals); the sensitivities at rtol
     # 1e-4 on their own steps. Measured (largest error over time relative to each
     # derivative's peak): pads k 1.5e-3, F_n 1.7e-5, omega 4.3e-3; caliper k 8.1e-6, k_c
-    # 3.0e-7, F_n 8.1e-6, omega 1.2e-2 (the caliper's derivative to omega is the pads'
-    # asymmetry, 7.5e-15 m per rad/s this early: a small difference of the pads' large
-    # derivatives, whose error it takes). The pads' derivative to k_c (1e-16 m per N/m)
+    # 3.0e-7, F_n 8.1e-6 (an AVX-512 host; on an AVX2 host 1.3e-3, 7.0e-5, 4.2e-3, 2.9e-5,
+    # 6.6e-6, 4.9e-6). The caliper's derivative to omega is the pads' asymmetry, 7.5e-15 m
+    # per rad/s this early, 8e-9 of the pads' derivative to omega: its error, 1.2e-2 and
+    # 4.8e-2 of its own peak on the two hosts and not falling with the sensitivities' rtol
+    # (1.7e-2 at 1e-5, 2.6e-2 at 1e-6), is round-off on the scale of the pads' derivative
+    # (3.8e-10 of it), so it is judged there. The pads' derivative to k_c (1e-16 m per N/m)
     # is left out: the differences' rounding there is a per cent of it. Bounds: 3x.
     t_end = 3e-4
     compiled = DiscBrake(t_end=t_end).compiled
@@ -102,7 +106,11 @@ def test_brake_derivatives_against_central_differences():
             reference = (y[k, 0] - y[k, 1]) / (2e-3 * nominal[name])
             error = np.abs(result.gradients[output][0, :, k] - reference).max()
             bound = BOUNDS.get((output, name), 1e-4)
-            assert error < bound * np.abs(reference).max(), (output, name)
+            scale = np.abs(reference).max()
+            if (output, name) == ("y_cali", "disc_speed"):
+                pads = runs.outputs["y_lpad"].reshape(len(names), 2, -1)[k]
+                scale = np.abs((pads[0] - pads[1]) / (2e-3 * nominal[name])).max()
+            assert error < bound * scale, (output, name)
 
 
 @pytest.mark.slow  # the brake's lanes: about 5 s
