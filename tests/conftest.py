@@ -45,6 +45,32 @@ KERNELS_FIRST = (
     ),
 )
 
+# The slow suite's longest tests (seconds of one test process in a clean-clone `.ci/run`
+# on the AVX2 host, 2026-11-30), longest first and in two groups of about equal time, so
+# that no process is left running a long test alone at the end (longest processing time
+# first). Each group leads one process's first send, after its KERNELS_FIRST group (whose
+# tests are not in the slow suite's collection, nor these in the default suite's).
+LONG_FIRST = (
+    (  # 200, 90, 76, 64 and 51 s: about 480 s
+        "tests/fuzzy/test_first_order.py::"
+        "test_with_gradients_ridges_and_hard_cases_are_honest[sdof-0.5%]",
+        "tests/models/test_brake_slow.py::test_study1_runs_and_nodal_force_dominates_the_pads",
+        "tests/models/test_brake_slow.py::"
+        "test_the_checks_re_runs_made_ahead_are_the_checks_bit_for_bit",
+        "tests/test_benchmarks_smoke.py::test_gear_dynamic_reports_cost_and_each_laws_smoothness",
+        "tests/mbs/test_shared_steps.py::test_shared_steps_bring_loose_bands_to_the_tight_ones",
+    ),
+    (  # 132, 79, 78, 76 and 75 s: about 440 s
+        "tests/test_benchmarks_smoke.py::test_brake_bands_quick_runs",
+        "tests/fuzzy/test_extremum_confirmation.py::test_a_sharp_ridge_is_found_or_reported[case1]",
+        "tests/mbs/planar/test_docs.py::test_mechanisms_guide_examples_run",
+        "tests/mbs/planar/test_closed_loops.py::"
+        "test_driven_rigid_slider_crank_matches_its_kinematics",
+        "tests/test_benchmarks_smoke.py::"
+        "test_first_order_correction_quick_removes_the_slope_it_measured",
+    ),
+)
+
 
 @pytest.fixture
 def fresh_python():
@@ -63,7 +89,8 @@ def fresh_python():
 
 @pytest.hookimpl(optionalhook=True)  # without pytest-xdist (-p no:xdist) it is never called
 def pytest_xdist_make_scheduler(config, log):
-    """xdist's load scheduling, each process first sent one group of KERNELS_FIRST."""
+    """xdist's load scheduling, each process first sent one group of KERNELS_FIRST and
+    LONG_FIRST (what of it the run collected, in order)."""
     if config.getvalue("dist") != "load":
         return None
     from xdist.scheduler import LoadScheduling
@@ -71,7 +98,7 @@ def pytest_xdist_make_scheduler(config, log):
     class KernelsFirstScheduling(LoadScheduling):
         def __init__(self, config, log=None):
             super().__init__(config, log)
-            self.groups = list(KERNELS_FIRST)
+            self.groups = [k + g for k, g in zip(KERNELS_FIRST, LONG_FIRST, strict=True)]
 
         def _send_tests(self, node, num):
             # the first send to each process (the initial distribution) leads with a group
