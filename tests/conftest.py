@@ -46,10 +46,11 @@ KERNELS_FIRST = (
 )
 
 # The slow suite's longest tests (seconds of one test process in a clean-clone `.ci/run`
-# on the AVX2 host, 2026-11-30), longest first and in two groups of about equal time, so
-# that no process is left running a long test alone at the end (longest processing time
-# first). Each group leads one process's first send, after its KERNELS_FIRST group (whose
-# tests are not in the slow suite's collection, nor these in the default suite's).
+# on the AVX2 host, 2026-11-30) in two groups of about equal time, so that no process is
+# left running a long test alone at the end (the long ones first, as in longest processing
+# time first scheduling). Each group leads one process's first send (in collection order),
+# after its KERNELS_FIRST group (whose tests are not in the slow suite's collection, nor
+# these in the default suite's).
 LONG_FIRST = (
     (  # 200, 90, 76, 64 and 51 s: about 480 s
         "tests/fuzzy/test_first_order.py::"
