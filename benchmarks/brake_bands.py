@@ -153,7 +153,7 @@ def evaluate_bands(
     return {name: (result[name].lower, result[name].upper) for name in OUTPUTS}, cpu, wall
 
 
-def reference_bands(study: int, t_end: float, cache: bool = True) -> dict:
+def reference_bands(study: int, t_end: float) -> dict:
     """The study's reduced-plan bands at rtol ``REFERENCE_RTOL`` on each sample's own steps.
 
     Kept in ``benchmarks/.cache/`` under the digest of the brake model's source (any edit
@@ -163,8 +163,6 @@ def reference_bands(study: int, t_end: float, cache: bool = True) -> dict:
     digest = (source_digest(["fuzzymbs.models.brake.model"]) or "unknown")[:16]
     name = f"brake_bands_s{study}_t{t_end:g}_r{REFERENCE_RTOL:g}_{digest}.npz"
     path = BENCH_DIR / ".cache" / name
-    if not cache:
-        return evaluate_bands(study, t_end, {"rtol": REFERENCE_RTOL})[0]
     path.parent.mkdir(exist_ok=True)
     with open(path.with_suffix(".lock"), "w") as lock:
         if fcntl is not None:  # a second process waits for the first one's reference

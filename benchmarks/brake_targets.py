@@ -63,14 +63,19 @@ def with_integrator(path: Path, integrator: str, folder: Path) -> Path:
 
 
 def run_file(
-    path: Path, out: Path, arguments: tuple[str, ...] = (), log: list[str] | None = None
+    path: Path,
+    out: Path,
+    arguments: tuple[str, ...] = (),
+    log: list[str] | None = None,
+    program: tuple[str, ...] = (sys.executable, "-m", "fuzzymbs.cli"),
 ) -> dict[str, Any]:
     """One ``fuzzymbs run`` of ``path`` (with ``arguments``) in a child process: wall, CPU
     (the child's and its own children's), the study's figures; the child's log lines are
-    appended to ``log`` when given."""
+    appended to ``log`` when given. ``program``: what takes the command line's arguments
+    (another that does what ``fuzzymbs`` does, e.g. with the method patched)."""
     import xarray
 
-    command = [sys.executable, "-m", "fuzzymbs.cli", "run", str(path), "--out", str(out), "--fresh"]
+    command = [*program, "run", str(path), "--out", str(out), "--fresh"]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     load = load_average()
     start = time.perf_counter()
@@ -92,6 +97,7 @@ def run_file(
         "wall_s": round(wall, 2),
         "cpu_s": round(cpu, 2),
         "runs": int(attrs.get("adaptive_runs", samples)),
+        "rounds": int(attrs.get("adaptive_rounds", 0)),  # 0: not the adaptive method
         "validation_runs": int(attrs.get("validation_runs", 0)),
         "method_error": float(attrs.get("method_error", float("nan"))),
         "time_integration_error": float(attrs.get("time_integration_error", float("nan"))),

@@ -19,33 +19,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
-from collections.abc import Callable
 
-import numba as nb
 import numpy as np
-from bench_common import load_average
+from bench_common import best_time, load_average
+from ros_parts import rhs_calls
 
-from fuzzymbs.mbs.kernels.rhs import rhs
 from fuzzymbs.mbs.kernels.rk4 import advance_block, rk4, start_block
 from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.models.brake import DiscBrake
-
-
-@nb.njit(nogil=True)
-def _rhs_calls(count, data, state):
-    x, p, _, stages, work = state
-    for _ in range(count):
-        rhs(1e-3, x, stages[0], p, data, work)
-
-
-def _best(call: Callable[[], object], repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        call()
-        best = min(best, time.perf_counter() - start)
-    return best
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -77,10 +58,15 @@ def main(argv: list[str] | None = None) -> dict:
     advance()  # compiles
     middle = start_block(data, params, x0, recording, 0, LANES)
     advance_block(data, timing, recording, 0, LANES, middle, 0, steps // 2)
-    _rhs_calls(1, data, middle)
+    x, p, _, stages, work = middle
+    rhs_calls(1, x, stages[0], p, data, work)  # compiles
+
+    def four_rhs() -> None:
+        rhs_calls(4 * steps, x, stages[0], p, data, work)
+
     figures: dict = {"load_average_start": load_average(), "steps": steps, "lanes": LANES}
-    figures["advance_ms"] = 1e3 * _best(advance, args.repeats)
-    figures["four_rhs_ms"] = 1e3 * _best(lambda: _rhs_calls(4 * steps, data, middle), args.repeats)
+    figures["advance_ms"] = 1e3 * best_time(advance, args.repeats)
+    figures["four_rhs_ms"] = 1e3 * best_time(four_rhs, args.repeats)
     figures["advance_over_four_rhs"] = figures["advance_ms"] / figures["four_rhs_ms"]
     figures["rk4_ms"] = {}
     for blocks in (1, 2, 4):
@@ -91,7 +77,7 @@ def main(argv: list[str] | None = None) -> dict:
             rk4(data, p, x, timing, r, LANES)
 
         call()
-        figures["rk4_ms"][f"{blocks} blocks"] = 1e3 * _best(call, args.repeats)
+        figures["rk4_ms"][f"{blocks} blocks"] = 1e3 * best_time(call, args.repeats)
     figures["load_average_end"] = load_average()
     return figures
 

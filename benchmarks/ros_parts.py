@@ -29,7 +29,7 @@ L = LANES
 
 
 @nb.njit
-def _rhs_calls(count, x, dx, p, data, work):
+def rhs_calls(count, x, dx, p, data, work):
     for _ in range(count):
         rhs(1e-4, x, dx, p, data, work)
 
@@ -72,7 +72,7 @@ def parts(repeats: int = 1) -> dict[str, float]:
     jq, jv = np.empty(n * n * L), np.empty(n * n * L)
     mat, piv, b = np.empty(n * n * L), np.empty(n * L, np.int64), np.ones(n * L)
     calls = {
-        "rhs_ms": (_rhs_calls, (x, dx, p, compiled.data, work), 2000),
+        "rhs_ms": (rhs_calls, (x, dx, p, compiled.data, work), 2000),
         "jacobian_ms": (_jacobian_calls, (x, dx, p, compiled.data, work, jq, jv), 300),
         "lu_ms": (_lu_calls, (jq, jv, n, mat, piv), 3000),
         "solve_ms": (_solve_calls, (n, mat, piv, b), 10000),

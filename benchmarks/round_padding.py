@@ -11,7 +11,8 @@ multiple of ``M`` points with the next most doubtful extremal points far from ev
 taken again with the round's points as planned). It patches the method in a child
 process that runs ``fuzzymbs run`` of the demo's study (or ``--file``, any adaptive study)
 without plots; M = 1 is today's method. Prints one JSON line: per multiple, wall and CPU
-of the child, runs, rounds, the size of each round and the certified method error.
+of the child, runs, rounds, the size of each round and the certified method and
+time-integration errors (:func:`brake_targets.run_file`'s figures).
 
 The padding is not part of fuzzymbs: on the brake's study 1 it added runs without
 saving a round (docs/benchmarks.md, "The runs that judge a brake study").
@@ -21,15 +22,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
 from bench_common import REPO, load_average
+from brake_targets import run_file
 
 DEMOS = REPO / "src" / "fuzzymbs" / "demos" / "brake"
 FILES = {1: DEMOS / "01-study1.toml", 2: DEMOS / "02-study2.toml"}
@@ -43,7 +42,9 @@ from pathlib import Path
 import numpy as np
 from fuzzymbs.fuzzy import adaptive
 
-multiple, study, out = int(sys.argv[1]), sys.argv[2], Path(sys.argv[3])
+# sys.argv: the multiple, then the command line of ``fuzzymbs``
+multiple, arguments = int(sys.argv[1]), sys.argv[2:]
+out = Path(arguments[arguments.index("--out") + 1])
 plan_round = adaptive.AdaptiveTransformation._plan_round
 doubt_of = adaptive.AdaptiveTransformation._doubt
 
@@ -81,34 +82,20 @@ adaptive.AdaptiveTransformation.add = counted
 atexit.register(lambda: (out / "rounds.json").write_text(json.dumps(sizes)))
 from fuzzymbs.cli import main
 
-sys.argv = ["fuzzymbs", "run", study, "--out", str(out), "--fresh", "--no-plots"]
+sys.argv = ["fuzzymbs", *arguments]
 main()
 """
 
 
 def run_padded(multiple: int, path: Path, out: Path) -> dict[str, Any]:
-    """The study of ``path`` with its rounds padded to ``multiple``, in a child process."""
-    import xarray
-
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    command = [sys.executable, "-c", _CHILD, str(multiple), str(path), str(out)]
-    done = subprocess.run(command, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise RuntimeError(f"padding {multiple} failed:\n{done.stderr[-3000:]}")
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    with xarray.open_dataset(out / "result.nc") as data:
-        attrs = dict(data.attrs)
+    """The study of ``path`` with its rounds padded to ``multiple``, in a child process
+    (:func:`brake_targets.run_file` with the patched method as its program)."""
+    program = (sys.executable, "-c", _CHILD, str(multiple))
+    figures = run_file(path, out, ("--no-plots",), program=program)
     return {
         "multiple": multiple,
-        "wall_s": round(wall, 2),
-        "cpu_s": round(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime, 2),
-        "runs": int(attrs["adaptive_runs"]),
-        "rounds": int(attrs["adaptive_rounds"]),
+        **figures,
         "round_sizes": json.loads((out / "rounds.json").read_text()),
-        "method_error": float(attrs["method_error"]),
-        "time_integration_error": float(attrs.get("time_integration_error", "nan")),
     }
 
 

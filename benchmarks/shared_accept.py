@@ -49,7 +49,7 @@ from fuzzymbs.models.brake import DiscBrake
 cases, rounds = json.loads(sys.argv[1]), int(sys.argv[2])
 for case in cases:
     study, rtol = int(case.split(":")[0]), float(case.split(":")[1])
-    reference = reference_bands(study, 1e-2, cache=True)
+    reference = reference_bands(study, 1e-2)
     plan, samples, modal = reduced_plan(study)
     shared = DiscBrake(t_end=1e-2, rtol=rtol).share_steps(modal).simulation
     steps, cpu = shared.shared, []
@@ -154,7 +154,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     from brake_bands import reference_bands
 
     for study in sorted({int(case.split(":")[0]) for case in args.cases}):
-        reference_bands(study, 1e-2, cache=True)  # computed once here, read by the children
+        reference_bands(study, 1e-2)  # computed once here, read by the children
     rows = []
     if args.replay:
         rows.append({"replay_and_pair": replay_and_pair()})
