@@ -98,3 +98,54 @@ def test_without_gradients_it_is_the_value_only_spline_and_frozen_directions_dro
     np.testing.assert_allclose(hermite.values(points), plain.values(points), atol=1e-10)
     element = np.zeros(50, dtype=np.intp)
     assert np.all(hermite.gradient_at(points, element)[:, 2] == 0.0)
+
+
+def test_a_correction_grown_from_the_last_rounds_equals_one_solved_afresh():
+    # rounds of runs as the adaptive method makes them: each round's centres continue the
+    # last's (one run repeats an old centre and is dropped, some runs have no gradient);
+    # the bordered system (fuzzymbs.fuzzy.bordered_system) against a fresh LU solve of the
+    # whole system, which is a second method: equal to 1e-9 of the data's range (the
+    # systems' condition numbers reach about 1e6 here, so both carry ~1e-10 of round-off)
+    moving = np.ones(3, dtype=bool)
+    points = _points(90, 3, seed=21)
+    points[70] = points[12]
+    sloped = np.arange(90) % 4 != 1
+    previous = None
+    for stop in (10, 35, 36, 71, 90):
+        centres = points[:stop]
+        grown = HermiteCorrection(
+            centres, _function(centres), _gradient(centres), sloped[:stop], moving, previous
+        )
+        fresh = HermiteCorrection(
+            centres, _function(centres), _gradient(centres), sloped[:stop], moving
+        )
+        assert grown._system is not None and fresh._system is not None
+        if previous is not None:
+            assert len(grown._system._levels) == len(previous._system._levels) + 1
+        elsewhere = _points(200, 3, seed=stop)
+        scale = np.ptp(_function(centres), axis=0)
+        np.testing.assert_allclose(
+            grown.values(elsewhere) / scale, fresh.values(elsewhere) / scale, atol=1e-9
+        )
+        np.testing.assert_allclose(grown.values(centres), _function(centres), atol=1e-10)
+        previous = grown
+
+
+def test_a_correction_that_does_not_continue_the_last_is_solved_afresh():
+    moving = np.ones(3, dtype=bool)
+    points = _points(30, 3, seed=31)
+    first = HermiteCorrection(
+        points[:20], _function(points[:20]), _gradient(points[:20]), np.ones(20, bool), moving
+    )
+    # other first centres, another frozen direction, other gradient flags: no bordering
+    others = (
+        (points[5:], np.ones(25, bool), moving),
+        (points, np.ones(30, bool), np.array([True, True, False])),
+        (points, np.arange(30) % 2 == 0, moving),
+    )
+    for centres, sloped, frozen in others:
+        grown = HermiteCorrection(
+            centres, _function(centres), _gradient(centres), sloped, frozen, first
+        )
+        assert grown._system is not None and len(grown._system._levels) == 0
+        np.testing.assert_allclose(grown.values(centres), _function(centres), atol=1e-10)

@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fuzzymbs.errors import ModelOutputError
+from fuzzymbs.fuzzy.bordered_system import BorderedSystem
 from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, evaluate_series
 from fuzzymbs.fuzzy.residual_correction import (
     KernelCorrection,
@@ -50,6 +51,63 @@ __all__ = ["HermiteCorrection", "flatten_gradients", "hermite_correction"]
 
 #: float64 entries of one block of kernel values
 _BLOCK_ENTRIES = 4_000_000
+#: kinds of the system's unknowns: a value's weight, a gradient's, the linear tail's
+_VALUE, _GRADIENT, _TAIL = 0, 1, 2
+
+
+def _positions(
+    kind: NDArray[np.int64], index: NDArray[np.int64], count: int, gradients: int
+) -> NDArray[np.int64]:
+    """Rows of the unknowns ``(kind, index)`` in the layout values (``count``), gradients
+    (``gradients``), tail."""
+    return index + np.where(
+        kind == _VALUE, 0, np.where(kind == _GRADIENT, count, count + gradients)
+    )
+
+
+def functional_block(
+    centres_a: NDArray[np.float64],
+    slopes_a: NDArray[np.float64],
+    centres_b: NDArray[np.float64],
+    slopes_b: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The kernel between two sets of functionals: rows the values at ``centres_a`` (P, m)
+    and the gradients at ``slopes_a`` (G, m), columns those at ``centres_b``, ``slopes_b``;
+    gradients g-major (row ``P + m g + k``: d/dx_k at x_g)."""
+    dimension = centres_a.shape[1]
+    values_a, values_b = len(centres_a), len(centres_b)
+    gradients_a, gradients_b = len(slopes_a) * dimension, len(slopes_b) * dimension
+    block = np.empty((values_a + gradients_a, values_b + gradients_b))
+    block[:values_a, :values_b] = cubic_kernel(centres_a, centres_b)
+    # d/dx_k at x_g of |x - x_j|^3: 3 |x_g - x_j| (x_g - x_j)_k; rows (g, k) g-major
+    d = slopes_a[:, None, :] - centres_b[None, :, :]  # (G, P, m)
+    r = np.linalg.norm(d, axis=2)
+    block[values_a:, :values_b] = (3.0 * r[:, :, None] * d).transpose(0, 2, 1).reshape(-1, values_b)
+    d = slopes_b[:, None, :] - centres_a[None, :, :]
+    r = np.linalg.norm(d, axis=2)
+    block[:values_a, values_b:] = (
+        (3.0 * r[:, :, None] * d).transpose(0, 2, 1).reshape(-1, values_a).T
+    )
+    # d^2 / dx_k dy_l: -3 (delta_kl r + d_k d_l / r), zero at r = 0
+    d = slopes_a[:, None, :] - slopes_b[None, :, :]  # (G, H, m)
+    r = np.linalg.norm(d, axis=2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        outer = np.where(r[:, :, None, None] > 0.0, d[:, :, :, None] * d[:, :, None, :], 0.0)
+        outer = outer / np.where(r > 0.0, r, 1.0)[:, :, None, None]
+    second = -3.0 * (r[:, :, None, None] * np.eye(dimension) + outer)  # (G, H, m, m)
+    block[values_a:, values_b:] = second.transpose(0, 2, 1, 3).reshape(gradients_a, gradients_b)
+    return block
+
+
+def tail_block(centres: NDArray[np.float64], sloped_count: int) -> NDArray[np.float64]:
+    """(1 + m, P + G m): the linear tail ``[1, x]`` under the values at the centres and
+    its gradient ``[0, e_k]`` under the gradients (g-major)."""
+    count, dimension = centres.shape
+    tail = np.zeros((dimension + 1, count + sloped_count * dimension))
+    tail[0, :count] = 1.0
+    tail[1:, :count] = centres.T
+    tail[1:, count:] = np.tile(np.eye(dimension), (1, sloped_count))
+    return tail
 
 
 class HermiteCorrection(KernelCorrection):
@@ -69,6 +127,13 @@ class HermiteCorrection(KernelCorrection):
         The centres with a gradient.
     moving : ndarray (n,) of bool
         Directions that vary (a direction of zero width is left out).
+    previous : HermiteCorrection, optional
+        An earlier round's correction. Where these centres continue its centres (the
+        same first ones, with and without gradients alike, and the same ``moving``), its
+        factorised system is bordered by the new functionals
+        (:class:`~fuzzymbs.fuzzy.bordered_system.BorderedSystem`): ``O(N^2 m)`` for ``m``
+        new unknowns instead of a fresh ``O(N^3)`` solve. Otherwise, or where the new
+        functionals are numerically dependent on the old, the system is solved afresh.
     """
 
     def __init__(
@@ -78,52 +143,124 @@ class HermiteCorrection(KernelCorrection):
         slopes: NDArray[np.float64],
         sloped: NDArray[np.bool_],
         moving: NDArray,
+        previous: HermiteCorrection | None = None,
     ) -> None:
         self.moving, self.centres, distinct = distinct_centres(centres, moving)
         residuals = np.asarray(residuals, dtype=float)[distinct]
-        keep = np.asarray(sloped, dtype=bool)[distinct]
-        slopes = np.asarray(slopes, dtype=float)[distinct][keep][:, :, self.moving]  # (G, E, m)
-        self.slope_centres = self.centres[keep]
+        self._keep = np.asarray(sloped, dtype=bool)[distinct]
+        slopes = np.asarray(slopes, dtype=float)[distinct][self._keep][:, :, self.moving]
+        self.slope_centres = self.centres[self._keep]  # (G, m)
         count, dimension = self.centres.shape
         sloped_count = len(self.slope_centres)
         elements = residuals.shape[1]
-        size = count + sloped_count * dimension
-        system = np.zeros((size + dimension + 1, size + dimension + 1))
-        system[:count, :count] = cubic_kernel(self.centres, self.centres)
-        # d/dx_k at x_g of |x - x_j|^3: 3 |x_g - x_j| (x_g - x_j)_k; rows (g, k) g-major
-        d = self.slope_centres[:, None, :] - self.centres[None, :, :]  # (G, P, m)
-        r = np.linalg.norm(d, axis=2)
-        mixed = (3.0 * r[:, :, None] * d).transpose(0, 2, 1).reshape(-1, count)
-        system[count:size, :count] = mixed
-        system[:count, count:size] = mixed.T
-        # d^2 / dx_k dy_l: -3 (delta_kl r + d_k d_l / r), zero at r = 0
-        d = self.slope_centres[:, None, :] - self.slope_centres[None, :, :]  # (G, G, m)
-        r = np.linalg.norm(d, axis=2)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            outer = np.where(r[:, :, None, None] > 0.0, d[:, :, :, None] * d[:, :, None, :], 0.0)
-            outer = outer / np.where(r > 0.0, r, 1.0)[:, :, None, None]
-        second = -3.0 * (r[:, :, None, None] * np.eye(dimension) + outer)  # (G, G, m, m)
-        system[count:size, count:size] = second.transpose(0, 2, 1, 3).reshape(
-            sloped_count * dimension, sloped_count * dimension
+        self._system, self._order = self._grown(previous)
+        if self._system is None:
+            self._system, self._order = self._factorised()
+        # the data in the system's order: values, gradients (g-major), the tail's zeros
+        kind, index = self._order
+        data = np.concatenate(
+            (
+                residuals,
+                slopes.transpose(0, 2, 1).reshape(sloped_count * dimension, elements),
+                np.zeros((dimension + 1, elements)),
+            )
         )
-        tail = np.zeros((size, dimension + 1))
-        tail[:count, 0] = 1.0
-        tail[:count, 1:] = self.centres
-        tail[count:, 1:] = np.tile(np.eye(dimension), (sloped_count, 1))
-        system[:size, size:] = tail
-        system[size:, :size] = tail.T
-        right = np.zeros((size + dimension + 1, elements))
-        right[:count] = residuals
-        right[count:size] = slopes.transpose(0, 2, 1).reshape(sloped_count * dimension, elements)
-        try:
-            solution = np.linalg.solve(system, right)
-        except np.linalg.LinAlgError:  # dependent functionals: the least-squares interpolant
-            solution = np.linalg.lstsq(system, right, rcond=None)[0]
+        right = data[_positions(kind, index, count, sloped_count * dimension)]
+        if self._system is not None:
+            solved = self._system.solve(right)
+        else:  # dependent functionals: the least-squares interpolant
+            matrix = self._matrix()
+            solved = np.linalg.lstsq(matrix, right, rcond=None)[0]
+        solution = np.empty_like(solved)
+        solution[_positions(kind, index, count, sloped_count * dimension)] = solved
+        size = count + sloped_count * dimension
         self.weights = solution[:count]  # (P, E)
         self.slope_weights = solution[count:size].reshape(sloped_count, dimension, elements)
         # sum_l c_gl v_gle: the part of the derivative terms that does not depend on x
         self._anchor = np.einsum("gl,gle->ge", self.slope_centres, self.slope_weights)
         self.tail = solution[size:]  # (1 + m, E)
+
+    def _matrix(self) -> NDArray[np.float64]:
+        """The whole collocation system: values, gradients (g-major), then the tail."""
+        dimension = self.centres.shape[1]
+        kernel = functional_block(
+            self.centres, self.slope_centres, self.centres, self.slope_centres
+        )
+        size = len(kernel)
+        tail = tail_block(self.centres, len(self.slope_centres)).T  # (size, 1 + m)
+        system = np.zeros((size + dimension + 1, size + dimension + 1))
+        system[:size, :size] = kernel
+        system[:size, size:] = tail
+        system[size:, :size] = tail.T
+        return system
+
+    def _factorised(self) -> tuple[BorderedSystem | None, tuple[NDArray, NDArray]]:
+        """The whole system factorised afresh (None where it is singular) and its order."""
+        count, dimension = self.centres.shape
+        kind = np.repeat(
+            [_VALUE, _GRADIENT, _TAIL], [count, len(self.slope_centres) * dimension, dimension + 1]
+        )
+        index = np.concatenate(
+            (
+                np.arange(count),
+                np.arange(len(self.slope_centres) * dimension),
+                np.arange(dimension + 1),
+            )
+        )
+        try:
+            system = BorderedSystem(self._matrix())
+        except np.linalg.LinAlgError:
+            system = None
+        return system, (kind, index)
+
+    def _grown(
+        self, previous: HermiteCorrection | None
+    ) -> tuple[BorderedSystem | None, tuple[NDArray, NDArray]]:
+        """``previous``'s factorised system bordered by this one's new runs, where this
+        one's centres continue ``previous``'s; (None, empty order) otherwise."""
+        none = (None, (np.empty(0, np.int64), np.empty(0, np.int64)))
+        if previous is None or previous._system is None:
+            return none
+        old, old_sloped = len(previous.centres), len(previous.slope_centres)
+        if (
+            not np.array_equal(previous.moving, self.moving)
+            or old > len(self.centres)
+            or not np.array_equal(previous.centres, self.centres[:old])
+            or not np.array_equal(previous._keep, self._keep[:old])
+        ):
+            return none
+        dimension = self.centres.shape[1]
+        new_centres = self.centres[old:]
+        new_slopes = self.slope_centres[old_sloped:]
+        # rows: every old functional (values, gradients, tail), in the old system's order
+        rows = np.concatenate(
+            (
+                functional_block(previous.centres, previous.slope_centres, new_centres, new_slopes),
+                tail_block(new_centres, len(new_slopes)),
+            )
+        )
+        kind, index = previous._order
+        border = rows[_positions(kind, index, old, old_sloped * dimension)]
+        corner = functional_block(new_centres, new_slopes, new_centres, new_slopes)
+        try:
+            system = previous._system.extended(border, corner)
+        except np.linalg.LinAlgError:  # the new runs depend on the old: a fresh solve
+            return none
+        kind = np.concatenate(
+            (
+                kind,
+                np.full(len(new_centres), _VALUE),
+                np.full(len(new_slopes) * dimension, _GRADIENT),
+            )
+        )
+        index = np.concatenate(
+            (
+                index,
+                np.arange(old, len(self.centres)),
+                np.arange(old_sloped * dimension, len(self.slope_centres) * dimension),
+            )
+        )
+        return system, (kind, index)
 
     def _slope_parts(
         self, part: NDArray[np.float64], own: NDArray[np.intp]
@@ -204,6 +341,7 @@ def hermite_correction(
     slopes: NDArray[np.float64],
     sloped: NDArray[np.bool_],
     moving: NDArray[np.bool_],
+    previous: HermiteCorrection | None = None,
 ) -> HermiteCorrection:
     """The gradient-enhanced correction of a sparse grid's series through runs.
 
@@ -220,6 +358,9 @@ def hermite_correction(
         The model's gradients (unit coordinates) where ``sloped``.
     sloped, moving : ndarray of bool
         Runs with a gradient; directions that vary.
+    previous : the correction of an earlier round, whose runs the first of ``units``
+        repeat: its factorised system is bordered by the new runs
+        (:mod:`fuzzymbs.fuzzy.bordered_system`) instead of being solved afresh.
     """
     residuals = values - evaluate_series(degrees, coefficients, units)
     residuals[nodes] = 0.0
@@ -228,7 +369,7 @@ def hermite_correction(
         _, gradient = basis_gradient(degrees, units[sloped])  # (n, G, D)
         series_slope = np.einsum("igd,de->gei", gradient, coefficients)
         slope_residuals[sloped] = slopes[sloped] - series_slope
-    return HermiteCorrection(units, residuals, slope_residuals, sloped, moving)
+    return HermiteCorrection(units, residuals, slope_residuals, sloped, moving, previous)
 
 
 def flatten_gradients(
