@@ -153,6 +153,15 @@ def evaluate_bands(
     return {name: (result[name].lower, result[name].upper) for name in OUTPUTS}, cpu, wall
 
 
+def default_runs_file(study: int, t_end: float) -> Path:
+    """Where ``cost`` saves the default study's bands and runs and ``default-runs`` reads
+    them: named by the digest of the study's and the brake model's source, so that runs
+    saved by other code are never read as this code's."""
+    modules = ["fuzzymbs.study.study", "fuzzymbs.models.brake.model"]
+    digest = (source_digest(modules) or "unknown")[:16]
+    return BENCH_DIR / ".cache" / f"brake_bands_default_study{study}_t{t_end:g}_{digest}.npz"
+
+
 def reference_bands(study: int, t_end: float) -> dict:
     """The study's reduced-plan bands at rtol ``REFERENCE_RTOL`` on each sample's own steps.
 
@@ -285,7 +294,7 @@ def measure_cost(
     if study != 1:  # the other studies: the default's bands and cost alone
         sides = {"default": sides["default"]}
     runs: dict[str, list[dict]] = {name: [] for name in sides}
-    saved = BENCH_DIR / ".cache" / f"brake_bands_default_study{study}_t{t_end:g}.npz"
+    saved = default_runs_file(study, t_end)
     saved.parent.mkdir(exist_ok=True)
     third = _THIRD[study].replace("{", "{{").replace("}", "}}")
     for _ in range(rounds):
@@ -349,7 +358,12 @@ def default_runs_at_reference(study: int, t_end: float) -> dict:
     at rtol 1e-6 on each sample's own steps: the cut bounds among the runs inside each
     box (:func:`run_bounds`) at the default against the same at rtol 1e-6, per output
     and level with a cut of non-zero width, on the cut-width scale."""
-    saved = BENCH_DIR / ".cache" / f"brake_bands_default_study{study}_t{t_end:g}.npz"
+    saved = default_runs_file(study, t_end)
+    if not saved.exists():
+        raise FileNotFoundError(
+            f"{saved.name}: no runs of the default study {study} saved by this code; run "
+            f"the 'cost' part first (--parts cost default-runs --cost-studies {study})"
+        )
     data = np.load(saved)
     samples = data["samples"]
     names = list(study_parameters(study))

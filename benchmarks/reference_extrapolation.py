@@ -27,7 +27,8 @@ from types import SimpleNamespace
 
 import numba
 import numpy as np
-from bench_common import BENCH_DIR, load_average
+from bench_common import load_average
+from brake_bands import default_runs_file
 
 from fuzzymbs.fuzzy.band_scale import width_relative
 from fuzzymbs.mbs.shared_steps import REFERENCE_ORDER, REFERENCE_RTOL, _extrapolated
@@ -99,7 +100,7 @@ def main(argv: list[str] | None = None) -> dict:
     truth = outputs[1e-7]
     reference, estimate = extrapolated(outputs)
     for study in (1, 2):
-        path = BENCH_DIR / ".cache" / f"brake_bands_default_study{study}_t{args.t_end:g}.npz"
+        path = default_runs_file(study, args.t_end)  # the cut widths, where saved
         bands = None
         if path.exists():
             data = np.load(path)
