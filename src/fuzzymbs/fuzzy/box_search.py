@@ -16,12 +16,14 @@ output element. Two steps:
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.fuzzy.chebyshev_grid import basis_matrix
+from fuzzymbs.fuzzy.grid_series import GridSeries
 from fuzzymbs.fuzzy.grids import cartesian
 from fuzzymbs.fuzzy.hermite_correction import HermiteCorrection
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
@@ -79,17 +81,17 @@ def box_extremes(
     arg_lower = np.empty((count_boxes, elements, count))
     arg_upper = np.empty((count_boxes, elements, count))
     for j in range(count_boxes):
-        grid = cartesian(_grid_axes(degrees, low[j], high[j], budget))
+        axes = _grid_axes(degrees, low[j], high[j], budget)
+        grid = cartesian(axes)
         centres = 0 if correction is None else len(correction.centres)
         block = max(1, _BLOCK_ELEMENTS // max(len(degrees), elements, centres))
         best_low = np.full(elements, np.inf)
         best_high = np.full(elements, -np.inf)
         where_low = np.zeros(elements, dtype=np.intp)
         where_high = np.zeros(elements, dtype=np.intp)
-        for start in range(0, len(grid), block):
-            values = basis_matrix(degrees, grid[start : start + block]) @ coefficients
+        for start, values in _grid_blocks(degrees, coefficients, axes, block):
             if correction is not None:
-                values += correction.values(grid[start : start + block])
+                values += correction.values(grid[start : start + len(values)])
             small, large = values.argmin(axis=0), values.argmax(axis=0)
             take = np.arange(elements)
             low_value, high_value = values[small, take], values[large, take]
@@ -115,6 +117,28 @@ def box_extremes(
     arg_lower[improved_low] = found[:half].reshape(count_boxes, elements, count)[improved_low]
     arg_upper[improved_high] = found[half:].reshape(count_boxes, elements, count)[improved_high]
     return lower, upper, arg_lower, arg_upper
+
+
+def _grid_blocks(
+    degrees: NDArray[np.int64],
+    coefficients: NDArray[np.float64],
+    axes: list[NDArray[np.float64]],
+    block: int,
+) -> Iterator[tuple[int, NDArray[np.float64]]]:
+    """``(first row, values (rows, E))`` of the series on the tensor grid of ``axes``, in
+    blocks of about ``block`` rows: summed one direction at a time
+    (:class:`~fuzzymbs.fuzzy.grid_series.GridSeries`) where its sums fit in
+    ``_BLOCK_ELEMENTS`` entries (series with few output elements), else term by term."""
+    elements = coefficients.shape[1]
+    if GridSeries.entries(degrees, elements, axes) <= _BLOCK_ELEMENTS:
+        series = GridSeries(degrees, coefficients, axes)
+        slab = max(1, block // series.inner)  # values of the first direction per block
+        for first in range(0, len(axes[0]), slab):
+            yield first * series.inner, series.values(slice(first, first + slab))
+        return
+    grid = cartesian(axes)
+    for start in range(0, len(grid), block):
+        yield start, basis_matrix(degrees, grid[start : start + block]) @ coefficients
 
 
 def values_at(
