@@ -38,6 +38,10 @@ def test_a_constant_series_and_mismatched_degrees():
     assert np.all(series.values(slice(0, 3)) == 2.5)
     with pytest.raises(ValueError, match="grid axes"):
         GridSeries(np.zeros((1, 2), np.int64), np.ones((1, 1)), [np.zeros(3)])
+    # a series without terms is zero (the box search keeps the term-by-term path for it)
+    box = np.array([[-1.0, -1.0]]), np.array([[1.0, 1.0]])
+    lower, upper, _, _ = box_search.box_extremes(np.zeros((0, 2), np.int64), np.zeros((0, 3)), *box)
+    assert np.all(lower == 0.0) and np.all(upper == 0.0)
 
 
 def test_box_extremes_take_the_same_grid_values_either_way(monkeypatch):

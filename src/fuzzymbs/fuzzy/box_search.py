@@ -130,7 +130,7 @@ def _grid_blocks(
     (:class:`~fuzzymbs.fuzzy.grid_series.GridSeries`) where its sums fit in
     ``_BLOCK_ELEMENTS`` entries (series with few output elements), else term by term."""
     elements = coefficients.shape[1]
-    if GridSeries.entries(degrees, elements, axes) <= _BLOCK_ELEMENTS:
+    if len(degrees) and GridSeries.entries(degrees, elements, axes) <= _BLOCK_ELEMENTS:
         series = GridSeries(degrees, coefficients, axes)
         slab = max(1, block // series.inner)  # values of the first direction per block
         for first in range(0, len(axes[0]), slab):
