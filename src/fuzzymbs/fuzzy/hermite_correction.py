@@ -43,7 +43,6 @@ from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient, evaluate_series
 from fuzzymbs.fuzzy.residual_correction import (
     KernelCorrection,
     cubic_kernel,
-    distances,
     distinct_centres,
 )
 
@@ -278,22 +277,20 @@ class HermiteCorrection(KernelCorrection):
     # each method adds the gradient functionals' terms to the value-only correction's
     # (KernelCorrection: the kernel on the centres and the linear tail)
 
-    def values(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
-        """(Q, E) the correction at points (Q, n)."""
-        out = super().values(points)
+    def _block_values(
+        self, part: NDArray[np.float64], distance: NDArray[np.float64], out: NDArray[np.float64]
+    ) -> None:
+        """``out`` (q, E) <- the correction at ``part`` (q, m), ``distance`` (q, P) its
+        distances to the centres (the slope centres are among them: one distance matrix)."""
+        super()._block_values(part, distance, out)
         if not len(self.slope_centres):
-            return out
-        points = np.atleast_2d(np.asarray(points, dtype=float))[:, self.moving]
-        block = self._block()
-        for start in range(0, len(points), block):
-            part = points[start : start + block]
-            # -3 sum_g |x - x_g| (x - x_g) . v_g
-            r = distances(part, self.slope_centres)  # (q, G)
-            along = sum(
-                part[:, l : l + 1] * (r @ self.slope_weights[:, l, :]) for l in range(part.shape[1])
-            )
-            out[start : start + block] -= 3.0 * (along - r @ self._anchor)
-        return out
+            return
+        # -3 sum_g |x - x_g| (x - x_g) . v_g
+        r = distance[:, self._keep]  # (q, G)
+        along = sum(
+            part[:, l : l + 1] * (r @ self.slope_weights[:, l, :]) for l in range(part.shape[1])
+        )
+        out -= 3.0 * (along - r @ self._anchor)
 
     def at(self, points: NDArray[np.float64], element: NDArray[np.intp]) -> NDArray[np.float64]:
         """(K,) the correction of element ``element[k]`` at ``points[k]``."""
