@@ -151,3 +151,7 @@ def test_importing_the_fuzzy_engine_does_not_load_numba(fresh_python):
     # engine alone (plans, arithmetic) does not pay Numba's import (0.18 s measured)
     code = "import sys, fuzzymbs.fuzzy; print('numba' in sys.modules)"
     assert fresh_python(code).strip() == "False"
+    # nor does the adaptive method load SciPy's linear algebra (0.25 s) before a correction
+    # with gradients is solved (fuzzymbs.fuzzy.bordered_system imports it then)
+    code = "import sys, fuzzymbs.fuzzy.adaptive; print('scipy.linalg' in sys.modules)"
+    assert fresh_python(code).strip() == "False"

@@ -27,7 +27,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 __all__ = ["BorderedSystem"]
@@ -49,6 +48,10 @@ class BorderedSystem:
     """
 
     def __init__(self, matrix: NDArray[np.float64]) -> None:
+        # imported here: the fuzzy engine loads SciPy's linear algebra (0.25 s) only when
+        # a correction with gradients is solved
+        import scipy.linalg
+
         matrix = np.asarray(matrix, dtype=float)
         if not np.all(np.isfinite(matrix)):
             raise np.linalg.LinAlgError("the first block has entries that are not finite")
@@ -96,6 +99,8 @@ class BorderedSystem:
 
     def solve(self, right: NDArray[np.float64]) -> NDArray[np.float64]:
         """``x`` with ``A x = right`` (right: (size,) or (size, k))."""
+        import scipy.linalg
+
         right = np.asarray(right, dtype=float)
         if right.shape[0] != self.size:
             raise ValueError(f"right-hand side of {right.shape[0]} rows for {self.size} unknowns")
