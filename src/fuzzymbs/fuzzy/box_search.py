@@ -89,7 +89,7 @@ def box_extremes(
         best_high = np.full(elements, -np.inf)
         where_low = np.zeros(elements, dtype=np.intp)
         where_high = np.zeros(elements, dtype=np.intp)
-        for start, values in _grid_blocks(degrees, coefficients, axes, block):
+        for start, values in _grid_blocks(degrees, coefficients, axes, grid, block):
             if correction is not None:
                 values += correction.values(grid[start : start + len(values)])
             small, large = values.argmin(axis=0), values.argmax(axis=0)
@@ -123,12 +123,13 @@ def _grid_blocks(
     degrees: NDArray[np.int64],
     coefficients: NDArray[np.float64],
     axes: list[NDArray[np.float64]],
+    grid: NDArray[np.float64],
     block: int,
 ) -> Iterator[tuple[int, NDArray[np.float64]]]:
-    """``(first row, values (rows, E))`` of the series on the tensor grid of ``axes``, in
-    blocks of about ``block`` rows: summed one direction at a time
-    (:class:`~fuzzymbs.fuzzy.grid_series.GridSeries`) where its sums fit in
-    ``_BLOCK_ELEMENTS`` entries (series with few output elements), else term by term."""
+    """``(first row, values (rows, E))`` of the series on ``grid``, the tensor grid of
+    ``axes`` (:func:`~fuzzymbs.fuzzy.grids.cartesian`), in blocks of about ``block`` rows:
+    summed one direction at a time (:class:`~fuzzymbs.fuzzy.grid_series.GridSeries`) where
+    its sums fit in ``_BLOCK_ELEMENTS`` entries (few output elements), else term by term."""
     elements = coefficients.shape[1]
     if len(degrees) and GridSeries.entries(degrees, elements, axes) <= _BLOCK_ELEMENTS:
         series = GridSeries(degrees, coefficients, axes)
@@ -136,7 +137,6 @@ def _grid_blocks(
         for first in range(0, len(axes[0]), slab):
             yield first * series.inner, series.values(slice(first, first + slab))
         return
-    grid = cartesian(axes)
     for start in range(0, len(grid), block):
         yield start, basis_matrix(degrees, grid[start : start + block]) @ coefficients
 
