@@ -23,16 +23,20 @@ def test_grown_solves_equal_the_whole_systems_solve():
     right = np.random.default_rng(1).normal(size=(63, 2))
     size = first + 3
     for grow in (15, 1, 24):
-        system = system.extended(
-            whole[:size, size : size + grow], whole[size : size + grow, size : size + grow]
-        )
+        border = whole[:size, size : size + grow]
+        corner = whole[size : size + grow, size : size + grow]
+        grown, solved = system.extended_solve(border, corner, right[: size + grow])
+        system = system.extended(border, corner)
         size += grow
         expected = np.linalg.solve(whole[:size, :size], right[:size])
         # the condition number is ~1e5: agreement to 1e-9 of the solution's size
-        np.testing.assert_allclose(
-            system.solve(right[:size]), expected, atol=1e-9 * np.abs(expected).max()
-        )
+        scale = 1e-9 * np.abs(expected).max()
+        np.testing.assert_allclose(system.solve(right[:size]), expected, atol=scale)
+        np.testing.assert_allclose(solved, expected, atol=scale)
+        np.testing.assert_allclose(grown.solve(right[:size]), expected, atol=scale)
     assert system.size == 63
+    with pytest.raises(ValueError, match="right-hand side"):
+        system.extended_solve(np.zeros((63, 1)), np.ones((1, 1)), np.ones((63, 1)))
 
 
 def test_dependent_new_rows_and_wrong_shapes_are_refused():

@@ -75,27 +75,45 @@ class BorderedSystem:
             If the Schur complement is not numerically positive definite (the new
             rows depend on the old ones).
         """
+        return self.extended_solve(border, corner, np.zeros((self.size + len(corner), 0)))[0]
+
+    def extended_solve(
+        self,
+        border: NDArray[np.float64],
+        corner: NDArray[np.float64],
+        right: NDArray[np.float64],
+    ) -> tuple[BorderedSystem, NDArray[np.float64]]:
+        """:meth:`extended`, and the grown system's solution for ``right`` (N + m, k):
+        ``A^(-1) r_1`` comes with ``Y = A^(-1) B`` from one solve of the old system (its
+        factors read once for both), and the new block from the Schur complement."""
         border = np.asarray(border, dtype=float)
         corner = np.asarray(corner, dtype=float)
+        right = np.asarray(right, dtype=float)
         if border.shape != (self.size, len(corner)) or corner.shape[0] != corner.shape[1]:
             raise ValueError(
                 f"border {border.shape} and corner {corner.shape} do not fit a system of "
                 f"{self.size} unknowns"
+            )
+        if right.ndim != 2 or right.shape[0] != self.size + len(corner):
+            raise ValueError(
+                f"right-hand side {right.shape} for {self.size + len(corner)} unknowns"
             )
         grown = object.__new__(BorderedSystem)
         grown._first = self._first
         grown.size = self.size + len(corner)
         if not len(corner):
             grown._levels = self._levels
-            return grown
-        solved = self.solve(border)
+            return grown, self.solve(right)
+        both = self.solve(np.concatenate((border, right[: self.size]), axis=1))
+        solved, old = both[:, : len(corner)], both[:, len(corner) :]
         schur = corner - border.T @ solved
         schur = 0.5 * (schur + schur.T)
         if not np.all(np.isfinite(schur)):
             raise np.linalg.LinAlgError("the Schur complement is not finite")
         factor = np.linalg.cholesky(schur)  # raises LinAlgError if not positive definite
-        grown._levels = (*self._levels, (self.size, solved, factor))
-        return grown
+        grown._levels = (*self._levels, (self.size, np.ascontiguousarray(solved), factor))
+        new = _cholesky_solve(factor, right[self.size :] - solved.T @ right[: self.size])
+        return grown, np.concatenate((old - solved @ new, new))
 
     def solve(self, right: NDArray[np.float64]) -> NDArray[np.float64]:
         """``x`` with ``A x = right`` (right: (size,) or (size, k))."""
@@ -110,7 +128,14 @@ class BorderedSystem:
         for start, solved, factor in self._levels:
             stop = start + factor.shape[0]
             reduced = right[start:stop] - solved.T @ right[:start]
-            new = scipy.linalg.cho_solve((factor, True), reduced, check_finite=False)
+            new = _cholesky_solve(factor, reduced)
             x[:start] -= solved @ new
             x[start:stop] = new
         return x
+
+
+def _cholesky_solve(factor: NDArray[np.float64], right: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``S^(-1) right`` from the lower Cholesky factor of S."""
+    import scipy.linalg
+
+    return scipy.linalg.cho_solve((factor, True), right, check_finite=False)

@@ -152,11 +152,7 @@ class HermiteCorrection(KernelCorrection):
         count, dimension = self.centres.shape
         sloped_count = len(self.slope_centres)
         elements = residuals.shape[1]
-        self._system, self._order = self._grown(previous)
-        if self._system is None:
-            self._system, self._order = self._factorised()
-        # the data in the system's order: values, gradients (g-major), the tail's zeros
-        kind, index = self._order
+        # the data: values, gradients (g-major), the tail's zeros
         data = np.concatenate(
             (
                 residuals,
@@ -164,12 +160,18 @@ class HermiteCorrection(KernelCorrection):
                 np.zeros((dimension + 1, elements)),
             )
         )
-        right = data[_positions(kind, index, count, sloped_count * dimension)]
-        if self._system is not None:
-            solved = self._system.solve(right)
-        else:  # dependent functionals: the least-squares interpolant
-            matrix = self._matrix()
-            solved = np.linalg.lstsq(matrix, right, rcond=None)[0]
+        grown = self._grown(previous, data)
+        if grown is not None:
+            self._system, self._order, solved = grown
+        else:
+            self._system, self._order = self._factorised()
+            kind, index = self._order
+            right = data[_positions(kind, index, count, sloped_count * dimension)]
+            if self._system is not None:
+                solved = self._system.solve(right)
+            else:  # dependent functionals: the least-squares interpolant
+                solved = np.linalg.lstsq(self._matrix(), right, rcond=None)[0]
+        kind, index = self._order
         solution = np.empty_like(solved)
         solution[_positions(kind, index, count, sloped_count * dimension)] = solved
         size = count + sloped_count * dimension
@@ -213,13 +215,13 @@ class HermiteCorrection(KernelCorrection):
         return system, (kind, index)
 
     def _grown(
-        self, previous: HermiteCorrection | None
-    ) -> tuple[BorderedSystem | None, tuple[NDArray, NDArray]]:
-        """``previous``'s factorised system bordered by this one's new runs, where this
-        one's centres continue ``previous``'s; (None, empty order) otherwise."""
-        none = (None, (np.empty(0, np.int64), np.empty(0, np.int64)))
+        self, previous: HermiteCorrection | None, data: NDArray[np.float64]
+    ) -> tuple[BorderedSystem, tuple[NDArray, NDArray], NDArray[np.float64]] | None:
+        """``previous``'s factorised system bordered by this one's new runs, its order
+        and its solution for ``data`` (values, gradients, tail), where this one's centres
+        continue ``previous``'s; None otherwise."""
         if previous is None or previous._system is None:
-            return none
+            return None
         old, old_sloped = len(previous.centres), len(previous.slope_centres)
         if (
             not np.array_equal(previous.moving, self.moving)
@@ -227,7 +229,7 @@ class HermiteCorrection(KernelCorrection):
             or not np.array_equal(previous.centres, self.centres[:old])
             or not np.array_equal(previous._keep, self._keep[:old])
         ):
-            return none
+            return None
         dimension = self.centres.shape[1]
         new_centres = self.centres[old:]
         new_slopes = self.slope_centres[old_sloped:]
@@ -241,10 +243,6 @@ class HermiteCorrection(KernelCorrection):
         kind, index = previous._order
         border = rows[_positions(kind, index, old, old_sloped * dimension)]
         corner = functional_block(new_centres, new_slopes, new_centres, new_slopes)
-        try:
-            system = previous._system.extended(border, corner)
-        except np.linalg.LinAlgError:  # the new runs depend on the old: a fresh solve
-            return none
         kind = np.concatenate(
             (
                 kind,
@@ -259,7 +257,13 @@ class HermiteCorrection(KernelCorrection):
                 np.arange(old_sloped * dimension, len(self.slope_centres) * dimension),
             )
         )
-        return system, (kind, index)
+        gradients = len(self.slope_centres) * dimension
+        right = data[_positions(kind, index, len(self.centres), gradients)]
+        try:
+            system, solved = previous._system.extended_solve(border, corner, right)
+        except np.linalg.LinAlgError:  # the new runs depend on the old: a fresh solve
+            return None
+        return system, (kind, index), solved
 
     def _slope_parts(
         self, part: NDArray[np.float64], own: NDArray[np.intp]
