@@ -1,5 +1,5 @@
 """A symmetric system grown by bordering (block elimination with Schur complements,
-Golub and Van Loan 2013, sec. 3.5.4) against NumPy's LU solve of the whole system."""
+Golub and Van Loan 2013, ch. 3) against NumPy's LU solve of the whole system."""
 
 import numpy as np
 import pytest

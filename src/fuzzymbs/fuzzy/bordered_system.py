@@ -11,8 +11,8 @@ block elimination solves ``A_k x = r`` from a factorisation of the first block a
 Schur complement per round: ``x_2 = S_k^(-1) (r_2 - Y_k^T r_1)`` with ``Y_k = A_(k-1)^(-1)
 B_k`` (stored; ``B_k^T A_(k-1)^(-1) = Y_k^T`` as A is symmetric), then ``x_1 =
 A_(k-1)^(-1) r_1 - Y_k x_2``. A round's extension costs ``O(N^2 m)`` for ``m`` new
-unknowns instead of a fresh ``O(N^3)`` factorisation (Golub and Van Loan, Matrix
-Computations, 4th ed., 2013, sec. 3.5.4, block LU; bordering: sec. 4.2.7).
+unknowns instead of a fresh ``O(N^3)`` factorisation (block LU and the Cholesky
+factorisation: Golub and Van Loan, Matrix Computations, 4th ed., 2013, ch. 3 and 4).
 
 For a conditionally positive definite kernel whose first block holds the polynomial
 tail (the interpolant through the first round's functionals exists), each ``S_k`` is
