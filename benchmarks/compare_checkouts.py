@@ -8,6 +8,8 @@ the path; the two checkouts alternate, ``--rounds`` times. Prints one JSON line:
 
 * ``study1``: wall and CPU time [s] of study 1 of the brake (33 runs, reduced
   method, 10 ms, RK4 at 1 us, ``chunk_size=33``), two warm studies per process;
+* ``rk4_calls``: the same model called alone on 32 samples of study 1's support (the
+  kernels without the study's checks, which later versions add), best of two calls;
 * ``cold`` (with ``--cold``): the first call of a 20 us brake with an empty Numba
   cache directory (``benchmarks/startup.py``'s child), i.e. the cold compile.
 
@@ -53,6 +55,28 @@ print(json.dumps(runs))
 """
 )
 
+_CALLS = (
+    _RK4
+    + """
+import json, time
+import numpy as np
+rng = np.random.default_rng(0)
+def samples(count):
+    scale = lambda modal, spread: modal * (1.0 + spread * rng.uniform(-1.0, 1.0, count))
+    return {{"pad_spring_stiffness": scale(200e3, 0.1),
+            "caliper_spring_stiffness": scale(1e3, 0.1), "nodal_force": scale(16e3, 0.01)}}
+DiscBrake(t_end=2e-5, **rk4)(samples(4))
+model = DiscBrake(t_end={t_end}, **rk4)
+runs = []
+for _ in range(2):
+    rows = samples(32)
+    wall, cpu = time.perf_counter(), time.process_time()
+    model(rows)
+    runs.append([time.perf_counter() - wall, time.process_time() - cpu])
+print(json.dumps(min(runs)))
+"""
+)
+
 _COLD = (
     _RK4
     + """
@@ -74,6 +98,8 @@ def compare(other: Path, rounds: int, cold: bool, t_end: float = 1e-2) -> dict:
             figures[name]["study1"].extend(
                 run_in_checkout(_STUDY.format(t_end=t_end), path, timeout=3600)
             )
+            calls = run_in_checkout(_CALLS.format(t_end=t_end), path, timeout=3600)
+            figures[name].setdefault("rk4_calls", []).append(calls)
             if cold:
                 with tempfile.TemporaryDirectory(prefix="fuzzymbs-numba-") as cache:
                     seconds = run_in_checkout(_COLD, path, {"NUMBA_CACHE_DIR": cache}, timeout=3600)
@@ -83,8 +109,12 @@ def compare(other: Path, rounds: int, cold: bool, t_end: float = 1e-2) -> dict:
         cpus = [cpu for _, cpu in figures[name]["study1"]]
         figures[name]["study1_wall_min"] = min(walls)
         figures[name]["study1_cpu_min"] = min(cpus)
+        figures[name]["rk4_calls_min"] = min(figures[name]["rk4_calls"])
     figures["study1_wall_this_over_other"] = (
         figures["this"]["study1_wall_min"] / figures["other"]["study1_wall_min"]
+    )
+    figures["rk4_calls_wall_this_over_other"] = (
+        figures["this"]["rk4_calls_min"][0] / figures["other"]["rk4_calls_min"][0]
     )
     return figures
 

@@ -289,7 +289,10 @@ def test_compare_checkouts_runs_both_sides():
     for side in ("this", "other"):
         assert len(figures[side]["study1"]) == 2
         assert figures[side]["study1_wall_min"] > 0
+        wall, cpu = figures[side]["rk4_calls_min"]  # the model called alone
+        assert wall > 0 and cpu > 0
     assert figures["study1_wall_this_over_other"] > 0
+    assert figures["rk4_calls_wall_this_over_other"] > 0
 
 
 @pytest.mark.slow
