@@ -158,8 +158,14 @@ def default_runs_file(study: int, t_end: float) -> Path:
     them: named by the digest of the study's and the brake model's source, so that runs
     saved by other code are never read as this code's."""
     modules = ["fuzzymbs.study.study", "fuzzymbs.models.brake.model"]
+    return _cache_file(f"brake_bands_default_study{study}_t{t_end:g}", modules)
+
+
+def _cache_file(stem: str, modules: list[str]) -> Path:
+    """``benchmarks/.cache/<stem>_<digest>.npz``, the digest that of ``modules``' source
+    and the fuzzymbs modules they import (:func:`~fuzzymbs.study.code_version.source_digest`)."""
     digest = (source_digest(modules) or "unknown")[:16]
-    return BENCH_DIR / ".cache" / f"brake_bands_default_study{study}_t{t_end:g}_{digest}.npz"
+    return BENCH_DIR / ".cache" / f"{stem}_{digest}.npz"
 
 
 def reference_bands(study: int, t_end: float) -> dict:
@@ -169,9 +175,8 @@ def reference_bands(study: int, t_end: float) -> dict:
     of the model or the engine it imports computes them afresh), written whole or not at
     all, so that the scripts and their smoke tests that need the same reference compute
     it once (about a minute of two cores for 1 ms of study 1)."""
-    digest = (source_digest(["fuzzymbs.models.brake.model"]) or "unknown")[:16]
-    name = f"brake_bands_s{study}_t{t_end:g}_r{REFERENCE_RTOL:g}_{digest}.npz"
-    path = BENCH_DIR / ".cache" / name
+    stem = f"brake_bands_s{study}_t{t_end:g}_r{REFERENCE_RTOL:g}"
+    path = _cache_file(stem, ["fuzzymbs.models.brake.model"])
     path.parent.mkdir(exist_ok=True)
     with open(path.with_suffix(".lock"), "w") as lock:
         if fcntl is not None:  # a second process waits for the first one's reference

@@ -65,11 +65,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
 from fuzzymbs.fuzzy.extremum_confirmation import confirmation_probes
 from fuzzymbs.fuzzy.grids import unique_rows
 from fuzzymbs.fuzzy.halton import halton
-from fuzzymbs.fuzzy.hermite_correction import (
-    HermiteCorrection,
-    flatten_gradients,
-    hermite_correction,
-)
+from fuzzymbs.fuzzy.hermite_correction import flatten_gradients, hermite_correction
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
@@ -456,8 +452,7 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
             previous = None if self._surrogate is None else self._surrogate[2]
             return degrees, coefficients, hermite_correction(
                 degrees, coefficients, self._units[keep], self._values[keep], nodes[keep],
-                self._slopes[keep], self._sloped[keep], self._high > self._low,
-                previous if isinstance(previous, HermiteCorrection) else None,
+                self._slopes[keep], self._sloped[keep], self._high > self._low, previous,
             )  # fmt: skip
         residuals = self._values - evaluate_series(degrees, coefficients, self._units)
         residuals[np.setdiff1d(np.arange(self.runs), self._off_grid)] = 0.0  # nodes: round-off

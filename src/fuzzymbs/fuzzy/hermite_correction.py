@@ -126,13 +126,14 @@ class HermiteCorrection(KernelCorrection):
         The centres with a gradient.
     moving : ndarray (n,) of bool
         Directions that vary (a direction of zero width is left out).
-    previous : HermiteCorrection, optional
-        An earlier round's correction. Where these centres continue its centres (the
-        same first ones, with and without gradients alike, and the same ``moving``), its
-        factorised system is bordered by the new functionals
-        (:class:`~fuzzymbs.fuzzy.bordered_system.BorderedSystem`): ``O(N^2 m)`` for ``m``
-        new unknowns instead of a fresh ``O(N^3)`` solve. Otherwise, or where the new
-        functionals are numerically dependent on the old, the system is solved afresh.
+    previous : KernelCorrection, optional
+        An earlier round's correction. Where it is a Hermite correction and these
+        centres continue its centres (the same first ones, with and without gradients
+        alike, and the same ``moving``), its factorised system is bordered by the new
+        functionals (:class:`~fuzzymbs.fuzzy.bordered_system.BorderedSystem`): ``O(N^2
+        m)`` for ``m`` new unknowns instead of a fresh ``O(N^3)`` solve. Otherwise, or
+        where the new functionals are numerically dependent on the old, the system is
+        solved afresh.
     """
 
     def __init__(
@@ -142,7 +143,7 @@ class HermiteCorrection(KernelCorrection):
         slopes: NDArray[np.float64],
         sloped: NDArray[np.bool_],
         moving: NDArray,
-        previous: HermiteCorrection | None = None,
+        previous: KernelCorrection | None = None,
     ) -> None:
         self.moving, self.centres, distinct = distinct_centres(centres, moving)
         residuals = np.asarray(residuals, dtype=float)[distinct]
@@ -215,12 +216,13 @@ class HermiteCorrection(KernelCorrection):
         return system, (kind, index)
 
     def _grown(
-        self, previous: HermiteCorrection | None, data: NDArray[np.float64]
+        self, previous: KernelCorrection | None, data: NDArray[np.float64]
     ) -> tuple[BorderedSystem, tuple[NDArray, NDArray], NDArray[np.float64]] | None:
         """``previous``'s factorised system bordered by this one's new runs, its order
-        and its solution for ``data`` (values, gradients, tail), where this one's centres
-        continue ``previous``'s; None otherwise."""
-        if previous is None or previous._system is None:
+        and its solution for ``data`` (values, gradients, tail), where ``previous`` is a
+        Hermite correction with a factorised system and this one's centres continue its
+        centres; None otherwise."""
+        if not isinstance(previous, HermiteCorrection) or previous._system is None:
             return None
         old, old_sloped = len(previous.centres), len(previous.slope_centres)
         if (
@@ -342,7 +344,7 @@ def hermite_correction(
     slopes: NDArray[np.float64],
     sloped: NDArray[np.bool_],
     moving: NDArray[np.bool_],
-    previous: HermiteCorrection | None = None,
+    previous: KernelCorrection | None = None,
 ) -> HermiteCorrection:
     """The gradient-enhanced correction of a sparse grid's series through runs.
 
@@ -359,9 +361,10 @@ def hermite_correction(
         The model's gradients (unit coordinates) where ``sloped``.
     sloped, moving : ndarray of bool
         Runs with a gradient; directions that vary.
-    previous : the correction of an earlier round, whose runs the first of ``units``
-        repeat: its factorised system is bordered by the new runs
-        (:mod:`fuzzymbs.fuzzy.bordered_system`) instead of being solved afresh.
+    previous : the correction of an earlier round (value-only or not), whose runs the
+        first of ``units`` repeat: a Hermite correction's factorised system is bordered
+        by the new runs (:mod:`fuzzymbs.fuzzy.bordered_system`) instead of being solved
+        afresh.
     """
     residuals = values - evaluate_series(degrees, coefficients, units)
     residuals[nodes] = 0.0
