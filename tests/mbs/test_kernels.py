@@ -4,7 +4,7 @@ import numba as nb
 import numpy as np
 
 from fuzzymbs.mbs.contact import is_uniform_grid
-from fuzzymbs.mbs.kernels import charts, simd
+from fuzzymbs.mbs.kernels import charts, rk4, simd
 
 
 @nb.njit
@@ -47,3 +47,26 @@ def test_atan2_of_the_origin_is_zero():
 def test_uniform_grid_detection():
     assert is_uniform_grid(np.linspace(0.0, 1.0, 5), 4)
     assert not is_uniform_grid(np.array([0.0, 0.1, 0.3]), 2)
+
+
+@nb.njit
+def _output_lanes(x, out_w, o, out):
+    simd.store(out, 0, rk4.output_value(x, out_w, o))
+
+
+def test_an_output_reads_its_weights_only_even_from_a_longer_row():
+    # the forward sensitivities record from work rows longer than the state (as long as
+    # the lanes' parameters where those outnumber it): the output's sum must stop at the
+    # weights' last column. Here the memory after the weights holds NaN, so a sum over the
+    # row's length reads a NaN weight and makes every lane's derivative NaN, depending on
+    # what the allocator left there.
+    # Reference: the weighted sum by NumPy, exact (two products)
+    lanes = simd.LANES
+    memory = np.full(8, np.nan)
+    memory[:2] = (0.5, -2.0)
+    out_w = memory[:2].reshape(1, 2)  # one output of a state of 2 entries
+    row = np.arange(3 * lanes, dtype=float)  # the state's 2 entries, then one more
+    out = np.empty(lanes)
+    _output_lanes(row, out_w, 0, out)
+    state = row[: 2 * lanes].reshape(2, lanes)
+    np.testing.assert_array_equal(out, 0.5 * state[0] - 2.0 * state[1])

@@ -122,9 +122,13 @@ def start_block(sysdata, params, x0, recording, first, count):
 
 @nb.njit(cache=True)
 def output_value(x, out_w, o):
-    """Output o of the lane states ``x``: ``sum_i w_oi x_i`` as a lane vector."""
+    """Output o of the lane states ``x``: ``sum_i w_oi x_i`` as a lane vector.
+
+    The sum runs over the weights' columns (the state's 2n entries): ``x`` may be a longer
+    work row, whose entries past the state are not the state's (reading ``out_w`` past
+    its row instead read whatever memory followed it, NaN included)."""
     y = V.splat(0.0)
-    for i in range(x.shape[0] // L):
+    for i in range(out_w.shape[1]):
         w = out_w[o, i]
         if w != 0.0:
             y = V.fma(V.splat(w), V.load(x, L * i), y)

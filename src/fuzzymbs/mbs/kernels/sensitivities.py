@@ -23,7 +23,10 @@ both ends (the one at the end is the next step's first stage).
 Layout: ``sens`` (P, 4 + stages, size), per parameter the rows ``S_ROW`` (S at the
 lane's time), ``S_NEW`` (at the step's end), ``G0``, ``G1`` (the right-hand side at
 the step's start and end), then the stages' increments U_i; ``work`` (5 + 2 stages,
-size): scratch rows ``W_*``, then the state's stage points Y_i and their f.
+max(size, parameters)): scratch rows ``W_*``, then the state's stage points Y_i and
+their f. The rows are as long as the lanes' parameters where those outnumber the state;
+a row that holds a state is therefore always sliced to the state's size, so that no loop
+over its length (an output's weights, a lane copy) runs past the state.
 """
 
 from __future__ import annotations
@@ -105,7 +108,7 @@ def sensitivity_rhs(theta, xb, fb, s, direction, p, delta, sysdata, rhs_work, wo
         if direction[slot] != 0.0:
             value = value + direction[slot] * eps
         V.store(p_moved, L * slot, value)
-    moved, f_moved = work[W_MOVED], work[W_FMOVED]
+    moved, f_moved = work[W_MOVED, :size], work[W_FMOVED, :size]  # rows may be longer
     for i in range(size // L):
         V.store(moved, L * i, V.load(xb, L * i) + eps * V.load(s, L * i))
     rhs(theta, moved, f_moved, p_moved, sysdata, rhs_work)
@@ -134,28 +137,29 @@ def sensitivity_stage(s, theta, sk, direction, p, delta, method, sysdata, rhs_wo
     Jacobian's ``A_q`` block and the stage matrix's LU."""
     at, cc, gamma, step_v, jq, mat, piv = method
     stages = at.shape[0]
-    nstate = sk.shape[1] // L
+    size = sk.shape[1]
+    nstate = size // L
     n = nstate // 2
     gh = gamma * step_v
     g = sk[G0]
     if s > 0:
-        g = work[W_G]
-        s_stage = work[W_SOLVE]  # S_s, until the difference has read it
+        g = work[W_G, :size]
+        s_stage = work[W_SOLVE, :size]  # S_s, until the difference has read it
         for i in range(nstate):
             acc = V.load(sk[S_ROW], L * i)
             for j in range(s):
                 acc = acc + at[s, j] * V.load(sk[U0 + j], L * i)
             V.store(s_stage, L * i, acc)
-        y, fy = work[W_STAGES + s], work[W_STAGES + stages + s]
+        y, fy = work[W_STAGES + s, :size], work[W_STAGES + stages + s, :size]
         sensitivity_rhs(theta, y, fy, s_stage, direction, p, delta, sysdata, rhs_work, work, g)
-    r = work[W_MOVED]
+    r = work[W_MOVED, :size]
     for i in range(nstate):
         acc = V.load(g, L * i)
         for j in range(s):
             acc = acc + (cc[s, j] / step_v) * V.load(sk[U0 + j], L * i)
         V.store(r, L * i, acc)
     # velocity-reduced solve with the state's factors
-    reduced_stage_solve(jq, mat, piv, n, gh, r, work[W_SOLVE], sk[U0 + s])
+    reduced_stage_solve(jq, mat, piv, n, gh, r, work[W_SOLVE, :size], sk[U0 + s])
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
@@ -180,7 +184,7 @@ def step_sensitivities(took, g_known, counter, t, x, f0, sensitivity, p, state_s
         any_renew = any_renew or renew[lane]
     if any_renew:
         for k in range(nsens):
-            g = work[W_G]
+            g = work[W_G, : x.shape[0]]
             sensitivity_rhs(
                 t, x, f0, sens[k, S_ROW], directions[k], p, delta, sysdata, rhs_work, work, g
             )
@@ -220,7 +224,7 @@ def end_sensitivities(theta, x_new, fy, covered, counter, sensitivity, p, sysdat
     directions, settings, _, sens, work = sensitivity
     nsens = directions.shape[0]
     for k in range(nsens):
-        g = work[W_G]
+        g = work[W_G, : x_new.shape[0]]
         sensitivity_rhs(
             theta,
             x_new,
@@ -246,7 +250,7 @@ def record_sensitivities(sensitivity, out_w, step_v, theta_v, first, lanes, reco
     interpolant of S, slopes ``G0`` and ``G1``) into ``out_s[sample, output, record,
     k]`` for the lanes marked in ``lanes`` (outputs are linear in the state)."""
     directions, _, out_s, sens, work = sensitivity
-    value = work[W_G]
+    value = work[W_G, : sens.shape[2]]  # the state's size: work rows may be longer
     for k in range(directions.shape[0]):
         sk = sens[k]
         hermite(sk[S_ROW], sk[G0], sk[S_NEW], sk[G1], step_v, theta_v, value)
