@@ -50,24 +50,25 @@ KERNELS_FIRST = (
 # left running a long test alone at the end (the long ones first, as in longest processing
 # time first scheduling). Each group leads one process's first send (in collection order),
 # after its KERNELS_FIRST group (whose tests are not in the slow suite's collection, nor
-# these in the default suite's). Which test pays a kernel family's compilation moves the
-# times between runs (the mechanisms guide took 76 s on 2026-11-30, 225 s here).
+# these in the default suite's). The tests that first call the planar kernels (the
+# slider-crank, the mechanisms guide: 65 s of compiling `integrate_blocks` alone) share a
+# group: in two groups both processes compiled them at once (88 and 190 s side by side).
 LONG_FIRST = (
-    (  # 225, 65, 60, 65 and 53 s: about 470 s
+    (  # the planar and spatial kernels' first calls (~90 s and ~110 s), 68, 56 and 53 s
+        "tests/mbs/planar/test_closed_loops.py::"
+        "test_driven_rigid_slider_crank_matches_its_kinematics",
         "tests/mbs/planar/test_docs.py::test_mechanisms_guide_examples_run",
         "tests/models/test_brake_slow.py::test_study1_runs_and_nodal_force_dominates_the_pads",
         "tests/models/test_brake_slow.py::"
         "test_the_checks_re_runs_made_ahead_are_the_checks_bit_for_bit",
         "tests/test_benchmarks_smoke.py::test_gear_dynamic_reports_cost_and_each_laws_smoothness",
-        "tests/mbs/test_shared_steps.py::test_shared_steps_bring_loose_bands_to_the_tight_ones",
     ),
-    (  # 191, 53, 50 s and two of 18 to 76 s: about 330 to 450 s
+    (  # 161 (with the rtol 1e-6 reference), 67, 40, 52 and 19 s
         "tests/test_benchmarks_smoke.py::test_brake_bands_quick_runs",
+        "tests/mbs/test_shared_steps.py::test_shared_steps_bring_loose_bands_to_the_tight_ones",
         "tests/fuzzy/test_extremum_confirmation.py::test_a_sharp_ridge_is_found_or_reported[case1]",
         "tests/fuzzy/test_first_order.py::"
         "test_with_gradients_ridges_and_hard_cases_are_honest[sdof-0.5%]",
-        "tests/mbs/planar/test_closed_loops.py::"
-        "test_driven_rigid_slider_crank_matches_its_kinematics",
         "tests/test_benchmarks_smoke.py::"
         "test_first_order_correction_quick_removes_the_slope_it_measured",
     ),
