@@ -22,11 +22,11 @@ both ends (the one at the end is the next step's first stage).
 
 Layout: ``sens`` (P, 4 + stages, size), per parameter the rows ``S_ROW`` (S at the
 lane's time), ``S_NEW`` (at the step's end), ``G0``, ``G1`` (the right-hand side at
-the step's start and end), then the stages' increments U_i; ``work`` (5 + 2 stages,
-max(size, parameters)): scratch rows ``W_*``, then the state's stage points Y_i and
-their f. The rows are as long as the lanes' parameters where those outnumber the state;
-a row that holds a state is therefore always sliced to the state's size, so that no loop
-over its length (an output's weights, a lane copy) runs past the state.
+the step's start and end), then the stages' increments U_i; ``work`` (4 + 2 stages +
+parameter rows, size): scratch rows ``W_*``, the state's stage points Y_i and their f,
+then the perturbed parameter row laid over as many rows as it needs. Every row is as long
+as the state, so that a loop over a row's length (an output's weights, a lane copy)
+never runs past the state.
 """
 
 from __future__ import annotations
@@ -45,9 +45,10 @@ L = V.LANES
 #: rows of a parameter's sensitivity arrays (module docstring)
 S_ROW, S_NEW, G0, G1, U0 = range(5)
 #: rows of the sensitivities' work array: the perturbed state, its f, a sensitivity
-#: right-hand side, the velocity-reduced solve's right-hand side, the perturbed parameter
-#: row; from ``W_STAGES`` the state's stage points Y_i, from ``W_STAGES + stages`` their f
-W_MOVED, W_FMOVED, W_G, W_SOLVE, W_P, W_STAGES = range(6)
+#: right-hand side, the velocity-reduced solve's right-hand side; from ``W_STAGES`` the
+#: state's stage points Y_i, from ``W_STAGES + stages`` their f; the last rows hold the
+#: perturbed parameter row (:func:`parameter_rows`)
+W_MOVED, W_FMOVED, W_G, W_SOLVE, W_STAGES = range(5)
 
 #: relative perturbation of the differences (:func:`perturbation`). On the brake's first
 #: millisecond (benchmarks/brake_sensitivities.py, against central differences of whole
@@ -73,10 +74,17 @@ def no_sensitivity(slots: int, batch: int, n_out: int, n_records: int) -> tuple:
 
 @nb.njit(cache=True)
 def new_sensitivities(nsens, stages, size, slots):
-    """``(sens, work)`` of a block (module docstring; zero: S(0) = 0)."""
+    """``(sens, work)`` of a block (module docstring; zero: S(0) = 0); ``slots``: the
+    length of the lanes' parameter row."""
     sens = np.zeros((nsens, 4 + stages, size))
-    work = np.zeros((W_STAGES + 2 * stages if nsens > 0 else 1, max(size, slots)))
-    return sens, work
+    rows = W_STAGES + 2 * stages + parameter_rows(slots, size) if nsens > 0 else 1
+    return sens, np.zeros((rows, size))
+
+
+@nb.njit(cache=True)
+def parameter_rows(slots, size):
+    """Rows of ``size`` entries that hold a parameter row of ``slots`` entries."""
+    return (slots + size - 1) // size
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
@@ -102,13 +110,14 @@ def sensitivity_rhs(theta, xb, fb, s, direction, p, delta, sysdata, rhs_work, wo
     work arrays, ``work`` the sensitivities')."""
     size = xb.shape[0]
     eps = perturbation(p, direction, delta)
-    p_moved = work[W_P][: p.shape[0]]
+    first = work.shape[0] - parameter_rows(p.shape[0], size)  # the last rows (contiguous)
+    p_moved = work.reshape(-1)[first * size : first * size + p.shape[0]]
     for slot in range(direction.shape[0]):
         value = V.load(p, L * slot)
         if direction[slot] != 0.0:
             value = value + direction[slot] * eps
         V.store(p_moved, L * slot, value)
-    moved, f_moved = work[W_MOVED, :size], work[W_FMOVED, :size]  # rows may be longer
+    moved, f_moved = work[W_MOVED], work[W_FMOVED]
     for i in range(size // L):
         V.store(moved, L * i, V.load(xb, L * i) + eps * V.load(s, L * i))
     rhs(theta, moved, f_moved, p_moved, sysdata, rhs_work)
@@ -137,29 +146,28 @@ def sensitivity_stage(s, theta, sk, direction, p, delta, method, sysdata, rhs_wo
     Jacobian's ``A_q`` block and the stage matrix's LU."""
     at, cc, gamma, step_v, jq, mat, piv = method
     stages = at.shape[0]
-    size = sk.shape[1]
-    nstate = size // L
+    nstate = sk.shape[1] // L
     n = nstate // 2
     gh = gamma * step_v
     g = sk[G0]
     if s > 0:
-        g = work[W_G, :size]
-        s_stage = work[W_SOLVE, :size]  # S_s, until the difference has read it
+        g = work[W_G]
+        s_stage = work[W_SOLVE]  # S_s, until the difference has read it
         for i in range(nstate):
             acc = V.load(sk[S_ROW], L * i)
             for j in range(s):
                 acc = acc + at[s, j] * V.load(sk[U0 + j], L * i)
             V.store(s_stage, L * i, acc)
-        y, fy = work[W_STAGES + s, :size], work[W_STAGES + stages + s, :size]
+        y, fy = work[W_STAGES + s], work[W_STAGES + stages + s]
         sensitivity_rhs(theta, y, fy, s_stage, direction, p, delta, sysdata, rhs_work, work, g)
-    r = work[W_MOVED, :size]
+    r = work[W_MOVED]
     for i in range(nstate):
         acc = V.load(g, L * i)
         for j in range(s):
             acc = acc + (cc[s, j] / step_v) * V.load(sk[U0 + j], L * i)
         V.store(r, L * i, acc)
     # velocity-reduced solve with the state's factors
-    reduced_stage_solve(jq, mat, piv, n, gh, r, work[W_SOLVE, :size], sk[U0 + s])
+    reduced_stage_solve(jq, mat, piv, n, gh, r, work[W_SOLVE], sk[U0 + s])
 
 
 @nb.njit(cache=True, fastmath=V.FAST)
@@ -184,7 +192,7 @@ def step_sensitivities(took, g_known, counter, t, x, f0, sensitivity, p, state_s
         any_renew = any_renew or renew[lane]
     if any_renew:
         for k in range(nsens):
-            g = work[W_G, : x.shape[0]]
+            g = work[W_G]
             sensitivity_rhs(
                 t, x, f0, sens[k, S_ROW], directions[k], p, delta, sysdata, rhs_work, work, g
             )
@@ -224,7 +232,7 @@ def end_sensitivities(theta, x_new, fy, covered, counter, sensitivity, p, sysdat
     directions, settings, _, sens, work = sensitivity
     nsens = directions.shape[0]
     for k in range(nsens):
-        g = work[W_G, : x_new.shape[0]]
+        g = work[W_G]
         sensitivity_rhs(
             theta,
             x_new,
@@ -250,7 +258,7 @@ def record_sensitivities(sensitivity, out_w, step_v, theta_v, first, lanes, reco
     interpolant of S, slopes ``G0`` and ``G1``) into ``out_s[sample, output, record,
     k]`` for the lanes marked in ``lanes`` (outputs are linear in the state)."""
     directions, _, out_s, sens, work = sensitivity
-    value = work[W_G, : sens.shape[2]]  # the state's size: work rows may be longer
+    value = work[W_G]
     for k in range(directions.shape[0]):
         sk = sens[k]
         hermite(sk[S_ROW], sk[G0], sk[S_NEW], sk[G1], step_v, theta_v, value)
