@@ -10,6 +10,10 @@ the path; the two checkouts alternate, ``--rounds`` times. Prints one JSON line:
   method, 10 ms, RK4 at 1 us, ``chunk_size=33``), two warm studies per process;
 * ``rk4_calls``: the same model called alone on 32 samples of study 1's support (the
   kernels without the study's checks, which later versions add), best of two calls;
+* ``ros_calls`` (with ``--ros``): ROS34PW2 at rtol 1e-3 (the studies' tolerance) on the
+  eight corners of study 1's mu = 0 box over ``--ros-t-end`` (2 ms), without and with
+  the sensitivities to its three parameters, best of two calls each (both checkouts
+  must have the sensitivities);
 * ``cold`` (with ``--cold``): the first call of a 20 us brake with an empty Numba
   cache directory (``benchmarks/startup.py``'s child), i.e. the cold compile.
 
@@ -77,6 +81,32 @@ print(json.dumps(min(runs)))
 """
 )
 
+_ROS = """
+import json, time
+import numpy as np
+from fuzzymbs.mbs.integrate import simulate
+from fuzzymbs.mbs.system import Coordinate
+from fuzzymbs.models.brake import DiscBrake
+from fuzzymbs.tolerance import Tolerance
+names = ("pad_spring_stiffness", "caliper_spring_stiffness", "nodal_force")
+signs = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)], float)
+values = np.array([200e3, 1e3, 16e3]) * (1.0 + signs * np.array([0.1, 0.1, 0.01]))
+corners = {{name: values[:, k] for k, name in enumerate(names)}}
+compiled = DiscBrake(t_end={t_end}, record_interval=1e-5).compiled
+common = dict(t_end={t_end}, dt=1e-6, record_interval=1e-5, integrator="ros34pw2",
+              tolerance=Tolerance(1e-3), outputs={{"y": Coordinate("lower_pad", 0)}})
+variants = (dict(), dict(sensitivities=names))
+for extra in variants:
+    simulate(compiled, corners, **{{**common, "t_end": 2e-5}}, **extra)
+best = [[float("inf")] * 2 for _ in variants]
+for _ in range(2):
+    for k, extra in enumerate(variants):
+        wall, cpu = time.perf_counter(), time.process_time()
+        simulate(compiled, corners, **common, **extra)
+        best[k] = min(best[k], [time.perf_counter() - wall, time.process_time() - cpu])
+print(json.dumps(best))
+"""
+
 _COLD = (
     _RK4
     + """
@@ -90,7 +120,9 @@ print(json.dumps(time.perf_counter() - start))
 )
 
 
-def compare(other: Path, rounds: int, cold: bool, t_end: float = 1e-2) -> dict:
+def compare(
+    other: Path, rounds: int, cold: bool, t_end: float = 1e-2, ros_t_end: float | None = None
+) -> dict:
     sides = {"this": REPO, "other": other.resolve()}
     figures: dict = {name: {"checkout": str(path), "study1": []} for name, path in sides.items()}
     for _ in range(rounds):
@@ -100,6 +132,9 @@ def compare(other: Path, rounds: int, cold: bool, t_end: float = 1e-2) -> dict:
             )
             calls = run_in_checkout(_CALLS.format(t_end=t_end), path, timeout=3600)
             figures[name].setdefault("rk4_calls", []).append(calls)
+            if ros_t_end is not None:
+                ros = run_in_checkout(_ROS.format(t_end=ros_t_end), path, timeout=3600)
+                figures[name].setdefault("ros_calls", []).append(ros)
             if cold:
                 with tempfile.TemporaryDirectory(prefix="fuzzymbs-numba-") as cache:
                     seconds = run_in_checkout(_COLD, path, {"NUMBA_CACHE_DIR": cache}, timeout=3600)
@@ -116,6 +151,10 @@ def compare(other: Path, rounds: int, cold: bool, t_end: float = 1e-2) -> dict:
     figures["rk4_calls_wall_this_over_other"] = (
         figures["this"]["rk4_calls_min"][0] / figures["other"]["rk4_calls_min"][0]
     )
+    if ros_t_end is not None:
+        for k, label in enumerate(("ros", "ros_sensitivities")):
+            cpu = {name: min(run[k][1] for run in figures[name]["ros_calls"]) for name in sides}
+            figures[f"{label}_cpu_this_over_other"] = cpu["this"] / cpu["other"]
     return figures
 
 
@@ -124,5 +163,8 @@ if __name__ == "__main__":
     parser.add_argument("other", type=Path, help="path of the other checkout")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--cold", action="store_true", help="also the cold compile")
+    parser.add_argument("--ros", action="store_true", help="also ROS34PW2 and its sensitivities")
+    parser.add_argument("--ros-t-end", type=float, default=2e-3)
     args = parser.parse_args()
-    print(json.dumps(compare(args.other, args.rounds, args.cold)))
+    ros_t_end = args.ros_t_end if args.ros else None
+    print(json.dumps(compare(args.other, args.rounds, args.cold, ros_t_end=ros_t_end)))

@@ -384,7 +384,10 @@ def contact_pass(c, x, p, sysdata, work):
             vt0 = vr0 - vn * n0
             vt1 = vr1 - vn * n1
             vt2 = vr2 - vn * n2
-            scale = -(mu * fn) / V.sqrt(vt0 * vt0 + vt1 * vt1 + vt2 * vt2 + eps2)
+            # -mu f_N / sqrt(s) as -(mu f_N / s) sqrt(s): the division and the square root
+            # side by side, not one waiting for the other (the longest chain of the pass)
+            slip2 = vt0 * vt0 + vt1 * vt1 + vt2 * vt2 + eps2
+            scale = -((mu * fn) / slip2) * V.sqrt(slip2)
             scale = V.where_eq(mu, zero, zero, scale)  # a frictionless lane: no 0 / 0
             f0 = fn * n0 + scale * vt0
             f1 = fn * n1 + scale * vt1

@@ -18,7 +18,7 @@ from fuzzymbs.mbs.kernels.rk4 import output_value, store_output
 L = V.LANES
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def hermite(xa, fa, xb, fb, h, theta, dst):
     """``dst`` <- the cubic Hermite interpolant at ``t_a + theta h`` of a step of length h
     from (x_a, f_a) to (x_b, f_b); ``h`` and ``theta`` are lane vectors (a step and a
@@ -36,7 +36,7 @@ def hermite(xa, fa, xb, fb, h, theta, dst):
         V.store(dst, at, value)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=V.NO_REFCOUNT)
 def record_lanes(x, recording, first, lanes, records, times):
     """Outputs of the lanes marked in ``lanes`` into their own record ``records[lane]``
     at ``times[lane]``; a lane whose output leaves its bound (or is not finite) is

@@ -116,17 +116,26 @@ def _contact_jacobian(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv):
     sweep (:func:`_gathered_products`), so that an element of jq and jv is loaded and
     stored once per pass, not once per point.
     """
+    scratch = (
+        np.zeros(3 * n * L),  # a point's W, all lanes per vector: [L (n r + col) + lane]
+        np.zeros(3 * n * L),  # its W_q
+        # one point's gathered rows (the per-lane path), layout of the pass's with stride 3
+        np.zeros(3 * n * L),
+        np.zeros(3 * n * L),
+        np.zeros(3 * n * L),
+        np.zeros(JREC * L),  # one lane's record, the others zero
+        np.empty(4, dtype=np.int64),  # a point's master nodes
+        np.empty(n, dtype=np.int64),  # the pass's columns
+    )
+    _contact_points(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv, scratch)
+
+
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
+def _contact_points(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv, scratch):
+    """The products of :func:`_contact_jacobian`, into its work arrays ``scratch``."""
     jrec, jnodes = work[10], work[11]
     w_rows, kq_rows, kv_rows = work[13], work[14], work[15]
-    wl = np.zeros(3 * n * L)  # a point's W, all lanes per vector: [L (n r + col) + lane]
-    wql = np.zeros(3 * n * L)
-    # one point's gathered rows (the per-lane path), layout of the pass's with stride 3
-    point_w = np.zeros(3 * n * L)
-    point_kq = np.zeros(3 * n * L)
-    point_kv = np.zeros(3 * n * L)
-    masked = np.zeros(JREC * L)  # one lane's record, the others zero
-    masters = np.empty(4, dtype=np.int64)
-    cols = np.empty(n, dtype=np.int64)
+    wl, wql, point_w, point_kq, point_kv, masked, masters, cols = scratch
     row0 = 0
     for c in range(ci.shape[0]):
         nslave = ci[c, C_NSLAVE]

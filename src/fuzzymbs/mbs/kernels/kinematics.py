@@ -334,17 +334,50 @@ def map_node_forces(bi, bf, fpool, rot_a, node_f, q_gen):
                 V.store(node_f, m + 2 * L, a02 * f0 + a12 * f1 + a22 * f2)
         if nm == 0:
             continue
+        # eight modes at a time, their sums in registers over the loaded nodes (in node
+        # order: the sums of one mode at a time); modes past the last repeat it
         psi0 = bi[b, B_PSI0]
-        for i in range(n0, n1):
-            m = L * 3 * i
-            f0 = V.load(node_f, m)
-            f1 = V.load(node_f, m + L)
-            f2 = V.load(node_f, m + 2 * L)
-            if not _loaded(f0, f1, f2):
-                continue
-            row = psi0 + (i - n0) * 3 * nm
-            for j in range(nm):
-                d = L * (qd0 + j)
-                g = V.broadcast(fpool, row + j) * f0 + V.broadcast(fpool, row + nm + j) * f1
-                g = g + V.broadcast(fpool, row + 2 * nm + j) * f2
-                V.store(q_gen, d, V.load(q_gen, d) + g)
+        j = 0
+        while j < nm:
+            last = nm - 1
+            j1, j2, j3 = min(j + 1, last), min(j + 2, last), min(j + 3, last)
+            j4, j5, j6, j7 = min(j + 4, last), min(j + 5, last), min(j + 6, last), min(j + 7, last)
+            d = L * qd0
+            s0, s1 = V.load(q_gen, d + L * j), V.load(q_gen, d + L * j1)
+            s2, s3 = V.load(q_gen, d + L * j2), V.load(q_gen, d + L * j3)
+            s4, s5 = V.load(q_gen, d + L * j4), V.load(q_gen, d + L * j5)
+            s6, s7 = V.load(q_gen, d + L * j6), V.load(q_gen, d + L * j7)
+            for i in range(n0, n1):
+                m = L * 3 * i
+                f0 = V.load(node_f, m)
+                f1 = V.load(node_f, m + L)
+                f2 = V.load(node_f, m + 2 * L)
+                if not _loaded(f0, f1, f2):
+                    continue
+                row = psi0 + (i - n0) * 3 * nm
+                s0 = s0 + _mode_force(fpool, row, nm, j, f0, f1, f2)
+                s1 = s1 + _mode_force(fpool, row, nm, j1, f0, f1, f2)
+                s2 = s2 + _mode_force(fpool, row, nm, j2, f0, f1, f2)
+                s3 = s3 + _mode_force(fpool, row, nm, j3, f0, f1, f2)
+                s4 = s4 + _mode_force(fpool, row, nm, j4, f0, f1, f2)
+                s5 = s5 + _mode_force(fpool, row, nm, j5, f0, f1, f2)
+                s6 = s6 + _mode_force(fpool, row, nm, j6, f0, f1, f2)
+                s7 = s7 + _mode_force(fpool, row, nm, j7, f0, f1, f2)
+            # repeated modes hold equal sums, so the order of these stores does not matter
+            V.store(q_gen, d + L * j7, s7)
+            V.store(q_gen, d + L * j6, s6)
+            V.store(q_gen, d + L * j5, s5)
+            V.store(q_gen, d + L * j4, s4)
+            V.store(q_gen, d + L * j3, s3)
+            V.store(q_gen, d + L * j2, s2)
+            V.store(q_gen, d + L * j1, s1)
+            V.store(q_gen, d + L * j, s0)
+            j += 8
+
+
+@nb.njit(cache=True, fastmath=V.FAST, inline="always")
+def _mode_force(fpool, row, nm, j, f0, f1, f2):
+    """Mode j's share ``Psi_j^T f`` of a node's force (f0, f1, f2); ``row``: the node's
+    first mode-shape entry."""
+    g = V.broadcast(fpool, row + j) * f0 + V.broadcast(fpool, row + nm + j) * f1
+    return g + V.broadcast(fpool, row + 2 * nm + j) * f2

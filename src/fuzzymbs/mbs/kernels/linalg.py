@@ -20,7 +20,7 @@ from fuzzymbs.mbs.kernels import simd as V
 L = V.LANES
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def lu_factor_lanes(a, n, piv):
     """LU with partial pivoting of the L lane matrices in ``a`` (n n L,), in place.
 
@@ -64,7 +64,7 @@ def lu_factor_lanes(a, n, piv):
                 V.store(a, at, V.load(a, at) - factor * V.load(a, L * (n * k + j)))
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def lu_solve_lanes(lu, n, piv, b):
     """Solve in place, per lane: ``b <- A^-1 b`` for the factors of :func:`lu_factor_lanes`.
 
@@ -87,7 +87,7 @@ def lu_solve_lanes(lu, n, piv, b):
         V.store(b, L * i, acc / V.load(lu, L * (n * i + i)))
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def reduced_stage_solve(jq, mat, piv, n, gh, r, solve, u):
     """A Rosenbrock stage's ``u`` for the state ``[q, v]`` with ``J = [[0, I], [A_q, B_v]]``:
     ``(I / (gamma h) - B_v - gamma h A_q) u_v = r_v + gamma h A_q r_q`` with the stage

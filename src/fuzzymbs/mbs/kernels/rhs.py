@@ -119,7 +119,7 @@ def copy_lanes(src, dst, lanes):
                 dst[L * i + lane] = src[L * i + lane]
 
 
-@nb.njit(cache=True, fastmath=V.FAST, error_model="numpy")
+@nb.njit(cache=True, fastmath=V.FAST, error_model="numpy", _nrt=V.NO_REFCOUNT)
 def rhs(t, x, dx, p, sysdata, work):
     """Time derivatives ``dx (2n L)`` of the lane states ``x (2n L)`` at time t (one
     float for every lane, or an ``(L,)`` array: a time per lane).

@@ -25,7 +25,7 @@ from fuzzymbs.mbs.kernels.threads import round_robin
 L = V.LANES
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=V.NO_REFCOUNT)
 def retire_failed(first, count, status, alive, out, x, p):
     """Flag newly failed lanes (NaN outputs) and let them repeat a healthy lane.
 
@@ -120,7 +120,7 @@ def start_block(sysdata, params, x0, recording, first, count):
     return x, p, alive, np.empty((5, nstate * L)), make_work(sysdata)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=V.NO_REFCOUNT)
 def output_value(x, out_w, o):
     """Output o of the lane states ``x``: ``sum_i w_oi x_i`` as a lane vector.
 
@@ -135,7 +135,7 @@ def output_value(x, out_w, o):
     return y
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=V.NO_REFCOUNT)
 def store_output(recording, sample, o, rec, value, t):
     """Output o of ``sample`` at record ``rec`` (time t); a value beyond the output's bound
     (or not finite) flags the sample (arguments as :func:`rk4`)."""
@@ -146,7 +146,7 @@ def store_output(recording, sample, o, rec, value, t):
         fail_t[sample] = t
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=V.NO_REFCOUNT)
 def record(x, recording, first, count, alive, rec, t):
     """Outputs of the block's healthy lanes at time t into record ``rec``; a lane whose
     output leaves its bound (or is not finite) is flagged (arguments as :func:`rk4`)."""

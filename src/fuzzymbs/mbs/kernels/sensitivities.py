@@ -87,7 +87,7 @@ def parameter_rows(slots, size):
     return (slots + size - 1) // size
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def perturbation(p, direction, delta):
     """Per lane, the parameter's perturbation in the differences: ``delta`` times the
     lane's value (``delta`` itself for a value of zero), so that the state moves by
@@ -101,7 +101,7 @@ def perturbation(p, direction, delta):
     return V.where_eq(scale, V.splat(0.0), V.splat(delta), delta * scale)
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def sensitivity_rhs(theta, xb, fb, s, direction, p, delta, sysdata, rhs_work, work, dst):
     """``dst`` <- the sensitivity right-hand side ``f_x(x) s + f_p(x)`` at the lane
     times ``theta`` and states ``xb``, with ``fb = f(theta, xb)`` known: the directional
@@ -125,7 +125,7 @@ def sensitivity_rhs(theta, xb, fb, s, direction, p, delta, sysdata, rhs_work, wo
         V.store(dst, L * i, (V.load(f_moved, L * i) - V.load(fb, L * i)) / eps)
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def keep_stage(work, s, stages, y, stage_f):
     """Keep the state's stage point ``y`` and its f for the sensitivities (stages s > 0;
     stage 0 is the step's start)."""
@@ -134,7 +134,7 @@ def keep_stage(work, s, stages, y, stage_f):
         V.store(work[W_STAGES + stages + s], L * i, V.load(stage_f, L * i))
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def sensitivity_stage(s, theta, sk, direction, p, delta, method, sysdata, rhs_work, work):
     """Stage ``s`` of one parameter's sensitivity (``sk``: its rows), once the state's step
     is computed: ``(I / (gamma h) - J) U_s = G_s + sum_j (c_sj / h) U_j`` with the
@@ -224,7 +224,7 @@ def step_sensitivities(took, g_known, counter, t, x, f0, sensitivity, p, state_s
             V.store(sk[S_NEW], L * i, acc)
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def end_sensitivities(theta, x_new, fy, covered, counter, sensitivity, p, sysdata, rhs_work):
     """For the lanes whose accepted step covers a record: the sensitivity right-hand side
     at the step's end (``G1``, with ``fy = f(theta, x_new)``), the interpolant's slope
@@ -252,7 +252,7 @@ def end_sensitivities(theta, x_new, fy, covered, counter, sensitivity, p, sysdat
             counter[lane] += nsens
 
 
-@nb.njit(cache=True, fastmath=V.FAST)
+@nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
 def record_sensitivities(sensitivity, out_w, step_v, theta_v, first, lanes, records):
     """The outputs' derivatives ``out_w S`` at ``t + theta h`` (the step's Hermite
     interpolant of S, slopes ``G0`` and ``G1``) into ``out_s[sample, output, record,
@@ -265,7 +265,7 @@ def record_sensitivities(sensitivity, out_w, step_v, theta_v, first, lanes, reco
         record_sensitivity_lanes(value, out_w, out_s, first, lanes, records, k)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=V.NO_REFCOUNT)
 def record_sensitivity_lanes(sv, out_w, out_s, first, lanes, records, k):
     """The outputs' derivatives ``out_w sv`` of the lanes marked in ``lanes`` into
     ``out_s[sample, output, records[lane], k]``."""
@@ -276,7 +276,7 @@ def record_sensitivity_lanes(sv, out_w, out_s, first, lanes, records, k):
                 out_s[first + lane, o, records[lane], k] = V.get(value, lane)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=V.NO_REFCOUNT)
 def accept_sensitivities(took, covered, g_known, sens):
     """The lanes whose step is accepted take ``S_NEW`` (and, where the step covered a
     record, ``G1`` as the next step's first stage)."""
@@ -293,7 +293,7 @@ def accept_sensitivities(took, covered, g_known, sens):
         g_known[lane] = 1.0 if covered[lane] else 0.0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=V.NO_REFCOUNT)
 def retire_sensitivities(count, alive, sens):
     """Failed lanes (and padding lanes repeating a failed sample) take the sensitivities
     of the block's first healthy lane, as :func:`fuzzymbs.mbs.kernels.rk4.retire_failed`
