@@ -285,14 +285,21 @@ def test_compare_checkouts_runs_both_sides():
     # against itself on a 0.1 ms study: both sides report two timed studies per round
     import compare_checkouts
 
-    figures = compare_checkouts.compare(compare_checkouts.REPO, 1, False, t_end=1e-4)
+    figures = compare_checkouts.compare(
+        compare_checkouts.REPO, 1, False, t_end=1e-4, ros_t_end=5e-5
+    )
     for side in ("this", "other"):
         assert len(figures[side]["study1"]) == 2
         assert figures[side]["study1_wall_min"] > 0
         wall, cpu = figures[side]["rk4_calls_min"]  # the model called alone
         assert wall > 0 and cpu > 0
+        # ROS34PW2 without and with the sensitivities: [wall, CPU] each
+        (ros,) = figures[side]["ros_calls"]
+        assert len(ros) == 2 and all(wall > 0 and cpu > 0 for wall, cpu in ros)
     assert figures["study1_wall_this_over_other"] > 0
     assert figures["rk4_calls_wall_this_over_other"] > 0
+    assert figures["ros_cpu_this_over_other"] > 0
+    assert figures["ros_sensitivities_cpu_this_over_other"] > 0
 
 
 @pytest.mark.slow

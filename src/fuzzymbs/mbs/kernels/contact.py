@@ -384,8 +384,8 @@ def contact_pass(c, x, p, sysdata, work):
             vt0 = vr0 - vn * n0
             vt1 = vr1 - vn * n1
             vt2 = vr2 - vn * n2
-            # -mu f_N / sqrt(s) as -(mu f_N / s) sqrt(s): the division and the square root
-            # side by side, not one waiting for the other (the longest chain of the pass)
+            # -mu f_N / sqrt(s) as -(mu f_N / s) sqrt(s): the division does not wait for the
+            # square root's result (this chain was the pass's longest, docs/benchmarks.md)
             slip2 = vt0 * vt0 + vt1 * vt1 + vt2 * vt2 + eps2
             scale = -((mu * fn) / slip2) * V.sqrt(slip2)
             scale = V.where_eq(mu, zero, zero, scale)  # a frictionless lane: no 0 / 0

@@ -59,7 +59,7 @@ LANES = choose_lanes()
 FAST = {"reassoc", "contract", "arcp"}
 # Kernels called at every step that allocate nothing take ``_nrt=NO_REFCOUNT``: without
 # Numba's reference counting, taking a work tuple apart or slicing a pool costs no atomic
-# increment and decrement (about 280 per brake right-hand side: 5-10 % of its time,
+# increment and decrement (about 140 pairs per brake right-hand side, 5 % of its time:
 # docs/benchmarks.md). Their callees inherit it, and an allocation in any of them is then
 # a compile error, not a leak.
 NO_REFCOUNT = False
