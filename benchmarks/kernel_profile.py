@@ -5,9 +5,10 @@
     perf report -i kernels.data --time T0, --sort sym
 
 Runs one brake block (four samples, one thread) on the chosen path -- RK4 at 1 us for
-2,000 steps from rest, or ROS34PW2 at rtol 1e-3 on study 1's eight corners over 1 ms --
-``--repeats`` times after a warm-up, and prints ``T0`` (the monotonic clock where the
-timed part starts: ``perf report --time T0,`` leaves compiling out). Numba's code has
+2,000 steps from rest, or ROS34PW2 at rtol 1e-3 on the first four of study 1's eight
+corners over 1 ms -- ``--repeats`` times after a warm-up, and prints ``T0`` (the
+monotonic clock where the timed part starts: ``perf report --time T0,`` leaves
+compiling out). Numba's code has
 no symbols for ``perf``, so the script writes ``/tmp/perf-PID.map`` (the format ``perf``
 reads for JIT code) with the address range of every function compiled in this process.
 The kernels must be compiled here, not loaded from Numba's cache (loaded code carries
@@ -25,6 +26,7 @@ import time
 
 import numpy as np
 from numba.core.codegen import JITCodeLibrary
+from ros_flops import corners as study1_corners
 
 from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.mbs.kernels.rk4 import advance_block, start_block
@@ -77,13 +79,11 @@ def rk4_workload(steps: int = 2000):
 
 
 def ros_workload(t_end: float = 1e-3):
-    names = ("pad_spring_stiffness", "caliper_spring_stiffness", "nodal_force")
-    signs = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)], float)
-    values = np.array([200e3, 1e3, 16e3]) * (1.0 + signs * np.array([0.1, 0.1, 0.01]))
-    corners = {name: values[:LANES, k] for k, name in enumerate(names)}
+    corners = {name: values[:LANES] for name, values in study1_corners().items()}
     compiled = DiscBrake(t_end=t_end, record_interval=1e-5).compiled
     common = {
         "t_end": t_end,
+        "dt": 1e-6,  # the first step
         "record_interval": 1e-5,
         "integrator": "ros34pw2",
         "tolerance": Tolerance(1e-3),
@@ -96,11 +96,11 @@ def ros_workload(t_end: float = 1e-3):
     return run
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--path", choices=("rk4", "ros"), default="rk4")
     parser.add_argument("--repeats", type=int, default=60)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     run = rk4_workload() if args.path == "rk4" else ros_workload()
     run()  # compiles
     print(f"functions {write_perf_map()}", file=sys.stderr)

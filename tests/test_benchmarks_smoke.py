@@ -303,6 +303,25 @@ def test_compare_checkouts_runs_both_sides():
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("path", ["rk4", "ros"])
+def test_kernel_profile_runs_its_workload_and_writes_a_perf_map(path, capsys):
+    # the workloads behind docs/benchmarks.md's kernel profiles, run once without perf;
+    # the perf map lists the functions compiled in this process (none when all were
+    # loaded from Numba's cache), one "start size name" line each
+    import os
+
+    import kernel_profile
+
+    kernel_profile.main(["--path", path, "--repeats", "1"])
+    err = capsys.readouterr().err
+    assert "T0 " in err and "cpu per run" in err
+    with open(f"/tmp/perf-{os.getpid()}.map") as perf_map:
+        for line in perf_map:
+            start, size, name = line.split()
+            assert int(start, 16) > 0 and int(size, 16) > 0 and name
+
+
+@pytest.mark.slow
 def test_ros_parts_runs():
     # the script behind the split of a ROS34PW2 step in docs/theory.md and benchmarks.md
     import ros_parts

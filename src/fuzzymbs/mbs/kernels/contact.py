@@ -408,7 +408,7 @@ def contact_pass(c, x, p, sysdata, work):
             in_contact = V.where_lt(gap, zero, V.where_lt(zero, on, one, zero), zero)
             if kinetic:
                 in_contact = V.where_lt(zero, fn, in_contact, zero)
-                inv_s = 1.0 / V.sqrt(vt0 * vt0 + vt1 * vt1 + vt2 * vt2 + eps2)
+                inv_s = 1.0 / V.sqrt(slip2)
                 slide = (vt0 * inv_s, vt1 * inv_s, vt2 * inv_s)
                 mu_s = V.where_eq(mu, zero, zero, mu * inv_s)
                 direction = (n0 - mu_s * vt0, n1 - mu_s * vt1, n2 - mu_s * vt2)
