@@ -40,7 +40,8 @@ def write_perf_map() -> int:
     """``/tmp/perf-PID.map``: start, size and name of every compiled function."""
     entries, seen = [], set()
     for library in gc.get_objects():
-        if not isinstance(library, JITCodeLibrary):
+        # the type, not isinstance: a dead weak proxy among the objects raises on isinstance
+        if not issubclass(type(library), JITCodeLibrary):
             continue
         module = getattr(library, "_final_module", None)
         if module is None:
