@@ -47,8 +47,10 @@ from fuzzymbs.study.integration_check import (
     check_time_integration,
     choose_samples,
     choose_tolerance,
+    report_check,
     run_cut_bounds,
 )
+from fuzzymbs.study.judging_records import CHECK, CHOICE, DeferredModel, JudgingRecords
 from fuzzymbs.study.method_check import ValidationRuns
 from fuzzymbs.study.options import StudyOptions
 from fuzzymbs.study.planning import AUTO
@@ -117,6 +119,8 @@ class StudyRuns:
     run: Callable[..., Any]  # Study.run: its keywords are screen's too
     #: the check's tighter model with re-runs made ahead (:meth:`StudyRuns.check_ahead`)
     _check_model: Any = None
+    #: the judging runs' outcomes kept in the store of the run under way (none: no store)
+    _records: JudgingRecords = JudgingRecords(None, False, {})
 
     def _screening_identity(self) -> dict[str, Any]:
         """What a screening store must match: the screening points and the model.
@@ -142,6 +146,25 @@ class StudyRuns:
         if not getattr(self.model, "scalable_tolerance", False):
             return  # choose_tolerance leaves such a model as it is, and records nothing
         plan = self.plan
+        modal = plan.samples[plan.nominal_index]
+        # everything the choice follows from (the identity: before the choice)
+        description = {
+            "identity": self.identity(),
+            "integration_tolerance": self.options.integration_tolerance,
+            "shared_steps": self.options.shared_steps,
+            "outputs": list(self.output_names),
+        }
+        stored = self._records.load(CHOICE, description)
+        if stored is not None:  # its model is built when a run needs it
+            choice, extras = stored
+            self.model = DeferredModel(
+                self.model, self._columns(modal[None, :], 0, 1), choice, extras.get("identity")
+            )
+            self.integration_choice = choice
+            logger.info(
+                "study %s: integrator tolerance from the store: %s", self.name, choice.method
+            )
+            return
         label = f"{self.name} (integrator tolerance: pilot and reference runs)"
         with progress_phase(progress, label):
             self.model, self.integration_choice = choose_tolerance(
@@ -149,12 +172,16 @@ class StudyRuns:
                 lambda table: self._columns(table, 0, len(table)),
                 plan.cut_lower,
                 plan.cut_upper,
-                plan.samples[plan.nominal_index],
+                modal,
                 self.output_names,
                 self.options.integration_tolerance,
                 self.options.shared_steps,
                 self._first_points(),
             )
+        if self.integration_choice is not None:
+            own = getattr(self.model, "identity", None)
+            extras = {"identity": own() if callable(own) else None}
+            self._records.save(CHOICE, description, self.integration_choice, extras)
 
     def _first_points(self) -> np.ndarray:
         """The plan's first runs (run ahead while a shared-steps reference finishes): the
@@ -379,10 +406,13 @@ class StudyRuns:
             )
         else:
             samples, bounds = self._run_check_inputs(outputs, failed, include_nominal)
+        stored = self._records.load(CHECK, self._check_description(samples))
+        if stored is not None:
+            return report_check(stored[0])  # warns again where the run warned
         label = f"{self.name} (time-integration check: {len(samples)} samples, tolerance / 10)"
         tight, self._check_model = self._check_model, None
         with progress_phase(progress, label, len(samples)):
-            return check_time_integration(
+            check = check_time_integration(
                 self.model,
                 lambda rows: self._columns(self.plan.samples[rows], 0, len(rows)),
                 samples,
@@ -393,6 +423,20 @@ class StudyRuns:
                 self.options.integration_tolerance,
                 tight=tight,
             )
+        if check is not None:
+            self._records.save(CHECK, self._check_description(samples), check)
+        return check
+
+    def _check_description(self, samples: Sequence[int]) -> dict[str, Any]:
+        """What the time-integration check of ``samples`` (rows of the plan) follows from:
+        the study's identity (its runs' outputs follow from it) and the samples."""
+        return {
+            "identity": self.identity(),
+            "integration_tolerance": self.options.integration_tolerance,
+            "integration_runs": self.options.integration_runs,
+            "outputs": list(self.output_names),
+            "samples": np.asarray(self.plan.samples[list(samples)], dtype=float).tolist(),
+        }
 
     def _run_check_inputs(
         self, outputs: Mapping[str, np.ndarray], failed: np.ndarray, include_nominal: bool
@@ -429,6 +473,8 @@ class StudyRuns:
         tightened = getattr(self.model, "tightened", None)
         if not samples or not getattr(self.model, "shares_steps", False) or not callable(tightened):
             return
+        if self._records.load(CHECK, self._check_description(samples)) is not None:
+            return  # the check of these samples is in the store
         tight = self._check_model if self._check_model is not None else tightened()
         run_ahead = getattr(tight, "run_ahead", None)
         if not callable(run_ahead):

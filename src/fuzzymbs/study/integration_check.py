@@ -254,13 +254,13 @@ def check_time_integration(
     method = str(getattr(model, "time_integration", ""))
     samples = [int(s) for s in samples]
     if not samples:
-        return _report(IntegrationCheck(np.nan, tolerance, method, "every sample failed"))
+        return report_check(IntegrationCheck(np.nan, tolerance, method, "every sample failed"))
     rerun = tight(dict(columns(samples)))
     rerun_failed = np.asarray(rerun.get("failed", np.zeros(len(samples), bool)), dtype=bool)
     if rerun_failed.all():
         reason = np.asarray(rerun.get("failure_reason", [""] * len(samples)))[0]
         note = f"the tightened re-runs failed ({reason})"
-        return _report(IntegrationCheck(np.nan, tolerance, method, note, runs=len(samples)))
+        return report_check(IntegrationCheck(np.nan, tolerance, method, note, runs=len(samples)))
     row = np.full(max(max(samples), nominal_index) + 1, -1)
     for k, sample in enumerate(samples):
         if not rerun_failed[k]:
@@ -313,10 +313,10 @@ def check_time_integration(
     check = IntegrationCheck(
         error, tolerance, method, note, peak, len(samples), worst, reference_part
     )
-    return _report(check)
+    return report_check(check)
 
 
-def _report(check: IntegrationCheck) -> IntegrationCheck:
+def report_check(check: IntegrationCheck) -> IntegrationCheck:
     """Warn about a check that failed or found an error above the tolerance."""
     if check.note:
         warnings.warn(
@@ -393,6 +393,10 @@ class ToleranceChoice:
     measured_error : with shared steps, the pilot's tighter model's error measured
         against its corners on the sequence logged ahead beside the reference, where the
         law asked for more than that model (NaN: not measured).
+    recipe : the factors of the ``tightened`` calls that built the chosen model, in
+        order, from the model (on its shared steps where ``shared_steps``):
+        :func:`chosen_model` builds it again bit for bit from them (a tenth's tenth
+        rounds otherwise than a hundredth).
     """
 
     factor: float
@@ -404,6 +408,7 @@ class ToleranceChoice:
     reference_error: float = float("nan")
     reference_error_predicted: float = float("nan")
     measured_error: float = float("nan")
+    recipe: tuple[float, ...] = ()
 
     def to_attrs(self) -> dict[str, Any]:
         return {
@@ -522,7 +527,23 @@ def choose_tolerance(
     factor = 1.0 if error <= target else float((error / target) ** (1.0 / ERROR_ORDER))
     chosen = model.tightened(factor) if factor > 1.0 else model
     note = shared_note.removesuffix("; ")
-    return chosen, ToleranceChoice(factor, error, runs, chosen.time_integration, note)
+    recipe = (factor,) if factor > 1.0 else ()
+    return chosen, ToleranceChoice(
+        factor, error, runs, chosen.time_integration, note, recipe=recipe
+    )
+
+
+def chosen_model(model: Any, modal: Mapping[str, np.ndarray], choice: ToleranceChoice) -> Any:
+    """The model ``choice`` took, built again from ``model`` (the one :func:`choose_tolerance`
+    was given) and the modal point's parameter columns ``modal``: on the modal sample's
+    shared steps where the choice put the samples there, then tightened by the factors of
+    ``choice.recipe`` in turn, as the choice built it (a resumed study takes a stored
+    choice without its pilot, :mod:`fuzzymbs.study.judging_records`)."""
+    if choice.shared_steps:
+        model = model.share_steps(dict(modal))
+    for factor in choice.recipe:
+        model = model.tightened(factor)
+    return model
 
 
 def _reuses_fine(factor: float, fine: float) -> bool:
@@ -667,14 +688,18 @@ def _choose_shared(
     built = int(speculative is not None)  # logging runs made for the choice
     if _reuses_fine(factor, fine_factor):
         factor, chosen = fine_factor, fine  # the pilot's tighter model: near enough
+        recipe: tuple[float, ...] = (fine_factor,)
     elif tighter is not None and _near(factor, fine_factor**2):
         factor, chosen = fine_factor**2, tighter  # its sequence was logged ahead
+        recipe = (fine_factor, fine_factor)
     elif speculative is not None and _near(factor, likely):
         factor, chosen = likely, speculative.result()  # near enough as well
         ahead_on = chosen
+        recipe = (likely,)
     else:
         chosen = shared.tightened(factor) if factor > 1.0 else shared
         built += factor > 1.0
+        recipe = (factor,) if factor > 1.0 else ()
     if chosen is not ahead_on:
         _prepare(chosen)  # the check's tighter model (the runs ahead start it after them)
     return chosen, ToleranceChoice(
@@ -687,6 +712,7 @@ def _choose_shared(
         reference_error=reference_part,
         reference_error_predicted=predicted if prediction is not None else float("nan"),
         measured_error=measured,
+        recipe=recipe,
     )
 
 

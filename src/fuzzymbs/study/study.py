@@ -52,6 +52,7 @@ from fuzzymbs.study.execution import (
 from fuzzymbs.study.extra_runs import StudyRuns
 from fuzzymbs.study.gradients import gradient_parameters
 from fuzzymbs.study.integration_check import ToleranceChoice
+from fuzzymbs.study.judging_records import JudgingRecords
 from fuzzymbs.study.method_check import DEFAULT_METHOD_TOLERANCE
 from fuzzymbs.study.options import StudyOptions
 from fuzzymbs.study.planning import (
@@ -419,6 +420,8 @@ class Study(StudyRuns):
         try:
             if self._plan is None:
                 self._screen((work, requested_size, resume, progress, code), store, on_failure)
+            # the pilot's choice and the time-integration check are kept in the store too
+            self._records = JudgingRecords(store, resume, code)
             self._choose_integration(progress)
             if self.plan.scheme.runs_in_rounds:
                 return self._run_in_rounds(
