@@ -134,9 +134,11 @@ class DeferredModel:
 
     Known without building: ``shares_steps`` and ``time_integration`` (from the choice),
     ``identity()`` (the chosen model's, stored with the choice; absent where it had
-    none), and what ``share_steps`` and ``tightened`` leave as they were
-    (``differentiable``, ``scalable_tolerance``, ``gradient_cost``: read off the model
-    the choice started from). Pickled, it is the built model.
+    none), and what ``share_steps`` and ``tightened`` leave as they were: the
+    descriptions a study reads (``outputs``, ``coords``, ``output_dims``, ``coord_units``,
+    ``reference``, ``reference_labels``, ``check_parameters``) and ``differentiable``,
+    ``scalable_tolerance``, ``gradient_cost``, read off the model the choice started
+    from. Pickled, it is the built model.
 
     Parameters
     ----------
@@ -146,7 +148,18 @@ class DeferredModel:
     identity : the chosen model's ``identity()``; None if it has none.
     """
 
-    _UNCHANGED = ("differentiable", "scalable_tolerance", "gradient_cost")
+    _UNCHANGED = (
+        "outputs",
+        "coords",
+        "output_dims",
+        "coord_units",
+        "reference",
+        "reference_labels",
+        "check_parameters",
+        "differentiable",
+        "scalable_tolerance",
+        "gradient_cost",
+    )
 
     def __init__(
         self,
