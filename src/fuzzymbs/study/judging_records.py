@@ -191,8 +191,8 @@ class DeferredModel:
     def time_integration(self) -> str:
         return self._choice.method
 
-    def tightened(self, factor: float | None = None) -> Any:
-        return self.built().tightened(factor)
+    def tightened(self, *args: Any, **kwargs: Any) -> Any:
+        return self.built().tightened(*args, **kwargs)
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
         return self.built()(*args, **kwargs)
