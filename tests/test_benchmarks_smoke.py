@@ -280,6 +280,45 @@ def test_jacobian_age_runs_each_age_and_restores_the_default(tmp_path):
 
 
 @pytest.mark.slow
+def test_study_rerun_runs_a_study_three_times(tmp_path):
+    # the script behind the rerun and resume figures of docs/benchmarks.md, on a 0.5 ms
+    # brake study: run again finished it evaluates nothing, after losing a round only
+    # that round's runs, and both results are the fresh run's bit for bit
+    import study_rerun
+
+    study = tmp_path / "short.toml"
+    study.write_text(
+        """
+[study]
+name = "short-brake"
+method = "adaptive"
+levels = [0.0, 0.5, 1.0]
+outputs = ["y_lpad"]
+[model]
+name = "brake"
+[model.options]
+t_end = 5e-4
+record_interval = 1e-5
+[parameters.pad_spring_stiffness]
+type = "triangular"
+modal = 200e3
+spread = 0.1
+[parameters.nodal_force]
+type = "triangular"
+modal = 16e3
+spread = 0.01
+""",
+        encoding="utf-8",
+    )
+    figures = study_rerun.rerun(study, study_rerun.REPO / "src", lose=1)
+    assert figures["fresh"]["evaluated"] > 0 and figures["rounds"] >= 2
+    assert figures["finished"]["evaluated"] == 0 and figures["finished"]["same_as_fresh"]
+    lost = figures["interrupted"]
+    assert 0 < lost["evaluated"] < figures["fresh"]["evaluated"] and lost["same_as_fresh"]
+    assert all(figures[k]["wall_s"] > 0 for k in ("fresh", "finished", "interrupted"))
+
+
+@pytest.mark.slow
 def test_compare_checkouts_runs_both_sides():
     # the script behind the before/after tables of docs/benchmarks.md, this checkout
     # against itself on a 0.1 ms study: both sides report two timed studies per round
