@@ -28,7 +28,7 @@ import tempfile
 import threading
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 
@@ -45,8 +45,6 @@ FOLDER = "judging"
 CHOICE, CHECK = "integration-choice", "integration-check"
 _FORMAT = "fuzzymbs-judging-record"
 _KINDS = {CHOICE: ToleranceChoice, CHECK: IntegrationCheck}
-
-Record = TypeVar("Record", ToleranceChoice, IntegrationCheck)
 
 
 class JudgingRecords:
