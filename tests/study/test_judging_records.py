@@ -193,8 +193,8 @@ def test_the_chosen_model_is_built_again_by_its_recipe():
 
 
 def test_a_deferred_model_answers_without_building_and_pickles_as_the_model():
-    choice = ToleranceChoice(10.0, 0.1, 12, "closed form, rtol 0.001, shared", shared_steps=True)
-    choice = ToleranceChoice(**{**choice.__dict__, "recipe": (10.0,)})
+    method = "closed form, rtol 0.001, shared"
+    choice = ToleranceChoice(10.0, 0.1, 12, method, shared_steps=True, recipe=(10.0,))
     Shared.runs.clear()
     deferred = DeferredModel(Shared(1e-2), {"a": np.array([2.0])}, choice)
     assert deferred.shares_steps and deferred.time_integration == choice.method
