@@ -90,9 +90,16 @@ class Shared:
         return {"y": self._outputs(a, b), "failed": failed, "failure_reason": np.full(len(a), "")}
 
 
-def _run(store: Path | None, method: str = "adaptive", resume: bool = True):
+def _run(store: Path | None, method: str = "adaptive", resume: bool = True, shared=True):
     Shared.runs.clear()
-    study = Study(Shared(1e-2), FUZZY, method=method, levels=2, integration_tolerance=0.01)
+    study = Study(
+        Shared(1e-2),
+        FUZZY,
+        method=method,
+        levels=2,
+        integration_tolerance=0.01,
+        shared_steps=shared,
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the reduced method's non-monotonic b
         return study, study.run(progress=False, store=store, resume=resume).dataset
@@ -123,6 +130,18 @@ def test_a_finished_study_run_again_makes_no_run(tmp_path, method):
     assert Shared.runs == []
     assert isinstance(again.model, DeferredModel) and again.model._model is None  # never built
     _assert_same(first, second)
+
+
+def test_a_choice_on_each_samples_own_steps_is_kept_too(tmp_path):
+    # without shared steps the pilot tightens the model itself (rtol^0.88 error law): its
+    # choice and the check are kept the same way, and the model is rebuilt by its factor
+    _, first = _run(tmp_path, shared=False)
+    factor = first.attrs["integration_tolerance_factor"]
+    assert factor > 1.0 and first.attrs["integration_shared_steps"] == 0
+    again, second = _run(tmp_path, shared=False)
+    assert Shared.runs == [] and again.model._model is None
+    _assert_same(first, second)
+    assert again.model.built().rtol == 1e-2 / factor and not again.model.built().shares_steps
 
 
 def test_an_interrupted_study_resumes_without_its_pilot(tmp_path):
