@@ -17,6 +17,7 @@ import pytest
 from fuzzymbs.study.integration_check import ToleranceChoice, chosen_model
 from fuzzymbs.study.judging_records import CHECK, CHOICE, DeferredModel, JudgingRecords
 from fuzzymbs.study.study import Study
+from fuzzymbs.study.summary import summarize
 
 TIME = np.linspace(0.0, 1.0, 51)
 FUZZY = {
@@ -130,6 +131,13 @@ def test_a_finished_study_run_again_makes_no_run(tmp_path, method):
     assert Shared.runs == []
     assert isinstance(again.model, DeferredModel) and again.model._model is None  # never built
     _assert_same(first, second)
+    # the result says what it took from the store
+    assert json.loads(first.attrs["provenance"])["judging_from_store"] == []
+    taken = ["integration-check", "integration-choice"]
+    assert json.loads(second.attrs["provenance"])["judging_from_store"] == taken
+    assert "From the store, not run again: integration check, integration choice" in (
+        summarize(second)
+    )
 
 
 def test_a_choice_on_each_samples_own_steps_is_kept_too(tmp_path):

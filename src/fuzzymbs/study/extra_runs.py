@@ -122,6 +122,13 @@ class StudyRuns:
     #: the judging runs' outcomes kept in the store of the run under way (none: no store)
     _records: JudgingRecords = JudgingRecords(None, False, {})
 
+    @property
+    def judging_from_store(self) -> list[str]:
+        """The judging runs' outcomes the last run took from its store instead of making
+        them (:mod:`fuzzymbs.study.judging_records`): ``"integration-choice"``,
+        ``"integration-check"``; empty when it made them."""
+        return sorted(self._records.taken)
+
     def _screening_identity(self) -> dict[str, Any]:
         """What a screening store must match: the screening points and the model.
 

@@ -63,6 +63,8 @@ class JudgingRecords:
         self.folder = None if store is None else Path(store) / FOLDER
         self.resume = resume
         self.code = dict(code)
+        #: the kinds of record taken from the store (a result's provenance lists them)
+        self.taken: set[str] = set()
 
     def _path(self, kind: str, description: Mapping[str, Any]) -> Path:
         assert self.folder is not None
@@ -90,6 +92,7 @@ class JudgingRecords:
         except (OSError, ValueError, KeyError, TypeError) as error:
             logger.warning("judging record %s unreadable (%s): made again", path, error)
             return None
+        self.taken.add(kind)
         return record, dict(data.get("extras", {}))
 
     def save(

@@ -434,6 +434,8 @@ def build_dataset(
         "samples": len(plan),
         "evaluated": int(evaluated),
         "reused_from_store": int(reused),
+        # the judging runs' outcomes taken from the store instead of made (judging_records.py)
+        "judging_from_store": list(getattr(study, "judging_from_store", [])),
         "failed": int(np.count_nonzero(failed)),
         "executor": executor,
         "chunk_size": int(chunk_size),

@@ -153,6 +153,9 @@ def summarize(dataset: xarray.Dataset) -> str:
         f"Executor: {provenance['executor']}  chunk size: {provenance['chunk_size']}  "
         f"wall time: {provenance['wall_time_s']:.3g} s",
     ]
+    if provenance.get("judging_from_store"):  # what no run made again this time
+        taken = ", ".join(provenance["judging_from_store"]).replace("-", " ")
+        lines.append(f"From the store, not run again: {taken}")
     screening = provenance.get("screening")
     if screening is not None:  # nonmonotonic="auto"
         found = ", ".join(screening["nonmonotonic"]) or "none"
