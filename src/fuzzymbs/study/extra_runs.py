@@ -413,7 +413,8 @@ class StudyRuns:
             )
         else:
             samples, bounds = self._run_check_inputs(outputs, failed, include_nominal)
-        stored = self._records.load(CHECK, self._check_description(samples))
+        description = self._check_description(samples)
+        stored = self._records.load(CHECK, description)
         if stored is not None:
             return report_check(stored[0])  # warns again where the run warned
         label = f"{self.name} (time-integration check: {len(samples)} samples, tolerance / 10)"
@@ -431,7 +432,7 @@ class StudyRuns:
                 tight=tight,
             )
         if check is not None:
-            self._records.save(CHECK, self._check_description(samples), check)
+            self._records.save(CHECK, description, check)
         return check
 
     def _check_description(self, samples: Sequence[int]) -> dict[str, Any]:
