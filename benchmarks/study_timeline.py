@@ -22,6 +22,12 @@ Its CPU time is the thread CPU time of every thread working on its kernel calls
 (reading the study, the surrogate between rounds, writing the result).
 ``--serial-check`` makes the time-integration check's re-runs after the plan's
 runs, as before they went on beside the method's last judgment (the same runs).
+
+Where the cores wait: ``idle_core_s`` is the process's core-seconds left unused
+(``numba.get_num_threads()`` times the wall time, less its CPU time), and
+``kernel_free`` the intervals of at least 0.1 s in which no integrator call runs
+(start-up, the adaptive method planning its next round, writing the result), with
+their sum ``kernel_free_s``.
 """
 
 from __future__ import annotations
@@ -37,6 +43,7 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
+import numba
 import numpy as np
 from bench_common import REPO, load_average
 
@@ -128,6 +135,19 @@ class KernelClock:
         threads._share = self.share
 
 
+def kernel_free(calls: list[dict], wall: float, shortest: float = 0.1) -> list[list[float]]:
+    """The intervals ``[from, to]`` (seconds from the start, at least ``shortest`` long)
+    within ``[0, wall]`` in which none of ``calls`` (``start_s``, ``end_s``) runs."""
+    free, covered = [], 0.0  # covered: the end of the calls merged so far
+    for call in sorted(calls, key=lambda call: call["start_s"]):
+        if call["start_s"] - covered >= shortest:
+            free.append([round(covered, 2), round(call["start_s"], 2)])
+        covered = max(covered, call["end_s"])
+    if wall - covered >= shortest:
+        free.append([round(covered, 2), round(wall, 2)])
+    return free
+
+
 def timeline(study: int, out: Path, serial_check: bool = False) -> dict:
     """The study run once through the command line, its integrator calls timed
     (``serial_check``: the check's re-runs none ahead, all after the plan's runs)."""
@@ -192,6 +212,7 @@ def timeline(study: int, out: Path, serial_check: bool = False) -> dict:
     for entry in by_purpose.values():
         entry["cpu_s"] = round(entry["cpu_s"], 1)
         entry["share"] = round(entry["cpu_s"] / cpu, 3)
+    free = kernel_free(calls, wall)
     return {
         "study": study,
         "serial_check": serial_check,
@@ -199,6 +220,9 @@ def timeline(study: int, out: Path, serial_check: bool = False) -> dict:
         "cpu_s": round(cpu, 1),
         "by_purpose": dict(by_purpose),
         "other_cpu_s": round(cpu - kernel_cpu, 1),
+        "idle_core_s": round(numba.get_num_threads() * wall - cpu, 1),
+        "kernel_free_s": round(sum(end - begin for begin, end in free), 1),
+        "kernel_free": free,
         "calls": sorted(calls, key=lambda call: call["start_s"]),
     }
 

@@ -481,6 +481,23 @@ def test_brake_targets_variant_is_the_demo_with_rodas4(tmp_path):
     assert targets.FILES[1]["paper"].exists() and targets.FILES[2]["paper"].exists()
 
 
+def test_study_timeline_finds_the_intervals_without_a_kernel_call():
+    # calls overlapping on two threads merge; a gap shorter than 0.1 s is not listed;
+    # the start before the first call and the end after the last are (hand-computed)
+    study_timeline = pytest.importorskip("study_timeline")
+    calls = [
+        {"start_s": 1.5, "end_s": 30.0},
+        {"start_s": 2.0, "end_s": 10.0},
+        {"start_s": 10.05, "end_s": 29.0},
+        {"start_s": 30.8, "end_s": 40.0},
+        {"start_s": 44.0, "end_s": 50.0},
+        {"start_s": 45.0, "end_s": 49.0},
+    ]
+    free = study_timeline.kernel_free(calls, 52.5)
+    assert free == [[0.0, 1.5], [30.0, 30.8], [40.0, 44.0], [50.0, 52.5]]
+    assert study_timeline.kernel_free(calls[:1], 30.05) == [[0.0, 1.5]]
+
+
 def test_study_timeline_wrappers_take_what_the_wrapped_methods_take(monkeypatch):
     # the timeline's wrapper of SimulationModel.run_ahead must pass on every argument the
     # study gives it (a parameter added to run_ahead broke the whole benchmark once)
