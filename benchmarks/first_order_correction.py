@@ -25,7 +25,7 @@ fraction of max(local cut width, 0.1 x the level's widest cut). CPU seconds: the
 runs (with the modal sample's logging run and its reference pair), the tighter model's
 logging run, and the runs each estimate of the slope adds.
 
-``--quick``: 1 ms, study 1, rtol 1e-2 (the smoke test's mode).
+``--quick``: 0.3 ms (brake_bands' ``QUICK_T_END``), study 1, rtol 1e-2 (the smoke test's mode).
 """
 
 from __future__ import annotations
@@ -36,7 +36,14 @@ import time
 
 import numpy as np
 from bench_common import load_average
-from brake_bands import LEVELS, OUTPUTS, plan_deviation, reference_bands, study_parameters
+from brake_bands import (
+    LEVELS,
+    OUTPUTS,
+    QUICK_T_END,
+    plan_deviation,
+    reference_bands,
+    study_parameters,
+)
 
 import fuzzymbs
 from fuzzymbs.models.brake import DiscBrake
@@ -158,7 +165,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
-    t_end = 1e-3 if args.quick else 1e-2
+    t_end = QUICK_T_END if args.quick else 1e-2
     studies = (1,) if args.quick else tuple(args.studies)
     rtols = (1e-2,) if args.quick else tuple(args.rtol)
     figures: dict = {"load_average_start": load_average(), "t_end_s": t_end}

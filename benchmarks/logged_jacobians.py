@@ -13,7 +13,7 @@ difference over the samples' spread, and each way's band error against the same 
 rtol 1e-6 on each sample's own steps (cached in benchmarks/.cache by brake_bands.py),
 the modal sample's reference added to both. Also the log's rows and size.
 
-``--quick``: 1 ms, study 1 only (the smoke test's mode).
+``--quick``: 0.3 ms (brake_bands' ``QUICK_T_END``), study 1 only (the smoke test's mode).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 from bench_common import load_average
-from brake_bands import OUTPUTS, reduced_plan, reference_bands, shared_step_deviation
+from brake_bands import OUTPUTS, QUICK_T_END, reduced_plan, reference_bands, shared_step_deviation
 
 from fuzzymbs.mbs.integrate import simulate
 from fuzzymbs.models.brake import DiscBrake
@@ -83,7 +83,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--studies", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
-    t_end = 1e-3 if args.quick else 1e-2
+    t_end = QUICK_T_END if args.quick else 1e-2
     studies = (1,) if args.quick else tuple(args.studies)
     figures: dict = {"load_average_start": load_average(), "t_end_s": t_end}
     for study in studies:

@@ -54,16 +54,16 @@ KERNELS_FIRST = (
 # slider-crank, the mechanisms guide: 65 s of compiling `integrate_blocks` alone) share a
 # group: in two groups both processes compiled them at once (88 and 190 s side by side).
 LONG_FIRST = (
-    (  # the planar and spatial kernels' first calls (124 and 103 s), 64, 59 and 59 s
+    (  # the planar and spatial kernels' first calls (128 and 104 s), 59 and 59 s
         "tests/mbs/planar/test_closed_loops.py::"
         "test_driven_rigid_slider_crank_matches_its_kinematics",
         "tests/mbs/planar/test_docs.py::test_mechanisms_guide_examples_run",
         "tests/models/test_brake_slow.py::test_study1_runs_and_nodal_force_dominates_the_pads",
         "tests/models/test_brake_slow.py::"
         "test_the_checks_re_runs_made_ahead_are_the_checks_bit_for_bit",
-        "tests/test_benchmarks_smoke.py::test_gear_dynamic_reports_cost_and_each_laws_smoothness",
     ),
-    (  # 148 (with the rtol 1e-6 reference), 52, 40, 54 and 22 s
+    (  # 56, 50 (with the rtol 1e-6 reference over 0.3 ms), 48, 57, 53 and 28 s
+        "tests/test_benchmarks_smoke.py::test_gear_dynamic_reports_cost_and_each_laws_smoothness",
         "tests/test_benchmarks_smoke.py::test_brake_bands_quick_runs",
         "tests/mbs/test_shared_steps.py::test_shared_steps_bring_loose_bands_to_the_tight_ones",
         "tests/fuzzy/test_extremum_confirmation.py::test_a_sharp_ridge_is_found_or_reported[case1]",

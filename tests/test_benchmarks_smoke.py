@@ -450,7 +450,7 @@ def test_reference_extrapolation_runs():
 
 @pytest.mark.slow
 def test_brake_bands_quick_runs():
-    # 1 ms: a sample alone and beside others is bit-identical; the bands' error against
+    # 0.3 ms: a sample alone and beside others is bit-identical; the bands' error against
     # rtol 1e-6 falls with the tolerance (ROS34PW2's error ~ rtol^0.88, docs/brake.md)
     import brake_bands
 
@@ -588,7 +588,7 @@ def test_first_order_slopes_recover_a_linear_error_field():
 
 @pytest.mark.slow
 def test_first_order_correction_quick_removes_the_slope_it_measured():
-    # 1 ms, study 1, rtol 1e-2: the central-difference correction leaves the model's
+    # 0.3 ms, study 1, rtol 1e-2: the central-difference correction leaves the model's
     # slope relative to its tenfold tighter model at round-off (its sign and scale)
     import first_order_correction
 
@@ -600,7 +600,7 @@ def test_first_order_correction_quick_removes_the_slope_it_measured():
 
 @pytest.mark.slow
 def test_logged_jacobians_quick_compares_both_ways():
-    # 1 ms, study 1: the log's samples evaluate almost no Jacobian of their own and stay
+    # 0.3 ms, study 1: the log's samples evaluate almost no Jacobian of their own and stay
     # within a small fraction of the samples' spread of their own-Jacobian runs
     import logged_jacobians
 
