@@ -54,7 +54,7 @@ KERNELS_FIRST = (
 # slider-crank, the mechanisms guide: 65 s of compiling `integrate_blocks` alone) share a
 # group: in two groups both processes compiled them at once (88 and 190 s side by side).
 LONG_FIRST = (
-    (  # the planar and spatial kernels' first calls (128 and 104 s), 59 and 59 s
+    (  # the planar and spatial kernels' first calls (119 and 87 s), 65 and 64 s
         "tests/mbs/planar/test_closed_loops.py::"
         "test_driven_rigid_slider_crank_matches_its_kinematics",
         "tests/mbs/planar/test_docs.py::test_mechanisms_guide_examples_run",
@@ -62,7 +62,7 @@ LONG_FIRST = (
         "tests/models/test_brake_slow.py::"
         "test_the_checks_re_runs_made_ahead_are_the_checks_bit_for_bit",
     ),
-    (  # 56, 50 (with the rtol 1e-6 reference over 0.3 ms), 48, 57, 53 and 28 s
+    (  # 50, 56 (with the rtol 1e-6 reference over 0.3 ms), 49, 46, 58 and under 19 s
         "tests/test_benchmarks_smoke.py::test_gear_dynamic_reports_cost_and_each_laws_smoothness",
         "tests/test_benchmarks_smoke.py::test_brake_bands_quick_runs",
         "tests/mbs/test_shared_steps.py::test_shared_steps_bring_loose_bands_to_the_tight_ones",
