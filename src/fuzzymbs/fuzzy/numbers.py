@@ -388,14 +388,30 @@ def _linear_cut(
     """Cut of a linear branch pair: exact at mu = 0 and 1, monotone in mu, never past the core.
 
     ``lower + mu (core_lower - lower)`` can round past ``core_lower``; the clamp
-    keeps the cuts nested and the core exactly ``[core_lower, core_upper]``.
+    keeps the cuts nested and the core exactly ``[core_lower, core_upper]``. On a
+    branch only a few ulps wide it can also round back to ``lower``, whose membership
+    is 0: such a bound moves towards the core until its membership is at least mu
+    (:func:`_onto_level`).
     """
     if mu == 1.0:
         return core_lower, core_upper
     return (
-        min(lower + mu * (core_lower - lower), core_lower),
-        max(upper - mu * (upper - core_upper), core_upper),
+        _onto_level(min(lower + mu * (core_lower - lower), core_lower), mu, lower, core_lower),
+        _onto_level(max(upper - mu * (upper - core_upper), core_upper), mu, upper, core_upper),
     )
+
+
+def _onto_level(bound: float, mu: float, start: float, core: float) -> float:
+    """``bound`` moved ulp by ulp towards ``core`` while its membership on the branch
+    from ``start`` (0) to ``core`` (1) is below mu by more than round-off (1e-9). Only a
+    branch narrower than about 5e8 ulps of its values can fall short by that much, and
+    one ulp then adds more than the shortfall: at most two steps."""
+    width = core - start
+    if width == 0.0:
+        return bound
+    while (bound - start) / width < mu - 1e-9 and bound != core:
+        bound = float(np.nextafter(bound, core))
+    return bound
 
 
 def _trapezoid_membership(
