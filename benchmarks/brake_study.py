@@ -69,8 +69,9 @@ LEVELS = [0.0, 0.25, 0.5, 0.75, 1.0]
 
 @numba.njit
 def _repeat_rhs(n, x, dx, p, data, work):
+    t = np.full(LANES, 1e-4)  # a time per lane, as the package's integrators pass it
     for _ in range(n):
-        rhs.rhs(1e-4, x, dx, p, data, work)
+        rhs.rhs(t, x, dx, p, data, work)
 
 
 @numba.njit

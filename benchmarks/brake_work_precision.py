@@ -133,7 +133,7 @@ def scipy_run(compiled, sample: dict[str, float], t_end, method, rtol, budget):
 
     def jac(t, x):
         xl[:] = np.repeat(x, L)
-        jacobian(t, xl, pl, compiled.data, work, dxl, jq, jv)
+        jacobian(np.full(L, t), xl, pl, compiled.data, work, dxl, jq, jv)
         full[n:, :n] = jq.reshape(n, n, L)[:, :, 0]
         full[n:, n:] = jv.reshape(n, n, L)[:, :, 0]
         return full.copy()

@@ -51,9 +51,11 @@ def _count_shared(sysdata, rows, n_steps, dt, every, counts):
     k3 = np.empty_like(x)
     k4 = np.empty_like(x)
     xt = np.empty_like(x)
+    clock = np.empty(lanes)  # the lanes' time, as the package's RK4 passes it
     for step in range(n_steps):
         t = step * dt
-        rhs.rhs(t, x, k1, p, sysdata, work)  # also the node kinematics of x
+        clock[:] = t
+        rhs.rhs(clock, x, k1, p, sysdata, work)  # also the node kinematics of x
         if step % every == 0:
             chart_uv = work[9]
             for c in range(ci.shape[0]):
@@ -79,13 +81,15 @@ def _count_shared(sysdata, rows, n_steps, dt, every, counts):
                     counts[c, 1] += 1
         for m in range(x.size):
             xt[m] = x[m] + 0.5 * dt * k1[m]
-        rhs.rhs(t + 0.5 * dt, xt, k2, p, sysdata, work)
+        clock[:] = t + 0.5 * dt
+        rhs.rhs(clock, xt, k2, p, sysdata, work)
         for m in range(x.size):
             xt[m] = x[m] + 0.5 * dt * k2[m]
-        rhs.rhs(t + 0.5 * dt, xt, k3, p, sysdata, work)
+        rhs.rhs(clock, xt, k3, p, sysdata, work)
         for m in range(x.size):
             xt[m] = x[m] + dt * k3[m]
-        rhs.rhs(t + dt, xt, k4, p, sysdata, work)
+        clock[:] = t + dt
+        rhs.rhs(clock, xt, k4, p, sysdata, work)
         for m in range(x.size):
             x[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
 

@@ -30,14 +30,16 @@ L = LANES
 
 @nb.njit
 def rhs_calls(count, x, dx, p, data, work):
+    t = np.full(L, 1e-4)  # a time per lane, as the package's integrators pass it
     for _ in range(count):
-        rhs(1e-4, x, dx, p, data, work)
+        rhs(t, x, dx, p, data, work)
 
 
 @nb.njit
 def _jacobian_calls(count, x, dx, p, data, work, jq, jv):
+    t = np.full(L, 1e-4)
     for _ in range(count):
-        jacobian(1e-4, x, p, data, work, dx, jq, jv)
+        jacobian(t, x, p, data, work, dx, jq, jv)
 
 
 @nb.njit

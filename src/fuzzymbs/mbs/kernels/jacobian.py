@@ -136,6 +136,9 @@ def _contact_points(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv, scrat
     jrec, jnodes = work[10], work[11]
     w_rows, kq_rows, kv_rows = work[13], work[14], work[15]
     wl, wql, point_w, point_kq, point_kv, masked, masters, cols = scratch
+    # the counters and offsets passed below are int64 from the start: a literal 0 or 3
+    # (or a counter first typed as one) would compile each callee once more per literal
+    zero, point_stride = np.int64(0), np.int64(3)
     row0 = 0
     for c in range(ci.shape[0]):
         nslave = ci[c, C_NSLAVE]
@@ -147,13 +150,13 @@ def _contact_points(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv, scrat
         if mb == sb:
             cols2, cols3 = cols1, cols1
         ranges = (cols0, cols1, cols2, cols3)
-        ncol = 0
+        ncol = zero
         for half in range(2):
             for col in range(ranges[2 * half], ranges[2 * half + 1]):
                 cols[ncol] = col
                 ncol += 1
         stride = 3 * nslave  # gathered rows per column
-        rows = 0
+        rows = zero
         for k in range(nslave):
             base = L * JREC * (row0 + k)
             # the usual case: one set of master nodes for all lanes, one vector pass; else
@@ -185,8 +188,8 @@ def _contact_points(n, bi, bf, fpool, ipool, ci, rot, rot_a, work, jq, jv, scrat
                 for q in range(4):
                     masters[q] = jnodes[L * 4 * (row0 + k) + L * q + lane]
                 _contact_point_lanes(
-                    n, bi, bf, fpool, rot, rot_a, masked, 0, slaves[k], masters, sb, mb,
-                    ranges, wl, wql, cols, ncol, 3, 0, point_w, point_kq, point_kv,
+                    n, bi, bf, fpool, rot, rot_a, masked, zero, slaves[k], masters, sb, mb,
+                    ranges, wl, wql, cols, ncol, point_stride, zero, point_w, point_kq, point_kv,
                 )  # fmt: skip
                 _copy_lane(point_w, point_kq, point_kv, ncol, stride, rows, lane,
                            w_rows, kq_rows, kv_rows)  # fmt: skip

@@ -74,6 +74,12 @@ def _profile_lanes(fpool, ptab, k, t):
     if isinstance(t, types.Array):
 
         def lane_times(fpool, ptab, k, t):
+            shared = True
+            for lane in range(1, L):
+                shared = shared and t[lane] == t[0]
+            if shared:  # lanes on one clock (RK4, shared steps): one evaluation serves all
+                value, integral, slope = profile_value(fpool, ptab, k, t[0])
+                return V.splat(value), V.splat(integral), V.splat(slope)
             value, integral, slope = V.splat(0.0), V.splat(0.0), V.splat(0.0)
             for lane in range(L):
                 v, i, s = profile_value(fpool, ptab, k, t[lane])

@@ -283,9 +283,9 @@ def rhs_sample(t, x, p, sysdata, work):
     for lane in range(L):
         set_lane(xl, lane, x)
         set_lane(pl, lane, p)
-    rhs(t, xl, dxl, pl, sysdata, work)
+    rhs(np.full(L, t), xl, dxl, pl, sysdata, work)
     dx = np.empty(nstate)
-    get_lane(dxl, 0, dx)
+    get_lane(dxl, np.int64(0), dx)  # lane 0 as an int64: a literal would compile it again
     return dx
 
 
@@ -314,6 +314,7 @@ def rhs_blocks(sysdata, params, rows, times, states, out, start, stop):
     x = np.empty(nstate * L)
     dx = np.empty(nstate * L)
     p = np.empty(nslots * L)
+    clock = np.empty(L)
     for block in range(start, stop):
         first = block * L
         count = min(L, m - first)
@@ -327,6 +328,7 @@ def rhs_blocks(sysdata, params, rows, times, states, out, start, stop):
                 src = first + (min(lane, count - 1) if same_time else g)
                 set_lane(x, lane, states[src])
                 set_lane(p, lane, params[rows[src]])
-            rhs(times[first + (0 if same_time else g)], x, dx, p, sysdata, work)
+            clock[:] = times[first + (0 if same_time else g)]
+            rhs(clock, x, dx, p, sysdata, work)
             for lane in range(count if same_time else 1):
                 get_lane(dx, lane, out[first + (lane if same_time else g)])

@@ -173,6 +173,9 @@ def advance_block(sysdata, timing, recording, first, count, state, step_begin, s
     k1, k2, k3, k4, xt = stages[0], stages[1], stages[2], stages[3], stages[4]
     nstate = x.shape[0] // L
     size = nstate * L
+    # the lanes' time, one clock for all: the right-hand side takes a time per lane, as
+    # the adaptive integrators' lanes keep their own (one compiled form of it, not two)
+    clock = np.empty(L)
     for step in range(step_begin, step_end):
         t = t0 + step * dt
         if step % record_every == 0:
@@ -181,16 +184,19 @@ def advance_block(sysdata, timing, recording, first, count, state, step_begin, s
                 return False
         if step == n_steps:
             return False
-        rhs(t, x, k1, p, sysdata, work)
+        clock[:] = t
+        rhs(clock, x, k1, p, sysdata, work)
         for m in range(size):
             xt[m] = x[m] + 0.5 * dt * k1[m]
-        rhs(t + 0.5 * dt, xt, k2, p, sysdata, work)
+        clock[:] = t + 0.5 * dt
+        rhs(clock, xt, k2, p, sysdata, work)
         for m in range(size):
             xt[m] = x[m] + 0.5 * dt * k2[m]
-        rhs(t + 0.5 * dt, xt, k3, p, sysdata, work)
+        rhs(clock, xt, k3, p, sysdata, work)
         for m in range(size):
             xt[m] = x[m] + dt * k3[m]
-        rhs(t + dt, xt, k4, p, sysdata, work)
+        clock[:] = t + dt
+        rhs(clock, xt, k4, p, sysdata, work)
         bad = V.splat(0.0)
         for i in range(nstate):
             m = L * i

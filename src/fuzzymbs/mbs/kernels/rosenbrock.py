@@ -284,7 +284,8 @@ def advance_block_ros(
         for lane in range(L):
             t[lane] = t0
             next_rec[lane] = 1.0
-        record(x, recording, first, count, alive, 0, t0)
+        # record 0 as an int64: a literal 0 would compile record (and store_output) again
+        record(x, recording, first, count, alive, np.int64(0), t0)
         for k in range(nsens):
             for lane in range(L):
                 pending[lane] = lane < count and alive[lane]

@@ -317,7 +317,7 @@ def run_sample(
     if not rates(t, x, layout, data, user_force, scratch, k[0]):
         return NOT_FINITE, 0, 0, worst
     h = first_step
-    accepted = 0
+    accepted = np.int64(0)  # not a literal 0: replayed_step would compile once more
     rejected = 0
     for out in range(1, times.size):
         target = times[out]

@@ -372,11 +372,13 @@ def joint_terms(t, layout, data, q, v, jac, residual, quadratic, rate, accelerat
             # sin(phi - f) = c (x_j . y_i) - s (x_j . x_i), phi the turn of x_j about z_i
             jac_one = np.zeros(jac.shape[1])
             jac_two = np.zeros(jac.shape[1])
+            # int64, not literals: each literal argument would compile _dot1 once more
+            zero, one = np.int64(0), np.int64(1)
             d1, q1 = _dot1(
-                ki, kj, 1, 0, q, markers, bodies, geo_i, geo_j, 0, jac_one.reshape((1, -1))
+                ki, kj, one, zero, q, markers, bodies, geo_i, geo_j, zero, jac_one.reshape((1, -1))
             )
             d2, q2 = _dot1(
-                ki, kj, 0, 0, q, markers, bodies, geo_i, geo_j, 0, jac_two.reshape((1, -1))
+                ki, kj, zero, zero, q, markers, bodies, geo_i, geo_j, zero, jac_two.reshape((1, -1))
             )
             rate1 = 0.0
             rate2 = 0.0

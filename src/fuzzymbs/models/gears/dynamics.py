@@ -281,7 +281,7 @@ def _derivatives(state, torque_in, torque_load, g, pairs, z1, z2, p, out):
     kt1, kt2, ct1, ct2 = p[5], p[6], p[7], p[8]
     inertia1, inertia2, jh1, jh2 = p[9], p[10], p[11], p[12]
     theta1, theta2, omega1, omega2 = state[0], state[1], state[2], state[3]
-    b1 = 4
+    b1 = np.int64(4)  # not a literal 4: _gear_rates would compile once per call site
     b2 = 4 + z1
     r1 = 4 + z1 + z2
     r2 = 4 + 2 * z1 + z2
