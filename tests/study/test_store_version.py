@@ -1,5 +1,6 @@
 """Chunk store and code version: chunks of other fuzzymbs versions or model sources never mix."""
 
+import ast
 import json
 import logging
 import shutil
@@ -182,10 +183,56 @@ def test_digest_changes_with_imported_source_only(tmp_path, monkeypatch):
         handle.write("\n# now imported\n")
     assert code_version.source_digest(modules) != linked
 
-    (copy / "errors.py").write_text(
-        "def broken(:\n"
-    )  # unparsable: no digest rather than a partial one
+    # a file that does not parse still counts with its bytes
+    (copy / "errors.py").write_text("def broken(:\n")
+    assert code_version.source_digest(modules) not in (None, before, linked)
+    # one that cannot be read: no digest rather than a partial one
+    read_bytes = Path.read_bytes
+
+    def refuse_errors_py(path):
+        if path == copy / "errors.py":
+            raise PermissionError(f"cannot read {path}")
+        return read_bytes(path)
+
+    monkeypatch.setattr(Path, "read_bytes", refuse_errors_py)
     assert code_version.source_digest(modules) is None
+
+
+def _imports_of_the_syntax_tree(path, module):
+    """The fuzzymbs modules ``path`` may import, read from its whole syntax tree (the
+    reference for the line scan of fuzzymbs.study.code_version)."""
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    names = set()
+    for node in ast.walk(ast.parse(path.read_bytes())):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - (node.level - 1)]
+                base = ".".join([*anchor, node.module] if node.module else anchor)
+            names.add(base)
+            names.update(f"{base}.{alias.name}" for alias in node.names)
+    return {name for name in names if name.startswith("fuzzymbs.")}
+
+
+def test_the_import_scan_finds_what_the_syntax_tree_holds_in_every_module():
+    # the digest follows imports found by scanning import lines outside docstrings
+    # (twelve times faster than parsing whole files); in this package it must find
+    # exactly the imports of each file's full syntax tree, docstring examples left out
+    checked = 0
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+        module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        scanned = code_version._imported_modules(
+            code_version._import_statements(path.read_bytes()),
+            module,
+            path.name == "__init__.py",
+        )
+        found = {name for name in scanned if name.startswith("fuzzymbs.")}
+        assert found == _imports_of_the_syntax_tree(path, module), module
+        checked += 1
+    assert checked > 150
 
 
 def test_cli_refuses_other_code_and_fresh_recomputes(tmp_path):
