@@ -255,3 +255,37 @@ def test_cli_refuses_other_code_and_fresh_recomputes(tmp_path):
         assert runner.invoke(app, [*command, "--fresh"]).exit_code == 0
         assert runner.invoke(app, command).exit_code == 0  # recorded again: resumes
     assert _manifest_code(out / "chunks")["fuzzymbs_version"] == fuzzymbs.__version__
+
+
+def test_the_import_scan_reads_continued_indented_and_commented_imports_only():
+    source = b'''"""A module.
+
+    import fuzzymbs.fe
+"""
+from fuzzymbs.fuzzy import (
+    numbers,
+    transform,
+)
+from fuzzymbs.errors import \\
+    InvalidParameterError
+from fuzzymbs import version  # (a "(" in a comment
+
+TEXT = """
+from fuzzymbs.study import store
+"""
+
+
+def late():
+    import fuzzymbs.mbs.system
+'''
+    statements = code_version._import_statements(source)
+    names = code_version._imported_modules(statements, "fuzzymbs.sample", False)
+    assert {name for name in names if name.count(".") == 1} == {
+        "fuzzymbs.fuzzy",
+        "fuzzymbs.errors",
+        "fuzzymbs.version",
+    }
+    assert {"fuzzymbs.fuzzy.numbers", "fuzzymbs.fuzzy.transform"} <= names
+    assert "fuzzymbs.mbs.system" in names  # inside a function
+    # inside the docstring and the string: not code
+    assert not {"fuzzymbs.fe", "fuzzymbs.study.store"} & names

@@ -8,8 +8,8 @@ The source digest covers models defined inside the fuzzymbs package (the
 built-in models, or a model object or ``"fuzzymbs...:factory"`` reference whose
 code lives in fuzzymbs): the SHA-256 of the ``.py`` files of the model's
 modules and of every fuzzymbs module they import, followed transitively
-through the ``import`` statements (read with :mod:`ast`, nothing is
-imported). Names a package re-exports lazily by string (``fuzzymbs.mbs``'s
+through the ``import`` statements (their lines read with :mod:`ast`, nothing
+is imported). Names a package re-exports lazily by string (``fuzzymbs.mbs``'s
 ``_LAZY`` table) are not followed, so model code imports the defining module
 itself. Any edit of those files, comments included, changes the digest.
 
@@ -94,8 +94,9 @@ def _import_statements(source: bytes) -> list[ast.stmt]:
         start = match.start()
         if bisect.bisect(quotes, start) % 2:
             continue  # inside a docstring
-        end = source.find(b"\n", start)
-        end = len(source) if end < 0 else end
+        line_end = source.find(b"\n", start)
+        line_end = len(source) if line_end < 0 else line_end
+        end = line_end
         line = source[start:end]
         if b"(" in line and b")" not in line:
             close = source.find(b")", end)
@@ -104,13 +105,17 @@ def _import_statements(source: bytes) -> list[ast.stmt]:
             while source[start:end].rstrip().endswith(b"\\") and end < len(source):
                 following = source.find(b"\n", end + 1)
                 end = len(source) if following < 0 else following
-        try:
-            parsed = ast.parse(source[start:end].strip())
-        except (SyntaxError, ValueError):
-            continue  # a line of a string that starts like an import
-        statements.extend(
-            node for node in parsed.body if isinstance(node, (ast.Import, ast.ImportFrom))
-        )
+        # the statement with its continuation; failing that its line alone (a "(" in a
+        # comment); failing both, a line of a string that starts like an import
+        for stop in dict.fromkeys((end, line_end)):
+            try:
+                parsed = ast.parse(source[start:stop].strip())
+            except (SyntaxError, ValueError):
+                continue
+            statements.extend(
+                node for node in parsed.body if isinstance(node, (ast.Import, ast.ImportFrom))
+            )
+            break
     return statements
 
 
