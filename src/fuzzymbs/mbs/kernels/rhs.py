@@ -121,8 +121,10 @@ def copy_lanes(src, dst, lanes):
 
 @nb.njit(cache=True, fastmath=V.FAST, error_model="numpy", _nrt=V.NO_REFCOUNT)
 def rhs(t, x, dx, p, sysdata, work):
-    """Time derivatives ``dx (2n L)`` of the lane states ``x (2n L)`` at time t (one
-    float for every lane, or an ``(L,)`` array: a time per lane).
+    """Time derivatives ``dx (2n L)`` of the lane states ``x (2n L)`` at the lanes' times
+    ``t (L,)``. Every caller in the package passes such an array (the same time in all
+    lanes where they share a clock), so that this is compiled in one form; a float
+    works too, in a form of its own.
 
     ``p (slots L)``: the lanes' parameter rows, lane-minor; ``work``: from
     :func:`make_work`. Generalised forces of springs, nodal forces and contact
