@@ -7,7 +7,7 @@ literal while Numba's type inference runs), is compiled again, and everything it
 calls with it. The Jacobian's contact helpers were compiled five times each and the
 right-hand side twice (RK4 passed one time for all lanes, the Rosenbrock methods a
 time per lane): 13 s of the 102 s a fresh process took to compile the engine's kernels
-(docs/contributing.md, "Test time"). Slow: in a fresh interpreter, which loads the
+(docs/contributing.md, "Which process compiles what"). Slow: in a fresh interpreter, which loads the
 kernels from the cache the default suite wrote (or compiles them).
 """
 
