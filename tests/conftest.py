@@ -77,12 +77,13 @@ LONG_FIRST = (
 
 @pytest.fixture
 def fresh_python():
-    """``run(code) -> stdout``: ``code`` in a new interpreter (what a process imports, what
-    it does at exit); a non-zero exit fails the test with the interpreter's stderr."""
+    """``run(code, timeout=120) -> stdout``: ``code`` in a new interpreter (what a process
+    imports, what it does at exit) within ``timeout`` seconds; a non-zero exit fails the
+    test with the interpreter's stderr."""
 
-    def run(code: str) -> str:
+    def run(code: str, timeout: float = 120) -> str:
         done = subprocess.run(
-            [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
+            [sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout
         )
         assert done.returncode == 0, done.stderr
         return done.stdout

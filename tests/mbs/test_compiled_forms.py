@@ -7,15 +7,13 @@ literal while Numba's type inference runs), is compiled again, and everything it
 calls with it. The Jacobian's contact helpers were compiled five times each and the
 right-hand side twice (RK4 passed one time for all lanes, the Rosenbrock methods a
 time per lane): 13 s of the 102 s a fresh process took to compile the engine's kernels
-(docs/contributing.md, "Which process compiles what"). Slow: in a fresh interpreter, which loads the
-kernels from the cache the default suite wrote (or compiles them).
+(docs/contributing.md, "Which process compiles what"). Slow: in a fresh interpreter,
+which loads the kernels from the cache the default suite wrote (or compiles them).
 """
 
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import pytest
 
@@ -59,12 +57,8 @@ print(json.dumps(twice))
 """
 
 
-def test_the_brakes_and_gears_kernels_compile_one_form_each():
-    # not the fresh_python fixture: its 120 s do not cover compiling all these kernels
-    # (about 110 s on the AVX2 host), which a run of the slow suite alone has to
-    done = subprocess.run(
-        [sys.executable, "-c", _RUN_EVERY_PATH], capture_output=True, text=True, timeout=900
-    )
-    assert done.returncode == 0, done.stderr
-    twice = json.loads(done.stdout.splitlines()[-1])
+def test_the_brakes_and_gears_kernels_compile_one_form_each(fresh_python):
+    # 900 s: room to compile all these kernels (about 110 s on the AVX2 host), which a run
+    # of the slow suite alone on a fresh clone has to
+    twice = json.loads(fresh_python(_RUN_EVERY_PATH, timeout=900).splitlines()[-1])
     assert twice == {}, "compiled in more than one form:\n" + json.dumps(twice, indent=1)
