@@ -24,6 +24,11 @@ start = time.perf_counter()
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.models.gears import gear_pair_model
 figures["import_seconds"] = time.perf_counter() - start
+# the model source digest a study's store records, at a fresh process's first study
+from fuzzymbs.study.code_version import source_digest
+start = time.perf_counter()
+source_digest(["fuzzymbs.models.brake.model"])
+figures["brake_source_digest_seconds"] = time.perf_counter() - start
 
 start = time.perf_counter()
 gear = gear_pair_model(positions=10)

@@ -637,3 +637,18 @@ def test_rk4_parts_reports_a_step_against_its_right_hand_sides():
     figures = rk4_parts.main(["--steps", "40", "--repeats", "1"])
     assert figures["advance_ms"] > 0 and figures["four_rhs_ms"] > 0
     assert set(figures["rk4_ms"]) == {"1 blocks", "2 blocks", "4 blocks"}
+
+
+@pytest.mark.slow
+def test_compile_events_counts_what_a_test_compiles():
+    # the script behind docs/contributing.md's compile figures, on one test that compiles
+    # the box search's climb kernel (a few seconds) in an empty cache
+    compile_events = pytest.importorskip("compile_events")
+    node = "tests/fuzzy/test_box_search.py::test_box_extremes_against_a_dense_grid"
+    result = compile_events.main([node, "--top", "5"])
+    assert result["tests"] == [node]
+    assert result["compilations"] >= result["fuzzymbs_compilations"] > 0
+    assert result["seconds"] > 0.0
+    names = [entry["function"] for entry in result["top"]]
+    assert "fuzzymbs.fuzzy.climb_kernel.climb_starts" in names
+    assert result["compiled_more_than_once"] == {}
