@@ -13,7 +13,7 @@ no symbols for ``perf``, so the script writes ``/tmp/perf-PID.map`` (the format 
 reads for JIT code) with the address range of every function compiled in this process.
 The kernels must be compiled here, not loaded from Numba's cache (loaded code carries
 no function table): run it with an empty ``NUMBA_CACHE_DIR``. docs/benchmarks.md
-("Reference counting and the contact pass's chains") reads such profiles.
+("Where RK4's time goes, function by function") reads such profiles.
 """
 
 from __future__ import annotations
