@@ -1,6 +1,7 @@
 """The certified brake studies against the paper's, end to end; prints one JSON line.
 
     python benchmarks/brake_targets.py [--rounds 2] [--studies 1 2] [--variants default rodas4]
+        [--tolerances 0.05 0.02]
 
 Each study runs as a user runs it, ``fuzzymbs run FILE --out DIR --fresh`` in a child
 process with its figures and report: the demo's certified study
@@ -8,7 +9,10 @@ process with its figures and report: the demo's certified study
 steps at the tolerance the study chooses, the time-integration check) and the paper's
 setting (``examples/brake_studyN_paper.toml``: the reduced method, RK4 at 1 us, with
 its own check runs). ``--variants rodas4`` adds the demo's study with
-``integrator = "rodas4"`` in its model options. The variants alternate, ``--rounds``
+``integrator = "rodas4"`` in its model options; ``--tolerances`` adds the demo's study
+certified to a looser share of the cut width (its ``method_tolerance`` and
+``integration_tolerance``, variants ``tol0.05`` ...: what a user screening design
+variants would run). The variants alternate, ``--rounds``
 times; per variant the smallest wall time of the process, with its CPU time (the
 child's user + system) and the study's own figures from ``result.nc`` (runs, method
 and time-integration error on the cut-width scale). The ratios certified / paper are
@@ -62,6 +66,20 @@ def with_integrator(path: Path, integrator: str, folder: Path) -> Path:
     return copy
 
 
+def with_tolerance(path: Path, tolerance: float, folder: Path) -> Path:
+    """A copy of the adaptive study file whose method and time-integration tolerances
+    (of the cut width) are ``tolerance``: its rounds stop there, and its pilot chooses
+    the integrator's tolerance for it."""
+    text = path.read_text()
+    line = 'method = "adaptive"\n'
+    if text.count(line) != 1 or "_tolerance" in text:
+        raise ValueError(f"{path} is not an adaptive study file without tolerances")
+    copy = folder / f"{path.stem}-tol{tolerance:g}.toml"
+    added = f"method_tolerance = {tolerance!r}\nintegration_tolerance = {tolerance!r}\n"
+    copy.write_text(text.replace(line, line + added))
+    return copy
+
+
 def run_file(
     path: Path,
     out: Path,
@@ -111,6 +129,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--studies", type=int, nargs="+", default=[1, 2], choices=[1, 2])
     parser.add_argument("--variants", nargs="+", default=["default"], choices=["default", "rodas4"])
+    parser.add_argument(
+        "--tolerances", type=float, nargs="*", default=[], help="also the demo at these"
+    )
     args = parser.parse_args(argv)
     figures: dict[str, Any] = {"load_average_start": load_average()}
     subprocess.run([sys.executable, "-c", _WARM_UP], check=True)
@@ -125,6 +146,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 sides[f"study{study}_rodas4"] = with_integrator(
                     FILES[study]["default"], "rodas4", root
                 )
+            for tolerance in args.tolerances:
+                sides[f"study{study}_tol{tolerance:g}"] = with_tolerance(
+                    FILES[study]["default"], tolerance, root
+                )
         runs: dict[str, list[dict]] = {name: [] for name in sides}
         for _ in range(args.rounds):
             for name, path in sides.items():
@@ -134,7 +159,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     figures["best"] = best
     for study in args.studies:
         paper = best[f"study{study}_paper"]
-        for variant in args.variants:
+        for variant in [*args.variants, *(f"tol{tol:g}" for tol in args.tolerances)]:
             mine = best[f"study{study}_{variant}"]
             figures[f"study{study}_{variant}_over_paper"] = round(
                 mine["wall_s"] / paper["wall_s"], 2

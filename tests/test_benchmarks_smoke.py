@@ -481,6 +481,22 @@ def test_brake_targets_variant_is_the_demo_with_rodas4(tmp_path):
     assert targets.FILES[1]["paper"].exists() and targets.FILES[2]["paper"].exists()
 
 
+def test_brake_targets_tolerance_variant_changes_only_the_tolerances(tmp_path):
+    # benchmarks/brake_targets.py's --tolerances: the demo's study file, its method and
+    # time-integration tolerances the only change; a file that sets them is refused
+    import tomllib
+
+    targets = pytest.importorskip("brake_targets")
+    demo = targets.FILES[2]["default"]
+    copy = targets.with_tolerance(demo, 0.05, tmp_path)
+    original, changed = (tomllib.loads(path.read_text()) for path in (demo, copy))
+    assert changed["study"].pop("method_tolerance") == 0.05
+    assert changed["study"].pop("integration_tolerance") == 0.05
+    assert changed == original
+    with pytest.raises(ValueError, match="without tolerances"):
+        targets.with_tolerance(copy, 0.02, tmp_path)
+
+
 def test_study_timeline_finds_the_intervals_without_a_kernel_call():
     # calls overlapping on two threads merge; a gap shorter than 0.1 s is not listed;
     # the start before the first call and the end after the last are (hand-computed)
