@@ -199,20 +199,16 @@ def test_digest_changes_with_imported_source_only(tmp_path, monkeypatch):
 
 
 def _imports_of_the_syntax_tree(path, module):
-    """The fuzzymbs modules ``path`` may import, read from its whole syntax tree (the
-    reference for the line scan of fuzzymbs.study.code_version)."""
-    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
-    names = set()
-    for node in ast.walk(ast.parse(path.read_bytes())):
-        if isinstance(node, ast.Import):
-            names.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                anchor = package.split(".")[: len(package.split(".")) - (node.level - 1)]
-                base = ".".join([*anchor, node.module] if node.module else anchor)
-            names.add(base)
-            names.update(f"{base}.{alias.name}" for alias in node.names)
+    """The fuzzymbs modules ``path`` may import, from every import statement of its whole
+    syntax tree (the reference for the line scan of fuzzymbs.study.code_version; the names
+    resolved by the same ``_imported_modules``, so that only the finding of the
+    statements is compared)."""
+    statements = [
+        node
+        for node in ast.walk(ast.parse(path.read_bytes()))
+        if isinstance(node, (ast.Import, ast.ImportFrom))
+    ]
+    names = code_version._imported_modules(statements, module, path.name == "__init__.py")
     return {name for name in names if name.startswith("fuzzymbs.")}
 
 
