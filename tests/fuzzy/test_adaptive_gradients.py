@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 
 from fuzzymbs.errors import ModelOutputError
+from fuzzymbs.fuzzy import adaptive_gradients
 from fuzzymbs.fuzzy.adaptive import AdaptiveTransformation
 from fuzzymbs.fuzzy.band_scale import band_miss
 from fuzzymbs.fuzzy.numbers import triangular_numbers
-from fuzzymbs.models.closed_form.hard_cases import bump3, dense_truth, valley4
+from fuzzymbs.models.closed_form.hard_cases import bump3, dense_truth, ringing3, valley4
 from fuzzymbs.models.closed_form.resonance import sdof_resonance, sdof_truth
 
 LEVELS = np.linspace(0.0, 1.0, 6)
@@ -92,3 +93,70 @@ def test_the_refinement_rests_while_the_gradients_carry_the_surrogate(case, with
     miss = max(band_miss(outcome.lower[k], outcome.upper[k], *truth[k]) for k in truth)
     assert outcome.converged and miss <= 0.011
     assert outcome.runs <= without // 2
+
+
+def _phase_model(frequency):
+    """``z(t) = cos(w x1 (1 + t)) + x2 t`` at 11 times, with its gradient: a phase that
+    moves along x1 only, linear in x2."""
+    times = np.linspace(0.0, 1.0, 11)
+
+    def model(samples):
+        x1, x2 = samples["x1"][:, None], samples["x2"][:, None]
+        phase = frequency * x1 * (1.0 + times)
+        slope_1 = -np.sin(phase) * frequency * (1.0 + times)
+        slope_2 = np.broadcast_to(times, phase.shape)
+        return {"z": np.cos(phase) + x2 * times}, {"z": np.stack((slope_1, slope_2), axis=-1)}
+
+    def truth(levels):
+        # closed form up to the cosine's range over x1's cut, taken on 20,001 points per cut
+        # (spacing 1e-4: error below 3e-7 of the cut width, (16 x 1e-4 / 2)^2 / 2)
+        lower, upper = [], []
+        for mu in levels:
+            x1 = np.linspace(-(1.0 - mu), 1.0 - mu, 20_001)[:, None]
+            cosine = np.cos(frequency * x1 * (1.0 + times))
+            lower.append(cosine.min(axis=0) - (1.0 - mu) * times)
+            upper.append(cosine.max(axis=0) + (1.0 - mu) * times)
+        return np.array(lower), np.array(upper)
+
+    return model, truth
+
+
+def test_the_grid_takes_the_derivatives_along_the_moving_phase(monkeypatch):
+    # the phase of cos(8 x1 (1 + t)) needs a fine x1 axis: once the grid holds level 3 there
+    # (9 nodes) the runs off the grid find its Hermite interpolant along x1 better than the
+    # values alone; measured: 88 runs with it, 129 with the values only, both converged
+    model, truth = _phase_model(8.0)
+    triangles = {"x1": (-1.0, 0.0, 1.0), "x2": (-1.0, 0.0, 1.0)}
+
+    def rounds():
+        engine = AdaptiveTransformation(triangular_numbers(triangles), LEVELS, 0.01, 2000, 20_000)
+        while not engine.done:
+            points = engine.next_batch()
+            if len(points) == 0:
+                break
+            engine.add(points, *model(dict(zip(engine.names, points.T, strict=True))))
+        return engine
+
+    hermite = rounds()
+    assert hermite.grid.hermite == 0  # x1
+    outcome = hermite.outcome()
+    miss = band_miss(outcome.lower["z"], outcome.upper["z"], *truth(LEVELS))
+    assert outcome.converged and miss <= 0.01
+    monkeypatch.setattr(adaptive_gradients, "_HERMITE_LEVEL", 99)  # never Hermite
+    values_only = rounds()
+    assert values_only.grid.hermite is None and values_only.outcome().converged
+    assert outcome.runs < 0.8 * values_only.runs
+
+
+@pytest.mark.slow
+def test_ringing3_takes_the_derivatives_along_its_frequency():
+    # measured (benchmarks/gradient_adaptive.py): 164 runs with the Hermite direction (217
+    # with the values only in the grid, 210 without gradients), true miss 0.07 %
+    case = ringing3()
+    engine = _rounds(case, gradients=True)
+    outcome = engine.outcome()
+    truth = dense_truth(case, LEVELS)
+    miss = max(band_miss(outcome.lower[k], outcome.upper[k], *truth[k]) for k in truth)
+    assert engine.grid.hermite == 0  # the frequency
+    assert outcome.converged and miss <= 0.011
+    assert outcome.runs <= 180

@@ -37,7 +37,9 @@ a run went beyond, surrogate bounds confirmed within the error estimate elsewher
 
 With the model's gradients (``add(points, outputs, gradients)``) the correction also
 interpolates the residual gradients at every run, grid nodes included
-(:mod:`fuzzymbs.fuzzy.hermite_correction`); without them nothing changes.
+(:mod:`fuzzymbs.fuzzy.hermite_correction`), and the sparse grid its nodes' derivatives
+along one well-resolved direction (:mod:`fuzzymbs.fuzzy.adaptive_gradients`); without
+them nothing changes.
 
 Everything is a deterministic function of the outputs added so far (no random
 numbers), so replaying stored outputs rebuilds the same rounds bit for bit.
@@ -290,7 +292,9 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         )
         fresh = [(q, row) for row, q in enumerate(nodes) if isinstance(q, tuple)]
         if fresh:
-            self.grid.set_values([q for q, _ in fresh], flat[[row for _, row in fresh]])
+            rows = [row for _, row in fresh]
+            given = None if gradients is None else slopes[rows]
+            self.grid.set_values([q for q, _ in fresh], flat[rows], given)
         self.samples = np.concatenate((self.samples, batch))
         self._units = np.concatenate((self._units, self.to_unit(batch)))
         self._values = flat if self._values is None else np.concatenate((self._values, flat))
@@ -439,6 +443,7 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
     def _build_surrogate(self) -> Surrogate:
         """The sparse grid's series and, once there are runs off the grid, the kernel
         correction through their residuals (:mod:`fuzzymbs.fuzzy.residual_correction`)."""
+        self._choose_hermite()  # with the model's gradients (adaptive_gradients.py)
         degrees, coefficients = self.grid.series()
         sloped = self._slopes is not None and bool(self._sloped.any())
         if not len(self._off_grid) and not sloped:

@@ -12,7 +12,10 @@ rounds of :class:`~fuzzymbs.fuzzy.adaptive.AdaptiveTransformation` then
 - let the sparse grid's refinement rest while the surrogate predicts the new
   runs well (:meth:`GradientRounds._settled`): its surpluses know the values
   only, and the surrogate through values and gradients is often accurate long
-  before they have decayed.
+  before they have decayed;
+- let the sparse grid interpolate its nodes' derivatives too, along one direction
+  it has refined to ``_HERMITE_LEVEL``, when that predicts the runs off the grid
+  better than the values alone (:meth:`GradientRounds._choose_hermite`).
 
 :class:`GradientRounds` is a part of the engine (its base class), kept in a file of
 its own because it is an idea of its own. Without gradients none of it acts: the
@@ -26,6 +29,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
+from fuzzymbs.fuzzy.chebyshev_grid import ChebyshevSparseGrid, evaluate_series
 from fuzzymbs.fuzzy.first_order import first_order_check, first_order_steps, open_gap
 
 __all__ = ["GradientRounds"]
@@ -37,6 +41,13 @@ __all__ = ["GradientRounds"]
 #: tolerances took bump3 107, 67, 67 runs, valley4 93, 93, 69, sdof 2 % 177, 123, 123,
 #: all within the tolerance)
 _SETTLED = 10.0
+#: the sparse grid may take its nodes' derivatives along a direction once it holds this
+#: level there (9 nodes), where a level's Hermite interpolant (degree 2 m - 1) resolves what
+#: the next level's values would. Measured (benchmarks/gradient_adaptive.py, runs with
+#: gradients; Hermite from level 0 / 2 / 3 / 4 / never): ringing3 210 / 210 / 164 / 175 / 217,
+#: bump3 144 / 105 / 67 / 67 / 67, sdof 2 % 137 / 186 / 90 / 90 / 90, 2dof 2 % - / 191 / 128 /
+#: 128 / 128: through 3 or 5 nodes the interpolant of degree 5 or 9 swings between them
+_HERMITE_LEVEL = 3
 
 
 class GradientRounds:
@@ -44,6 +55,7 @@ class GradientRounds:
     the model's gradients (the attributes below are the engine's)."""
 
     names: tuple[str, ...]
+    grid: ChebyshevSparseGrid
     errors: list[float]
     tolerance: float
     rounds: int
@@ -51,6 +63,9 @@ class GradientRounds:
     runs: int
     _slopes: NDArray[np.float64] | None
     _sloped: NDArray[np.bool_]
+    _off_grid: NDArray[np.intp]
+    _twins: NDArray[np.intp]
+    _bounds: tuple[NDArray, ...] | None
     _open_gap: bool
     _last_batch: NDArray[np.intp]
     _last_predicted: NDArray[np.float64]
@@ -84,6 +99,32 @@ class GradientRounds:
         batch = self._last_batch
         seen = self._relevant_miss(self._units[batch], self._values[batch], self._last_predicted)
         return not opened and float(seen.max(initial=0.0)) <= _SETTLED * self.tolerance
+
+    def _choose_hermite(self) -> None:
+        """With the model's gradients at every node, the sparse grid's Hermite direction:
+        of the values-only grid and the grids Hermite along a direction refined to
+        ``_HERMITE_LEVEL``, the one that predicts the runs off the grid best (they are held
+        out of the grid's series; the mean over them of the largest error over the
+        elements, on the support's cut-width scale). Values only while no direction
+        qualifies, or without gradients."""
+        grid = self.grid
+        held_out = np.setdiff1d(self._off_grid, self._twins)
+        levels = np.max(np.array(grid.indices), axis=0)
+        directions = [int(d) for d in np.flatnonzero(levels >= _HERMITE_LEVEL)]
+        if not grid.has_slopes() or not directions or not len(held_out) or self._bounds is None:
+            grid.use_hermite(None)
+            return
+        assert self._values is not None
+        scale = self._scale()[0]
+        weight = np.where(np.isfinite(scale), 1.0 / scale, 0.0)
+        best, smallest = None, np.inf
+        for direction in (None, *directions):  # a tie keeps the values only
+            grid.use_hermite(direction)
+            predicted = evaluate_series(*grid.series(), self._units[held_out])
+            miss = (np.abs(self._values[held_out] - predicted) * weight).max(axis=1)
+            if float(miss.mean()) < smallest:
+                best, smallest = direction, float(miss.mean())
+        grid.use_hermite(best)
 
     def _first_order(
         self, surrogate: tuple, bounds: tuple[NDArray, ...], near: float

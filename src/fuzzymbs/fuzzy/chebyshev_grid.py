@@ -19,6 +19,11 @@ Practice, ch. 3, for Chebyshev interpolation on Chebyshev points):
   of the 1-D ``U``); with nested nodes ``A_I`` interpolates at every node of ``I``.
   Summed in Chebyshev form ``A_I`` is a single series: a matrix of coefficients
   (one row per multi-degree, one column per output element).
+* With the model's first derivatives at the nodes, ``U_l`` along one direction can
+  be the Hermite interpolant instead: values and derivatives at the same ``m_l``
+  nodes, degree ``2 m_l - 1`` (:meth:`ChebyshevSparseGrid.use_hermite`). Along one
+  direction only: a tensor product of Hermite interpolants in two directions would
+  need the mixed derivatives.
 * Refinement adds forward neighbours ``k + e_i`` whose backward neighbours are all
   in ``I`` (admissible); which ones, is the caller's choice (the surpluses ``Delta_k``
   of the newest indices are the error indicator).
@@ -75,6 +80,18 @@ def _to_coefficients(level: int) -> NDArray[np.float64]:
     return inverse
 
 
+@cache
+def _hermite_to_coefficients(level: int) -> NDArray[np.float64]:
+    """(2m, 2m) matrix from the values and then the first derivatives at the m nodes of
+    ``level`` to the Chebyshev coefficients of their Hermite interpolant (degree ``2m - 1``;
+    condition numbers 26, 81, 277, 1065 and 4473 at levels 1 to 5)."""
+    x = node_values(_positions(level))
+    value, slope = chebyshev_basis(x, 2 * len(x) - 1, derivative=True)
+    inverse = np.linalg.inv(np.vstack((value, slope)))
+    inverse.setflags(write=False)
+    return inverse
+
+
 def chebyshev_basis(
     x: NDArray[np.float64], degree: int, derivative: bool = False
 ) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -121,6 +138,9 @@ class ChebyshevSparseGrid:
         The multi-indices in the order they were added (downward closed).
     expanded : set of tuple of int
         Indices whose forward neighbours were offered (the "old" set).
+    hermite : int or None
+        The direction along which the interpolant takes the nodes' derivatives too
+        (:meth:`use_hermite`), None for values only.
     """
 
     def __init__(self, dimension: int, frozen: Iterable[int] = ()) -> None:
@@ -131,7 +151,11 @@ class ChebyshevSparseGrid:
         self.expanded: set[tuple[int, ...]] = set()
         self._row: dict[tuple[int, ...], int] = {}  # node positions -> row of values
         self._values: NDArray[np.float64] | None = None
-        self._tensor: dict[tuple[int, ...], NDArray[np.float64]] = {}
+        # per row of values its first derivatives (E, n) on the cube, NaN where not given
+        self._slopes: NDArray[np.float64] | None = None
+        self.hermite: int | None = None
+        # tensor coefficients per (index, Hermite direction)
+        self._tensor: dict[tuple[tuple[int, ...], int | None], NDArray[np.float64]] = {}
         self._series: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
 
     # ------------------------------------------------------------- index sets
@@ -183,23 +207,58 @@ class ChebyshevSparseGrid:
         """``index`` is in the set."""
         return index in self._index_set
 
-    def set_values(self, positions: list[tuple[int, ...]], values: NDArray[np.float64]) -> None:
-        """The model's outputs (P, E) at node positions."""
+    def set_values(
+        self,
+        positions: list[tuple[int, ...]],
+        values: NDArray[np.float64],
+        slopes: NDArray[np.float64] | None = None,
+    ) -> None:
+        """The model's outputs (P, E) at node positions, and optionally their first
+        derivatives (P, E, n) with respect to the cube's coordinates."""
         values = np.asarray(values, dtype=float).reshape(len(positions), -1)
+        if slopes is None:
+            slopes = np.full((*values.shape, self.dimension), np.nan)
+        slopes = np.asarray(slopes, dtype=float).reshape(*values.shape, self.dimension)
         start = 0 if self._values is None else len(self._values)
         for offset, q in enumerate(positions):
             self._row[q] = start + offset
         self._values = values if self._values is None else np.concatenate((self._values, values))
+        self._slopes = slopes if self._slopes is None else np.concatenate((self._slopes, slopes))
         self._series = None
+
+    def use_hermite(self, direction: int | None) -> None:
+        """Interpolate the values and first derivatives along ``direction``, the values
+        only along the others; None: the values only everywhere.
+
+        Raises
+        ------
+        ValueError
+            A direction out of range, or a node without its derivatives.
+        """
+        if direction is not None:
+            if not 0 <= direction < self.dimension:
+                raise ValueError(f"direction {direction} is not one of 0..{self.dimension - 1}")
+            if self._slopes is None or np.isnan(self._slopes[..., direction]).any():
+                raise ValueError("a Hermite direction needs the derivatives at every node")
+        if direction != self.hermite:
+            self.hermite = direction
+            self._series = None
+
+    def has_slopes(self) -> bool:
+        """Every node carries its first derivatives (given to :meth:`set_values`)."""
+        return self._slopes is not None and not np.isnan(self._slopes).any()
 
     def has_values(self, index: tuple[int, ...]) -> bool:
         """Every node of ``index`` has a value."""
         return all(q in self._row for q in self.new_nodes(index))
 
     # ---------------------------------------------------------------- series
-    def _tensor_coefficients(self, index: tuple[int, ...]) -> NDArray[np.float64]:
-        """Chebyshev coefficients (m_1, ..., m_n, E) of the tensor interpolant ``U_index``."""
-        known = self._tensor.get(index)
+    def _tensor_coefficients(
+        self, index: tuple[int, ...], hermite: int | None = None
+    ) -> NDArray[np.float64]:
+        """Chebyshev coefficients (m_1, ..., m_n, E) of the tensor interpolant ``U_index``,
+        ``2 m`` of them along the ``hermite`` direction (values and derivatives)."""
+        known = self._tensor.get((index, hermite))
         if known is not None:
             return known
         axes = [_positions(k) for k in index]
@@ -207,13 +266,19 @@ class ChebyshevSparseGrid:
         assert self._values is not None
         shape = tuple(len(a) for a in axes)
         values = self._values[rows].reshape(*shape, -1)
-        coefficients = _apply_along(values, [_to_coefficients(k) for k in index])
-        self._tensor[index] = coefficients
+        matrices = [_to_coefficients(k) for k in index]
+        if hermite is not None:
+            assert self._slopes is not None
+            slopes = self._slopes[rows, :, hermite].reshape(*shape, -1)
+            values = np.concatenate((values, slopes), axis=hermite)
+            matrices[hermite] = _hermite_to_coefficients(index[hermite])
+        coefficients = _apply_along(values, matrices)
+        self._tensor[(index, hermite)] = coefficients
         return coefficients
 
     def surplus(self, index: tuple[int, ...]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         """``Delta_index`` as (degrees (D, n), coefficients (D, E)) of its Chebyshev series."""
-        own = self._tensor_coefficients(index)
+        own = self._tensor_coefficients(index, self.hermite)
         total = own.copy()
         for step in product((0, 1), repeat=self.dimension):
             if not any(step):
@@ -221,7 +286,7 @@ class ChebyshevSparseGrid:
             back = tuple(k - s for k, s in zip(index, step, strict=True))
             if min(back) < 0:
                 continue
-            coefficients = self._tensor_coefficients(back)
+            coefficients = self._tensor_coefficients(back, self.hermite)
             region = tuple(slice(0, m) for m in coefficients.shape[:-1])
             total[region] += (-1) ** sum(step) * coefficients
         degrees = np.indices(own.shape[:-1]).reshape(self.dimension, -1).T
@@ -229,8 +294,12 @@ class ChebyshevSparseGrid:
 
     def series(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         """The interpolant of the whole set: (degrees (D, n), coefficients (D, E))."""
-        if self._series is not None:
-            return self._series
+        if self._series is None:
+            self._series = self._combined(self.hermite)
+        return self._series
+
+    def _combined(self, hermite: int | None) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """The combination formula's series, Hermite along ``hermite`` (None: values only)."""
         members = self._index_set
         rows: dict[tuple[int, ...], int] = {}
         blocks: list[tuple[list[int], NDArray[np.float64]]] = []
@@ -241,7 +310,7 @@ class ChebyshevSparseGrid:
                     weight += (-1) ** sum(step)
             if weight == 0:
                 continue
-            coefficients = self._tensor_coefficients(index)
+            coefficients = self._tensor_coefficients(index, hermite)
             degrees = np.indices(coefficients.shape[:-1]).reshape(self.dimension, -1).T
             where = []
             for d in map(tuple, degrees.tolist()):
@@ -254,8 +323,7 @@ class ChebyshevSparseGrid:
         for where, block in blocks:
             total[where] += block
         degrees_all = np.array(list(rows), dtype=np.int64).reshape(len(rows), self.dimension)
-        self._series = (degrees_all, total)
-        return self._series
+        return degrees_all, total
 
     def node_count(self) -> int:
         """Nodes with a value."""
