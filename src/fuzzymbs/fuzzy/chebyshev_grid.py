@@ -294,12 +294,8 @@ class ChebyshevSparseGrid:
 
     def series(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         """The interpolant of the whole set: (degrees (D, n), coefficients (D, E))."""
-        if self._series is None:
-            self._series = self._combined(self.hermite)
-        return self._series
-
-    def _combined(self, hermite: int | None) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-        """The combination formula's series, Hermite along ``hermite`` (None: values only)."""
+        if self._series is not None:
+            return self._series
         members = self._index_set
         rows: dict[tuple[int, ...], int] = {}
         blocks: list[tuple[list[int], NDArray[np.float64]]] = []
@@ -310,7 +306,7 @@ class ChebyshevSparseGrid:
                     weight += (-1) ** sum(step)
             if weight == 0:
                 continue
-            coefficients = self._tensor_coefficients(index, hermite)
+            coefficients = self._tensor_coefficients(index, self.hermite)
             degrees = np.indices(coefficients.shape[:-1]).reshape(self.dimension, -1).T
             where = []
             for d in map(tuple, degrees.tolist()):
@@ -323,7 +319,8 @@ class ChebyshevSparseGrid:
         for where, block in blocks:
             total[where] += block
         degrees_all = np.array(list(rows), dtype=np.int64).reshape(len(rows), self.dimension)
-        return degrees_all, total
+        self._series = (degrees_all, total)
+        return self._series
 
     def node_count(self) -> int:
         """Nodes with a value."""
