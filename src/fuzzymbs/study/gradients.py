@@ -42,11 +42,12 @@ __all__ = [
 #: ``gradients = "auto"`` asks for a model's gradients only where a run with them costs at
 #: most this many runs without (``1 + n gradient_cost``). The break-even is the harmonic
 #: mean of the measured savings ``runs without / runs with`` (at that run cost the cases
-#: take on average as much CPU with gradients as without): 1.88 on the nine closed-form
-#: cases of docs/fuzzy.md (0.97 for ringing3 to 3.48 for bump3), 1.41 with the brake's
+#: take on average as much CPU with gradients as without): 2.13 on the nine closed-form
+#: cases of docs/fuzzy.md (1.28 for ringing3 to 3.48 for bump3), 1.52 with the brake's
 #: studies 1 (76 runs without, 71 with: 1.07) and 2 (89 and 187: 0.48; docs/benchmarks.md,
-#: "The brake's studies with gradients"); 1.34 with study 1's 100 runs of another measured
-#: path (its rounds with gradients hang on round-off), which changes no model's choice
+#: "The brake's studies with gradients"); 1.44 with study 1's 100 runs of another measured
+#: path (its rounds with gradients hang on round-off). 1.4 stays below all three; 1.5 would
+#: change no model's choice either (the brake's one-parameter studies cost 1.72 runs)
 AUTO_MAX_RUN_COST = 1.4
 
 
