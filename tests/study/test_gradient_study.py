@@ -226,8 +226,8 @@ class _PricedCase:
 
 
 def test_auto_asks_for_gradients_only_where_they_cost_less_than_the_runs_they_save():
-    # the rule of fuzzymbs.study.gradients: 1 + n x gradient_cost <= AUTO_MAX_RUN_COST, just
-    # below the harmonic mean of the measured savings (1.44 to 1.52)
+    # the rule of fuzzymbs.study.gradients: 1 + n x gradient_cost <= AUTO_MAX_RUN_COST, within
+    # the harmonic means of the measured savings (1.27 to 1.52)
     from fuzzymbs.study.gradients import AUTO_MAX_RUN_COST, gradient_parameters
 
     names = ("a", "b", "c")

@@ -43,11 +43,13 @@ __all__ = [
 #: most this many runs without (``1 + n gradient_cost``). The break-even is the harmonic
 #: mean of the measured savings ``runs without / runs with`` (at that run cost the cases
 #: take on average as much CPU with gradients as without): 2.13 on the nine closed-form
-#: cases of docs/fuzzy.md (1.28 for ringing3 to 3.48 for bump3), 1.52 with the brake's
-#: studies 1 (76 runs without, 71 with: 1.07) and 2 (89 and 187: 0.48; docs/benchmarks.md,
-#: "The brake's studies with gradients"); 1.44 with study 1's 100 runs of another measured
-#: path (its rounds with gradients hang on round-off). 1.4 stays below all three; 1.5 would
-#: change no model's choice either (the brake's one-parameter studies cost 1.72 runs)
+#: cases of docs/fuzzy.md (1.28 for ringing3 to 3.48 for bump3); with the brake's studies 1
+#: and 2 (76 and 89 runs without; with gradients 71 or 100 and 187 or 277, measured paths
+#: that hang on round-off: docs/benchmarks.md, "The brake's studies with gradients") 1.27
+#: to 1.52. Within that range one model of the package only is decided by where the
+#: threshold lies: the brake integrated by RODAS4 with one fuzzy parameter (1.40 runs, so
+#: with its gradients at 1.4); the closed-form cases' gradients are free, the brake's
+#: with ROS34PW2 cost 1.72 runs or more, a mechanism's 3 or more
 AUTO_MAX_RUN_COST = 1.4
 
 
