@@ -93,6 +93,7 @@ def test_symmetric_general_plan_is_counted_as_built_and_limited_by_its_own_size(
         plan(three, "general", 4, max_runs=188)
 
 
+@pytest.mark.slow  # the plan's table is 20,001 x 10,000 floats (1.6 GB): 8 to 24 s to fill
 def test_ten_thousand_parameters_sparse_level_one_is_counted_and_built():
     # integer supports: the centre of every support is its modal value, a node
     parameters = {f"x{i}": Triangular(float(i), i + 1.0, i + 2.0) for i in range(10_000)}
