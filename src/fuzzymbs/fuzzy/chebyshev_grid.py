@@ -151,12 +151,14 @@ class ChebyshevSparseGrid:
         self.expanded: set[tuple[int, ...]] = set()
         self._row: dict[tuple[int, ...], int] = {}  # node positions -> row of values
         self._values: NDArray[np.float64] | None = None
-        # per row of values its first derivatives (E, n) on the cube, NaN where not given
+        # per row of values its first derivatives (E, n) on the cube (None until some are
+        # given: a model without gradients stores none) and whether they were given
         self._slopes: NDArray[np.float64] | None = None
+        self._sloped = np.empty(0, dtype=bool)
         self.hermite: int | None = None
-        # tensor coefficients per (index, Hermite direction)
+        # tensor coefficients and the set's series per Hermite direction (None: values only)
         self._tensor: dict[tuple[tuple[int, ...], int | None], NDArray[np.float64]] = {}
-        self._series: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
+        self._series: dict[int | None, tuple[NDArray[np.int64], NDArray[np.float64]]] = {}
 
     # ------------------------------------------------------------- index sets
     def new_nodes(self, index: tuple[int, ...]) -> list[tuple[int, ...]]:
@@ -194,14 +196,14 @@ class ChebyshevSparseGrid:
             raise ValueError(f"index {index} is not admissible")
         self.indices.append(index)
         self._index_set.add(index)
-        self._series = None
+        self._series.clear()
         return [q for q in self.new_nodes(index) if q not in self._row]
 
     def remove_index(self, index: tuple[int, ...]) -> None:
         """Take ``index`` out of the set again (its node values stay)."""
         self.indices.remove(index)
         self._index_set.discard(index)
-        self._series = None
+        self._series.clear()
 
     def __contains__(self, index: object) -> bool:
         """``index`` is in the set."""
@@ -216,15 +218,24 @@ class ChebyshevSparseGrid:
         """The model's outputs (P, E) at node positions, and optionally their first
         derivatives (P, E, n) with respect to the cube's coordinates."""
         values = np.asarray(values, dtype=float).reshape(len(positions), -1)
-        if slopes is None:
-            slopes = np.full((*values.shape, self.dimension), np.nan)
-        slopes = np.asarray(slopes, dtype=float).reshape(*values.shape, self.dimension)
         start = 0 if self._values is None else len(self._values)
         for offset, q in enumerate(positions):
             self._row[q] = start + offset
         self._values = values if self._values is None else np.concatenate((self._values, values))
-        self._slopes = slopes if self._slopes is None else np.concatenate((self._slopes, slopes))
-        self._series = None
+        self._sloped = np.concatenate((self._sloped, np.full(len(values), slopes is not None)))
+        if slopes is not None or self._slopes is not None:
+            given = (
+                np.zeros((*values.shape, self.dimension))
+                if slopes is None
+                else np.asarray(slopes, dtype=float).reshape(*values.shape, self.dimension)
+            )
+            known = (
+                self._slopes
+                if self._slopes is not None
+                else np.zeros((start, values.shape[1], self.dimension))
+            )
+            self._slopes = np.concatenate((known, given))
+        self._series.clear()
 
     def use_hermite(self, direction: int | None) -> None:
         """Interpolate the values and first derivatives along ``direction``, the values
@@ -238,15 +249,13 @@ class ChebyshevSparseGrid:
         if direction is not None:
             if not 0 <= direction < self.dimension:
                 raise ValueError(f"direction {direction} is not one of 0..{self.dimension - 1}")
-            if self._slopes is None or np.isnan(self._slopes[..., direction]).any():
+            if not self.has_slopes():
                 raise ValueError("a Hermite direction needs the derivatives at every node")
-        if direction != self.hermite:
-            self.hermite = direction
-            self._series = None
+        self.hermite = direction
 
     def has_slopes(self) -> bool:
         """Every node carries its first derivatives (given to :meth:`set_values`)."""
-        return self._slopes is not None and not np.isnan(self._slopes).any()
+        return self._slopes is not None and bool(self._sloped.all())
 
     def has_values(self, index: tuple[int, ...]) -> bool:
         """Every node of ``index`` has a value."""
@@ -294,8 +303,9 @@ class ChebyshevSparseGrid:
 
     def series(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         """The interpolant of the whole set: (degrees (D, n), coefficients (D, E))."""
-        if self._series is not None:
-            return self._series
+        known = self._series.get(self.hermite)
+        if known is not None:
+            return known
         members = self._index_set
         rows: dict[tuple[int, ...], int] = {}
         blocks: list[tuple[list[int], NDArray[np.float64]]] = []
@@ -319,8 +329,8 @@ class ChebyshevSparseGrid:
         for where, block in blocks:
             total[where] += block
         degrees_all = np.array(list(rows), dtype=np.int64).reshape(len(rows), self.dimension)
-        self._series = (degrees_all, total)
-        return self._series
+        self._series[self.hermite] = (degrees_all, total)
+        return degrees_all, total
 
     def node_count(self) -> int:
         """Nodes with a value."""
