@@ -84,7 +84,8 @@ def _to_coefficients(level: int) -> NDArray[np.float64]:
 def _hermite_to_coefficients(level: int) -> NDArray[np.float64]:
     """(2m, 2m) matrix from the values and then the first derivatives at the m nodes of
     ``level`` to the Chebyshev coefficients of their Hermite interpolant (degree ``2m - 1``;
-    condition numbers 26, 81, 277, 1065 and 4473 at levels 1 to 5)."""
+    condition numbers 26, 81, 277, 1065 and 4473 at levels 1 to 5:
+    benchmarks/hermite_direction.py)."""
     x = node_values(_positions(level))
     value, slope = chebyshev_basis(x, 2 * len(x) - 1, derivative=True)
     inverse = np.linalg.inv(np.vstack((value, slope)))
