@@ -14,9 +14,15 @@ against the closed form, or the dense grid, polished by a local optimiser for tw
 degrees of freedom), the certified error, the status, and the honesty check (true miss
 at most 1 % + the truth's 0.1 %, or reported error at least half the true miss). Prints
 the Markdown table of docs/fuzzy.md. ``--gradients-only`` skips the runs without
-gradients (bit for bit those of a model without them, tested).
+gradients (bit for bit those of a model without them, tested). ``--gradient-error E``
+(with ``--seeds S``) gives the method gradients with an error, as a time-integrated
+model's sensitivities carry one: each derivative ``df/dx_i`` plus ``E w / h_i`` times a
+standard normal draw, ``w`` the element's true support cut width and ``h_i`` the
+parameter's support half-width (so ``E`` is the error's share of the cut width over a
+half-support), one table row per seed.
 
-    python benchmarks/gradient_adaptive.py [--gradients-only] [case-name ...]
+    python benchmarks/gradient_adaptive.py [--gradients-only] [--gradient-error E]
+        [--seeds S] [case-name ...]
 """
 
 from __future__ import annotations
@@ -51,11 +57,30 @@ def truth_of(case: HardCase) -> dict:
     return dense_truth(case, LEVELS)
 
 
-def run(case: HardCase, gradients: bool) -> AdaptiveTransformation:
-    """The adaptive method's rounds on the case's model, with or without its gradients."""
+def with_error(
+    slopes: dict, truth: dict, half: np.ndarray, error: float, rng: np.random.Generator
+) -> dict:
+    """``slopes`` {name: (B, *shape, n)} plus ``error w / h_i`` times standard normal draws,
+    ``w`` the element's support cut width in ``truth``, ``h`` (n,) the support half-widths."""
+    out = {}
+    for key, slope in slopes.items():
+        width = truth[key][1][0] - truth[key][0][0]  # the support cut, (*shape)
+        scale = error * np.asarray(width)[..., None] / half
+        out[key] = slope + scale * rng.standard_normal(np.shape(slope))
+    return out
+
+
+def run(
+    case: HardCase, gradients: bool, error: float = 0.0, truth: dict | None = None, seed: int = 1
+) -> AdaptiveTransformation:
+    """The adaptive method's rounds on the case's model, with or without its gradients;
+    ``error`` > 0 adds the gradient error of the module docstring (``truth``: the case's
+    true cuts, for the cut widths)."""
     engine = AdaptiveTransformation(
         triangular_numbers(case.triangles), LEVELS, TOLERANCE, BUDGET, SEARCH_POINTS
     )
+    rng = np.random.default_rng(seed)
+    half = np.array([(t[2] - t[0]) / 2.0 for t in case.triangles.values()])
     while not engine.done:
         points = engine.next_batch()
         if len(points) == 0:
@@ -64,15 +89,53 @@ def run(case: HardCase, gradients: bool) -> AdaptiveTransformation:
         if gradients:
             assert case.gradient is not None
             outputs, slopes = case.gradient(samples)
+            if error > 0.0:
+                assert truth is not None
+                slopes = with_error(slopes, truth, half, error, rng)
             engine.add(points, outputs, slopes)
         else:
             engine.add(points, case.model(samples))
     return engine
 
 
+def _option(names: list[str], flag: str, default: float) -> float:
+    """The value after ``flag`` in ``names`` (both taken out), or ``default``."""
+    if flag not in names:
+        return default
+    at = names.index(flag)
+    value = float(names[at + 1])
+    del names[at : at + 2]
+    return value
+
+
+def noisy(names: list[str], error: float, seeds: int) -> None:
+    """Runs with gradients carrying ``error`` (module docstring), one line per case and seed."""
+    for case in [*hard_cases(), *resonance_cases()]:
+        if names and case.name not in names:
+            continue
+        truth = truth_of(case)
+        for seed in range(1, seeds + 1):
+            outcome = run(case, True, error, truth, seed).outcome()
+            miss = max(
+                band_miss(outcome.lower[k], outcome.upper[k], *truth[k]) for k in outcome.lower
+            )
+            honest = miss <= TOLERANCE + 0.001 or outcome.error >= 0.5 * miss
+            print(
+                f"{case.name:10s} error {error:g} seed {seed} {outcome.runs:5d} runs  miss "
+                f"{100 * miss:6.2f} %  reported {100 * outcome.error:6.2f} %  "
+                f"{outcome.status:9s} honest {honest}",
+                flush=True,
+            )
+
+
 def main(names: list[str]) -> None:
     only = "--gradients-only" in names
     names = [name for name in names if name != "--gradients-only"]
+    error = _option(names, "--gradient-error", 0.0)
+    seeds = int(_option(names, "--seeds", 1))
+    if error > 0.0:
+        noisy(names, error, seeds)
+        return
     rows = []
     for case in [*hard_cases(), *resonance_cases()]:
         if names and case.name not in names:
