@@ -171,3 +171,33 @@ def test_ringing3_takes_the_derivatives_along_its_frequency():
     assert engine.grid.hermite == 0  # the frequency
     assert outcome.converged and miss <= 0.011
     assert outcome.runs <= 180
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_gradients_with_an_error_do_not_certify_a_missed_ridge_end(seed):
+    # gradients carrying an error of 3 % of the support cut width over a half-support (a
+    # time-integrated model's sensitivities at a loose tolerance): the surrogate through
+    # them bent away from the oscillator's highest point, in the corner of the smallest
+    # mass and damping, and the method said 0.47-0.84 % for true misses of 3.09-3.29 %
+    # with every seed (benchmarks/gradient_adaptive.py --gradient-error 0.03 --seeds 3).
+    # A face probe near other faces is now tried on them too: the corner is run. Truth:
+    # the closed form (sdof_truth), so a miss is within the 1 % tolerance up to 0.1 %
+    case = sdof_resonance(0.005)
+    truth = sdof_truth(case, LEVELS)
+    width = truth["amplitude"][1][0] - truth["amplitude"][0][0]
+    half = np.array([(t[2] - t[0]) / 2.0 for t in case.triangles.values()])
+    rng = np.random.default_rng(seed)
+    engine = _engine(case)
+    while not engine.done:
+        points = engine.next_batch()
+        if len(points) == 0:
+            break
+        outputs, slopes = case.gradient(dict(zip(engine.names, points.T, strict=True)))
+        slope = np.asarray(slopes["amplitude"])
+        error = 0.03 * np.asarray(width)[..., None] / half * rng.standard_normal(slope.shape)
+        engine.add(points, outputs, {"amplitude": slope + error})
+    outcome = engine.outcome()
+    miss = band_miss(outcome.lower["amplitude"], outcome.upper["amplitude"], *truth["amplitude"])
+    assert outcome.converged
+    assert miss <= 0.011 or outcome.error >= 0.5 * miss, (miss, outcome.error)
