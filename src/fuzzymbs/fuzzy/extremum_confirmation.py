@@ -135,12 +135,12 @@ def _on_near_faces(
 ) -> NDArray[np.float64]:
     """The face points (P, n) moved onto every face of their box closer than ``SNAP``
     (only those that moved): the corner a ridge runs into, where the surrogate, with no
-    run near, can bend away from it. Where a box is narrower than ``2 SNAP`` and both
-    faces of a coordinate are that close, the point goes to the upper one (as measured;
-    the nearer face would be the finer rule)."""
+    run near, can bend away from it; where both faces of a coordinate are that close (a
+    box narrower than ``2 SNAP``), onto the nearer."""
     width = (high > low) & moving
-    moved = np.where(width & (points - low <= SNAP), low, points)
-    moved = np.where(width & (high - points <= SNAP), high, moved)
+    below, above = points - low, high - points
+    moved = np.where(width & (below <= SNAP) & (below <= above), low, points)
+    moved = np.where(width & (above <= SNAP) & (above < below), high, moved)
     return moved[np.any(moved != points, axis=1)]
 
 
