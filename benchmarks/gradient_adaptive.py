@@ -27,6 +27,7 @@ half-support), one table row per seed.
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 
@@ -98,14 +99,11 @@ def run(
     return engine
 
 
-def _option(names: list[str], flag: str, default: float) -> float:
-    """The value after ``flag`` in ``names`` (both taken out), or ``default``."""
-    if flag not in names:
-        return default
-    at = names.index(flag)
-    value = float(names[at + 1])
-    del names[at : at + 2]
-    return value
+def judged(outcome, truth: dict) -> tuple[float, bool]:
+    """The outcome's true miss (largest over the outputs, cut-width scale) and whether it
+    is honest (a miss within the tolerance + the truth's 0.1 %, or half of it reported)."""
+    miss = max(band_miss(outcome.lower[k], outcome.upper[k], *truth[k]) for k in outcome.lower)
+    return miss, miss <= TOLERANCE + 0.001 or outcome.error >= 0.5 * miss
 
 
 def noisy(names: list[str], error: float, seeds: int) -> None:
@@ -116,10 +114,7 @@ def noisy(names: list[str], error: float, seeds: int) -> None:
         truth = truth_of(case)
         for seed in range(1, seeds + 1):
             outcome = run(case, True, error, truth, seed).outcome()
-            miss = max(
-                band_miss(outcome.lower[k], outcome.upper[k], *truth[k]) for k in outcome.lower
-            )
-            honest = miss <= TOLERANCE + 0.001 or outcome.error >= 0.5 * miss
+            miss, honest = judged(outcome, truth)
             print(
                 f"{case.name:10s} error {error:g} seed {seed} {outcome.runs:5d} runs  miss "
                 f"{100 * miss:6.2f} %  reported {100 * outcome.error:6.2f} %  "
@@ -128,13 +123,16 @@ def noisy(names: list[str], error: float, seeds: int) -> None:
             )
 
 
-def main(names: list[str]) -> None:
-    only = "--gradients-only" in names
-    names = [name for name in names if name != "--gradients-only"]
-    error = _option(names, "--gradient-error", 0.0)
-    seeds = int(_option(names, "--seeds", 1))
-    if error > 0.0:
-        noisy(names, error, seeds)
+def main(arguments: list[str]) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("names", nargs="*", metavar="case-name")
+    parser.add_argument("--gradients-only", action="store_true")
+    parser.add_argument("--gradient-error", type=float, default=0.0)
+    parser.add_argument("--seeds", type=int, default=1)
+    options = parser.parse_args(arguments)
+    names, only = options.names, options.gradients_only
+    if options.gradient_error > 0.0:
+        noisy(names, options.gradient_error, options.seeds)
         return
     rows = []
     for case in [*hard_cases(), *resonance_cases()]:
@@ -145,10 +143,7 @@ def main(names: list[str]) -> None:
             start = time.perf_counter()
             outcome = run(case, gradients).outcome()
             seconds = time.perf_counter() - start
-            miss = max(
-                band_miss(outcome.lower[k], outcome.upper[k], *truth[k]) for k in outcome.lower
-            )
-            honest = miss <= TOLERANCE + 0.001 or outcome.error >= 0.5 * miss
+            miss, honest = judged(outcome, truth)
             cost = outcome.runs * (GRADIENT_COST if gradients else 1.0)
             row = (case.name, gradients, outcome.runs, cost, miss, outcome.error)
             rows.append((*row, outcome.status, honest))
