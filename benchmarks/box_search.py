@@ -159,7 +159,7 @@ def run_case(climb, case, gradients: bool) -> dict:
     box_search.climb = climb
     confirmation.climb = climb
     start = time.perf_counter()
-    engine = gradient_adaptive.run(case, gradients)  # 6 levels, 1 %, budget 2,000
+    engine = gradient_adaptive.run(case, gradients)  # 6 levels, 1 %, budget 8,000
     seconds = time.perf_counter() - start
     outcome = engine.outcome()
     return {"seconds": seconds, "runs": outcome.runs, "error": outcome.error}
