@@ -684,3 +684,28 @@ def test_gradient_error_has_the_stated_scale():
     np.testing.assert_allclose(noisy.std(axis=0), expected, rtol=0.03)
     # unbiased: the mean of the 80,000 standardised draws within 5 standard errors of 0
     assert abs((noisy / expected).mean()) < 5.0 / np.sqrt(noisy.size)
+
+
+def test_other_w_methods_meet_their_order_conditions():
+    # The tableaux of benchmarks/rodas_work_precision.py's --w-methods, as transcribed from
+    # Rang (2015), Tables 2 and 3: the Rosenbrock order conditions of Hairer & Wanner
+    # (Solving ODEs II, Table IV.7.1; beta = A + Gamma below the diagonal) to order 3 with
+    # b and to order 2 with bhat, and ROS34PRw stiffly accurate (b the last row of A +
+    # Gamma) with its stages 3 and 4 at one point; residuals below 1e-15 measured.
+    import rodas_work_precision
+
+    forms = {label: form for label, form, _ in rodas_work_precision.W_METHODS}
+    for a, g, b, bhat in forms.values():
+        gamma = g[0, 0]
+        beta = np.tril(a + g, -1)
+        beta1 = beta.sum(axis=1)
+        alpha = a.sum(axis=1)
+        for weights in (b, bhat):
+            assert abs(weights.sum() - 1.0) < 1e-14
+            assert abs(weights @ beta1 - (0.5 - gamma)) < 1e-14
+        assert abs(b @ alpha**2 - 1.0 / 3.0) < 1e-14
+        assert abs(b @ (beta @ beta1) - (1.0 / 6.0 - gamma + gamma**2)) < 1e-14
+        assert abs(bhat @ alpha**2 - 1.0 / 3.0) > 1e-3  # the embedded solution: order 2
+    a, g, b, _ = forms["ros34prw"]
+    np.testing.assert_allclose(b, (a + g)[3], atol=1e-15)
+    np.testing.assert_array_equal(a[2], a[3])
