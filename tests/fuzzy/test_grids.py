@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fuzzymbs.fuzzy.grids import unique_rows
+import fuzzymbs.fuzzy.grids as grids
+from fuzzymbs.fuzzy.grids import nearest_distances, unique_rows
 
 
 @pytest.mark.parametrize("sort", [False, True])
@@ -31,3 +32,19 @@ def test_unique_rows_merges_signed_zeros():
     for sort in (False, True):
         unique, inverse = unique_rows(points, sort=sort)
         assert len(unique) == 2 and inverse[0] == inverse[1]
+
+
+def test_nearest_distances_equal_the_direct_formula(monkeypatch):
+    # the reference: the (K, M, n) array of coordinate gaps, maximum over n, minimum over M
+    # (the formula the blocked version replaced); equal to the bit, also with blocks of 7
+    # points (the last one short) and with ties and repeated points
+    rng = np.random.default_rng(3)
+    points = rng.uniform(-1.0, 1.0, (50, 3))
+    others = np.concatenate((rng.uniform(-1.0, 1.0, (20, 3)), points[:5]))
+    direct = np.abs(points[:, None, :] - others[None, :, :]).max(axis=2).min(axis=1)
+    np.testing.assert_array_equal(nearest_distances(points, others), direct)
+    assert np.all(nearest_distances(points, others)[:5] == 0.0)
+    monkeypatch.setattr(grids, "_BLOCK_ENTRIES", 7 * len(others))
+    np.testing.assert_array_equal(nearest_distances(points, others), direct)
+    assert np.all(np.isinf(nearest_distances(points, np.empty((0, 3)))))
+    assert nearest_distances(np.empty((0, 3)), others).shape == (0,)

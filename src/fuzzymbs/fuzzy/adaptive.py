@@ -65,7 +65,7 @@ from fuzzymbs.fuzzy.chebyshev_grid import (
     node_values,
 )
 from fuzzymbs.fuzzy.extremum_confirmation import confirmation_probes
-from fuzzymbs.fuzzy.grids import unique_rows
+from fuzzymbs.fuzzy.grids import nearest_distances, unique_rows
 from fuzzymbs.fuzzy.halton import halton
 from fuzzymbs.fuzzy.hermite_correction import flatten_gradients, hermite_correction
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
@@ -674,10 +674,7 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         limit = min(room, 4 * dimension)
 
         def distance(points: NDArray, others: NDArray) -> NDArray:
-            if len(others) == 0:
-                return np.full(len(points), np.inf)
-            gap = np.abs(points[:, None, moving] - others[None, :, moving])
-            return gap.max(axis=2).min(axis=1)
+            return nearest_distances(points[:, moving], others[:, moving])
 
         far = distance(candidates, taken)
         while len(chosen) < limit:

@@ -53,6 +53,7 @@ from numpy.typing import NDArray
 
 from fuzzymbs.fuzzy.box_search import climb, values_at
 from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient
+from fuzzymbs.fuzzy.grids import nearest_distances
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
 __all__ = ["FLAT", "MIN_STEP", "confirmation_probes", "surrogate_gradient", "surrogate_hessian"]
@@ -118,13 +119,6 @@ def surrogate_hessian(
     hessian = 0.5 * (hessian + hessian.transpose(0, 2, 1))
     mask = free[:, :, None] & free[:, None, :]
     return np.where(mask, hessian, 0.0)
-
-
-def _distance(points: NDArray[np.float64], others: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(K,) each point's distance (max norm) to the nearest of ``others``; inf if none."""
-    if not len(others):
-        return np.full(len(points), np.inf)
-    return np.abs(points[:, None, :] - others[None, :, :]).max(axis=2).min(axis=1)
 
 
 def _on_near_faces(
@@ -282,12 +276,14 @@ def confirmation_probes(
     # the candidate's own step (a face point's MIN_STEP, a local probe's h); a candidate
     # nearer to a run or a chosen probe than min(near, step / 2) is known already
     chosen: list[NDArray[np.float64]] = []
-    far = _distance(candidates[:, moving], runs[:, moving])
+    far = nearest_distances(candidates[:, moving], runs[:, moving])
     enough = np.minimum(near, scale_of / 2.0)
     while len(chosen) < limit and len(candidates):
         best = int(np.argmax(np.where(far > enough, far / scale_of, -1.0)))
         if far[best] <= enough[best]:
             break
         chosen.append(candidates[best])
-        far = np.minimum(far, _distance(candidates[:, moving], candidates[best : best + 1, moving]))
+        far = np.minimum(
+            far, nearest_distances(candidates[:, moving], candidates[best : best + 1, moving])
+        )
     return np.array(chosen).reshape(-1, dimension)

@@ -12,7 +12,10 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["cartesian", "unique_rows"]
+__all__ = ["cartesian", "nearest_distances", "unique_rows"]
+
+#: float64 entries of one block of point-to-point distances in nearest_distances
+_BLOCK_ENTRIES = 2_000_000
 
 
 def cartesian(values: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
@@ -76,3 +79,31 @@ def unique_rows(
     unique = np.empty((len(first_position), points.shape[1]))
     unique[inverse] = points
     return unique, inverse
+
+
+def nearest_distances(
+    points: NDArray[np.float64], others: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """(K,) each point's distance in the max norm to the nearest of ``others`` (M, n);
+    inf where there are none.
+
+    The same numbers as ``abs(points[:, None] - others[None]).max(axis=2).min(axis=1)``
+    (a maximum and a minimum are exact), in blocks of points and one coordinate at a time,
+    so that no (K, M, n) array is made: the adaptive method measures tens of thousands of
+    extremal points against every run each round.
+    """
+    points = np.asarray(points, dtype=float)
+    others = np.asarray(others, dtype=float)
+    nearest = np.full(len(points), np.inf)
+    if not len(others) or not len(points):
+        return nearest
+    if not points.shape[1]:
+        return np.zeros(len(points))
+    block = max(1, _BLOCK_ENTRIES // len(others))
+    for start in range(0, len(points), block):
+        part = points[start : start + block]
+        gap = np.abs(part[:, None, 0] - others[None, :, 0])
+        for i in range(1, points.shape[1]):
+            np.maximum(gap, np.abs(part[:, None, i] - others[None, :, i]), out=gap)
+        nearest[start : start + block] = gap.min(axis=1)
+    return nearest
