@@ -709,3 +709,21 @@ def test_other_w_methods_meet_their_order_conditions():
     a, g, b, _ = forms["ros34prw"]
     np.testing.assert_allclose(b, (a + g)[3], atol=1e-15)
     np.testing.assert_array_equal(a[2], a[3])
+
+
+def test_correction_blocks_runs_a_case_and_restores_the_block_sizes():
+    # one closed-form case at the earlier block sizes: the same runs and certified error
+    # as at the defaults (a block changes which BLAS kernel sums a row, not the sums)
+    import correction_blocks
+
+    import fuzzymbs.fuzzy.hermite_correction as hermite_correction
+    import fuzzymbs.fuzzy.residual_correction as residual_correction
+    from fuzzymbs.models.closed_form.resonance import resonance_cases
+
+    default = residual_correction._BLOCK_ENTRIES, hermite_correction._BLOCK_ENTRIES
+    case = next(case for case in resonance_cases() if case.name == "sdof-5%")
+    earlier = correction_blocks.run(case, True, correction_blocks.EARLIER)
+    now = correction_blocks.run(case, True, default)
+    assert (residual_correction._BLOCK_ENTRIES, hermite_correction._BLOCK_ENTRIES) == default
+    assert earlier["runs"] == now["runs"] > 0
+    assert abs(earlier["error"] - now["error"]) <= 1e-12

@@ -48,8 +48,12 @@ from fuzzymbs.fuzzy.residual_correction import (
 
 __all__ = ["HermiteCorrection", "flatten_gradients", "hermite_correction"]
 
-#: float64 entries of one block of kernel values
-_BLOCK_ENTRIES = 4_000_000
+#: float64 entries of one block of kernel values (its slope terms make (points, centres,
+#: directions) arrays besides the values' blocks). Against 4,000,000
+#: (benchmarks/correction_blocks.py, 2026-12-02, Xeon host): the chain at 0.5 % damping with
+#: gradients 0.75 of the wall time, ringing3 0.95; 65,536 0.92 and 1.02 (many small blocks:
+#: the Python per block weighs); the same runs and certified errors
+_BLOCK_ENTRIES = 262_144
 #: kinds of the system's unknowns: a value's weight, a gradient's, the linear tail's
 _VALUE, _GRADIENT, _TAIL = 0, 1, 2
 
