@@ -14,8 +14,11 @@ from numpy.typing import NDArray
 
 __all__ = ["cartesian", "nearest_distances", "unique_rows"]
 
-#: float64 entries of one block of point-to-point distances in nearest_distances
-_BLOCK_ENTRIES = 2_000_000
+#: float64 entries of one block of point-to-point distances in nearest_distances: 512 kB,
+#: within the core's cache. Against 2,000,000 (2026-12-02, Xeon host, best of 3; the same
+#: numbers): 60,030 points x 76 runs x 3 parameters 26.7 against 44.0 ms, 16,000 x 1,400 x 4
+#: 150 against 220 ms, 20,000 x 2,000 x 4 321 against 414 ms
+_BLOCK_ENTRIES = 65_536
 
 
 def cartesian(values: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
