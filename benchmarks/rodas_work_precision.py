@@ -152,7 +152,7 @@ def table(
         entry: dict = {"reference_check": check, "rows": []}
         variants = list(VARIANTS if aged else VARIANTS[:2])
         if w_methods:
-            variants += [(label, label, None) for label, _, _ in W_METHODS]
+            variants += [(method, method, None) for method, _, _ in W_METHODS]
         for name, integrator, age in variants:
             for rtol in rtols:
                 cpu = []
@@ -160,8 +160,8 @@ def table(
                     y, seconds, result = run(compiled, sample, t_end, integrator, rtol, age)
                     cpu.append(seconds)
                 rhs, jacobians, lus = result.work_counts[0].tolist()
-                needed = {label: (len(form[2]) - used) for label, form, used in W_METHODS}
-                rhs_distinct = rhs - needed.get(name, 0) * int(result.step_counts[0].sum())
+                saved = {method: len(form[2]) - used for method, form, used in W_METHODS}
+                rhs_distinct = rhs - saved.get(name, 0) * int(result.step_counts[0].sum())
                 entry["rows"].append(
                     {
                         "method": name,
