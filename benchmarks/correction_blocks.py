@@ -59,10 +59,12 @@ def main() -> None:
         "--blocks", type=int, nargs="+", help="pairs: values' and Hermite blocks (entries)"
     )
     args = parser.parse_args()
+    if args.blocks and len(args.blocks) % 2:
+        parser.error("--blocks takes pairs: the values' and the Hermite correction's entries")
     default = (residual_correction._BLOCK_ENTRIES, hermite_correction._BLOCK_ENTRIES)
     pairs = [EARLIER, default]
     if args.blocks:
-        pairs += [tuple(args.blocks[i : i + 2]) for i in range(0, len(args.blocks) - 1, 2)]
+        pairs += [tuple(args.blocks[i : i + 2]) for i in range(0, len(args.blocks), 2)]
     cases = {case.name: case for case in [*hard_cases(), *resonance_cases()]}
     report: dict = {"load_average_start": load_average(), "default": default, "rows": {}}
     for name, gradients in CASES:

@@ -276,14 +276,13 @@ def confirmation_probes(
     # the candidate's own step (a face point's MIN_STEP, a local probe's h); a candidate
     # nearer to a run or a chosen probe than min(near, step / 2) is known already
     chosen: list[NDArray[np.float64]] = []
-    far = nearest_distances(candidates[:, moving], runs[:, moving])
+    placed = candidates[:, moving]
+    far = nearest_distances(placed, runs[:, moving])
     enough = np.minimum(near, scale_of / 2.0)
     while len(chosen) < limit and len(candidates):
         best = int(np.argmax(np.where(far > enough, far / scale_of, -1.0)))
         if far[best] <= enough[best]:
             break
         chosen.append(candidates[best])
-        far = np.minimum(
-            far, nearest_distances(candidates[:, moving], candidates[best : best + 1, moving])
-        )
+        far = np.minimum(far, nearest_distances(placed, placed[best : best + 1]))
     return np.array(chosen).reshape(-1, dimension)
