@@ -15,6 +15,12 @@ runs; ringing3; 6 levels, tolerance 1 %), each pair of block sizes (``_BLOCK_ENT
 of the two modules) runs in this process in turn, ``--repeats`` rounds, the smallest
 wall time of each; the runs and the certified error must agree (a block changes no
 sum's order within a row, only which BLAS kernel computes it: round-off apart).
+
+Also :func:`fuzzymbs.fuzzy.grids.nearest_distances` (extremal points against the runs)
+at its default block against 2,000,000 entries, on random point sets of a brake study's
+size (60,030 points, 76 runs, 3 parameters) and of the closed-form cases with many runs
+(16,000 x 1,400 x 4 and 20,000 x 2,000 x 4): the smallest of ``--repeats`` calls, and
+whether the two give the same numbers (they must: maxima and minima are exact).
 """
 
 from __future__ import annotations
@@ -25,8 +31,10 @@ import sys
 import time
 
 import gradient_adaptive
+import numpy as np
 from bench_common import load_average
 
+import fuzzymbs.fuzzy.grids as grids
 import fuzzymbs.fuzzy.hermite_correction as hermite_correction
 import fuzzymbs.fuzzy.residual_correction as residual_correction
 from fuzzymbs.models.closed_form.hard_cases import hard_cases
@@ -36,6 +44,9 @@ from fuzzymbs.models.closed_form.resonance import resonance_cases
 CASES = (("sdof-0.5%", False), ("2dof-0.5%", False), ("2dof-0.5%", True), ("ringing3", True))
 #: the block sizes before (entries of the values' and the Hermite correction's blocks)
 EARLIER = (4_000_000, 4_000_000)
+#: nearest_distances' block before, and its point sets (points, runs, parameters)
+EARLIER_DISTANCES = 2_000_000
+DISTANCE_SETS = ((60_030, 76, 3), (16_000, 1_400, 4), (20_000, 2_000, 4))
 
 
 def run(case, gradients: bool, blocks: tuple[int, int]) -> dict:
@@ -50,6 +61,36 @@ def run(case, gradients: bool, blocks: tuple[int, int]) -> dict:
         residual_correction._BLOCK_ENTRIES, hermite_correction._BLOCK_ENTRIES = kept
     outcome = engine.outcome()
     return {"seconds": seconds, "runs": outcome.runs, "error": outcome.error}
+
+
+def nearest_distances_times(repeats: int, seed: int = 0) -> dict:
+    """Per point set, the smallest time of nearest_distances at EARLIER_DISTANCES and at the
+    default block, and whether both give the same numbers."""
+    rng = np.random.default_rng(seed)
+    default = grids._BLOCK_ENTRIES
+    rows = {}
+    for count, runs, dimension in DISTANCE_SETS:
+        points = rng.uniform(-1.0, 1.0, (count, dimension))
+        others = rng.uniform(-1.0, 1.0, (runs, dimension))
+        times: dict[int, float] = {}
+        found = {}
+        for _ in range(repeats):
+            for block in (EARLIER_DISTANCES, default):
+                grids._BLOCK_ENTRIES = block
+                try:
+                    start = time.perf_counter()
+                    found[block] = grids.nearest_distances(points, others)
+                    seconds = time.perf_counter() - start
+                finally:
+                    grids._BLOCK_ENTRIES = default
+                times[block] = min(times.get(block, np.inf), seconds)
+        rows[f"{count}x{runs}x{dimension}"] = {
+            "earlier_ms": 1e3 * times[EARLIER_DISTANCES],
+            "default_ms": 1e3 * times[default],
+            "ratio": times[default] / times[EARLIER_DISTANCES],
+            "same_numbers": bool(np.array_equal(found[default], found[EARLIER_DISTANCES])),
+        }
+    return rows
 
 
 def main() -> None:
@@ -86,6 +127,9 @@ def main() -> None:
             for key, row in best.items()
         )
         print(f"{label:22s} {cells}", file=sys.stderr)
+    report["nearest_distances"] = nearest_distances_times(max(3, args.repeats))
+    for key, row in report["nearest_distances"].items():
+        print(f"nearest_distances {key}: {row}", file=sys.stderr)
     report["load_average_end"] = load_average()
     print(json.dumps(report))
 

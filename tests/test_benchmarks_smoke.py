@@ -727,3 +727,6 @@ def test_correction_blocks_runs_a_case_and_restores_the_block_sizes():
     assert (residual_correction._BLOCK_ENTRIES, hermite_correction._BLOCK_ENTRIES) == default
     assert earlier["runs"] == now["runs"] > 0
     assert abs(earlier["error"] - now["error"]) <= 1e-12
+    # nearest_distances at its earlier block and its default: the same numbers (exact)
+    rows = correction_blocks.nearest_distances_times(1)
+    assert len(rows) == 3 and all(row["same_numbers"] for row in rows.values())

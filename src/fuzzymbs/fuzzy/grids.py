@@ -15,9 +15,9 @@ from numpy.typing import NDArray
 __all__ = ["cartesian", "nearest_distances", "unique_rows"]
 
 #: float64 entries of one block of point-to-point distances in nearest_distances: 512 kB,
-#: within the core's cache. Against 2,000,000 (2026-12-02, Xeon host, best of 3; the same
-#: numbers): 60,030 points x 76 runs x 3 parameters 26.7 against 44.0 ms, 16,000 x 1,400 x 4
-#: 150 against 220 ms, 20,000 x 2,000 x 4 321 against 414 ms
+#: within the core's cache. Against 2,000,000 (benchmarks/correction_blocks.py, 2026-12-02,
+#: Xeon host, best of 5; the same numbers): 60,030 points x 76 runs x 3 parameters 27.7
+#: against 53.3 ms, 16,000 x 1,400 x 4 162 against 226 ms, 20,000 x 2,000 x 4 302 against 428 ms
 _BLOCK_ENTRIES = 65_536
 
 
