@@ -383,11 +383,13 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
                     self.error, self._open_gap = gap, True
             if self._certified and self.error <= self.tolerance:
                 # then one round confirms the extrema on the model (extremum_confirmation.py)
-                room = 0 if self.confirming else min(4 * dimension, self.max_runs - self.runs)
+                left = self.max_runs - self.runs
+                room = 0 if self.confirming else min(4 * dimension, left)
                 probes = confirmation_probes(
                     surrogate, *bounds[2:], self._box_low, self._box_high, self._scale(),
                     np.concatenate((self._units, steps)), self._high > self._low, near=_NEAR,
                     limit=max(room - len(steps), 0),
+                    tie_limit=0 if self.confirming else max(min(dimension, left - room), 0),
                 )  # fmt: skip
                 probes = np.concatenate((steps, probes))
                 self.error = max(*self.errors[-2 if self.confirming else -1 :], gap)

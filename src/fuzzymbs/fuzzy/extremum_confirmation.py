@@ -56,7 +56,14 @@ from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient
 from fuzzymbs.fuzzy.grids import nearest_distances
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
-__all__ = ["FLAT", "MIN_STEP", "confirmation_probes", "surrogate_gradient", "surrogate_hessian"]
+__all__ = [
+    "FLAT",
+    "MIN_STEP",
+    "NEAR_TIE",
+    "confirmation_probes",
+    "surrogate_gradient",
+    "surrogate_hessian",
+]
 
 #: the change (cut-width scale) the surrogate's quadratic model may predict over a probe step
 FLAT = 0.1
@@ -74,6 +81,12 @@ MIN_STEP = 0.1
 #: chain at 0.5 % with 1 % off (seed 1) only with 0.3; the values-only chain at 0.5 % missed
 #: 1.43 / 1.43 / 0.93 / 1.02 % with 0 / 0.1 / 0.2 / 0.3; the other cases' runs within 3
 SNAP = 0.3
+#: a face point the surrogate predicts within this (cut-width scale) of its extremum is a
+#: near tie: every one not yet supported by a run is probed, beyond ``limit`` (up to
+#: ``tie_limit`` more). Measured (benchmarks/gradient_adaptive.py, 2026-12-02): without it
+#: the chain at 0.5 % without gradients ends 1.02 % (1.43 % on a round-off variant of the
+#: kernel distances) off its crest's highest end, which ranks below the batch's local probes
+NEAR_TIE = 0.02
 #: central-difference step of the Hessian (unit cube)
 _STEP = 1e-4
 #: a coordinate closer than this to its box bound lies on the face (unit cube)
@@ -127,15 +140,16 @@ def _on_near_faces(
     high: NDArray[np.float64],
     moving: NDArray[np.bool_],
 ) -> NDArray[np.float64]:
-    """The face points (P, n) moved onto every face of their box closer than ``SNAP``
-    (only those that moved): the corner a ridge runs into, where the surrogate, with no
-    run near, can bend away from it; where both faces of a coordinate are that close (a
-    box narrower than ``2 SNAP``), onto the nearer."""
+    """The face points moved onto every face of their box closer than ``SNAP`` (M, n), and
+    which of the P points moved (P,): the corner a ridge runs into, where the surrogate,
+    with no run near, can bend away from it; where both faces of a coordinate are that
+    close (a box narrower than ``2 SNAP``), onto the nearer."""
     width = (high > low) & moving
     below, above = points - low, high - points
     moved = np.where(width & (below <= SNAP) & (below <= above), low, points)
     moved = np.where(width & (above <= SNAP) & (above < below), high, moved)
-    return moved[np.any(moved != points, axis=1)]
+    did = np.any(moved != points, axis=1)
+    return moved[did], did
 
 
 def confirmation_probes(
@@ -150,6 +164,7 @@ def confirmation_probes(
     *,
     near: float,
     limit: int,
+    tie_limit: int = 0,
 ) -> NDArray[np.float64]:
     """The probes (P, n) that confirm the surrogate's extrema on the model (module docstring).
 
@@ -172,7 +187,10 @@ def confirmation_probes(
         A probe closer than this to a run or another probe (max norm over the moving
         coordinates) is dropped.
     limit : int
-        Probes at most.
+        Probes at most, least supported first.
+    tie_limit : int
+        Near ties (face points within ``NEAR_TIE`` of their extremum) not yet supported,
+        at most, beyond ``limit``.
 
     Returns
     -------
@@ -268,13 +286,29 @@ def confirmation_probes(
     # extremum (far from the runs it can be off by that much)
     shortfall = sign[row] * (value[row] - predicted) / width[row]
     promising = shortfall <= PROMISING
-    faces = _on_near_faces(found[promising], box_low[level[row[promising]]],
-                           box_high[level[row[promising]]], moving)  # fmt: skip
-    candidates = np.concatenate((found[promising], faces, *local))
-    scale_of = np.concatenate((np.full(int(np.sum(promising)) + len(faces), MIN_STEP), *reach))
+    row = row[promising]
+    corners, moved = _on_near_faces(found[promising], box_low[level[row]],
+                                    box_high[level[row]], moving)  # fmt: skip
+    # a corner's other coordinates climbed again within it: where a crest meets a face
+    # depends on the coordinates pinned there (the two-mass chain's crest in k1 moves with k2)
+    corners = _climb_within_faces(surrogate, corners, row[moved], element, sign,
+                                  box_low[level], box_high[level])  # fmt: skip
+    faces = np.concatenate((found[promising], corners))
+    face_row = np.concatenate((row, row[moved]))
+    face_shortfall = (
+        sign[face_row]
+        * (value[face_row] - values_at(degrees, coefficients, faces, element[face_row], correction))
+        / width[face_row]
+    )
+    candidates = np.concatenate((faces, *local))
+    # a face point's scale: MIN_STEP, or shorter where the surrogate bends within the face
+    # (a run 0.03 off across a crest 0.02 wide does not support it)
+    bent = _bend_scale(surrogate, faces, face_row, element, sign, width, box_low[level],
+                       box_high[level], moving)  # fmt: skip
+    scale_of = np.concatenate((bent, *reach))
     # 4. the candidates least supported by runs first: the distance to the nearest run over
-    # the candidate's own step (a face point's MIN_STEP, a local probe's h); a candidate
-    # nearer to a run or a chosen probe than min(near, step / 2) is known already
+    # the candidate's own scale (a face point's, a local probe's h); a candidate nearer to a
+    # run or a chosen probe than min(near, scale / 2) is known already
     chosen: list[NDArray[np.float64]] = []
     placed = candidates[:, moving]
     far = nearest_distances(placed, runs[:, moving])
@@ -285,4 +319,63 @@ def confirmation_probes(
             break
         chosen.append(candidates[best])
         far = np.minimum(far, nearest_distances(placed, placed[best : best + 1]))
+    # 5. then every near tie still unsupported, the most promising first: a face point the
+    # surrogate puts within NEAR_TIE of its extremum decides the bound if the surrogate is
+    # a little low there, however well the runs nearby seem to support it
+    tie = np.full(len(candidates), np.inf)
+    tie[: len(faces)] = np.where(face_shortfall <= NEAR_TIE, face_shortfall, np.inf)
+    for _ in range(tie_limit):
+        best = int(np.argmin(np.where(far > enough, tie, np.inf)))
+        if not (far[best] > enough[best] and np.isfinite(tie[best])):
+            break
+        chosen.append(candidates[best])
+        far = np.minimum(far, nearest_distances(placed, placed[best : best + 1]))
     return np.array(chosen).reshape(-1, dimension)
+
+
+def _climb_within_faces(
+    surrogate: tuple[NDArray[np.int64], NDArray[np.float64], KernelCorrection | None],
+    points: NDArray[np.float64],
+    rows: NDArray[np.intp],
+    element: NDArray[np.intp],
+    sign: NDArray[np.float64],
+    low: NDArray[np.float64],
+    high: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The points (M, n) climbed on the surrogate (``sign`` times element ``element``
+    of row ``rows[m]``) over the coordinates that lie inside their box (``low``,
+    ``high`` per row), the others pinned on their faces."""
+    if not len(points):
+        return points
+    degrees, coefficients, correction = surrogate
+    box_low, box_high = low[rows], high[rows]
+    pinned = (points <= box_low) | (points >= box_high)
+    face_low = np.where(pinned, points, box_low)
+    face_high = np.where(pinned, points, box_high)
+    climbed, _ = climb(
+        degrees, coefficients, points, element[rows], sign[rows], face_low, face_high, correction
+    )
+    return climbed
+
+
+def _bend_scale(
+    surrogate: tuple[NDArray[np.int64], NDArray[np.float64], KernelCorrection | None],
+    points: NDArray[np.float64],
+    rows: NDArray[np.intp],
+    element: NDArray[np.intp],
+    sign: NDArray[np.float64],
+    width: NDArray[np.float64],
+    low: NDArray[np.float64],
+    high: NDArray[np.float64],
+    moving: NDArray[np.bool_],
+) -> NDArray[np.float64]:
+    """(M,) the face points' scale: the step over which the surrogate's quadratic model
+    along its sharpest downward curvature within the face (the coordinates inside the
+    box) changes by ``LOCAL`` of the cut width, at most ``MIN_STEP``."""
+    if not len(points):
+        return np.empty(0)
+    inside = (points > low[rows] + _ON_FACE) & (points < high[rows] - _ON_FACE) & moving
+    hessian = surrogate_hessian(surrogate, points, element[rows], sign[rows], inside)
+    bend = np.maximum(-np.linalg.eigvalsh(hessian)[:, 0], 0.0)
+    with np.errstate(divide="ignore"):
+        return np.minimum(MIN_STEP, np.sqrt(2.0 * LOCAL * width[rows] / bend))
