@@ -19,10 +19,12 @@ gradients (bit for bit those of a model without them, tested). ``--gradient-erro
 model's sensitivities carry one: each derivative ``df/dx_i`` plus ``E w / h_i`` times a
 standard normal draw, ``w`` the element's true support cut width and ``h_i`` the
 parameter's support half-width (so ``E`` is the error's share of the cut width over a
-half-support), one table row per seed.
+half-support), one table row per seed. ``--tolerance T`` and ``--levels L`` run the
+cases to another share of the cut width or on another number of levels (the honesty
+sweep of docs/fuzzy.md, "A crest that ends in a corner").
 
     python benchmarks/gradient_adaptive.py [--gradients-only] [--gradient-error E]
-        [--seeds S] [case-name ...]
+        [--seeds S] [--tolerance T] [--levels L] [case-name ...]
 """
 
 from __future__ import annotations
@@ -124,12 +126,16 @@ def noisy(names: list[str], error: float, seeds: int) -> None:
 
 
 def main(arguments: list[str]) -> None:
+    global TOLERANCE, LEVELS  # --tolerance, --levels: read by run, judged and truth_of
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("names", nargs="*", metavar="case-name")
     parser.add_argument("--gradients-only", action="store_true")
     parser.add_argument("--gradient-error", type=float, default=0.0)
     parser.add_argument("--seeds", type=int, default=1)
+    parser.add_argument("--tolerance", type=float, default=TOLERANCE)
+    parser.add_argument("--levels", type=int, default=len(LEVELS))
     options = parser.parse_args(arguments)
+    TOLERANCE, LEVELS = options.tolerance, np.linspace(0.0, 1.0, options.levels)
     names, only = options.names, options.gradients_only
     if options.gradient_error > 0.0:
         noisy(names, options.gradient_error, options.seeds)
