@@ -220,6 +220,38 @@ def test_near_ties_are_probed_beyond_the_limit():
     assert ends <= probed[2]
 
 
+def test_a_corner_point_climbs_again_within_its_faces():
+    # s = -(x1 - 0.3 x2)^2, flat in x3: the maximum's crest x1 = 0.3 x2 moves with x2. From
+    # x* = (0.24, 0.8, 0) the line along x3 reaches the x3 faces at (0.24, 0.8, +-1), which
+    # the corner rule moves onto the x2 face (0.2 away): there the crest lies at x1 = 0.3,
+    # where the corner point climbs to (the rule alone left it at 0.24, 0.0036 below)
+    def surface(x):
+        return -((x[:, 0] - 0.3 * x[:, 1]) ** 2)
+
+    grid = ChebyshevSparseGrid(3)
+    for index in [(0, 0, 0), (1, 0, 0), (0, 1, 0), (2, 0, 0), (0, 2, 0), (1, 1, 0)]:
+        new = grid.add_index(index)
+        grid.set_values(new, surface(node_values(np.array(new)))[:, None])
+    degrees, coefficients = grid.series()
+    top = np.array([[[0.24, 0.8, 0.0]]])
+    probes = confirmation_probes(
+        (degrees, coefficients, None),
+        np.array([[[1.0, -1.0, 1.0]]]),  # the minimum, in a corner
+        top,
+        -np.ones((1, 3)),
+        np.ones((1, 3)),
+        np.ones((1, 1)),
+        top[0],
+        np.ones(3, dtype=bool),
+        near=0.02,
+        limit=100,
+    )
+    corners = probes[(probes[:, 1] == 1.0) & (np.abs(probes[:, 2]) == 1.0)]
+    assert len(corners) == 2
+    np.testing.assert_allclose(corners[:, 0], 0.3, atol=1e-6)
+    np.testing.assert_allclose(surface(corners), 0.0, atol=1e-12)
+
+
 def test_rounds_with_confirmation_are_the_same_in_any_chunking():
     # the model sees each round in chunks of 3 or all at once: the same points and bounds,
     # bit for bit (a round's points depend only on the outputs of the rounds before)
