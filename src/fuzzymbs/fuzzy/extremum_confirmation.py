@@ -23,15 +23,20 @@ every extremum ``x*`` of the surrogate ``s`` (level ``j``, element ``e``, side
    by (:func:`fuzzymbs.fuzzy.box_search.climb`): the end of a ridge; a candidate
    where the surrogate predicts it at most ``PROMISING`` of the cut width short
    of its extremum, and the same point moved onto every other face of the box
-   closer than ``SNAP`` (the corner a ridge runs into, where the surrogate, with
-   no run near, can bend away from it);
+   closer than ``SNAP`` and climbed again over the coordinates still inside (the
+   corner a ridge runs into, where the surrogate, with no run near, can bend away
+   from it, and where the crest's place moves with the coordinates pinned);
 4. *local probes*: ``x* +- h v``, ``h`` where the surrogate's quadratic model
    changes by ``LOCAL`` of the cut width (shorter than ``MIN_STEP``): the
    crest's exact place and height;
 5. the candidates least supported by runs first (distance to the nearest run
-   over the candidate's own scale, ``MIN_STEP`` or ``h``), each farther than
-   ``min(near, scale / 2)`` from every run and every probe chosen, at most
-   ``limit``: one batch for the model.
+   over the candidate's own scale: a local probe's ``h``; a face point's
+   ``MIN_STEP``, or less where the surrogate bends within its face), each farther
+   than ``min(near, scale / 2)`` from every run and every probe chosen, at most
+   ``limit``;
+6. then the near ties: face points the surrogate puts within ``NEAR_TIE`` of the
+   cut width of its extremum, not yet supported in that sense, the most promising
+   first, at most ``tie_limit`` more. Steps 5 and 6 are one batch for the model.
 
 The probes join the surrogate like any run off its grid (its kernel
 correction), so the next round's surrogate, and its extremum, move towards a
@@ -306,7 +311,7 @@ def confirmation_probes(
     bent = _bend_scale(surrogate, faces, face_row, element, sign, width, box_low[level],
                        box_high[level], moving)  # fmt: skip
     scale_of = np.concatenate((bent, *reach))
-    # 4. the candidates least supported by runs first: the distance to the nearest run over
+    # 5. the candidates least supported by runs first: the distance to the nearest run over
     # the candidate's own scale (a face point's, a local probe's h); a candidate nearer to a
     # run or a chosen probe than min(near, scale / 2) is known already
     chosen: list[NDArray[np.float64]] = []
@@ -319,7 +324,7 @@ def confirmation_probes(
             break
         chosen.append(candidates[best])
         far = np.minimum(far, nearest_distances(placed, placed[best : best + 1]))
-    # 5. then every near tie still unsupported, the most promising first: a face point the
+    # 6. then every near tie still unsupported, the most promising first: a face point the
     # surrogate puts within NEAR_TIE of its extremum decides the bound if the surrogate is
     # a little low there, however well the runs nearby seem to support it
     tie = np.full(len(candidates), np.inf)
