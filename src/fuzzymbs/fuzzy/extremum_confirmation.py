@@ -144,7 +144,7 @@ def _on_near_faces(
     low: NDArray[np.float64],
     high: NDArray[np.float64],
     moving: NDArray[np.bool_],
-) -> NDArray[np.float64]:
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """The face points moved onto every face of their box closer than ``SNAP`` (M, n), and
     which of the P points moved (P,): the corner a ridge runs into, where the surrogate,
     with no run near, can bend away from it; where both faces of a coordinate are that
