@@ -134,11 +134,11 @@ def _valley_ridge_surrogate():
     return degrees, coefficients, None
 
 
-def test_probes_go_to_the_ends_of_a_flat_crest():
+def _valley_ridge_probes(runs, limit, tie_limit=0):
+    """The valley ridge's maximum and the probes that confirm its extrema (unit square)."""
     degrees, coefficients, correction = _valley_ridge_surrogate()
     low, high = np.array([[-1.0, -1.0]]), np.array([[1.0, 1.0]])
     _, _, arg_low, arg_high = box_extremes(degrees, coefficients, low, high)
-    runs = np.zeros((1, 2))  # one run at the centre
     probes = confirmation_probes(
         (degrees, coefficients, correction),
         arg_low,
@@ -149,8 +149,15 @@ def test_probes_go_to_the_ends_of_a_flat_crest():
         runs,
         np.array([True, True]),
         near=0.02,
-        limit=8,
+        limit=limit,
+        tie_limit=tie_limit,
     )
+    return arg_high[0, 0], probes
+
+
+def test_probes_go_to_the_ends_of_a_flat_crest():
+    runs = np.zeros((1, 2))  # one run at the centre
+    top, probes = _valley_ridge_probes(runs, limit=8)
     # the crest's two ends, the corners (1, 1) and (-1, -1), and local probes beside the
     # maximum found (across the crest, where the surrogate changes by 1 % of the width);
     # the minimum lies on the corners (1, -1) or (-1, 1), where no direction is free
@@ -159,33 +166,11 @@ def test_probes_go_to_the_ends_of_a_flat_crest():
     beside = [p for p in probes if tuple(np.round(p, 6)) not in {(1.0, 1.0), (-1.0, -1.0)}]
     for point in beside:
         # h = sqrt(2 * 0.01 / 4) = 0.0707 across the crest (curvature 4 along (1, -1))
-        assert abs(np.linalg.norm(point - arg_high[0, 0]) - np.sqrt(0.005)) < 1e-6
+        assert abs(np.linalg.norm(point - top) - np.sqrt(0.005)) < 1e-6
     # a run at each end confirms them: nothing is left to probe
-    confirmed = confirmation_probes(
-        (degrees, coefficients, correction),
-        arg_low,
-        arg_high,
-        low,
-        high,
-        np.ones((1, 1)),
-        np.concatenate((runs, probes)),
-        np.array([True, True]),
-        near=0.02,
-        limit=8,
-    )
+    _, confirmed = _valley_ridge_probes(np.concatenate((runs, probes)), limit=8)
     assert len(confirmed) == 0
-    none = confirmation_probes(
-        (degrees, coefficients, correction),
-        arg_low,
-        arg_high,
-        low,
-        high,
-        np.ones((1, 1)),
-        runs,
-        np.array([True, True]),
-        near=0.02,
-        limit=0,
-    )
+    _, none = _valley_ridge_probes(runs, limit=0)
     assert len(none) == 0
 
 
@@ -194,26 +179,11 @@ def test_near_ties_are_probed_beyond_the_limit():
     # ends' scale (MIN_STEP) they look supported, so the local probes beside the maximum
     # (0.07 from every run on their scale of 0.07) fill a limit of 2; the ends, where the
     # surrogate is as high as its maximum (near ties), come on top of it
-    degrees, coefficients, correction = _valley_ridge_surrogate()
-    low, high = np.array([[-1.0, -1.0]]), np.array([[1.0, 1.0]])
-    _, _, arg_low, arg_high = box_extremes(degrees, coefficients, low, high)
     runs = np.array([[0.0, 0.0], [0.97, 1.0], [-1.0, -0.97]])
     ends = {(1.0, 1.0), (-1.0, -1.0)}
     probed = {}
     for ties in (0, 2):
-        probes = confirmation_probes(
-            (degrees, coefficients, correction),
-            arg_low,
-            arg_high,
-            low,
-            high,
-            np.ones((1, 1)),
-            runs,
-            np.array([True, True]),
-            near=0.02,
-            limit=2,
-            tie_limit=ties,
-        )
+        _, probes = _valley_ridge_probes(runs, limit=2, tie_limit=ties)
         assert len(probes) == 2 + ties
         probed[ties] = {tuple(np.round(p, 6)) for p in probes}
     assert not ends & probed[0]
