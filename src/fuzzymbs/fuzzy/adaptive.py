@@ -385,11 +385,12 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
                 # then one round confirms the extrema on the model (extremum_confirmation.py)
                 left = self.max_runs - self.runs
                 room = 0 if self.confirming else min(4 * dimension, left)
+                ties = 0 if self.confirming else max(min(dimension, left - room), 0)
                 probes = confirmation_probes(
                     surrogate, *bounds[2:], self._box_low, self._box_high, self._scale(),
                     np.concatenate((self._units, steps)), self._high > self._low, near=_NEAR,
                     limit=max(room - len(steps), 0),
-                    tie_limit=0 if self.confirming else max(min(dimension, left - room), 0),
+                    tie_limit=ties, isolated_limit=max(min(dimension, left - room - ties), 0),
                 )  # fmt: skip
                 probes = np.concatenate((steps, probes))
                 self.error = max(*self.errors[-2 if self.confirming else -1 :], gap)

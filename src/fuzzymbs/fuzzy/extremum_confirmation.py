@@ -36,7 +36,12 @@ every extremum ``x*`` of the surrogate ``s`` (level ``j``, element ``e``, side
    ``limit``;
 6. then the near ties: face points the surrogate puts within ``NEAR_TIE`` of the
    cut width of its extremum, not yet supported in that sense, the most promising
-   first, at most ``tie_limit`` more. Steps 5 and 6 are one batch for the model.
+   first, at most ``tie_limit`` more;
+7. then the isolated extrema: the surrogate's extremal points themselves (every
+   level, element and side), each the farthest from every run and probe chosen so
+   far, at most ``isolated_limit`` more: a signal has hundreds of extrema, of which
+   the rounds' certification ran the most doubtful few; these spread a sample over
+   the rest. Steps 5 to 7 are one batch for the model.
 
 The probes join the surrogate like any run off its grid (its kernel
 correction), so the next round's surrogate, and its extremum, move towards a
@@ -60,6 +65,10 @@ from fuzzymbs.fuzzy.box_search import climb, values_at
 from fuzzymbs.fuzzy.chebyshev_grid import basis_gradient
 from fuzzymbs.fuzzy.grids import nearest_distances
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
+
+#: an extremal point farther than this from every run and probe (unit cube, max norm) is
+#: isolated (step 7)
+ISOLATED = 0.1
 
 __all__ = [
     "FLAT",
@@ -171,6 +180,7 @@ def confirmation_probes(
     near: float,
     limit: int,
     tie_limit: int = 0,
+    isolated_limit: int = 0,
 ) -> NDArray[np.float64]:
     """The probes (P, n) that confirm the surrogate's extrema on the model (module docstring).
 
@@ -197,6 +207,9 @@ def confirmation_probes(
     tie_limit : int
         Near ties (face points within ``NEAR_TIE`` of their extremum) not yet supported,
         at most, beyond ``limit``.
+    isolated_limit : int
+        Extremal points farther than ``near`` from every run and probe, the farthest
+        first, at most, beyond those.
 
     Returns
     -------
@@ -219,6 +232,7 @@ def confirmation_probes(
     low, high = low[keep], high[keep]
     if not len(points):
         return np.empty((0, dimension))
+    extrema = points
     # 1. free coordinates: inside the box, or on a face the slope cannot hold it to
     slope = sign[:, None] * surrogate_gradient(degrees, coefficients, correction, points, element)
     inside = (points > low + _ON_FACE) & (points < high - _ON_FACE)
@@ -229,7 +243,7 @@ def confirmation_probes(
         a[some] for a in (points, level, element, sign, width, low, high, free)
     )
     if not len(points):
-        return np.empty((0, dimension))
+        return _isolated(extrema, runs, np.empty((0, dimension)), moving, near, isolated_limit)
     # 2. the Hessian of sigma s over the free coordinates (central differences of the gradient)
     count = len(points)
     hessian = surrogate_hessian(surrogate, points, element, sign, free)
@@ -336,7 +350,35 @@ def confirmation_probes(
             break
         chosen.append(candidates[best])
         far = np.minimum(far, nearest_distances(placed, placed[best : best + 1]))
-    return np.array(chosen).reshape(-1, dimension)
+    # 7. then the extremal points farthest from every run and probe
+    probes = np.array(chosen).reshape(-1, dimension)
+    return _isolated(extrema, runs, probes, moving, near, isolated_limit)
+
+
+def _isolated(
+    extrema: NDArray[np.float64],
+    runs: NDArray[np.float64],
+    probes: NDArray[np.float64],
+    moving: NDArray[np.bool_],
+    near: float,
+    limit: int,
+) -> NDArray[np.float64]:
+    """``probes`` and, after them, up to ``limit`` of the ``extrema`` (K, n), each the
+    farthest (max norm over the ``moving`` coordinates) from every run, probe and
+    extremum chosen before it, as long as that is more than ``near``."""
+    if limit <= 0 or not len(extrema):
+        return probes
+    placed = extrema[:, moving]
+    known = np.concatenate((runs, probes))[:, moving]
+    far = nearest_distances(placed, known)
+    chosen = [probes]
+    for _ in range(limit):
+        best = int(np.argmax(far))
+        if not far[best] > max(near, ISOLATED):
+            break
+        chosen.append(extrema[best : best + 1])
+        far = np.minimum(far, nearest_distances(placed, placed[best : best + 1]))
+    return np.concatenate(chosen)
 
 
 def _climb_within_faces(
