@@ -26,43 +26,11 @@ import argparse
 import sys
 import time
 
-import numpy as np
+import gradient_adaptive
+from gradient_adaptive import LEVELS, judged, run
 
-from fuzzymbs.fuzzy.adaptive import AdaptiveTransformation
-from fuzzymbs.fuzzy.band_scale import band_miss
-from fuzzymbs.fuzzy.numbers import triangular_numbers
-from fuzzymbs.models.closed_form.hard_cases import HardCase
 from fuzzymbs.models.closed_form.random_models import random_case
 from fuzzymbs.models.closed_form.resonance import polished_truth
-
-LEVELS = np.linspace(0.0, 1.0, 6)
-BUDGET = 8000
-SEARCH_POINTS = 20_000
-
-
-def run(case: HardCase, gradients: bool, tolerance: float):
-    """The adaptive method's rounds on the case, with or without its gradients."""
-    engine = AdaptiveTransformation(
-        triangular_numbers(case.triangles), LEVELS, tolerance, BUDGET, SEARCH_POINTS
-    )
-    while not engine.done:
-        points = engine.next_batch()
-        if len(points) == 0:
-            break
-        samples = dict(zip(engine.names, points.T, strict=True))
-        if gradients:
-            assert case.gradient is not None
-            engine.add(points, *case.gradient(samples))
-        else:
-            engine.add(points, case.model(samples))
-    return engine.outcome()
-
-
-def judged(outcome, truth: dict, tolerance: float) -> tuple[float, bool]:
-    """The true miss (largest over the outputs, cut-width scale) and whether the result is
-    honest (a miss within the tolerance + the truth's 0.1 %, or half of it reported)."""
-    miss = max(band_miss(outcome.lower[k], outcome.upper[k], *truth[k]) for k in outcome.lower)
-    return miss, miss <= tolerance + 0.001 or outcome.error >= 0.5 * miss
 
 
 def main(arguments: list[str]) -> None:
@@ -75,6 +43,9 @@ def main(arguments: list[str]) -> None:
     parser.add_argument("--tolerance", type=float, default=0.01)
     args = parser.parse_args(arguments)
     paths = {"both": (False, True), "true": (True,), "false": (False,)}[args.gradients]
+    # the rounds and the judgment of gradient_adaptive.py (6 levels, budget 8,000,
+    # 20,000 search points), at this tolerance
+    gradient_adaptive.TOLERANCE = args.tolerance
     rows = []
     for dimension in args.dimensions:
         for elements in args.elements:
@@ -83,9 +54,9 @@ def main(arguments: list[str]) -> None:
                 truth = polished_truth(case, LEVELS)
                 for gradients in paths:
                     start = time.process_time()
-                    outcome = run(case, gradients, args.tolerance)
+                    outcome = run(case, gradients).outcome()
                     seconds = time.process_time() - start
-                    miss, honest = judged(outcome, truth, args.tolerance)
+                    miss, honest = judged(outcome, truth)
                     rows.append((case.name, gradients, outcome.runs, miss, outcome, honest))
                     print(
                         f"{case.name:12s} gradients {gradients!s:5s} {outcome.runs:5d} runs "
