@@ -48,10 +48,10 @@ def random_case(seed: int, dimension: int, elements: int) -> HardCase:
     rng = np.random.default_rng([seed, dimension, elements])
     centres = rng.uniform(-1.3, 1.3, (BUMPS, dimension))
     widths = rng.uniform(*WIDTHS, (BUMPS, dimension))
+    ridge = np.full(elements, 0.3)
     if elements == 1:
         amplitudes = rng.normal(0.0, 1.0, (BUMPS, 1))
         trend = rng.normal(0.0, 0.3, (1, dimension))
-        ridge = np.full(1, 0.3)
         phase = rng.uniform(0.0, 2.0 * np.pi, 1)
     else:
         t = SIGNAL_TIME[:elements]
@@ -61,7 +61,6 @@ def random_case(seed: int, dimension: int, elements: int) -> HardCase:
             swing[:, None] * t[None, :] + shift[:, None]
         )
         trend = rng.normal(0.0, 0.3, dimension)[None, :] * np.cos(3.0 * t)[:, None]
-        ridge = 0.3 * np.ones(elements)
         phase = rng.uniform(0.0, 2.0 * np.pi) + 4.0 * t
     wave = rng.normal(0.0, 1.5, dimension)
     modal = np.arange(1.0, dimension + 1.0)
@@ -80,17 +79,16 @@ def random_case(seed: int, dimension: int, elements: int) -> HardCase:
         bump = np.exp(-0.5 * np.sum(offset**2, axis=2))  # (B, K)
         angle = (u @ wave)[:, None] + phase[None, :]  # (B, E)
         value = bump @ amplitudes + u @ trend.T + ridge[None, :] * np.sin(angle)
-        key = "z" if elements == 1 else "y"
+        # a scalar model's outputs (B,) and gradients (B, n); a signal's (B, E), (B, E, n)
+        key, element = ("z", 0) if elements == 1 else ("y", slice(None))
         if not gradient:
-            return {key: value[:, 0] if elements == 1 else value}
+            return {key: value[:, element]}
         # d/du_i, then d/dx_i = d/du_i / h_i
         slope_bump = -(offset / widths[None, :, :]) * bump[:, :, None]  # (B, K, n)
         slope = np.einsum("bkn,ke->ben", slope_bump, amplitudes)
         slope = slope + trend[None, :, :] + (ridge[None, :] * np.cos(angle))[:, :, None] * wave
         slope = slope / half
-        if elements == 1:
-            return {key: value[:, 0]}, {key: slope[:, 0, :]}
-        return {key: value}, {key: slope}
+        return {key: value[:, element]}, {key: slope[:, element]}
 
     triangles = {n: (m - h, m, m + h) for n, m, h in zip(names, modal, half, strict=True)}
     grid = (TRUTH_GRID[dimension],) * dimension
