@@ -16,8 +16,9 @@ best points of a coarser grid). Per case and path: runs, the true miss
 whether the result is honest (a miss within the tolerance + the truth's 0.1 %, or at
 least half of it reported). Prints one line per run and a summary.
 
-    python benchmarks/random_honesty.py [--seeds S] [--dimensions 2 3 4]
-        [--elements 1 21] [--gradients both|true|false] [--tolerance T]
+    python benchmarks/random_honesty.py [--seeds S] [--first-seed F]
+        [--dimensions 2 3 4] [--elements 1 21] [--gradients both|true|false]
+        [--tolerance T] [--certify bounds|global]
 """
 
 from __future__ import annotations
@@ -41,11 +42,13 @@ def main(arguments: list[str]) -> None:
     parser.add_argument("--elements", type=int, nargs="+", default=[1, 21])
     parser.add_argument("--gradients", choices=("both", "true", "false"), default="both")
     parser.add_argument("--tolerance", type=float, default=0.01)
+    parser.add_argument("--certify", choices=("bounds", "global"), default="bounds")
     args = parser.parse_args(arguments)
     paths = {"both": (False, True), "true": (True,), "false": (False,)}[args.gradients]
     # the rounds and the judgment of gradient_adaptive.py (6 levels, budget 8,000,
     # 20,000 search points), at this tolerance
     gradient_adaptive.TOLERANCE = args.tolerance
+    gradient_adaptive.CERTIFY = args.certify
     rows = []
     for dimension in args.dimensions:
         for elements in args.elements:
@@ -68,9 +71,11 @@ def main(arguments: list[str]) -> None:
     honest = sum(1 for *_, h in rows if h)
     converged = sum(1 for *_, outcome, _ in rows if outcome.converged)
     largest = max(miss for *_, miss, _, _ in rows)
+    total = sum(runs for _, _, runs, *_ in rows)
     print(
         f"{len(rows)} runs of the method: {converged} converged, {within} within the "
-        f"tolerance, {honest} honest, largest miss {100 * largest:.2f} %"
+        f"tolerance, {honest} honest, largest miss {100 * largest:.2f} %; {total:,} model "
+        f"runs in all (certify {args.certify})"
     )
 
 

@@ -147,6 +147,12 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         Run budget (at least the first round's ``2 n + 2``).
     search_points : int
         Search-grid points per cut box on the surrogate.
+    certify : {"bounds", "global"}
+        What the certified error covers: ``"bounds"`` (default) the surrogate's error
+        where it can carry a value beyond a bound, one exploration point a round;
+        ``"global"`` also its error itself at every run off the grid, on the support
+        level's cut widths, with ``n`` exploration points a round (for a model whose
+        bounds may hide where the surrogate never predicted one; docs/fuzzy.md).
         The options as :class:`~fuzzymbs.fuzzy.methods.adaptive.Adaptive` declares and
         checks them (its :meth:`~fuzzymbs.fuzzy.methods.adaptive.Adaptive.start` makes the
         engine).
@@ -165,8 +171,10 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         tolerance: float,
         max_runs: int,
         search_points: int,
+        certify: str = "bounds",
     ) -> None:
         self.names = tuple(parameters)
+        self.certify = certify
         self.levels = np.asarray(levels, dtype=float)
         self.tolerance, self.max_runs = float(tolerance), int(max_runs)
         self.search_points = int(search_points)
@@ -182,6 +190,7 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         self._box_low = self.to_unit(self.cut_lower)
         self._box_high = self.to_unit(self.cut_upper)
         self._pool = 2.0 * halton(_EXPLORE_POOL * dimension, dimension, start=1) - 1.0
+        self._explore = dimension if certify == "global" else 1  # exploration points a round
         # evaluated runs
         self.samples = np.empty((0, dimension))
         self._units = np.empty((0, dimension))
@@ -573,6 +582,11 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
             beyond = np.maximum(s + e - upper[j], 0.0) + np.maximum(lower[j] - s + e, 0.0)
             relative = np.where(np.isfinite(scale[j]), beyond / scale[j], 0.0)
             worst[inside] = np.maximum(worst[inside], relative.max(axis=1))
+        if self.certify == "global" and np.any(np.isfinite(scale[0])):
+            # the surrogate's error itself on the support's cut widths: a feature it never
+            # predicted (an edge, a corner's flank) shows there before it moves a bound
+            relative = np.where(np.isfinite(scale[0]), error / scale[0], 0.0)
+            worst = np.maximum(worst, relative.max(axis=1))
         return worst
 
     def _refinement(self, scale: NDArray[np.float64]) -> list[tuple[int, ...]]:
@@ -662,8 +676,9 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         self, planned: NDArray[np.float64], room: int, doubt: NDArray[np.float64]
     ) -> NDArray[np.float64]:
         """Up to ``4 n`` extremal points, the most doubtful first (``doubt`` per extremal
-        point, :meth:`_doubt`), and one exploration point, each farther than ``_NEAR``
-        from every run and every point already planned; at most ``room``."""
+        point, :meth:`_doubt`), and one exploration point (``n`` when certifying
+        globally), each farther than ``_NEAR`` from every run and every point already
+        planned; at most ``room``."""
         assert self._bounds is not None
         dimension = len(self.names)
         moving = self._high > self._low
@@ -686,11 +701,10 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
                 break
             chosen.append(candidates[best])
             far = np.minimum(far, distance(candidates, candidates[best][None, :]))
-        if len(chosen) < room:
-            pool_far = distance(
-                self._pool, np.concatenate((taken, np.array(chosen).reshape(-1, dimension)))
-            )
+        pool_far = distance(self._pool, np.concatenate((taken, *[c[None, :] for c in chosen])))
+        for _ in range(min(self._explore, room - len(chosen))):
             chosen.append(self._pool[int(np.argmax(pool_far))])
+            pool_far = np.minimum(pool_far, distance(self._pool, chosen[-1][None, :]))
         return np.array(chosen).reshape(-1, dimension)
 
     # ----------------------------------------------------------------- result

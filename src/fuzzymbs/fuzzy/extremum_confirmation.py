@@ -348,7 +348,7 @@ def confirmation_probes(
     # a little low there, however well the runs nearby seem to support it
     tie = np.full(len(candidates), np.inf)
     tie[: len(faces)] = np.where(face_shortfall <= NEAR_TIE, face_shortfall, np.inf)
-    for _ in range(tie_limit):
+    for _ in range(tie_limit if len(candidates) else 0):
         best = int(np.argmin(np.where(far > enough, tie, np.inf)))
         if not (far[best] > enough[best] and np.isfinite(tie[best])):
             break

@@ -39,6 +39,8 @@ DEFAULT_ADAPTIVE_MAX_RUNS = 2000
 DEFAULT_ADAPTIVE_SEARCH_POINTS = 20_000
 #: the model's gradients enter the rounds where the model can give them all
 GRADIENTS_AUTO = "auto"
+#: the certificate covers the bounds (default) or the surrogate everywhere
+CERTIFY_BOUNDS = "bounds"
 
 
 class AdaptiveWarning(UserWarning):
@@ -90,6 +92,12 @@ class Adaptive(Method):
         costs at most 1.4 runs without (``model.gradient_cost``;
         :func:`fuzzymbs.study.gradients.gradient_parameters`), ``True`` always (an
         error for a model that cannot), ``False`` never (the value-only rounds).
+    certify : {"bounds", "global"}
+        What the certified error covers (:class:`~fuzzymbs.fuzzy.adaptive.AdaptiveTransformation`):
+        ``"bounds"`` (default) the surrogate's error where it can move a bound;
+        ``"global"`` also its error everywhere it is checked, on the support's cut widths,
+        with ``n`` exploration runs a round: for a model nothing is known about, at more
+        runs (docs/fuzzy.md, "Models it was never tuned on").
     """
 
     name = "adaptive"
@@ -126,6 +134,12 @@ class Adaptive(Method):
         "model can give them all at most doubling a run's cost), true or false",
         must='"auto", true or false',
     )
+    certify: Literal["bounds", "global"] = option(
+        CERTIFY_BOUNDS,
+        "what the certified error covers: bounds (where the surrogate can move a bound) "
+        "or global (the surrogate everywhere it is checked, at more runs)",
+        must='"bounds" or "global"',
+    )
 
     def checked(self, names: tuple[str, ...]) -> Adaptive:
         """A budget of at least the first round; ``search_points`` at least ``3^n``."""
@@ -144,11 +158,14 @@ class Adaptive(Method):
         return self
 
     def describe(self) -> dict[str, Any]:
-        """The options; ``gradients`` only where it is not the default, so that the plans
-        (and the stores) of studies that leave it alone keep their fingerprints."""
+        """The options; ``gradients`` and ``certify`` only where they are not the
+        default, so that the plans (and the stores) of studies that leave them alone keep
+        their fingerprints."""
         values = self.option_values()
         if values["gradients"] == GRADIENTS_AUTO:
             del values["gradients"]
+        if values["certify"] == CERTIFY_BOUNDS:
+            del values["certify"]
         return values
 
     def count(self, request: CountRequest) -> tuple[int, bool]:
@@ -160,7 +177,12 @@ class Adaptive(Method):
     ) -> AdaptiveTransformation:
         """The engine of the rounds, from the first round."""
         return AdaptiveTransformation(
-            parameters, levels, self.method_tolerance, self.max_runs, self.search_points
+            parameters,
+            levels,
+            self.method_tolerance,
+            self.max_runs,
+            self.search_points,
+            self.certify,
         )
 
     def stop_message(self, outcome: AdaptiveOutcome) -> str | None:
