@@ -77,3 +77,17 @@ def test_a_study_file_and_the_command_line_set_the_certificate(tmp_path):
     assert loaded.study.plan.scheme.certify == "bounds"
     with pytest.raises(StudyFileError, match="certify"):
         load_study_file(path, study_options={"certify": "everywhere"})
+
+
+def test_the_result_and_its_summary_say_which_certificate():
+    from fuzzymbs import Study, Triangular
+
+    def model(samples):
+        return {"z": samples["a"] * samples["b"] + 0.1 * samples["a"] ** 2}
+
+    numbers = {"a": Triangular(1.0, 2.0, 3.0), "b": Triangular(-1.0, 0.0, 1.0)}
+    for certify, phrase in (("bounds", "certified method error"), ("global", "certified (global")):
+        study = Study(model, numbers, method="adaptive", levels=2, certify=certify)
+        result = study.run(progress=False)
+        assert result.dataset.attrs["adaptive_certify"] == certify
+        assert phrase in result.summary()

@@ -30,8 +30,9 @@ Dataset layout (``o`` = output name, ``dims`` = the output's own axes)::
            method_error), method_tolerance, validation_runs; the adaptive method:
            method_error with method_error_bound "certified" (its own estimate),
            adaptive_runs, adaptive_rounds, adaptive_status ("converged", "budget", or
-           "noise": stopped by the model's own noise) and adaptive_noise (that noise on
-           the cut-width scale; NaN when the error never stalled)
+           "noise": stopped by the model's own noise), adaptive_noise (that noise on
+           the cut-width scale; NaN when the error never stalled) and adaptive_certify
+           ("bounds" or "global")
     o_validation                   (validation, *dims)  outputs of the validation runs (kept
                                    as the raw outputs are: by default up to 64 MiB)
     o_validation_excursion         (validation)     each run's excursion / cut width

@@ -87,9 +87,11 @@ def _adaptive_line(attrs: dict) -> str:
         )
     gradients = attrs.get("adaptive_gradients", "none")
     used = "" if gradients == "none" else f" with the model's gradients ({gradients})"
+    scope = " (global: the surrogate wherever checked)"
+    scope = scope if attrs.get("adaptive_certify") == "global" else ""
     return (
         f"Method check: adaptive, {int(attrs['adaptive_runs'])} runs{used} in "
-        f"{int(attrs['adaptive_rounds'])} rounds{stopped}; certified method error "
+        f"{int(attrs['adaptive_rounds'])} rounds{stopped}; certified{scope} method error "
         f"{100 * error:.3g} % of the cut's width, {verdict} the tolerance {100 * tolerance:.3g} %"
     )
 

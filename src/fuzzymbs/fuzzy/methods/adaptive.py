@@ -209,8 +209,9 @@ class Adaptive(Method):
     def attrs(self, outcome: AdaptiveOutcome) -> dict[str, Any]:
         """Result attributes: ``method_error``, ``method_error_bound`` (``"certified"``),
         ``method_tolerance``, ``method_converged``, ``adaptive_runs``, ``adaptive_rounds``,
-        ``adaptive_status`` (``"converged"``, ``"budget"`` or ``"noise"``) and
-        ``adaptive_noise`` (the model's noise on the cut-width scale; NaN if not measured)."""
+        ``adaptive_status`` (``"converged"``, ``"budget"`` or ``"noise"``),
+        ``adaptive_noise`` (the model's noise on the cut-width scale; NaN if not measured)
+        and ``adaptive_certify`` (``"bounds"`` or ``"global"``)."""
         return {
             "method_error": float(outcome.error),
             "method_error_bound": outcome.bound,
@@ -220,4 +221,5 @@ class Adaptive(Method):
             "adaptive_rounds": int(outcome.rounds),
             "adaptive_status": outcome.status,
             "adaptive_noise": float(outcome.noise),
+            "adaptive_certify": self.certify,
         }
