@@ -60,6 +60,11 @@ def test_certify_is_checked_and_kept_out_of_a_default_plans_fingerprint():
     assert Adaptive(certify="global").describe()["certify"] == "global"
     with pytest.raises(InvalidPlanError, match='certify must be "bounds" or "global"'):
         Adaptive(certify="everywhere")
+    from fuzzymbs.fuzzy.adaptive import AdaptiveTransformation
+
+    numbers = triangular_numbers(random_case(1, 2, 1).triangles)
+    with pytest.raises(ValueError, match="certify must be"):
+        AdaptiveTransformation(numbers, LEVELS, 0.01, 100, 400, certify="everywhere")
 
 
 def test_a_study_file_and_the_command_line_set_the_certificate(tmp_path):

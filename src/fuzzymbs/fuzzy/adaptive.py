@@ -173,6 +173,8 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         search_points: int,
         certify: str = "bounds",
     ) -> None:
+        if certify not in ("bounds", "global"):
+            raise ValueError(f'certify must be "bounds" or "global", got {certify!r}')
         self.names = tuple(parameters)
         self.certify = certify
         self.levels = np.asarray(levels, dtype=float)
