@@ -36,7 +36,7 @@ import time
 
 import numpy as np
 
-from fuzzymbs.fuzzy.adaptive import AdaptiveTransformation
+from fuzzymbs.fuzzy.adaptive import CERTIFICATES, AdaptiveTransformation
 from fuzzymbs.fuzzy.band_scale import band_miss
 from fuzzymbs.fuzzy.numbers import triangular_numbers
 from fuzzymbs.models.closed_form.hard_cases import HardCase, dense_truth, hard_cases
@@ -137,7 +137,7 @@ def main(arguments: list[str]) -> None:
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--tolerance", type=float, default=TOLERANCE)
     parser.add_argument("--levels", type=int, default=len(LEVELS))
-    parser.add_argument("--certify", choices=("bounds", "global"), default=CERTIFY)
+    parser.add_argument("--certify", choices=CERTIFICATES, default=CERTIFY)
     options = parser.parse_args(arguments)
     TOLERANCE, LEVELS = options.tolerance, np.linspace(0.0, 1.0, options.levels)
     CERTIFY = options.certify

@@ -30,6 +30,7 @@ import time
 import gradient_adaptive
 from gradient_adaptive import LEVELS, judged, run
 
+from fuzzymbs.fuzzy.adaptive import CERTIFICATES
 from fuzzymbs.models.closed_form.random_models import random_case
 from fuzzymbs.models.closed_form.resonance import polished_truth
 
@@ -42,7 +43,7 @@ def main(arguments: list[str]) -> None:
     parser.add_argument("--elements", type=int, nargs="+", default=[1, 21])
     parser.add_argument("--gradients", choices=("both", "true", "false"), default="both")
     parser.add_argument("--tolerance", type=float, default=0.01)
-    parser.add_argument("--certify", choices=("bounds", "global"), default="bounds")
+    parser.add_argument("--certify", choices=CERTIFICATES, default="bounds")
     args = parser.parse_args(arguments)
     paths = {"both": (False, True), "true": (True,), "false": (False,)}[args.gradients]
     # the rounds and the judgment of gradient_adaptive.py (6 levels, budget 8,000,

@@ -71,7 +71,7 @@ from fuzzymbs.fuzzy.hermite_correction import flatten_gradients, hermite_correct
 from fuzzymbs.fuzzy.numbers import FuzzyNumber
 from fuzzymbs.fuzzy.residual_correction import KernelCorrection
 
-__all__ = ["NOISE", "AdaptiveOutcome", "AdaptiveTransformation"]
+__all__ = ["CERTIFICATES", "NOISE", "AdaptiveOutcome", "AdaptiveTransformation"]
 
 #: extremal points closer than this to a run (unit cube [-1, 1]^n, max norm) are not re-run
 _NEAR = 0.02
@@ -81,6 +81,9 @@ _REFINE_SHARE = 0.8
 _EXPLORE_POOL = 512
 #: the statuses of :attr:`AdaptiveOutcome.status`
 CONVERGED, BUDGET, NOISE = "converged", "budget", "noise"
+#: what the certified error may cover (the engine's ``certify``): the bounds or the
+#: surrogate wherever it is checked
+CERTIFICATES = ("bounds", "global")
 
 #: a surrogate: the sparse grid's Chebyshev series (degrees, coefficients) and the
 #: kernel correction through the runs off the grid (None before there are any)
@@ -173,7 +176,7 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         search_points: int,
         certify: str = "bounds",
     ) -> None:
-        if certify not in ("bounds", "global"):
+        if certify not in CERTIFICATES:
             raise ValueError(f'certify must be "bounds" or "global", got {certify!r}')
         self.names = tuple(parameters)
         self.certify = certify
@@ -703,10 +706,11 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
                 break
             chosen.append(candidates[best])
             far = np.minimum(far, distance(candidates, candidates[best][None, :]))
-        pool_far = distance(self._pool, np.concatenate((taken, *[c[None, :] for c in chosen])))
-        for _ in range(min(self._explore, room - len(chosen))):
-            chosen.append(self._pool[int(np.argmax(pool_far))])
-            pool_far = np.minimum(pool_far, distance(self._pool, chosen[-1][None, :]))
+        if len(chosen) < room:  # the exploration points, farthest first
+            pool_far = distance(self._pool, np.concatenate((taken, *[c[None] for c in chosen])))
+            for _ in range(min(self._explore, room - len(chosen))):
+                chosen.append(self._pool[int(np.argmax(pool_far))])
+                pool_far = np.minimum(pool_far, distance(self._pool, chosen[-1][None, :]))
         return np.array(chosen).reshape(-1, dimension)
 
     # ----------------------------------------------------------------- result
