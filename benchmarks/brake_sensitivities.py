@@ -56,7 +56,6 @@ import numpy as np
 import fuzzymbs.mbs.central_differences as central_differences
 from fuzzymbs.mbs import integrate
 from fuzzymbs.mbs.integrate import simulate
-from fuzzymbs.mbs.kernels.rosenbrock_methods import SENSITIVITY_SCHEMES
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
 from fuzzymbs.tolerance import Tolerance
@@ -185,9 +184,7 @@ def errors(gradients, truth) -> dict:
     return out
 
 
-def accuracy(
-    t_end: float, rtols: list[float], shared_rtol: float = 1e-3, schemes: tuple = ("method",)
-) -> dict:
+def accuracy(t_end: float, rtols: list[float], shared_rtol: float = 1e-3) -> dict:
     compiled = DiscBrake(t_end=t_end, record_interval=RECORD).compiled
     truth = reference(compiled, t_end)
     result: dict = {"t_end_s": t_end, "reference": f"central differences, rtol {REFERENCE_RTOL}"}
@@ -204,7 +201,7 @@ def accuracy(
         for output in OUTPUTS
     }
     rows = []
-    for integrator, scheme in variants(schemes):
+    for integrator in ("ros34pw2", "rodas4"):
         for rtol in rtols:
             start = time.process_time()
             run = run_brake(
@@ -215,12 +212,10 @@ def accuracy(
                 integrator,
                 sensitivities=NAMES,
                 kernel="samples",
-                sensitivity_stages=scheme,
             )
             rows.append(
                 {
                     "integrator": integrator,
-                    "stages": scheme,
                     "rtol": rtol,
                     "cpu_s": round(time.process_time() - start, 2),
                     "errors": errors(run.gradients, truth),
@@ -231,33 +226,23 @@ def accuracy(
     rtol = shared_rtol
     seq, ren = logged_sequence(compiled, t_end, rtol)
     discrete, counts = _central_differences(compiled, t_end, rtol, seq, ren, FD_STEP)
+    run = run_brake(
+        compiled,
+        _columns(NOMINAL),
+        t_end,
+        rtol,
+        step_sequence=seq,
+        jacobian_renewals=ren,
+        sensitivities=NAMES,
+    )
     result["shared"] = {
         "rtol": rtol,
         "differenced_runs_rejected_steps": counts[:, 1].tolist(),
+        "against_the_discrete_map": errors(run.gradients, discrete),
+        "against_the_reference": errors(run.gradients, truth),
         "discrete_map_against_the_reference": errors(discrete, truth),
     }
-    for scheme in schemes:
-        run = run_brake(
-            compiled,
-            _columns(NOMINAL),
-            t_end,
-            rtol,
-            step_sequence=seq,
-            jacobian_renewals=ren,
-            sensitivities=NAMES,
-            sensitivity_stages=scheme,
-        )
-        result["shared"][scheme] = {
-            "against_the_discrete_map": errors(run.gradients, discrete),
-            "against_the_reference": errors(run.gradients, truth),
-        }
     return result
-
-
-def variants(schemes: list[str]) -> list[tuple[str, str]]:
-    """(integrator, sensitivity_stages) pairs: ROS34PW2 with each scheme, RODAS4 with its
-    own method (the two-stage scheme needs gamma > 1/4)."""
-    return [*(("ros34pw2", scheme) for scheme in schemes), ("rodas4", "method")]
 
 
 #: the cost block: the nominal sample and three corners of study 1's mu = 0 box
@@ -307,7 +292,7 @@ def rk4(t_end: float, cost_t_end: float, repeats: int) -> dict:
     }
 
 
-def cost(t_end: float, rtols: list[float], repeats: int, schemes: tuple = ("method",)) -> dict:
+def cost(t_end: float, rtols: list[float], repeats: int) -> dict:
     compiled = DiscBrake(t_end=t_end, record_interval=RECORD).compiled
     samples = COST_BLOCK
     study1 = NAMES[:3]
@@ -315,27 +300,23 @@ def cost(t_end: float, rtols: list[float], repeats: int, schemes: tuple = ("meth
     cases = {"none": (), **{SHORT[n]: (n,) for n in study1}}
     cases.update({"study 1 (3)": study1, "study 2 (3)": study2, "all 4": NAMES})
     result: dict = {"t_end_s": t_end, "block": "nominal + 3 corners of study 1's mu = 0 box"}
-    for integrator, scheme in variants(schemes):
+    for integrator in ("ros34pw2", "rodas4"):
         for rtol in rtols:
             common = (compiled, samples, t_end, rtol, integrator)
-            run_brake(*common, sensitivities=study1, sensitivity_stages=scheme)  # warm
-            key = f"{integrator}{'' if scheme == 'method' else ' ' + scheme} rtol {rtol:g}"
-            result[key] = _cost_rows(common, cases, repeats, sensitivity_stages=scheme)
+            run_brake(*common, sensitivities=study1)  # warm
+            result[f"{integrator} rtol {rtol:g}"] = _cost_rows(common, cases, repeats)
     for rtol in rtols:  # a study's runs: every lane on the nominal sample's sequence
         log = run_brake(
             compiled, _columns(NOMINAL), t_end, rtol, log_steps=True, log_jacobians=True
         )
-        for scheme in schemes:
-            key = f"ros34pw2{'' if scheme == 'method' else ' ' + scheme} rtol {rtol:g} shared steps"
-            result[key] = _cost_rows(
-                (compiled, samples, t_end, rtol, "ros34pw2"),
-                {label: cases[label] for label in ("none", "study 1 (3)")},
-                repeats,
-                step_sequence=log.step_times,
-                jacobian_renewals=log.step_renewals,
-                logged_jacobians=log.jacobian_log,
-                sensitivity_stages=scheme,
-            )
+        result[f"ros34pw2 rtol {rtol:g} shared steps"] = _cost_rows(
+            (compiled, samples, t_end, rtol, "ros34pw2"),
+            {label: cases[label] for label in ("none", "study 1 (3)")},
+            repeats,
+            step_sequence=log.step_times,
+            jacobian_renewals=log.step_renewals,
+            logged_jacobians=log.jacobian_log,
+        )
     return result
 
 
@@ -371,30 +352,26 @@ def _print_tables(report: dict) -> None:
         say(f"accuracy over {acc['t_end_s']} s (error / peak: k k_c F_n omega | bands)\n")
         for row in acc["own_steps"]:
             e = row["errors"]
-            label = row["integrator"] + ("" if row["stages"] == "method" else " " + row["stages"])
             cells = []
             for output in OUTPUTS:
                 rel = " ".join(f"{v:.1e}" for v in e[output]["relative"].values())
                 cells.append(
                     f"{output} {rel} | {e[output]['study 1']:.1e} {e[output]['study 2']:.1e}"
                 )
-            say(f"{label} {row['rtol']:g} cpu {row['cpu_s']}: " + " || ".join(cells) + "\n")
-        schemes = [
-            k
-            for k, v in acc["shared"].items()
-            if isinstance(v, dict) and "against_the_reference" in v
-        ]
-        for scheme in schemes:
-            for key in ("against_the_discrete_map", "against_the_reference"):
-                e = acc["shared"][scheme][key]
-                cells = [
-                    f"{o} "
-                    + " ".join(f"{v:.1e}" for v in e[o]["relative"].values())
-                    + f" | {e[o]['study 1']:.1e} {e[o]['study 2']:.1e}"
-                    for o in OUTPUTS
-                ]
-                rtol = acc["shared"]["rtol"]
-                say(f"shared rtol {rtol:g} {scheme}, {key}: " + " || ".join(cells) + "\n")
+            say(
+                f"{row['integrator']} {row['rtol']:g} cpu {row['cpu_s']}: "
+                + " || ".join(cells)
+                + "\n"
+            )
+        for key in ("against_the_discrete_map", "against_the_reference"):
+            e = acc["shared"][key]
+            cells = [
+                f"{o} "
+                + " ".join(f"{v:.1e}" for v in e[o]["relative"].values())
+                + f" | {e[o]['study 1']:.1e} {e[o]['study 2']:.1e}"
+                for o in OUTPUTS
+            ]
+            say(f"shared rtol {acc['shared']['rtol']:g}, {key}: " + " || ".join(cells) + "\n")
     if "rk4" in report:
         r = report["rk4"]
         for output in OUTPUTS:
@@ -424,13 +401,6 @@ def main() -> None:
     parser.add_argument("--shared-rtol", type=float, default=1e-3)
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument(
-        "--stages",
-        nargs="+",
-        choices=SENSITIVITY_SCHEMES,
-        default=list(SENSITIVITY_SCHEMES),
-        help="ROS34PW2's sensitivity schemes (simulate's sensitivity_stages)",
-    )
-    parser.add_argument(
         "--delta",
         type=float,
         default=None,
@@ -441,9 +411,9 @@ def main() -> None:
         integrate.SENS_DELTA = args.delta  # simulate reads it at every call
     report: dict = {"delta": integrate.SENS_DELTA}
     if "accuracy" in args.parts:
-        report["accuracy"] = accuracy(args.t_end, args.rtol, args.shared_rtol, args.stages)
+        report["accuracy"] = accuracy(args.t_end, args.rtol, args.shared_rtol)
     if "cost" in args.parts:
-        report["cost"] = cost(args.cost_t_end, args.cost_rtol, args.repeats, args.stages)
+        report["cost"] = cost(args.cost_t_end, args.cost_rtol, args.repeats)
     if "rk4" in args.parts:
         report["rk4"] = rk4(args.t_end, args.cost_t_end, args.repeats)
     _print_tables(report)

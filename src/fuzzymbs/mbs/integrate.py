@@ -32,12 +32,7 @@ from fuzzymbs.mbs.kernels.rk4 import rk4
 from fuzzymbs.mbs.kernels.rosenbrock import ros34pw2
 from fuzzymbs.mbs.kernels.rosenbrock_methods import METHODS
 from fuzzymbs.mbs.kernels.sensitivities import SENS_DELTA, no_sensitivity
-from fuzzymbs.mbs.sensitivities import (
-    checked_scheme,
-    checked_wrt,
-    gradient_cost,
-    sensitivity_directions,
-)
+from fuzzymbs.mbs.sensitivities import checked_wrt, gradient_cost, sensitivity_directions
 from fuzzymbs.mbs.shared_steps import (
     SharedSteps,
     checked_renewals,
@@ -132,7 +127,6 @@ def simulate(
     sensitivities: Sequence[str] = (),
     log_jacobians: bool = False,
     logged_jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
-    sensitivity_stages: str = "method",
 ) -> SimulationResult:
     """Integrate a batch of samples with classic RK4 (fixed step) or ROS34PW2.
 
@@ -212,13 +206,6 @@ def simulate(
     logged_jacobians : (rows, step_rows), optional
         ROS34PW2 with ``step_sequence``: a logging run's ``jacobian_log``, whose Jacobians
         the samples take where they renew theirs at a point of the sequence.
-    sensitivity_stages : {"method", "two-stage"}
-        How ``sensitivities`` are integrated on the state's steps: ``"method"`` (default)
-        by the state's method, a right-hand side per stage and parameter; ``"two-stage"``
-        (ROS34PW2 only) by a two-stage W-method of order 2 on the same LU, two right-hand
-        sides per step and parameter (:func:`~fuzzymbs.mbs.kernels.rosenbrock_methods.
-        sensitivity_scheme`; accuracy and cost on the brake: docs/theory.md, "Forward
-        sensitivities").
     """
     check_kernel(kernel)
     rtols, atols, h_min = check_integrator(integrator, tolerance)
@@ -235,7 +222,6 @@ def simulate(
     )
     sens_settings = np.array([SENS_DELTA])
     nsens = directions.shape[0]
-    scheme = checked_scheme(sensitivity_stages, integrator)
     rtols = per_sample(rtols, batch, "rtol")
     atols = per_sample(atols, batch, "atol")
     x0 = checked_initial_state(compiled, initial_state, batch)
@@ -287,7 +273,7 @@ def simulate(
         else:
             d = np.empty((sl.stop - sl.start, out_w.shape[0], n_rec, nsens))
             sensitivity = (
-                (directions, sens_settings, d, scheme)
+                (directions, sens_settings, d)
                 if nsens
                 else no_sensitivity(params.shape[1], d.shape[0], out_w.shape[0], n_rec)
             )

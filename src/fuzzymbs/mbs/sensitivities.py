@@ -14,19 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fuzzymbs.errors import InvalidParameterError
-from fuzzymbs.mbs.kernels.rosenbrock_methods import (
-    METHODS,
-    SENSITIVITY_SCHEMES,
-    sensitivity_scheme,
-)
 
-__all__ = [
-    "GRADIENT_COSTS",
-    "checked_scheme",
-    "checked_wrt",
-    "gradient_cost",
-    "sensitivity_directions",
-]
+__all__ = ["GRADIENT_COSTS", "checked_wrt", "gradient_cost", "sensitivity_directions"]
 
 #: CPU of a run per parameter differentiated, as a fraction of the run without: one
 #: right-hand side per parameter and stage besides the state's. The brake over 2 ms,
@@ -108,27 +97,3 @@ def checked_wrt(
             f"respect to {list(differentiable)}"
         )
     return names
-
-
-def checked_scheme(stages: str, integrator: str) -> tuple:
-    """The kernel's sensitivity scheme ``stages`` of ``integrator``
-    (:func:`~fuzzymbs.mbs.kernels.rosenbrock_methods.sensitivity_scheme`; RK4: the
-    default's empty one, as it integrates none).
-
-    Raises
-    ------
-    InvalidParameterError
-        An unknown scheme, or one the integrator cannot take (``"two-stage"`` with RODAS4).
-    """
-    if stages not in SENSITIVITY_SCHEMES:
-        raise InvalidParameterError(
-            f"sensitivity_stages must be one of {list(SENSITIVITY_SCHEMES)}, got {stages!r}"
-        )
-    if integrator not in METHODS:
-        return sensitivity_scheme(METHODS["ros34pw2"], "method")
-    try:
-        return sensitivity_scheme(METHODS[integrator], stages)
-    except ValueError as error:
-        raise InvalidParameterError(
-            f"sensitivity_stages={stages!r} with {integrator!r}: {error}"
-        ) from error

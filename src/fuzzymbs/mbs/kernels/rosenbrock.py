@@ -201,15 +201,13 @@ def advance_block_ros(
     was evaluated at its start, in pairs from ``step_log[r, 1]`` (``step_log[r, 0]``:
     their number; -1 when the row is full); C = 1: nothing is logged.
 
-    ``sensitivity = (directions, sens_settings, out_s, scheme)``: forward sensitivities
-    ``S_k = dx/dp_k`` to P parameters integrated with the state on the state's steps,
-    each stage's solve with the state's LU (docs/theory.md, "Forward sensitivities").
-    ``directions`` (P, slots): 1.0 in the slots parameter k sets (a name may set
-    several); ``sens_settings = (delta,)``: the relative perturbation of the differences
-    (:data:`fuzzymbs.mbs.kernels.sensitivities.SENS_DELTA`); ``out_s`` (B, n_out, n_rec,
-    P) receives the outputs' derivatives at the records; ``scheme``: the tableau they are
-    integrated with (the state's method or two stages,
-    :func:`~fuzzymbs.mbs.kernels.rosenbrock_methods.sensitivity_scheme`). The
+    ``sensitivity = (directions, sens_settings, out_s)``: forward sensitivities
+    ``S_k = dx/dp_k`` to P parameters integrated with the state by the same method on
+    the state's steps, each stage's solve with the state's LU (docs/theory.md, "Forward
+    sensitivities"). ``directions`` (P, slots): 1.0 in the slots parameter k sets (a
+    name may set several); ``sens_settings = (delta,)``: the relative perturbation of
+    the differences (:data:`fuzzymbs.mbs.kernels.sensitivities.SENS_DELTA`); ``out_s``
+    (B, n_out, n_rec, P) receives the outputs' derivatives at the records. The
     sensitivities only read the state's arithmetic and never steer it, so the outputs
     and steps are bit for bit those of the run without (P = 0). Their stages are
     computed once a step is accepted, from the state's stage points kept for them: a

@@ -148,51 +148,6 @@ def tableau(coefficients: tuple) -> tuple:
     return at @ gamma_matrix, gamma_matrix, m @ gamma_matrix, (m - me) @ gamma_matrix, alpha, gsum
 
 
-#: how the forward sensitivities are integrated on the state's steps (:func:`sensitivity_scheme`)
-SENSITIVITY_SCHEMES = ("method", "two-stage")
-
-
-def sensitivity_scheme(coefficients: tuple, scheme: str = "method") -> tuple:
-    """``(at, c, m, points)``: the transformed tableau the forward sensitivities are
-    integrated with on the state's steps, solving with the state's LU, and per stage the
-    state's stage point whose ``Y`` and ``f(Y)`` it reads
-    (:func:`fuzzymbs.mbs.kernels.sensitivities.step_sensitivities`).
-
-    ``"method"``: the state's own method on the augmented system (docs/theory.md,
-    "Forward sensitivities"): one sensitivity right-hand side per stage and parameter.
-    ``"two-stage"``: the two-stage W-method of order 2 with the state's ``gamma``
-    (Hairer & Wanner, Solving ODEs II, Sec. IV.7: ``b = (1/2, 1/2)``, ``alpha_21 = 1``,
-    ``gamma_21 = -2 gamma`` satisfy ``sum b = 1``, ``sum b_i alpha_i = 1/2`` and ``sum
-    b_i gamma_ij = -gamma``, the conditions for order 2 with any matrix W), its second
-    stage at the step's end on the state's last stage point there: two right-hand sides
-    per step and parameter instead of the method's stages. Its stability function
-    ``1 + z / (1 - gamma z) + (1/2 - gamma) z^2 / (1 - gamma z)^2`` is A-stable for
-    ``gamma >= 1/4``, with ``R(inf) = (2 gamma^2 - 4 gamma + 1) / (2 gamma^2)``: -0.957
-    for ROS34PW2's gamma, 1 for RODAS4's 1/4, which it therefore refuses.
-    """
-    at, cc, m, _, alpha, _, settings = coefficients
-    stages = m.shape[0]
-    if scheme == "method":
-        return at, cc, m, np.arange(stages, dtype=np.int64)
-    if scheme != "two-stage":
-        raise ValueError(f"sensitivity scheme must be one of {SENSITIVITY_SCHEMES}, got {scheme!r}")
-    gamma = float(settings[0])
-    if not gamma > 0.25:
-        at_infinity = (2.0 * gamma**2 - 4.0 * gamma + 1.0) / (2.0 * gamma**2)
-        raise ValueError(
-            f"the two-stage sensitivities need a method with gamma > 1/4 (ROS34PW2); this "
-            f"one has {gamma:g}, where the scheme's R(inf) is {at_infinity:g}"
-        )
-    ends = np.flatnonzero(np.isclose(alpha, 1.0))
-    if not len(ends) or ends[-1] == 0:
-        raise ValueError("the two-stage sensitivities need a stage of the method at t + h")
-    w_a = np.array([[0.0, 0.0], [1.0, 0.0]])
-    w_gamma = np.array([[gamma, 0.0], [-2.0 * gamma, gamma]])
-    b = np.array([0.5, 0.5])
-    two_at, two_c, two_m = transformed(w_a, w_gamma, b, b, 1, 1)[:3]
-    return two_at, two_c, two_m, np.array([0, ends[-1]], dtype=np.int64)
-
-
 #: the Rosenbrock methods by name (:func:`fuzzymbs.mbs.integrate.simulate`'s integrator)
 METHODS = {
     "ros34pw2": COEFFICIENTS,

@@ -69,7 +69,6 @@ def no_sensitivity(slots: int, batch: int, n_out: int, n_records: int) -> tuple:
         np.zeros((0, slots)),
         np.array([SENS_DELTA]),
         np.zeros((batch, n_out, n_records, 0)),
-        (np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(0), np.zeros(0, dtype=np.int64)),
     )
 
 
@@ -136,26 +135,22 @@ def keep_stage(work, s, stages, y, stage_f):
 
 
 @nb.njit(cache=True, fastmath=V.FAST, _nrt=V.NO_REFCOUNT)
-def sensitivity_stage(
-    s, point, stages, theta, sk, direction, p, delta, method, sysdata, rhs_work, work
-):
+def sensitivity_stage(s, theta, sk, direction, p, delta, method, sysdata, rhs_work, work):
     """Stage ``s`` of one parameter's sensitivity (``sk``: its rows), once the state's step
     is computed: ``(I / (gamma h) - J) U_s = G_s + sum_j (c_sj / h) U_j`` with the
-    state's factors, ``G_s`` the sensitivity right-hand side at ``(Y_point, S_s = S +
-    sum_j at_sj U_j)``, ``Y_point`` the state's stage point ``point`` (of its ``stages``):
-    at stage 0 the one at the step's start, and a later stage at the step's start with
-    ``S_s = S`` takes it too; else :func:`sensitivity_rhs` at the kept stage point. No
-    ``f_t`` term: the W-method keeps its order with the block-diagonal Jacobian ``diag(J,
-    J)``, which drops it (docs/theory.md). ``method = (at, cc, gamma, h, jq, mat, piv)``:
-    the sensitivities' tableau (:func:`~fuzzymbs.mbs.kernels.rosenbrock_methods.
-    sensitivity_scheme`), the lanes' steps (a vector), the Jacobian's ``A_q`` block and
-    the stage matrix's LU."""
+    state's factors, ``G_s`` the sensitivity right-hand side at ``(Y_s, S_s = S + sum_j
+    at_sj U_j)``: at stage 0 the one at the step's start, then :func:`sensitivity_rhs` at
+    the kept stage point. No ``f_t`` term: the W-method keeps its order with the block-
+    diagonal Jacobian ``diag(J, J)``, which drops it (docs/theory.md). ``method = (at,
+    cc, gamma, h, jq, mat, piv)``: the tableau, the lanes' steps (a vector), the
+    Jacobian's ``A_q`` block and the stage matrix's LU."""
     at, cc, gamma, step_v, jq, mat, piv = method
+    stages = at.shape[0]
     nstate = sk.shape[1] // L
     n = nstate // 2
     gh = gamma * step_v
     g = sk[G0]
-    if point > 0:
+    if s > 0:
         g = work[W_G]
         s_stage = work[W_SOLVE]  # S_s, until the difference has read it
         for i in range(nstate):
@@ -163,7 +158,7 @@ def sensitivity_stage(
             for j in range(s):
                 acc = acc + at[s, j] * V.load(sk[U0 + j], L * i)
             V.store(s_stage, L * i, acc)
-        y, fy = work[W_STAGES + point], work[W_STAGES + stages + point]
+        y, fy = work[W_STAGES + s], work[W_STAGES + stages + s]
         sensitivity_rhs(theta, y, fy, s_stage, direction, p, delta, sysdata, rhs_work, work, g)
     r = work[W_MOVED]
     for i in range(nstate):
@@ -179,22 +174,17 @@ def sensitivity_stage(
 def step_sensitivities(took, g_known, counter, t, x, f0, sensitivity, p, state_step, sysdata):
     """The sensitivities' step for the lanes whose state step is accepted (``took``):
     their right-hand side at the step's start where the last step's record did not leave
-    it (``g_known`` per lane), the stages of the scheme at the kept stage points, and
-    ``S_NEW``.
+    it (``g_known`` per lane), the stages at the kept stage points, and ``S_NEW``.
 
-    ``sensitivity = (directions, settings, out_s, scheme, sens, work)``, ``scheme = (at,
-    cc, m, points)``: the sensitivities' tableau and per stage the state's stage point it
-    reads (:func:`~fuzzymbs.mbs.kernels.rosenbrock_methods.sensitivity_scheme`);
-    ``state_step = (at, cc, m, alpha, gamma, steps, h, jq, mat, piv, rhs_work)``: the
-    state's tableau, the lanes' steps (an array and a vector), the Jacobian's ``A_q`` and
-    the stage matrix's LU, the right-hand side's work arrays. ``counter`` (per lane)
-    counts the right-hand sides."""
-    directions, settings, _, scheme, sens, work = sensitivity
-    _, _, m_state, alpha, gamma, steps, step_v, jq, mat, piv, rhs_work = state_step
-    at, cc, m, points = scheme
+    ``sensitivity = (directions, settings, out_s, sens, work)``; ``state_step = (at, cc,
+    m, alpha, gamma, steps, h, jq, mat, piv, rhs_work)``: the tableau, the lanes' steps
+    (an array and a vector), the Jacobian's ``A_q`` and the stage matrix's LU, the right-
+    hand side's work arrays. ``counter`` (per lane) counts the right-hand sides."""
+    directions, settings, _, sens, work = sensitivity
+    at, cc, m, alpha, gamma, steps, step_v, jq, mat, piv, rhs_work = state_step
     nsens = directions.shape[0]
     delta = settings[0]
-    stages = m_state.shape[0]
+    stages = m.shape[0]
     renew = np.zeros(L, dtype=np.bool_)
     any_renew = False
     for lane in range(L):
@@ -213,16 +203,14 @@ def step_sensitivities(took, g_known, counter, t, x, f0, sensitivity, p, state_s
                 counter[lane] += nsens
     stage_t = np.empty(L)
     method = (at, cc, gamma, step_v, jq, mat, piv)
-    for s in range(m.shape[0]):
-        point = points[s]
+    for s in range(stages):
         for lane in range(L):
-            stage_t[lane] = t[lane] + alpha[point] * steps[lane]
+            stage_t[lane] = t[lane] + alpha[s] * steps[lane]
         for k in range(nsens):
             sensitivity_stage(
-                s, point, stages, stage_t, sens[k], directions[k], p, delta, method,
-                sysdata, rhs_work, work,
-            )  # fmt: skip
-        if point > 0:
+                s, stage_t, sens[k], directions[k], p, delta, method, sysdata, rhs_work, work
+            )
+        if s > 0:
             for lane in range(L):
                 if took[lane]:
                     counter[lane] += nsens
@@ -231,7 +219,7 @@ def step_sensitivities(took, g_known, counter, t, x, f0, sensitivity, p, state_s
         sk = sens[k]
         for i in range(nstate):
             acc = V.load(sk[S_ROW], L * i)
-            for j in range(m.shape[0]):
+            for j in range(stages):
                 acc = acc + m[j] * V.load(sk[U0 + j], L * i)
             V.store(sk[S_NEW], L * i, acc)
 
@@ -241,7 +229,7 @@ def end_sensitivities(theta, x_new, fy, covered, counter, sensitivity, p, sysdat
     """For the lanes whose accepted step covers a record: the sensitivity right-hand side
     at the step's end (``G1``, with ``fy = f(theta, x_new)``), the interpolant's slope
     there and the next step's first stage."""
-    directions, settings, _, _, sens, work = sensitivity
+    directions, settings, _, sens, work = sensitivity
     nsens = directions.shape[0]
     for k in range(nsens):
         g = work[W_G]
@@ -269,7 +257,7 @@ def record_sensitivities(sensitivity, out_w, step_v, theta_v, first, lanes, reco
     """The outputs' derivatives ``out_w S`` at ``t + theta h`` (the step's Hermite
     interpolant of S, slopes ``G0`` and ``G1``) into ``out_s[sample, output, record,
     k]`` for the lanes marked in ``lanes`` (outputs are linear in the state)."""
-    directions, _, out_s, _, sens, work = sensitivity
+    directions, _, out_s, sens, work = sensitivity
     value = work[W_G]
     for k in range(directions.shape[0]):
         sk = sens[k]
