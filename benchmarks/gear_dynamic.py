@@ -5,9 +5,10 @@ parameter, and how its default step converges; one JSON line.
 
 * **cost**: wall and CPU time of the registered model's call on four samples (torque
   90, 100, 110, 120 N m; defaults otherwise: 1000 rpm, 40 mesh periods), the smallest
-  of three calls after a warm-up, in a fresh interpreter; with ``--checkout`` the same
-  in another checkout (``git worktree add ../before <commit>``), the two alternating
-  ``--rounds`` times, and the largest difference of their DTEs relative to its peak;
+  of three calls after a warm-up (``--quick``: one), in a fresh interpreter; with
+  ``--checkout`` the same in another checkout (``git worktree add ../before <commit>``),
+  the two alternating ``--rounds`` times, and the largest difference of their DTEs
+  relative to its peak;
 * **smoothness**: the DTE over 12 mesh periods (4 recorded) at the torque moved by
   ``k 1e-4`` relative, k = -10..10, for the contact's default damping (viscous while
   in contact: its force jumps to ``c delta'`` as a tooth pair enters contact), without
@@ -40,7 +41,7 @@ model = gear_pair_dynamic_model()
 samples = {{"torque": np.array([90.0, 100.0, 110.0, 120.0])}}
 model(samples)
 wall = cpu = float("inf")
-for _ in range(3):
+for _ in range({repeats}):
     w, c = time.perf_counter(), time.process_time()
     out = model(samples)
     wall = min(wall, time.perf_counter() - w)
@@ -110,17 +111,20 @@ print(json.dumps(report))
 
 
 def measure(checkout: Path | None = None, rounds: int = 3, quick: bool = False) -> dict:
-    """The report of the module docstring (``quick``: the smoothness over 5 mesh periods)."""
+    """The report of the module docstring (``quick``: one timed call of the cost, the
+    smoothness over 5 mesh periods, the convergence over 3)."""
     import numpy as np
 
     folder = Path(tempfile.mkdtemp(prefix="gear_dynamic_"))
     here, there = str(folder / "here.npy"), str(folder / "there.npy")
     report: dict = {"load_average_before": load_average()}
     costs: dict[str, list] = {"this": [], "other": []}
+    repeats = 1 if quick else 3
     for _ in range(rounds if checkout else 1):
-        costs["this"].append(run_json_subprocess(_COST.format(path=here)))
+        costs["this"].append(run_json_subprocess(_COST.format(path=here, repeats=repeats)))
         if checkout:
-            costs["other"].append(run_in_checkout(_COST.format(path=there), checkout.resolve()))
+            cost = _COST.format(path=there, repeats=repeats)
+            costs["other"].append(run_in_checkout(cost, checkout.resolve()))
     report["cost_this"] = costs["this"]
     if checkout:
         report["cost_other"] = costs["other"]
@@ -143,7 +147,9 @@ def main() -> None:
     parser.add_argument("--checkout", type=Path, help="another checkout to time against")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument(
-        "--quick", action="store_true", help="smoothness over 5 mesh periods, convergence over 3"
+        "--quick",
+        action="store_true",
+        help="one timed call of the cost, smoothness over 5 mesh periods, convergence over 3",
     )
     args = parser.parse_args()
     print(json.dumps(measure(args.checkout, args.rounds, args.quick)))

@@ -61,6 +61,10 @@ LONG_FIRST = (
         "tests/models/test_brake_slow.py::test_study1_runs_and_nodal_force_dominates_the_pads",
         "tests/models/test_brake_slow.py::"
         "test_the_checks_re_runs_made_ahead_are_the_checks_bit_for_bit",
+        # the two other users of its module fixture (the study it runs first): one run
+        "tests/models/test_brake_slow.py::"
+        "test_adaptive_study1_certifies_its_bands_and_holds_every_reduced_run",
+        "tests/models/test_brake_slow.py::test_adaptive_study1_bands_hold_independent_points",
     ),
     (  # 50, 56 (with the rtol 1e-6 reference over 0.3 ms), 49, 46, 58 and under 19 s
         "tests/test_benchmarks_smoke.py::test_gear_dynamic_reports_cost_and_each_laws_smoothness",

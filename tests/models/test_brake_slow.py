@@ -55,6 +55,11 @@ def test_study1_runs_and_nodal_force_dominates_the_pads():
         # the brake's own rtol 1e-2 (the influence windows do not need the band
         # accuracy the demo's chosen tolerance gives; benchmarks/brake_bands.py runs that)
         choose_integration=False,
+        # the plan's 33 runs and one re-run: the method check's 36 validation runs and
+        # the time-integration check's 8 re-runs (1 here, the least it takes) judge bands
+        # this test does not read; both checks have tests of their own
+        validation_runs=0,
+        integration_runs=1,
     )
     assert len(study.plan) == 33
     result = study.run(chunk_size=33, progress=False)
@@ -86,23 +91,47 @@ def test_hat_clamp_breaks_the_mirror_symmetry():
     assert abs(offsets["hat"]) > 1e-6
 
 
-@pytest.fixture(scope="module")
-def adaptive_study1_1ms():
-    """The demo's study 1 (adaptive, shared steps, tolerance chosen by the study) over
-    the first millisecond (the pads' ringing), run once for the tests below."""
-    parameters = {
-        "pad_spring_stiffness": {"type": "triangular", "modal": 200e3, "spread": 0.1},
-        "caliper_spring_stiffness": {"type": "triangular", "modal": 1e3, "spread": 0.1},
-        "nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01},
-    }
+STUDY1_PARAMETERS = {
+    "pad_spring_stiffness": {"type": "triangular", "modal": 200e3, "spread": 0.1},
+    "caliper_spring_stiffness": {"type": "triangular", "modal": 1e3, "spread": 0.1},
+    "nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01},
+}
+
+
+def _study1_1ms() -> tuple[Study, object, list[int]]:
+    """The demo's study 1 (adaptive, shared steps, tolerance chosen by the study) over the
+    first millisecond (the pads' ringing): the study, its result and the samples of every
+    integrator call the time-integration check made itself."""
+    import inspect
+
+    import fuzzymbs.mbs.integrate as integrate
+
+    simulate = integrate.simulate
+    calls: list[int] = []
+
+    def counted(system, samples=None, **options):
+        if any(frame.function == "check_time_integration" for frame in inspect.stack(0)):
+            calls.append(len(next(iter(samples.values()))))
+        return simulate(system, samples, **options)
+
     study = Study(
         DiscBrake(t_end=1e-3),
-        parameters,
+        STUDY1_PARAMETERS,
         method="adaptive",
         levels=[0.0, 0.25, 0.5, 0.75, 1.0],
         outputs=["y_lpad", "y_upad", "y_cali"],
     )
-    return study, study.run(progress=False)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(integrate, "simulate", counted)
+        result = study.run(progress=False)
+    return study, result, calls
+
+
+@pytest.fixture(scope="module")
+def adaptive_study1_1ms():
+    """:func:`_study1_1ms`, run once for the tests below (tests/conftest.py sends them to
+    one test process, so that it runs once in the slow suite)."""
+    return _study1_1ms()
 
 
 def test_adaptive_study1_certifies_its_bands_and_holds_every_reduced_run(adaptive_study1_1ms):
@@ -116,7 +145,7 @@ def test_adaptive_study1_certifies_its_bands_and_holds_every_reduced_run(adaptiv
 
     levels = [0.0, 0.25, 0.5, 0.75, 1.0]
     outputs = ["y_lpad", "y_upad", "y_cali"]
-    study, result = adaptive_study1_1ms
+    study, result, _ = adaptive_study1_1ms
     data = result.dataset
     assert data.attrs["method_converged"] == 1
     assert data.attrs["method_error"] <= 0.01
@@ -142,7 +171,7 @@ def test_adaptive_study1_bands_hold_independent_points(adaptive_study1_1ms):
     # The full 10 ms studies: benchmarks/brake_band_check.py (docs/brake.md)
     from fuzzymbs.study.band_check import check_study_bands
 
-    study, result = adaptive_study1_1ms
+    study, result, _ = adaptive_study1_1ms
     assert study.model.shares_steps
     check = check_study_bands(study, result, count=16)
     assert check.rtol == pytest.approx(study.model.tolerance.rtol / 10)
@@ -152,45 +181,18 @@ def test_adaptive_study1_bands_hold_independent_points(adaptive_study1_1ms):
     assert check.error <= 0.01, check.worst
 
 
-def test_the_checks_re_runs_made_ahead_are_the_checks_bit_for_bit(monkeypatch):
+def test_the_checks_re_runs_made_ahead_are_the_checks_bit_for_bit(adaptive_study1_1ms, monkeypatch):
     # the demo's study 1 over its first millisecond: the check's re-runs go on beside
     # the adaptive method's last judgment and the check takes them (no integrator call
     # of its own); every output and figure of the result as with the re-runs made by the
     # check itself
-    import inspect
-
-    import fuzzymbs.mbs.integrate as integrate
-
-    parameters = {
-        "pad_spring_stiffness": {"type": "triangular", "modal": 200e3, "spread": 0.1},
-        "caliper_spring_stiffness": {"type": "triangular", "modal": 1e3, "spread": 0.1},
-        "nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01},
-    }
-    simulate = integrate.simulate
-
-    def run() -> tuple[object, list[int]]:
-        calls: list[int] = []
-
-        def counted(system, samples=None, **options):
-            if any(frame.function == "check_time_integration" for frame in inspect.stack(0)):
-                calls.append(len(next(iter(samples.values()))))
-            return simulate(system, samples, **options)
-
-        monkeypatch.setattr(integrate, "simulate", counted)
-        study = Study(
-            DiscBrake(t_end=1e-3),
-            parameters,
-            method="adaptive",
-            levels=[0.0, 0.25, 0.5, 0.75, 1.0],
-            outputs=["y_lpad", "y_upad", "y_cali"],
-        )
-        return study.run(progress=False).dataset, calls
-
-    ahead, calls = run()
+    _, ahead, calls = adaptive_study1_1ms
+    ahead = ahead.dataset
     assert calls == []  # the check made no run: the ones made ahead were its
     assert ahead.attrs["time_integration_runs"] == 8
     monkeypatch.setattr(Study, "_start_check", lambda self, samples: None)
-    serial, calls = run()
+    _, serial, calls = _study1_1ms()
+    serial = serial.dataset
     assert calls == [8]
     for name in ("time_integration_error", "time_integration_worst", "method_error"):
         assert ahead.attrs[name] == serial.attrs[name]
