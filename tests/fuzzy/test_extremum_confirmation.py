@@ -210,6 +210,7 @@ def test_isolated_extrema_are_run_beyond_the_ties():
         assert len(probes) == len(plain) + extra
 
 
+@pytest.mark.slow  # a whole run of the method: 189 runs, 11 s of a test process
 def test_a_random_signal_is_certified_within_the_tolerance():
     # random_case(1, 3, 21), a 21-point signal over 3 parameters the method was never
     # tuned on (benchmarks/random_honesty.py), with its gradients: without the isolated

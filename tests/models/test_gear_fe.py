@@ -31,6 +31,10 @@ COARSE = MeshOptions(fine_size=1 / 8, coarse_size=1 / 2, loaded_teeth=3, grid_po
 
 @pytest.fixture(scope="module")
 def model() -> GearPairFE:
+    """The FE reference at its default mesh: its flank tables take about 30 s of a test
+    process on an empty cache, so the tests that read it are in the slow suite (the
+    default suite's five minutes on the AVX2 host could not spare them; the local
+    flattening, the compliance and the contact solver's tests stay in the default one)."""
     return GearPairFE(PAIR, torque=100.0, positions=60)
 
 
@@ -178,6 +182,7 @@ def test_compliance_is_cached_on_disk_keyed_by_every_input(tmp_path, monkeypatch
 
 
 # ---- the model -------------------------------------------------------------------------
+@pytest.mark.slow
 def test_mean_ste_and_equilibrium_against_iso(model):
     result = model.solve({})
     ste = result["ste"][0]
@@ -194,6 +199,7 @@ def test_mean_ste_and_equilibrium_against_iso(model):
     np.testing.assert_allclose(share.sum(axis=1), 1.0, rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_single_contact_ste_between_iso_theoretical_and_measured_stiffness(model):
     # ISO 6336-1 method B: c'_th, the theoretical single stiffness of solid gears (a fit
     # to elastic calculations), and c' = c'_th C_M C_B with C_M = 0.8, the correction to
@@ -211,6 +217,7 @@ def test_single_contact_ste_between_iso_theoretical_and_measured_stiffness(model
     assert ste_single < force / (iso.single * width_um)
 
 
+@pytest.mark.slow
 def test_doubling_modulus_and_torque_keeps_the_ste(model):
     # Similarity: the FE part scales with F/E, the Hertz half-width with sqrt(F/E*), so
     # the whole STE depends on E and T1 only through T1/E (rtol 1e-9: iteration tolerance)
@@ -241,6 +248,7 @@ def test_centre_distance_deviation_sets_the_contact_ratio():
         assert abs(two - (operating.contact_ratio - 1.0)) <= 1.5 / 120
 
 
+@pytest.mark.slow
 def test_loaded_teeth_touch_outside_the_path_of_contact(model):
     # extended contact: under load the next pair meets by a tip corner before the rigid
     # start of contact, so two pairs carry load on more than eps_alpha - 1 of the period
@@ -250,6 +258,7 @@ def test_loaded_teeth_touch_outside_the_path_of_contact(model):
     assert np.any(result["pair_kind"][0] >= 2)
 
 
+@pytest.mark.slow
 def test_compiled_kernel_matches_the_python_reference(model):
     # second method: the readable Python solver (fe_contact.solve_position), position by
     # position; same algorithm, so round-off only (rtol 1e-10 of the curve's peak)
@@ -271,6 +280,7 @@ def test_compiled_kernel_matches_the_python_reference(model):
     np.testing.assert_array_equal(compiled["pair_kind"], reference["pair_kind"])
 
 
+@pytest.mark.slow
 def test_a_batch_equals_one_sample_calls(model):
     samples = {
         "torque": np.array([60.0, 100.0, 140.0]),
@@ -284,6 +294,7 @@ def test_a_batch_equals_one_sample_calls(model):
         np.testing.assert_array_equal(batch[b : b + 1], one)
 
 
+@pytest.mark.slow
 def test_a_pickled_model_is_small_and_reads_its_tables_from_the_cache(model):
     import pickle
 
