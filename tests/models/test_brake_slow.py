@@ -13,6 +13,12 @@ pytestmark = pytest.mark.slow
 
 F_TOTAL = 25 * DEFAULTS["nodal_force"]
 C_P = DEFAULTS["penalty_stiffness"]
+# the published study 1's fuzzy parameters (k, k_c, F_n)
+STUDY1_PARAMETERS = {
+    "pad_spring_stiffness": {"type": "triangular", "modal": 200e3, "spread": 0.1},
+    "caliper_spring_stiffness": {"type": "triangular", "modal": 1e3, "spread": 0.1},
+    "nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01},
+}
 
 
 @pytest.mark.parametrize("contact, n_points", [("two-pass", 73), ("single-pass", 25)])
@@ -45,11 +51,7 @@ def test_nominal_10ms_settles_near_closed_form_penetration(contact, n_points):
 def test_study1_runs_and_nodal_force_dominates_the_pads():
     study = Study(
         "brake",
-        {
-            "pad_spring_stiffness": {"type": "triangular", "modal": 200e3, "spread": 0.1},
-            "caliper_spring_stiffness": {"type": "triangular", "modal": 1e3, "spread": 0.1},
-            "nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01},
-        },
+        STUDY1_PARAMETERS,
         method="reduced",
         levels=[0.0, 0.25, 0.5, 0.75, 1.0],
         # the brake's own rtol 1e-2 (the influence windows do not need the band
@@ -89,13 +91,6 @@ def test_hat_clamp_breaks_the_mirror_symmetry():
         offsets[clamp] = y_l + y_u
     assert abs(offsets["inner"]) < 1e-8
     assert abs(offsets["hat"]) > 1e-6
-
-
-STUDY1_PARAMETERS = {
-    "pad_spring_stiffness": {"type": "triangular", "modal": 200e3, "spread": 0.1},
-    "caliper_spring_stiffness": {"type": "triangular", "modal": 1e3, "spread": 0.1},
-    "nodal_force": {"type": "triangular", "modal": 16e3, "spread": 0.01},
-}
 
 
 def _study1_1ms() -> tuple[Study, object, list[int]]:

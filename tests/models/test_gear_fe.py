@@ -31,8 +31,8 @@ COARSE = MeshOptions(fine_size=1 / 8, coarse_size=1 / 2, loaded_teeth=3, grid_po
 
 @pytest.fixture(scope="module")
 def model() -> GearPairFE:
-    """The FE reference at its default mesh: its flank tables take about 30 s of a test
-    process on an empty cache, so the tests that read it are in the slow suite (the
+    """The FE reference at its default mesh: its flank tables take 30 to 38 s of a test
+    process (2026-12-02, AVX2 host), so the tests that read it are in the slow suite (the
     default suite's five minutes on the AVX2 host could not spare them; the local
     flattening, the compliance and the contact solver's tests stay in the default one)."""
     return GearPairFE(PAIR, torque=100.0, positions=60)

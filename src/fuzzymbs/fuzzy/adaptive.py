@@ -177,7 +177,8 @@ class AdaptiveTransformation(NoiseRule, GradientRounds):
         certify: str = "bounds",
     ) -> None:
         if certify not in CERTIFICATES:
-            raise ValueError(f'certify must be "bounds" or "global", got {certify!r}')
+            allowed = " or ".join(f'"{name}"' for name in CERTIFICATES)
+            raise ValueError(f"certify must be {allowed}, got {certify!r}")
         self.names = tuple(parameters)
         self.certify = certify
         self.levels = np.asarray(levels, dtype=float)
