@@ -153,6 +153,7 @@ def test_targets_and_table_structure():
     json.dumps(figures, allow_nan=False)
 
 
+@pytest.mark.slow
 def test_parameter_scaling_counts_runs():
     import scaling
 
@@ -177,6 +178,7 @@ def test_exudyn_reduced_pad_agrees_with_fuzzymbs():
     np.testing.assert_allclose(theirs, ours, rtol=0, atol=1e-4 * scale)
 
 
+@pytest.mark.slow
 def test_lane_sharing_counts_shared_and_split_cells(brake):
     # the counter behind the 99.97 % of docs/embs.md: identical lanes always share
     # their cells; lanes whose discs turn at 1 and 400 rad/s drift apart by more than
@@ -200,6 +202,7 @@ def test_lane_sharing_counts_shared_and_split_cells(brake):
     assert counts[:, 0].sum() < counts[:, 1].sum()
 
 
+@pytest.mark.slow
 def test_ros_accuracy_table_runs():
     # the script behind the ROS34PW2 figures of docs/theory.md, on a
     # 50 us window: every integrator close to the fine RK4 reference there
@@ -222,6 +225,7 @@ def test_box_search_times_the_correction_against_the_three_terms_it_replaced():
     assert figures["three_terms_ms"] > 0 and figures["one_product_ms"] > 0
 
 
+@pytest.mark.slow
 def test_brake_sensitivities_cost_times_shared_steps_too():
     # the script behind the sensitivities' cost on shared steps (docs/brake.md), over
     # 20 us: the block on the nominal sample's logged sequence and Jacobians, without and
@@ -240,6 +244,7 @@ def test_brake_sensitivities_cost_times_shared_steps_too():
     assert report["ros34pw2 rtol 0.01"]["none"]["rhs_jac_lu_sens_rhs"][1] >= 1
 
 
+@pytest.mark.slow
 def test_brake_sensitivities_rk4_part_reports_errors_steps_and_cost(tmp_path, monkeypatch):
     # the script behind the RK4 derivatives' figures (docs/brake.md), over 20 us: errors
     # against the reference, the change between two steps and the cost, the step restored
@@ -257,6 +262,7 @@ def test_brake_sensitivities_rk4_part_reports_errors_steps_and_cost(tmp_path, mo
     assert central_differences.GRADIENT_STEP == 1e-4
 
 
+@pytest.mark.slow
 def test_jacobian_age_runs_each_age_and_restores_the_default(tmp_path):
     # the script behind the Jacobian age's figures (docs/benchmarks.md), over 0.1 ms:
     # its default-age coefficients are the kernel's, every age runs and is judged
@@ -711,6 +717,7 @@ def test_other_w_methods_meet_their_order_conditions():
     np.testing.assert_array_equal(a[2], a[3])
 
 
+@pytest.mark.slow
 def test_correction_blocks_runs_a_case_and_restores_the_block_sizes():
     # one closed-form case at the earlier block sizes: the same runs and certified error
     # as at the defaults (a block changes which BLAS kernel sums a row, not the sums)

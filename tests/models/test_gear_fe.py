@@ -225,6 +225,7 @@ def test_doubling_modulus_and_torque_keeps_the_ste(model):
     np.testing.assert_allclose(out["ste"][1], out["ste"][0], rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_tip_relief_at_light_load_is_the_kinematic_error_of_gear_pair():
     # gear-pair with rigid teeth and a very stiff contact gives the kinematic error of the
     # relieved flanks (its own test checks it against the closed form); the FE model at
@@ -237,6 +238,7 @@ def test_tip_relief_at_light_load_is_the_kinematic_error_of_gear_pair():
     np.testing.assert_allclose(fe(samples)["ste"], rigid(samples)["ste"], rtol=0, atol=5e-10)
 
 
+@pytest.mark.slow
 def test_centre_distance_deviation_sets_the_contact_ratio():
     # light load: the fraction of the period with two loaded pairs is eps_alpha(a_w) - 1
     # (closed form, GearPair.contact_ratio at a_w), within the position spacing 1/120
@@ -317,6 +319,10 @@ def test_bad_input_names_the_input():
         GearPairFE(PAIR, mesh={"grid_points": 2})
     with pytest.raises(InvalidParameterError, match="reference_depth"):
         MeshOptions(fine_size=0.1, reference_depth=0.15)
+
+
+@pytest.mark.slow  # it solves: the FE contact kernel's first compilation (about 30 s)
+def test_bad_samples_name_the_input():
     small = GearPairFE(PAIR, positions=4, mesh=COARSE)
     with pytest.raises(InvalidParameterError, match="poisson_ratio"):
         small({"poisson_ratio": np.array([0.6])})
@@ -336,6 +342,7 @@ def test_registered_and_listed():
     assert isinstance(built, GearPairFE)
 
 
+@pytest.mark.slow
 def test_example_study_file_runs(tmp_path):
     from fuzzymbs.study.pipeline import run_study_file
 
