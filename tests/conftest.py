@@ -26,10 +26,11 @@ os.environ["FUZZYMBS_TRUST_FILE"] = os.path.join(os.path.dirname(__file__), "no-
 # "::" is a whole module). Every later caller, on either process, loads the kernels from
 # the cache. tests/test_kernels_first.py checks the entries; a missing one is skipped here.
 KERNELS_FIRST = (
-    (  # the gear pair's kernels: MUBOCO-PR static, its dynamics, the FE reference's contact
+    (  # the gear pair's kernels: MUBOCO-PR static, its dynamics (the FE reference's contact
+        # kernel is compiled in the slow suite only)
         "tests/models/test_gear_docs.py::test_gears_guide_example_runs",
         "tests/models/test_gear_dynamics.py::test_slow_running_dte_approaches_the_static_ste",
-        "tests/models/test_gear_fe.py",  # its FE tables: once per process (module_fe_cache)
+        "tests/models/test_gear_fe.py",  # its module fixture: once per process (module_fe_cache)
         # the quickstart demo (the module's demo_out fixture)
         "tests/test_cli.py::test_demo_writes_results_plots_and_summary",
         "tests/test_cli.py::test_sparse_demo_matches_closed_form_and_a_dense_search",
