@@ -392,6 +392,48 @@ def test_work_precision_diagram_runs(tmp_path):
 
 
 @pytest.mark.slow
+def test_brake_stiffness_explains_the_explicit_pairs_and_checks_the_jacobian():
+    # benchmarks/brake_stiffness.py over the first 0.1 ms (14 s; docs/benchmarks.md
+    # "Explicit pairs on the brake" holds the 1 ms run)
+    import brake_stiffness
+
+    report = brake_stiffness.main(["explicit", "eigen", "jvp"], 1e-4)
+    rows = {(r["integrator"], r["rtol"], r.get("note", "")): r for r in report["explicit"]}
+    rk45 = [rows[("SciPy RK45", rtol, "")]["rhs"] for rtol in brake_stiffness.RTOLS]
+    # bound by stability, not accuracy: a hundredfold tighter rtol costs at most 30 % more
+    # right-hand sides (measured 10 %; bound by accuracy, a fifth-order pair would take
+    # 100^(1/5) = 2.5 times as many)
+    assert max(rk45) < 1.3 * min(rk45)
+    # the stiffness is the regularised friction's: without it RK45 takes a tenth of them
+    # (measured 697 against 13,549)
+    assert rows[("SciPy RK45", 1e-4, "friction_coefficient 0")]["rhs"] < 0.1 * rk45[1]
+    # each integrator converges to the same answer: ROS34PW2 and RK45 at rtol 1e-5 within
+    # 1e-4 of the outputs' peaks of ROS34PW2 at 1e-7 (measured 5.5e-7 and 2.8e-6)
+    assert rows[("ROS34PW2", 1e-5, "")]["error"] < 1e-4
+    assert rows[("SciPy RK45", 1e-5, "")]["error"] < 1e-4
+    eigen = report["eigen"]
+    frictionless = [r for r in eigen if r["note"]]
+    # without friction the contact is conservative and the model undamped: a purely
+    # imaginary spectrum (closed form of an undamped linear system; real parts measured
+    # below 1e-10 against 2.3e5 rad/s)
+    assert all(
+        max(abs(r["most_negative_real"]), abs(r["largest_real"])) < 1e-6 * r["largest_imaginary"]
+        for r in frictionless
+    )
+    # with it, real eigenvalues of mu f_N / eps order below -1e6 1/s at every time
+    # (measured -7.5e6 to -1.2e8), which bound RK4 below the paper's 1 us
+    friction = [r for r in eigen if not r["note"]]
+    assert all(r["most_negative_real"] < -1e6 for r in friction)
+    assert all(r["rk4_step_bound_s"] < 1e-6 for r in friction)
+    # the analytic Jacobian times the sensitivity directions against the differences the
+    # sensitivities take: within 2e-3 relative wherever the direction is resolved
+    # (measured at most 2.1e-5 here, 6.6e-4 over 1 ms)
+    resolved = [r for r in report["jvp"] if r["resolved"]]
+    assert len(resolved) >= 12
+    assert all(r["vs_forward_1e-4"] < 2e-3 for r in resolved)
+
+
+@pytest.mark.slow
 def test_memory_scaling_quick_reports_both_cases():
     import memory_scaling
 
