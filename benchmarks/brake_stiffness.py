@@ -1,7 +1,7 @@
 """Where the brake's stiffness comes from, and what follows for its integrators and
 sensitivities; one JSON line.
 
-    python benchmarks/brake_stiffness.py [--parts explicit eigen jvp] [--t-end S]
+    python benchmarks/brake_stiffness.py [--parts explicit eigen jvp jvp_cost] [--t-end S]
 
 The nominal brake sample (``DiscBrake()``'s bound parameters) over ``t_end`` (1 ms):
 
@@ -25,6 +25,13 @@ The nominal brake sample (``DiscBrake()``'s bound parameters) over ``t_end`` (1 
   trajectories' noise, :data:`RESOLVED`). This is the accuracy a sensitivity
   right-hand side built from the contact's recorded force-law derivatives instead of a
   second right-hand side would have (docs/benchmarks.md, "Forward sensitivities").
+* ``jvp_cost``: that product prototyped (:func:`linear_contact_forces`: the nodes'
+  motion, the recorded force law per contact point, the force map) at the k direction's
+  state moved by eps 1e-4, against the difference of the contact passes' generalised
+  forces there (relative 2-norm), and timed against a right-hand side at the same state
+  (one block of four equal lanes, the best of five rounds of 2,000 compiled calls); the
+  product's time counts the right-hand side without contact (springs, nodal forces, the
+  equations of motion) too.
 
 SciPy's runs make one Python call per right-hand side: their CPU times are not the
 engine's; the counts are what compares.
@@ -36,12 +43,17 @@ import argparse
 import json
 import time
 
+import numba as nb
 import numpy as np
 import scipy.integrate
 
 from fuzzymbs.mbs.integrate import simulate
+from fuzzymbs.mbs.kernels import simd as V
+from fuzzymbs.mbs.kernels.contact import JREC, contact_pass
 from fuzzymbs.mbs.kernels.jacobian import jacobian
-from fuzzymbs.mbs.kernels.rhs import make_work, rhs_sample
+from fuzzymbs.mbs.kernels.kinematics import map_node_forces, node_kinematics
+from fuzzymbs.mbs.kernels.layout import C_NSLAVE, C_SLAVE0
+from fuzzymbs.mbs.kernels.rhs import make_work, rhs, rhs_sample
 from fuzzymbs.mbs.kernels.simd import LANES
 from fuzzymbs.mbs.system import Coordinate
 from fuzzymbs.models.brake import DiscBrake
@@ -278,7 +290,190 @@ def jvp(brake: Brake) -> list[dict]:
     return rows
 
 
-PARTS = {"explicit": explicit, "eigen": eigen, "jvp": jvp}
+#: calls per timing of ``jvp_cost`` (each the best of ``TIMING_ROUNDS``)
+TIMING_CALLS = 2000
+TIMING_ROUNDS = 5
+
+
+@nb.njit(fastmath=V.FAST)
+def contact_forces(x, p, sysdata, work, q_out):
+    """``q_out`` <- the generalised contact forces at the lane states ``x`` (the frames as
+    the last right-hand side at the same time left them in ``work``)."""
+    ndof, bi, bf, node_xbar, fpool, ci = (
+        sysdata[0],
+        sysdata[1],
+        sysdata[2],
+        sysdata[3],
+        sysdata[6],
+        sysdata[11],
+    )
+    node_x, node_v, node_f, rot, rot_a = work[1], work[2], work[3], work[4], work[5]
+    node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
+    node_f[:] = 0.0
+    for c in range(ci.shape[0]):
+        contact_pass(c, x, p, sysdata, work)
+    q_out[:] = 0.0
+    map_node_forces(bi, bf, fpool, rot_a, node_f, q_out)
+
+
+@nb.njit(fastmath=V.FAST)
+def linear_contact_forces(x, sysdata, work, base_x, base_v, jrec, jnodes, q_out):
+    """``q_out`` <- the change of the generalised contact forces from the recorded point
+    (``base_x``, ``base_v``: its nodes' motion; ``jrec``, ``jnodes``: its contact record)
+    to the lane states ``x``, by the recorded force law (the Jacobian's, held fixed): the
+    nodes' motion at ``x``, per contact point ``K dx_rel + C dv_rel`` onto the slave and
+    its four master nodes, the force map. The prototype of a sensitivity right-hand side
+    without the contact passes' search (module docstring)."""
+    ndof, bi, bf, node_xbar, fpool, ipool, ci = (
+        sysdata[0],
+        sysdata[1],
+        sysdata[2],
+        sysdata[3],
+        sysdata[6],
+        sysdata[7],
+        sysdata[11],
+    )
+    node_x, node_v, node_f, rot, rot_a = work[1], work[2], work[3], work[4], work[5]
+    node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
+    # the nodes' motion from the recorded point, once per node (then in node_x, node_v)
+    for i in range(node_x.shape[0] // L):
+        V.store(node_x, L * i, V.load(node_x, L * i) - V.load(base_x, L * i))
+        V.store(node_v, L * i, V.load(node_v, L * i) - V.load(base_v, L * i))
+    node_f[:] = 0.0
+    dx = np.empty(3 * L)
+    dv = np.empty(3 * L)
+    row = 0
+    for c in range(ci.shape[0]):
+        first = ci[c, C_SLAVE0]
+        for k in range(ci[c, C_NSLAVE]):
+            at = L * JREC * row
+            jn = L * 4 * row
+            row += 1
+            if V.all_zero(V.load(jrec, at)) and V.all_zero(V.load(jrec, at + L * 9)):
+                if V.all_zero(V.load(jrec, at + L * 4)) and V.all_zero(V.load(jrec, at + L * 13)):
+                    continue  # no lane in contact (rank-one blocks: their diagonals vanish)
+            ms = L * 3 * ipool[first + k]
+            shared = True
+            for q in range(4):
+                for lane in range(1, L):
+                    shared = shared and jnodes[jn + L * q + lane] == jnodes[jn + L * q]
+            dx0, dx1, dx2 = V.load(node_x, ms), V.load(node_x, ms + L), V.load(node_x, ms + 2 * L)
+            dv0, dv1, dv2 = V.load(node_v, ms), V.load(node_v, ms + L), V.load(node_v, ms + 2 * L)
+            if shared:  # the usual case: every lane's point in the same cell
+                for q in range(4):
+                    w = V.load(jrec, at + L * (18 + q))
+                    m = L * 3 * jnodes[jn + L * q]
+                    dx0 = dx0 - w * V.load(node_x, m)
+                    dx1 = dx1 - w * V.load(node_x, m + L)
+                    dx2 = dx2 - w * V.load(node_x, m + 2 * L)
+                    dv0 = dv0 - w * V.load(node_v, m)
+                    dv1 = dv1 - w * V.load(node_v, m + L)
+                    dv2 = dv2 - w * V.load(node_v, m + 2 * L)
+            else:
+                for d in range(3):
+                    V.store(dx, L * d, (dx0, dx1, dx2)[d])
+                    V.store(dv, L * d, (dv0, dv1, dv2)[d])
+                for q in range(4):
+                    w = V.load(jrec, at + L * (18 + q))
+                    for lane in range(L):
+                        node = L * 3 * jnodes[jn + L * q + lane] + lane
+                        for d in range(3):
+                            dx[L * d + lane] -= V.get(w, lane) * node_x[node + L * d]
+                            dv[L * d + lane] -= V.get(w, lane) * node_v[node + L * d]
+                dx0, dx1, dx2 = V.load(dx, 0), V.load(dx, L), V.load(dx, 2 * L)
+                dv0, dv1, dv2 = V.load(dv, 0), V.load(dv, L), V.load(dv, 2 * L)
+            for r in range(3):
+                kr = at + L * 3 * r
+                cr = at + L * (9 + 3 * r)
+                f = V.load(jrec, kr) * dx0 + V.load(jrec, kr + L) * dx1
+                f = f + V.load(jrec, kr + 2 * L) * dx2 + V.load(jrec, cr) * dv0
+                f = f + V.load(jrec, cr + L) * dv1 + V.load(jrec, cr + 2 * L) * dv2
+                V.store(node_f, ms + L * r, V.load(node_f, ms + L * r) + f)
+                for q in range(4):
+                    w = V.load(jrec, at + L * (18 + q))
+                    if shared:
+                        e = L * 3 * jnodes[jn + L * q] + L * r
+                        V.store(node_f, e, V.load(node_f, e) - w * f)
+                    else:
+                        for lane in range(L):
+                            e = L * 3 * jnodes[jn + L * q + lane] + L * r + lane
+                            node_f[e] -= V.get(w, lane) * V.get(f, lane)
+    q_out[:] = 0.0
+    map_node_forces(bi, bf, fpool, rot_a, node_f, q_out)
+
+
+@nb.njit
+def time_rhs(calls, t, x, dx, p, sysdata, work):
+    for _ in range(calls):
+        rhs(t, x, dx, p, sysdata, work)
+
+
+@nb.njit
+def time_linear(calls, x, sysdata, work, base_x, base_v, jrec, jnodes, q_out):
+    for _ in range(calls):
+        linear_contact_forces(x, sysdata, work, base_x, base_v, jrec, jnodes, q_out)
+
+
+def best_time(loop, *args) -> float:
+    """Seconds per call of a compiled ``loop(calls, *args)``: the best of
+    ``TIMING_ROUNDS`` rounds of ``TIMING_CALLS`` calls."""
+    best = np.inf
+    for _ in range(TIMING_ROUNDS):
+        start = time.perf_counter()
+        loop(TIMING_CALLS, *args)
+        best = min(best, time.perf_counter() - start)
+    return best / TIMING_CALLS
+
+
+def jvp_cost(brake: Brake) -> list[dict]:
+    """The prototype product against its reference and a right-hand side's time."""
+    times = eval_times(brake.t_end)
+    p0 = brake.parameters()
+    base = brake.trajectory(p0, times)
+    name = "pad_spring_stiffness"
+    moved = brake.trajectory(
+        brake.parameters({name: brake.nominal(name) * (1 + TRAJECTORY_CHANGE)}), times
+    )
+    data = brake.compiled.data
+    no_contact = (*data[:11], data[11][:0], *data[12:])
+    work = make_work(data)
+    work_nc = make_work(no_contact)
+    p = np.ascontiguousarray(np.repeat(p0, L))
+    n2 = 2 * brake.n
+    dxl = np.empty(n2 * L)
+    q_ref, q_base, q_lin = np.empty(brake.n * L), np.empty(brake.n * L), np.empty(brake.n * L)
+    rows = []
+    for i, t in enumerate(times):
+        x = np.ascontiguousarray(np.repeat(base[:, i], L))
+        s = np.repeat((moved[:, i] - base[:, i]) / TRAJECTORY_CHANGE, L)
+        x_moved = x + 1e-4 * s  # the kernel's relative perturbation
+        clock = np.full(L, t)
+        work[12][0] = 1
+        rhs(clock, x, dxl, p, data, work)  # the frames and the contact record at x
+        work[12][0] = 0
+        base_x, base_v = work[1].copy(), work[2].copy()
+        jrec, jnodes = work[10].copy(), work[11].copy()
+        contact_forces(x, p, data, work, q_base)
+        contact_forces(x_moved, p, data, work, q_ref)
+        linear_contact_forces(x_moved, data, work, base_x, base_v, jrec, jnodes, q_lin)
+        change = q_ref - q_base
+        rhs_s = best_time(time_rhs, clock, x_moved, dxl, p, data, work)
+        nc_s = best_time(time_rhs, clock, x_moved, dxl, p, no_contact, work_nc)
+        lin_s = best_time(time_linear, x_moved, data, work, base_x, base_v, jrec, jnodes, q_lin)
+        rows.append(
+            {
+                "t_s": float(t),
+                "vs_difference": float(np.linalg.norm(q_lin - change) / np.linalg.norm(change)),
+                "rhs_us": 1e6 * rhs_s,
+                "no_contact_rhs_us": 1e6 * nc_s,
+                "linear_contact_us": 1e6 * lin_s,
+                "product_over_rhs": (nc_s + lin_s) / rhs_s,
+            }
+        )
+    return rows
+
+
+PARTS = {"explicit": explicit, "eigen": eigen, "jvp": jvp, "jvp_cost": jvp_cost}
 
 
 def main(parts: list[str], t_end: float) -> dict:
