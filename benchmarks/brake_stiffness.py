@@ -349,9 +349,11 @@ def linear_contact_forces(x, sysdata, work, base_x, base_v, jrec, jnodes, q_out)
             at = L * JREC * row
             jn = L * 4 * row
             row += 1
-            if V.all_zero(V.load(jrec, at)) and V.all_zero(V.load(jrec, at + L * 9)):
-                if V.all_zero(V.load(jrec, at + L * 4)) and V.all_zero(V.load(jrec, at + L * 13)):
-                    continue  # no lane in contact (rank-one blocks: their diagonals vanish)
+            # no lane in contact: K = -c_p a n^T has the trace -c_p (a.n = 1) in contact and
+            # is zero out of it, and C is zero with it (the record's masks)
+            if V.all_zero(V.load(jrec, at)) and V.all_zero(V.load(jrec, at + L * 4)):
+                if V.all_zero(V.load(jrec, at + L * 8)):
+                    continue
             ms = L * 3 * ipool[first + k]
             shared = True
             for q in range(4):
