@@ -14,7 +14,12 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from fuzzymbs._lazy import lazy_exports
+from fuzzymbs.numba_cache import drop_stale_kernel_caches
 from fuzzymbs.version import __version__
+
+# before any kernel loads from Numba's cache: a kernel compiled against a helper that
+# has changed since must be compiled again (fuzzymbs.numba_cache)
+drop_stale_kernel_caches()
 
 # public name -> module that defines it
 _LAZY: dict[str, str] = {
