@@ -103,6 +103,7 @@ class Brake:
         self.n = self.compiled.n_dofs
         self.work = make_work(self.compiled.data)
         self.out_w = np.array([self.compiled.output_functional(s) for s in OUTPUTS.values()])
+        self._trajectories: dict[bytes, np.ndarray] = {}
 
     def parameters(self, sample: dict[str, float] | None = None) -> np.ndarray:
         values = {k: np.atleast_1d(v) for k, v in (sample or {}).items()}
@@ -144,8 +145,12 @@ class Brake:
         )
 
     def trajectory(self, p: np.ndarray, times: np.ndarray) -> np.ndarray:
-        """The states at ``times`` (2n, T), RK45 at ``TRAJECTORY_RTOL``."""
-        return self.scipy_run(p, "RK45", TRAJECTORY_RTOL, times).y
+        """The states at ``times`` (2n, T), RK45 at ``TRAJECTORY_RTOL``; each parameter row
+        and set of times integrated once (the parts share the nominal run)."""
+        key = p.tobytes() + times.tobytes()
+        if key not in self._trajectories:
+            self._trajectories[key] = self.scipy_run(p, "RK45", TRAJECTORY_RTOL, times).y
+        return self._trajectories[key]
 
 
 def record_times(t_end: float) -> np.ndarray:
@@ -299,14 +304,7 @@ TIMING_ROUNDS = 5
 def contact_forces(x, p, sysdata, work, q_out):
     """``q_out`` <- the generalised contact forces at the lane states ``x`` (the frames as
     the last right-hand side at the same time left them in ``work``)."""
-    ndof, bi, bf, node_xbar, fpool, ci = (
-        sysdata[0],
-        sysdata[1],
-        sysdata[2],
-        sysdata[3],
-        sysdata[6],
-        sysdata[11],
-    )
+    ndof, bi, bf, node_xbar, _, _, fpool, _, _, _, _, ci, _ = sysdata
     node_x, node_v, node_f, rot, rot_a = work[1], work[2], work[3], work[4], work[5]
     node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
     node_f[:] = 0.0
@@ -324,15 +322,7 @@ def linear_contact_forces(x, sysdata, work, base_x, base_v, jrec, jnodes, q_out)
     nodes' motion at ``x``, per contact point ``K dx_rel + C dv_rel`` onto the slave and
     its four master nodes, the force map. The prototype of a sensitivity right-hand side
     without the contact passes' search (module docstring)."""
-    ndof, bi, bf, node_xbar, fpool, ipool, ci = (
-        sysdata[0],
-        sysdata[1],
-        sysdata[2],
-        sysdata[3],
-        sysdata[6],
-        sysdata[7],
-        sysdata[11],
-    )
+    ndof, bi, bf, node_xbar, _, _, fpool, ipool, _, _, _, ci, _ = sysdata
     node_x, node_v, node_f, rot, rot_a = work[1], work[2], work[3], work[4], work[5]
     node_kinematics(x, ndof, bi, bf, node_xbar, fpool, rot, rot_a, node_x, node_v)
     # the nodes' motion from the recorded point, once per node (then in node_x, node_v)
