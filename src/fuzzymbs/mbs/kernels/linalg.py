@@ -37,7 +37,7 @@ def lu_factor_lanes(a, n, piv):
     l_ik1 u_k1j``, the intermediate in a register): the matrix (n = 41 on the brake,
     54 kB at four lanes) is read and written half as often, and every entry sees the
     same roundings in the same order as one step at a time, so the factors are bit for
-    bit those of the unblocked elimination (tests/mbs/test_rosenbrock.py).
+    bit those of the unblocked elimination (tests/mbs/test_linalg.py).
     """
     k = 0
     while k < n:
