@@ -46,14 +46,10 @@ def lu_factor_lanes(a, n, piv):
         k1 = k + 1
         if k1 == n:
             break
-        # step k on column k1 below row k, which step k1 pivots on
-        for i in range(k1, n):
-            lik = V.load(a, L * (n * i + k))
-            if not V.all_zero(lik):
-                at = L * (n * i + k1)
-                V.store(a, at, V.load(a, at) - lik * V.load(a, L * (n * k + k1)))
+        for i in range(k1, n):  # step k on column k1 below row k, which step k1 pivots on
+            _one_step(a, n, k, i, k1, k1 + 1)
         _pivot(a, n, k1, piv)
-        _one_step(a, n, k, k1, k1 + 1)  # row k1 of U: step k on its columns past k1
+        _one_step(a, n, k, k1, k1 + 1, n)  # row k1 of U: step k on its columns past k1
         _multipliers(a, n, k1)
         i = k1 + 1
         while i < n:
@@ -114,13 +110,13 @@ def _both_coupled(a, n, k, i):
 
 
 @nb.njit(cache=True, fastmath=_UPDATE_FLAGS, _nrt=V.NO_REFCOUNT)
-def _one_step(a, n, k, i, j0):
-    """Step k on row i from column j0: ``a_ij -= l_ik u_kj``; nothing where ``l_ik`` is
-    zero in every lane (a row that does not couple to k: bodies that do not touch)."""
+def _one_step(a, n, k, i, j0, j1):
+    """Step k on row i, columns j0 to j1 - 1: ``a_ij -= l_ik u_kj``; nothing where ``l_ik``
+    is zero in every lane (a row that does not couple to k: bodies that do not touch)."""
     lik = V.load(a, L * (n * i + k))
     if V.all_zero(lik):
         return
-    for j in range(j0, n):
+    for j in range(j0, j1):
         at = L * (n * i + j)
         V.store(a, at, V.load(a, at) - lik * V.load(a, L * (n * k + j)))
 
@@ -131,8 +127,8 @@ def _two_steps(a, n, k, i):
     l0 = V.load(a, L * (n * i + k))
     l1 = V.load(a, L * (n * i + k + 1))
     if V.all_zero(l0) or V.all_zero(l1):
-        _one_step(a, n, k, i, k + 2)
-        _one_step(a, n, k + 1, i, k + 2)
+        _one_step(a, n, k, i, k + 2, n)
+        _one_step(a, n, k + 1, i, k + 2, n)
         return
     u0 = L * n * k
     u1 = L * n * (k + 1)
